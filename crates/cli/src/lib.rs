@@ -1,0 +1,65 @@
+//! The `hooke` command line, as a library so that tests can call [`run`] directly.
+
+mod moduli;
+mod plot;
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+
+/// hooke: elastic solids and their fracture with mass-spring lattices of any Poisson's ratio.
+#[derive(Debug, Parser)]
+#[command(name = "hooke", version, about, long_about = None)]
+pub struct Cli {
+    /// Worker threads (default: all cores). Results do not depend on it.
+    #[arg(long, global = true)]
+    pub threads: Option<usize>,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// The paper's Section 4 block test: measure E and nu of a lattice block under an axial
+    /// strain and compare them with theory.
+    Moduli(moduli::ModuliArgs),
+}
+
+/// An error in what the user asked for (exit code 2), as opposed to a run failure (exit 1).
+#[derive(Debug)]
+pub struct InputError(pub String);
+
+impl std::fmt::Display for InputError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for InputError {}
+
+/// Exit code for an error: 2 for bad input anywhere in the chain, 1 otherwise.
+pub fn exit_code(e: &anyhow::Error) -> u8 {
+    for cause in e.chain() {
+        if cause.is::<InputError>() {
+            return 2;
+        }
+        if let Some(core) = cause.downcast_ref::<hooke_core::Error>() {
+            return if core.is_input_error() { 2 } else { 1 };
+        }
+    }
+    1
+}
+
+/// Run a parsed command line.
+pub fn run(cli: Cli) -> Result<()> {
+    let threads = match cli.threads {
+        Some(0) => return Err(InputError("--threads 0: give at least 1 thread".into()).into()),
+        Some(t) => t,
+        None => 0, // rayon's default: one per core
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
+    pool.install(|| match cli.command {
+        Command::Moduli(args) => moduli::run(args),
+    })
+}

@@ -1,0 +1,24 @@
+//! The `hooke` binary: parse arguments, run, map errors to exit codes
+//! (0 success, 2 bad input, 1 run failure).
+
+use std::process::ExitCode;
+
+use clap::Parser;
+
+fn main() -> ExitCode {
+    let cli = match hooke_cli::Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            // clap prints help/version on stdout with exit 0, and usage errors with exit 2.
+            let _ = e.print();
+            return ExitCode::from(if e.use_stderr() { 2 } else { 0 });
+        }
+    };
+    match hooke_cli::run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(hooke_cli::exit_code(&e))
+        }
+    }
+}

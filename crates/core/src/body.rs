@@ -1,0 +1,77 @@
+//! A body: a lattice with its material constants (spring stiffnesses, q, node masses).
+//! Immutable during a run; everything that changes lives in [`crate::State`].
+
+use crate::error::{Error, Result};
+use crate::lattice::Lattice;
+use crate::material::{self, Elastic, PlaneModel};
+use crate::math::Real;
+
+/// A lattice with its spring constants and node masses.
+#[derive(Clone, Debug)]
+pub struct Body {
+    pub lattice: Lattice,
+    /// Stiffness `k_b` of each spring (N/m).
+    pub k: Vec<Real>,
+    /// Dispersion ratio q of the material (0: plain spring lattice).
+    pub q: Real,
+    /// Lumped mass of each node (kg): density times the node's cell volume.
+    pub mass: Vec<Real>,
+}
+
+impl Body {
+    /// A body of one material. For 2D lattices the plate thickness is the lattice's and `plane`
+    /// says how the plate stands for the 3D material.
+    pub fn new(lattice: Lattice, m: &Elastic, plane: PlaneModel) -> Result<Self> {
+        let c =
+            material::constants_for(lattice.kind, lattice.spacing, m, lattice.thickness, plane)?;
+        let mass = m.density * lattice.cell_volume;
+        Ok(Self::uniform(lattice, c.k, c.q, mass))
+    }
+
+    /// A body with the same stiffness `k` on every spring and the same mass on every node (lattice
+    /// units, or constants already derived).
+    pub fn uniform(lattice: Lattice, k: Real, q: Real, node_mass: Real) -> Self {
+        let nb = lattice.bonds.len();
+        let nn = lattice.len();
+        Body {
+            lattice,
+            k: vec![k; nb],
+            q,
+            mass: vec![node_mass; nn],
+        }
+    }
+
+    /// Check the constants are usable (positive stiffness and mass, q above the stability limit).
+    pub fn validate(&self) -> Result<()> {
+        if !(self.q.is_finite() && self.q > -0.5) {
+            return Err(Error::OutOfRange {
+                what: "dispersion ratio q",
+                value: self.q,
+                why: "the lattice is stable only for q > -1/2 (nu > -1)".into(),
+            });
+        }
+        if let Some(b) = self.k.iter().position(|&k| !(k.is_finite() && k > 0.0)) {
+            return Err(Error::InvalidInput {
+                what: "spring stiffness",
+                why: format!("spring {b} has k = {}", self.k[b]),
+            });
+        }
+        if let Some(n) = self.mass.iter().position(|&m| !(m.is_finite() && m > 0.0)) {
+            return Err(Error::InvalidInput {
+                what: "node mass",
+                why: format!("node {n} has mass {}", self.mass[n]),
+            });
+        }
+        Ok(())
+    }
+
+    /// Number of nodes.
+    pub fn nodes(&self) -> usize {
+        self.lattice.len()
+    }
+
+    /// Number of springs (intact or not).
+    pub fn springs(&self) -> usize {
+        self.lattice.bonds.len()
+    }
+}

@@ -1,0 +1,406 @@
+//! Lattices: reference node positions, node cell volumes and the spring topology (CSR).
+//!
+//! Two regular lattices are built here, both isotropic for the linear elasticity of central
+//! springs (paper Section 2):
+//!
+//! * [`LatticeKind::Cubic`], Ladd's cubic lattice: nodes on a simple cubic grid of spacing `a`,
+//!   springs to the 6 nearest (length `a`, group A of the paper's Fig. 2) and the 12
+//!   second-nearest neighbours (length `a*sqrt(2)`, group B). Node cell volume `a^3`.
+//! * [`LatticeKind::Hex`], the 2D hexagonal (triangular) lattice: rows along x at spacing `a`,
+//!   rows `sqrt(3)/2 a` apart, odd rows shifted by `a/2`; 6 neighbours at distance `a`.
+//!   Node cell area `sqrt(3)/2 a^2`.
+//!
+//! The topology is immutable once built; whether a spring is intact lives in
+//! [`crate::State`].
+
+use crate::error::{Error, Result};
+use crate::math::{Coords, Real, Vector};
+
+/// Which regular lattice.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum LatticeKind {
+    /// Ladd's 3D cubic lattice (6 + 12 neighbours).
+    Cubic,
+    /// 2D hexagonal (triangular) lattice (6 neighbours).
+    Hex,
+}
+
+impl LatticeKind {
+    /// Spatial dimension of the lattice's elasticity (2 or 3).
+    pub fn dim(self) -> usize {
+        match self {
+            LatticeKind::Cubic => 3,
+            LatticeKind::Hex => 2,
+        }
+    }
+
+    /// Springs per node in the bulk.
+    pub fn coordination(self) -> usize {
+        match self {
+            LatticeKind::Cubic => 18,
+            LatticeKind::Hex => 6,
+        }
+    }
+
+    /// Name used on the command line and in case files.
+    pub fn name(self) -> &'static str {
+        match self {
+            LatticeKind::Cubic => "cubic",
+            LatticeKind::Hex => "hex",
+        }
+    }
+}
+
+/// Spring topology in compressed-row form: every spring is listed from both of its ends, so a
+/// node's row holds all of its springs and force kernels can gather into the node alone.
+///
+/// Entries of row `n` are `offsets[n]..offsets[n+1]`; entry `e` names the neighbour `nbr[e]` and
+/// the undirected spring `bond[e]`. Rows are sorted by neighbour index, which fixes the order of
+/// every per-node sum and so makes results independent of how the lattice was generated.
+#[derive(Clone, Debug, Default)]
+pub struct Bonds {
+    pub offsets: Vec<u32>,
+    pub nbr: Vec<u32>,
+    pub bond: Vec<u32>,
+    /// End nodes of each undirected spring, `ends[b][0] < ends[b][1]`.
+    pub ends: Vec<[u32; 2]>,
+    /// Rest length `L_b` of each spring (m).
+    pub rest: Vec<Real>,
+}
+
+impl Bonds {
+    /// Build from a list of undirected springs `(i, j)` with `i != j`; rest lengths from `pos`.
+    pub fn from_pairs(n_nodes: usize, pairs: &[[u32; 2]], pos: &Coords) -> Result<Self> {
+        if n_nodes > u32::MAX as usize || 2 * pairs.len() > u32::MAX as usize {
+            return Err(Error::InvalidInput {
+                what: "lattice size",
+                why: format!(
+                    "{n_nodes} nodes and {} springs exceed the 32-bit indices; split the body",
+                    pairs.len()
+                ),
+            });
+        }
+        let mut ends: Vec<[u32; 2]> = pairs
+            .iter()
+            .map(|&[i, j]| if i < j { [i, j] } else { [j, i] })
+            .collect();
+        ends.sort_unstable();
+        ends.dedup();
+        let mut deg = vec![0u32; n_nodes + 1];
+        for &[i, j] in &ends {
+            deg[i as usize] += 1;
+            deg[j as usize] += 1;
+        }
+        let mut offsets = vec![0u32; n_nodes + 1];
+        for n in 0..n_nodes {
+            offsets[n + 1] = offsets[n] + deg[n];
+        }
+        let m = offsets[n_nodes] as usize;
+        let mut nbr = vec![0u32; m];
+        let mut bond = vec![0u32; m];
+        let mut fill: Vec<u32> = offsets[..n_nodes].to_vec();
+        // Springs are sorted by (i, j), so filling in this order gives rows sorted by neighbour:
+        // for node n, entries with a smaller neighbour arrive (as the j end) before larger ones.
+        for (b, &[i, j]) in ends.iter().enumerate() {
+            for (a, o) in [(i, j), (j, i)] {
+                let e = fill[a as usize] as usize;
+                nbr[e] = o;
+                bond[e] = b as u32;
+                fill[a as usize] += 1;
+            }
+        }
+        for n in 0..n_nodes {
+            let (s, t) = (offsets[n] as usize, offsets[n + 1] as usize);
+            debug_assert!(nbr[s..t].windows(2).all(|w| w[0] < w[1]));
+        }
+        let rest = ends
+            .iter()
+            .map(|&[i, j]| (pos.get(j as usize) - pos.get(i as usize)).norm())
+            .collect();
+        Ok(Bonds {
+            offsets,
+            nbr,
+            bond,
+            ends,
+            rest,
+        })
+    }
+
+    /// Number of undirected springs.
+    pub fn len(&self) -> usize {
+        self.ends.len()
+    }
+
+    /// True when there is no spring.
+    pub fn is_empty(&self) -> bool {
+        self.ends.is_empty()
+    }
+
+    /// Range of node `n`'s entries.
+    #[inline]
+    pub fn row(&self, n: usize) -> std::ops::Range<usize> {
+        self.offsets[n] as usize..self.offsets[n + 1] as usize
+    }
+}
+
+/// A lattice filled into a region: reference geometry and spring topology.
+#[derive(Clone, Debug)]
+pub struct Lattice {
+    pub kind: LatticeKind,
+    /// Lattice spacing `a` (m).
+    pub spacing: Real,
+    /// Reference node positions (m).
+    pub pos: Coords,
+    /// Volume each node stands for: `a^3` (cubic) or `sqrt(3)/2 a^2 h` (hex plate of thickness h).
+    pub cell_volume: Real,
+    /// Plate thickness `h` for 2D lattices (m); 1 for 3D.
+    pub thickness: Real,
+    /// For box lattices: nodes per axis (`[nx, ny, 1]` for hex, with `ny` rows). Node index is
+    /// `ix + nx * (iy + ny * iz)`.
+    pub grid: Option<[usize; 3]>,
+    pub bonds: Bonds,
+}
+
+impl Lattice {
+    /// Number of nodes.
+    pub fn len(&self) -> usize {
+        self.pos.len()
+    }
+
+    /// True when there is no node.
+    pub fn is_empty(&self) -> bool {
+        self.pos.is_empty()
+    }
+
+    /// Spatial dimension (2 or 3).
+    pub fn dim(&self) -> usize {
+        self.kind.dim()
+    }
+
+    /// Grid index of a box lattice's node `(ix, iy, iz)`.
+    pub fn grid_index(&self, ix: usize, iy: usize, iz: usize) -> usize {
+        let g = self
+            .grid
+            .expect("grid_index on a lattice that is not a box");
+        ix + g[0] * (iy + g[1] * iz)
+    }
+
+    /// A box of Ladd's cubic lattice with `n = [nx, ny, nz]` nodes per axis, spacing `a`, the
+    /// first node at the origin.
+    pub fn cubic_box(n: [usize; 3], a: Real) -> Result<Self> {
+        check_spacing(a)?;
+        if n.iter().any(|&v| v < 2) {
+            return Err(Error::InvalidInput {
+                what: "box size",
+                why: format!("{n:?} nodes: a cubic box needs at least 2 nodes along each axis"),
+            });
+        }
+        let total = n[0].checked_mul(n[1]).and_then(|v| v.checked_mul(n[2]));
+        let total = match total {
+            Some(t) if t <= u32::MAX as usize => t,
+            _ => {
+                return Err(Error::InvalidInput {
+                    what: "box size",
+                    why: format!("{n:?} nodes is more than 2^32 nodes"),
+                })
+            }
+        };
+        let mut pos = Coords::zeros(total);
+        let idx = |ix: usize, iy: usize, iz: usize| ix + n[0] * (iy + n[1] * iz);
+        for iz in 0..n[2] {
+            for iy in 0..n[1] {
+                for ix in 0..n[0] {
+                    let i = idx(ix, iy, iz);
+                    pos.set(i, Vector::new(ix as Real, iy as Real, iz as Real) * a);
+                }
+            }
+        }
+        // The 9 "forward" directions of the 18-neighbour star; each spring is found once.
+        const HALF_STAR: [[i64; 3]; 9] = [
+            [1, 0, 0],
+            [0, 1, 0],
+            [0, 0, 1],
+            [1, 1, 0],
+            [1, -1, 0],
+            [1, 0, 1],
+            [1, 0, -1],
+            [0, 1, 1],
+            [0, 1, -1],
+        ];
+        let mut pairs = Vec::with_capacity(total * 9);
+        for iz in 0..n[2] {
+            for iy in 0..n[1] {
+                for ix in 0..n[0] {
+                    for d in HALF_STAR {
+                        let (jx, jy, jz) = (ix as i64 + d[0], iy as i64 + d[1], iz as i64 + d[2]);
+                        if (0..n[0] as i64).contains(&jx)
+                            && (0..n[1] as i64).contains(&jy)
+                            && (0..n[2] as i64).contains(&jz)
+                        {
+                            pairs.push([
+                                idx(ix, iy, iz) as u32,
+                                idx(jx as usize, jy as usize, jz as usize) as u32,
+                            ]);
+                        }
+                    }
+                }
+            }
+        }
+        let bonds = Bonds::from_pairs(total, &pairs, &pos)?;
+        Ok(Lattice {
+            kind: LatticeKind::Cubic,
+            spacing: a,
+            pos,
+            cell_volume: a * a * a,
+            thickness: 1.0,
+            grid: Some(n),
+            bonds,
+        })
+    }
+
+    /// A rectangle of the hexagonal lattice: `rows` rows of `nx` nodes, spacing `a`, plate
+    /// thickness `h`. Row `r` lies at `y = r sqrt(3)/2 a`; odd rows are shifted by `+a/2` in x.
+    pub fn hex_box(nx: usize, rows: usize, a: Real, h: Real) -> Result<Self> {
+        check_spacing(a)?;
+        if !(h.is_finite() && h > 0.0) {
+            return Err(Error::InvalidInput {
+                what: "plate thickness",
+                why: format!("h = {h} m; give a positive thickness"),
+            });
+        }
+        if nx < 2 || rows < 2 {
+            return Err(Error::InvalidInput {
+                what: "box size",
+                why: format!("{nx} x {rows} nodes: a hexagonal box needs at least 2 nodes per row and 2 rows"),
+            });
+        }
+        let total = nx
+            .checked_mul(rows)
+            .filter(|&t| t <= u32::MAX as usize)
+            .ok_or(Error::InvalidInput {
+                what: "box size",
+                why: format!("{nx} x {rows} nodes is more than 2^32 nodes"),
+            })?;
+        let dy = a * (3.0 as Real).sqrt() / 2.0;
+        let mut pos = Coords::zeros(total);
+        for r in 0..rows {
+            for c in 0..nx {
+                let shift = if r % 2 == 1 { 0.5 * a } else { 0.0 };
+                pos.set(
+                    c + nx * r,
+                    Vector::new(c as Real * a + shift, r as Real * dy, 0.0),
+                );
+            }
+        }
+        let mut pairs = Vec::with_capacity(total * 3);
+        for r in 0..rows {
+            for c in 0..nx {
+                let i = (c + nx * r) as u32;
+                if c + 1 < nx {
+                    pairs.push([i, (c + 1 + nx * r) as u32]);
+                }
+                if r + 1 < rows {
+                    // Up-neighbours: columns (c-1, c) from an even row, (c, c+1) from an odd row.
+                    let (lo, hi) = if r % 2 == 0 {
+                        (c as i64 - 1, c as i64)
+                    } else {
+                        (c as i64, c as i64 + 1)
+                    };
+                    for cc in [lo, hi] {
+                        if (0..nx as i64).contains(&cc) {
+                            pairs.push([i, (cc as usize + nx * (r + 1)) as u32]);
+                        }
+                    }
+                }
+            }
+        }
+        let bonds = Bonds::from_pairs(total, &pairs, &pos)?;
+        Ok(Lattice {
+            kind: LatticeKind::Hex,
+            spacing: a,
+            pos,
+            cell_volume: dy * a * h,
+            thickness: h,
+            grid: Some([nx, rows, 1]),
+            bonds,
+        })
+    }
+}
+
+fn check_spacing(a: Real) -> Result<()> {
+    if a.is_finite() && a > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::InvalidInput {
+            what: "lattice spacing",
+            why: format!("a = {a} m; give a positive spacing"),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cubic_bulk_node_has_18_neighbours() {
+        let l = Lattice::cubic_box([5, 5, 5], 1.0).unwrap();
+        let c = l.grid_index(2, 2, 2);
+        assert_eq!(l.bonds.row(c).len(), 18);
+        let lengths: Vec<_> = l
+            .bonds
+            .row(c)
+            .map(|e| l.bonds.rest[l.bonds.bond[e] as usize])
+            .collect();
+        assert_eq!(
+            lengths.iter().filter(|&&x| (x - 1.0).abs() < 1e-12).count(),
+            6
+        );
+        assert_eq!(
+            lengths
+                .iter()
+                .filter(|&&x| (x - 2f64.sqrt()).abs() < 1e-12)
+                .count(),
+            12
+        );
+        // Springs in a box: per axis pairs for A, per plane diagonals for B.
+        let (n, m) = (5usize, 4usize);
+        assert_eq!(l.bonds.len(), 3 * m * n * n + 6 * m * m * n);
+    }
+
+    #[test]
+    fn hex_bulk_node_has_6_unit_neighbours() {
+        let l = Lattice::hex_box(6, 6, 2.0, 0.1).unwrap();
+        for (r, c) in [(2, 2), (3, 2)] {
+            let i = c + 6 * r;
+            assert_eq!(l.bonds.row(i).len(), 6);
+            for e in l.bonds.row(i) {
+                assert!((l.bonds.rest[l.bonds.bond[e] as usize] - 2.0).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn rows_list_each_spring_from_both_ends() {
+        let l = Lattice::cubic_box([3, 4, 2], 0.5).unwrap();
+        let mut count = vec![0; l.bonds.len()];
+        for n in 0..l.len() {
+            for e in l.bonds.row(n) {
+                let b = l.bonds.bond[e] as usize;
+                let [i, j] = l.bonds.ends[b];
+                assert!(n as u32 == i || n as u32 == j);
+                assert_eq!(l.bonds.nbr[e], if n as u32 == i { j } else { i });
+                count[b] += 1;
+            }
+        }
+        assert!(count.iter().all(|&c| c == 2));
+    }
+
+    #[test]
+    fn degenerate_boxes_are_refused() {
+        assert!(Lattice::cubic_box([1, 4, 4], 1.0).is_err());
+        assert!(Lattice::cubic_box([4, 4, 4], 0.0).is_err());
+        assert!(Lattice::hex_box(4, 1, 1.0, 1.0).is_err());
+        assert!(Lattice::hex_box(4, 4, 1.0, -1.0).is_err());
+    }
+}

@@ -1,0 +1,253 @@
+//! The dispersive spring law (momentum dispersion, paper Section 3) in its symmetric,
+//! energy-conserving form (`design/MODEL.md`).
+//!
+//! Spring `s` joins nodes `i` and `j`, rest length `L_s`, current length `l_s`, extension
+//! `dL_s = l_s - L_s` (geometrically nonlinear). Over each node's intact springs `t`:
+//!
+//! ```text
+//! Pi_n = sum_t k_t L_t dL_t        the node's pool: the momentum flow it collects
+//! S_n  = sum_t k_t L_t^2           its normaliser
+//! p_n  = Pi_n / S_n                the pool ratio (0 for a node with no intact spring)
+//!
+//! U    = 1/2 sum_s k_s dL_s^2  +  q/2 sum_n Pi_n^2 / S_n
+//! T_s  = dU/d(dL_s) = k_s dL_s + q k_s L_s (p_i + p_j)
+//! ```
+//!
+//! The first term of `T_s` is the direct force `F^mu` of the paper, the second the dispersed
+//! force `F^*`: each node spreads `q` times its collected flow back over all its springs in
+//! proportion to their length. `T_s` acts along the spring on both ends, equal and opposite, so
+//! linear and angular momentum are conserved exactly, and since `T = dU/d(dL)` a symplectic
+//! integrator conserves energy.
+//!
+//! One evaluation is two gathers over each node's CSR row: a node pre-pass for `p_n`, then a
+//! spring pass for the forces. Every node writes only its own entries, and every per-node sum
+//! runs in row order, so the result is bit-identical for any number of threads.
+
+use rayon::prelude::*;
+
+use crate::body::Body;
+use crate::math::{Coords, Matrix, Real, Vector};
+use crate::state::State;
+
+/// Below this many nodes a pass runs on one thread: rayon's fork cost is larger than the work.
+const MIN_NODES_PER_TASK: usize = 1024;
+
+/// Tension of one spring (N): the one-spring evaluation of the law, for tests and for
+/// per-spring output.
+#[inline]
+pub fn tension(k: Real, rest: Real, dl: Real, q: Real, p_i: Real, p_j: Real) -> Real {
+    k * dl + q * k * rest * (p_i + p_j)
+}
+
+/// Strain energy split into the direct springs and the dispersive pools (J).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Energy {
+    /// `1/2 sum_s k_s dL_s^2`.
+    pub direct: Real,
+    /// `q/2 sum_n Pi_n^2 / S_n`.
+    pub dispersive: Real,
+}
+
+impl Energy {
+    /// Total strain energy.
+    pub fn total(&self) -> Real {
+        self.direct + self.dispersive
+    }
+}
+
+/// Geometry of the spring from node `i` to node `j`: its current vector `d`, length `l` and
+/// extension `dL = l - L`.
+///
+/// The extension is formed without cancellation: with `D = X_j - X_i` the reference vector
+/// (`|D| = L`) and `w = u_j - u_i`,
+/// `dL = (|D + w|^2 - L^2) / (l + L) = (2 D.w + w.w) / (l + L)`. Subtracting `L` from `l`
+/// directly would lose the digits of `dL` that lie below the rounding of `l` (1e-16 L), which at
+/// a strain of 1e-5 is already one part in 1e11 and stalls tight static solves.
+#[derive(Clone, Copy, Debug)]
+pub struct SpringGeometry {
+    pub d: [Real; 3],
+    pub l: Real,
+    pub dl: Real,
+}
+
+/// See [`SpringGeometry`].
+#[inline(always)]
+pub fn spring_geometry(pos: &Coords, u: &Coords, i: usize, j: usize, rest: Real) -> SpringGeometry {
+    let big = [
+        pos.x[j] - pos.x[i],
+        pos.y[j] - pos.y[i],
+        pos.z[j] - pos.z[i],
+    ];
+    let w = [u.x[j] - u.x[i], u.y[j] - u.y[i], u.z[j] - u.z[i]];
+    let d = [big[0] + w[0], big[1] + w[1], big[2] + w[2]];
+    let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let num = 2.0 * (big[0] * w[0] + big[1] * w[1] + big[2] * w[2])
+        + (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+    SpringGeometry {
+        d,
+        l,
+        dl: num / (l + rest),
+    }
+}
+
+/// Current vector from node `i` to node `j`: reference difference plus displacement difference.
+#[inline]
+pub fn spring_vector(pos: &Coords, u: &Coords, i: usize, j: usize) -> (Real, Real, Real) {
+    (
+        (pos.x[j] - pos.x[i]) + (u.x[j] - u.x[i]),
+        (pos.y[j] - pos.y[i]) + (u.y[j] - u.y[i]),
+        (pos.z[j] - pos.z[i]) + (u.z[j] - u.z[i]),
+    )
+}
+
+/// Pool `Pi_n` of node `n` over its intact springs.
+#[inline]
+fn node_pool(body: &Body, u: &Coords, alive: &[bool], n: usize) -> Real {
+    let bonds = &body.lattice.bonds;
+    let mut pi = 0.0;
+    for e in bonds.row(n) {
+        let b = bonds.bond[e] as usize;
+        if alive[b] {
+            let rest = bonds.rest[b];
+            pi += body.k[b]
+                * rest
+                * spring_geometry(&body.lattice.pos, u, n, bonds.nbr[e] as usize, rest).dl;
+        }
+    }
+    pi
+}
+
+/// Node pre-pass: `pool[n] = Pi_n / S_n` for every node.
+pub fn compute_pools(body: &Body, u: &Coords, alive: &[bool], norm: &[Real], pool: &mut [Real]) {
+    if body.q == 0.0 {
+        // The plain lattice: no dispersion, no pre-pass.
+        pool.fill(0.0);
+        return;
+    }
+    pool.par_iter_mut()
+        .with_min_len(MIN_NODES_PER_TASK)
+        .enumerate()
+        .for_each(|(n, p)| {
+            let s = norm[n];
+            *p = if s > 0.0 {
+                node_pool(body, u, alive, n) / s
+            } else {
+                0.0
+            };
+        });
+}
+
+/// Spring pass: internal force on every node from the current pools.
+pub fn compute_forces(body: &Body, u: &Coords, alive: &[bool], pool: &[Real], f: &mut Coords) {
+    let bonds = &body.lattice.bonds;
+    let pos = &body.lattice.pos;
+    let q = body.q;
+    f.x.par_iter_mut()
+        .zip(f.y.par_iter_mut())
+        .zip(f.z.par_iter_mut())
+        .with_min_len(MIN_NODES_PER_TASK)
+        .enumerate()
+        .for_each(|(n, ((fx, fy), fz))| {
+            let (mut sx, mut sy, mut sz) = (0.0, 0.0, 0.0);
+            for e in bonds.row(n) {
+                let b = bonds.bond[e] as usize;
+                if !alive[b] {
+                    continue;
+                }
+                let j = bonds.nbr[e] as usize;
+                let rest = bonds.rest[b];
+                let g = spring_geometry(pos, u, n, j, rest);
+                let t = tension(body.k[b], rest, g.dl, q, pool[n], pool[j]);
+                let s = t / g.l;
+                sx += s * g.d[0];
+                sy += s * g.d[1];
+                sz += s * g.d[2];
+            }
+            *fx = sx;
+            *fy = sy;
+            *fz = sz;
+        });
+}
+
+/// Both passes on a state: refreshes `state.pool` and `state.f`.
+pub fn update_forces(body: &Body, state: &mut State) {
+    compute_pools(body, &state.u, &state.alive, &state.norm, &mut state.pool);
+    compute_forces(body, &state.u, &state.alive, &state.pool, &mut state.f);
+}
+
+/// Strain energy `U` of displacements `u` (computed from scratch; not on the hot path).
+pub fn energy(body: &Body, u: &Coords, alive: &[bool], norm: &[Real]) -> Energy {
+    let bonds = &body.lattice.bonds;
+    let direct: Real = (0..bonds.len())
+        .into_par_iter()
+        .with_min_len(MIN_NODES_PER_TASK)
+        .map(|b| {
+            if !alive[b] {
+                return 0.0;
+            }
+            let [i, j] = bonds.ends[b];
+            let dl =
+                spring_geometry(&body.lattice.pos, u, i as usize, j as usize, bonds.rest[b]).dl;
+            0.5 * body.k[b] * dl * dl
+        })
+        .sum();
+    let dispersive: Real = if body.q == 0.0 {
+        0.0
+    } else {
+        (0..body.nodes())
+            .into_par_iter()
+            .with_min_len(MIN_NODES_PER_TASK)
+            .map(|n| {
+                let s = norm[n];
+                if s > 0.0 {
+                    let pi = node_pool(body, u, alive, n);
+                    0.5 * body.q * pi * pi / s
+                } else {
+                    0.0
+                }
+            })
+            .sum()
+    };
+    Energy { direct, dispersive }
+}
+
+/// Current tension of every spring (0 for broken ones), from the state's pools. For output and
+/// measurements, not the hot path.
+pub fn tensions(body: &Body, state: &State) -> Vec<Real> {
+    let bonds = &body.lattice.bonds;
+    (0..bonds.len())
+        .map(|b| {
+            if !state.alive[b] {
+                return 0.0;
+            }
+            let [i, j] = bonds.ends[b].map(|v| v as usize);
+            let rest = bonds.rest[b];
+            tension(
+                body.k[b],
+                rest,
+                spring_geometry(&body.lattice.pos, &state.u, i, j, rest).dl,
+                body.q,
+                state.pool[i],
+                state.pool[j],
+            )
+        })
+        .collect()
+}
+
+/// Virial stress at node `n` (Pa in 3D; N/m times 1/h, i.e. Pa, in 2D):
+/// `sigma_n = 1/(2 V_n) sum_t T_t l_t e_t (x) e_t` over its springs, each spring's share split
+/// evenly between its two ends. `u` and `tension` may be current (finite strain), or zero
+/// displacement with linearised tensions (small strain).
+pub fn node_virial(body: &Body, u: &Coords, tension: &[Real], n: usize) -> Matrix {
+    let bonds = &body.lattice.bonds;
+    let mut s = Matrix::zeros();
+    for e in bonds.row(n) {
+        let b = bonds.bond[e] as usize;
+        let j = bonds.nbr[e] as usize;
+        let (dx, dy, dz) = spring_vector(&body.lattice.pos, u, n, j);
+        let d = Vector::new(dx, dy, dz);
+        let l = d.norm();
+        s += (0.5 * tension[b] / l) * d * d.transpose();
+    }
+    s / body.lattice.cell_volume
+}

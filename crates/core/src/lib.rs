@@ -1,0 +1,35 @@
+//! # hooke-core
+//!
+//! Mass-spring lattices whose Poisson's ratio is a free parameter: the *momentum dispersion* of
+//! Kot and Nagahashi ("Second degree of freedom of elastic objects: adjustable Poisson's ratio
+//! for mass spring models"). A plain central-spring lattice has nu = 1/4 (3D) or 1/3 (2D); here
+//! every node collects part of its springs' load in a pool and spreads it back over all its
+//! springs in proportion to their length, which adds a pressure-like modulus B (paper eqs. 5-8)
+//! at the cost of one extra gather per step and no extra elements.
+//!
+//! Layout: [`math`] (the scalar and vector types), [`lattice`] (geometry and CSR topology,
+//! immutable), [`material`] ((E, nu) to (k, q)), [`body`] (a lattice with its constants),
+//! [`state`] (everything that changes), [`law`] (the force law and its energy), [`tangent`] (its
+//! exact stiffness, matrix-free), [`statics`] (Newton-CG equilibrium), [`moduli`] (the paper's
+//! block test and the exact bulk test).
+//!
+//! Units: SI throughout. No I/O here.
+
+pub mod body;
+pub mod error;
+pub mod lattice;
+pub mod law;
+pub mod material;
+pub mod math;
+pub mod moduli;
+pub mod state;
+pub mod statics;
+pub mod tangent;
+
+pub use body::Body;
+pub use error::{Error, Result};
+pub use lattice::{Lattice, LatticeKind};
+pub use material::{Elastic, PlaneModel, SpringConstants};
+pub use math::{Coords, Matrix, Real, Vector};
+pub use state::State;
+pub use tangent::Tangent;

@@ -1,0 +1,342 @@
+//! Measuring the elastic moduli of a lattice: the paper's block test (Section 4) and an exact
+//! bulk (affine) test.
+//!
+//! **Block test.** A box of `nx x ny x nz` nodes (3D) or `nx` nodes by `rows` rows (2D) is
+//! loaded by displacing its two x-end node planes by `-/+ eps Lx/2` along x, `Lx = (nx-1) a`.
+//! With [`Ends::Slide`] the end nodes are free across (y, z); the rigid motions that leaves free
+//! (translations across, rotation about x) are projected out. With [`Ends::Clamp`] they are
+//! fixed across. Then
+//!
+//! * `E = (F/A) / eps`, F the total reaction on one end plane and A the nominal cross-section
+//!   between the outer node planes, `(ny-1)a x (nz-1)a` (3D) or `(rows-1) sqrt(3)/2 a` per unit
+//!   thickness (2D). The node-cell area (`ny a x nz a`) is reported too: the true
+//!   load-carrying section lies between the two.
+//! * `nu = -(dW/W) / eps`, dW the change of distance between the two outer node rows of the middle
+//!   cross-section (averaged over the rows in y and z in 3D) and W that distance.
+//!
+//! Free faces bias the measured nu by roughly `a/W` (`design/MODEL.md`).
+//!
+//! **Bulk test.** In a perfect lattice a uniform strain is an exact equilibrium (both lattices
+//! are Bravais lattices: every node is a centre of symmetry, so there is no internal
+//! relaxation). The stress of a node deep inside a small box under an affine displacement field,
+//! computed from the law's linearised tensions ([`Tangent::tension_changes`]), is then the bulk
+//! stress of the infinite lattice, exact to round-off. It gives C11, C12, C44 and with them E,
+//! nu and the isotropy check `C11 - C12 = 2 C44`.
+
+use crate::body::Body;
+use crate::error::{Error, Result};
+use crate::lattice::{Lattice, LatticeKind};
+use crate::law;
+use crate::material::{nu_from_q, q_from_nu, youngs_from_k};
+use crate::math::{Coords, Matrix, Real, Vector};
+use crate::state::State;
+use crate::statics::{self, Constraints, StaticOptions, StaticReport};
+use crate::tangent::Tangent;
+
+/// How the loaded end planes are held across the load direction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ends {
+    /// Free to slide across (uniaxial stress; the paper's setting).
+    Slide,
+    /// Fixed across.
+    Clamp,
+}
+
+/// The block test's set-up (lattice units unless the caller scales them).
+#[derive(Clone, Debug)]
+pub struct BlockTest {
+    pub kind: LatticeKind,
+    /// The lattice's own Poisson's ratio to build (nu_2D for the hexagonal lattice).
+    pub nu: Real,
+    /// Nodes per axis; `[nx, rows, 1]` for the hexagonal lattice.
+    pub size: [usize; 3],
+    pub ends: Ends,
+    /// Applied axial strain eps (positive stretches).
+    pub strain: Real,
+    /// Spacing a (m) and stiffness k (N/m).
+    pub spacing: Real,
+    pub stiffness: Real,
+    pub solver: StaticOptions,
+}
+
+impl BlockTest {
+    /// The paper's block for `kind` (71 x 16 x 16 nodes, or 71 nodes x 16 rows), a = k = 1,
+    /// eps = 1e-5, sliding ends.
+    pub fn paper(kind: LatticeKind, nu: Real) -> Self {
+        BlockTest {
+            kind,
+            nu,
+            size: match kind {
+                LatticeKind::Cubic => [71, 16, 16],
+                LatticeKind::Hex => [71, 16, 1],
+            },
+            ends: Ends::Slide,
+            strain: 1e-5,
+            spacing: 1.0,
+            stiffness: 1.0,
+            solver: StaticOptions::default(),
+        }
+    }
+}
+
+/// What the block test measured.
+#[derive(Clone, Debug)]
+pub struct BlockResult {
+    pub nu_target: Real,
+    pub nu_measured: Real,
+    /// Target E: Pa in 3D, N/m (per thickness) in 2D.
+    pub e_target: Real,
+    /// E with the nominal cross-section between the outer node planes.
+    pub e_measured: Real,
+    /// E with the node-cell cross-section (`ny a x nz a`; `rows sqrt(3)/2 a` in 2D).
+    pub e_measured_cell: Real,
+    pub q: Real,
+    pub nodes: usize,
+    pub springs: usize,
+    pub solve: StaticReport,
+}
+
+/// Run the block test.
+pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
+    if !(t.strain.is_finite() && t.strain != 0.0 && t.strain.abs() <= 0.1) {
+        return Err(Error::InvalidInput {
+            what: "strain",
+            why: format!(
+                "eps = {}: give a small non-zero strain, |eps| <= 0.1 (e.g. 1e-5)",
+                t.strain
+            ),
+        });
+    }
+    let q = q_from_nu(t.kind, t.nu)?;
+    let a = t.spacing;
+    let lattice = match t.kind {
+        LatticeKind::Cubic => Lattice::cubic_box(t.size, a)?,
+        LatticeKind::Hex => {
+            if t.size[2] != 1 {
+                return Err(Error::InvalidInput {
+                    what: "size",
+                    why: "the hexagonal lattice is 2D: give two numbers, NX,ROWS".into(),
+                });
+            }
+            Lattice::hex_box(t.size[0], t.size[1], a, 1.0)?
+        }
+    };
+    if t.size[0] < 3 {
+        return Err(Error::InvalidInput {
+            what: "size",
+            why: "the bar needs at least 3 nodes along x".into(),
+        });
+    }
+    let body = Body::uniform(lattice, t.stiffness, q, 1.0);
+    body.validate()?;
+    let lat = &body.lattice;
+    let n = body.nodes();
+    let [nx, ny, nz] = t.size;
+    let lx = (nx - 1) as Real * a;
+    let pos = &lat.pos;
+    let xc = 0.5 * lx;
+    let (yc, zc) = centre(pos);
+
+    // Ends: column 0 and column nx-1 of every row.
+    let mut cons = Constraints::all_free(n);
+    let mut state = State::new(&body);
+    let end_of = |i: usize| -> Option<Real> {
+        let ix = i % nx;
+        if ix == 0 {
+            Some(-1.0)
+        } else if ix == nx - 1 {
+            Some(1.0)
+        } else {
+            None
+        }
+    };
+    // Start from the affine solution of the target material: the solver then only has to find
+    // the surface corrections, which are short-ranged.
+    for i in 0..n {
+        let p = pos.get(i);
+        let mut u = Vector::new(
+            t.strain * (p.x - xc),
+            -t.nu * t.strain * (p.y - yc),
+            -t.nu * t.strain * (p.z - zc),
+        );
+        if t.kind.dim() == 2 {
+            u.z = 0.0;
+            cons.fix(i, 2);
+        }
+        if let Some(side) = end_of(i) {
+            u.x = side * t.strain * lx / 2.0;
+            cons.fix(i, 0);
+            if t.ends == Ends::Clamp {
+                u.y = 0.0;
+                u.z = 0.0;
+                cons.fix(i, 1);
+                cons.fix(i, 2);
+            }
+        }
+        state.u.set(i, u);
+    }
+    if t.ends == Ends::Slide {
+        let mut ty = Coords::zeros(n);
+        ty.y.fill(1.0);
+        cons.add_null_mode(ty);
+        if t.kind.dim() == 3 {
+            let mut tz = Coords::zeros(n);
+            tz.z.fill(1.0);
+            cons.add_null_mode(tz);
+            let mut rx = Coords::zeros(n);
+            for i in 0..n {
+                rx.y[i] = -(pos.z[i] - zc);
+                rx.z[i] = pos.y[i] - yc;
+            }
+            cons.add_null_mode(rx);
+        }
+    }
+    let solve = statics::solve(&body, &mut state, &cons, None, &t.solver)?;
+
+    // Reaction on the +x end: minus the internal force there.
+    let force: Real = (0..n)
+        .filter(|&i| end_of(i) == Some(1.0))
+        .map(|i| -state.f.x[i])
+        .sum();
+    let (area, area_cell, w_change) = match t.kind {
+        LatticeKind::Cubic => {
+            let w = (ny - 1) as Real * a;
+            let h = (nz - 1) as Real * a;
+            let mids = middle_columns(nx);
+            let u = |ix: usize, iy: usize, iz: usize, c: usize| {
+                let i = lat.grid_index(ix, iy, iz);
+                state.u.comp(c)[i]
+            };
+            let mut dy = 0.0;
+            for &ix in &mids {
+                for iz in 0..nz {
+                    dy += (u(ix, ny - 1, iz, 1) - u(ix, 0, iz, 1)) / w;
+                }
+            }
+            dy /= (mids.len() * nz) as Real;
+            let mut dz = 0.0;
+            for &ix in &mids {
+                for iy in 0..ny {
+                    dz += (u(ix, iy, nz - 1, 2) - u(ix, iy, 0, 2)) / h;
+                }
+            }
+            dz /= (mids.len() * ny) as Real;
+            (w * h, (ny * nz) as Real * a * a, 0.5 * (dy + dz))
+        }
+        LatticeKind::Hex => {
+            let dyr = a * (3.0 as Real).sqrt() / 2.0;
+            let w = (ny - 1) as Real * dyr;
+            // Nodes of the outer rows nearest the mid-length (one or two per row).
+            let row_mean = |r: usize| {
+                let idx: Vec<usize> = (0..nx).map(|c| c + nx * r).collect();
+                let best = idx
+                    .iter()
+                    .map(|&i| (pos.x[i] - xc).abs())
+                    .fold(Real::INFINITY, Real::min);
+                let sel: Vec<usize> = idx
+                    .into_iter()
+                    .filter(|&i| (pos.x[i] - xc).abs() <= best + 1e-9 * a)
+                    .collect();
+                sel.iter().map(|&i| state.u.y[i]).sum::<Real>() / sel.len() as Real
+            };
+            (w, ny as Real * dyr, (row_mean(ny - 1) - row_mean(0)) / w)
+        }
+    };
+    let e_target = youngs_from_k(t.kind, t.stiffness, a, q);
+    Ok(BlockResult {
+        nu_target: t.nu,
+        nu_measured: -w_change / t.strain,
+        e_target,
+        e_measured: force / area / t.strain,
+        e_measured_cell: force / area_cell / t.strain,
+        q,
+        nodes: n,
+        springs: body.springs(),
+        solve,
+    })
+}
+
+/// x-columns of the middle cross-section: the middle one, or the two middle ones.
+fn middle_columns(nx: usize) -> Vec<usize> {
+    if nx % 2 == 1 {
+        vec![(nx - 1) / 2]
+    } else {
+        vec![nx / 2 - 1, nx / 2]
+    }
+}
+
+fn centre(pos: &Coords) -> (Real, Real) {
+    let minmax = |v: &[Real]| {
+        let lo = v.iter().cloned().fold(Real::INFINITY, Real::min);
+        let hi = v.iter().cloned().fold(Real::NEG_INFINITY, Real::max);
+        0.5 * (lo + hi)
+    };
+    (minmax(&pos.y), minmax(&pos.z))
+}
+
+/// Elastic constants of the infinite lattice, measured through the force law.
+#[derive(Clone, Copy, Debug)]
+pub struct BulkModuli {
+    pub c11: Real,
+    pub c12: Real,
+    pub c44: Real,
+    /// Young's modulus from C11, C12 (Pa in 3D; N/m per thickness in 2D with h = 1).
+    pub youngs: Real,
+    /// Poisson's ratio from C11, C12 (nu_2D in 2D).
+    pub poisson: Real,
+    /// Theory (MODEL.md closed forms) for the same k, a, q.
+    pub youngs_theory: Real,
+    pub poisson_theory: Real,
+}
+
+/// Stress of the centre node of a small box under the affine strain `eps`, from the linearised
+/// law. Exact for the infinite lattice (see the module docs).
+pub fn bulk_stress(kind: LatticeKind, k: Real, a: Real, q: Real, eps: &Matrix) -> Matrix {
+    // 7 nodes across: the centre node, its neighbours and their neighbours all have full stars.
+    let lattice = match kind {
+        LatticeKind::Cubic => Lattice::cubic_box([7, 7, 7], a),
+        LatticeKind::Hex => Lattice::hex_box(7, 7, a, 1.0),
+    }
+    .expect("a fixed, valid box");
+    let centre = match kind {
+        LatticeKind::Cubic => lattice.grid_index(3, 3, 3),
+        LatticeKind::Hex => lattice.grid_index(3, 3, 0),
+    };
+    let body = Body::uniform(lattice, k, q, 1.0);
+    let state = State::new(&body);
+    let mut v = Coords::zeros(body.nodes());
+    for i in 0..body.nodes() {
+        v.set(i, eps * body.lattice.pos.get(i));
+    }
+    let mut tangent = Tangent::new(&body, &state);
+    let dt = tangent.tension_changes(&body, &v);
+    law::node_virial(&body, &Coords::zeros(body.nodes()), &dt, centre)
+}
+
+/// C11, C12, C44 and (E, nu) of the infinite lattice with stiffness k, spacing a and ratio q.
+pub fn bulk_moduli(kind: LatticeKind, k: Real, a: Real, q: Real) -> BulkModuli {
+    let mut exx = Matrix::zeros();
+    exx[(0, 0)] = 1.0;
+    let s = bulk_stress(kind, k, a, q, &exx);
+    let (c11, c12) = (s[(0, 0)], s[(1, 1)]);
+    let mut exy = Matrix::zeros();
+    exy[(0, 1)] = 0.5;
+    exy[(1, 0)] = 0.5;
+    let c44 = bulk_stress(kind, k, a, q, &exy)[(0, 1)];
+    let (youngs, poisson) = match kind {
+        LatticeKind::Cubic => (
+            (c11 - c12) * (c11 + 2.0 * c12) / (c11 + c12),
+            c12 / (c11 + c12),
+        ),
+        LatticeKind::Hex => ((c11 * c11 - c12 * c12) / c11, c12 / c11),
+    };
+    BulkModuli {
+        c11,
+        c12,
+        c44,
+        youngs,
+        poisson,
+        youngs_theory: youngs_from_k(kind, k, a, q),
+        poisson_theory: nu_from_q(kind, q),
+    }
+}

@@ -1,0 +1,98 @@
+//! The mutable state of a body: positions, velocities, forces, which springs are intact, and
+//! each node's dispersion normaliser.
+
+use crate::body::Body;
+use crate::math::{Coords, Real, Vector};
+
+/// Everything that changes during a run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct State {
+    /// Node displacements from the reference positions (m). Stored instead of positions so that
+    /// spring extensions keep full precision at small strain: a spring's vector is formed as
+    /// `(X_j - X_i) + (u_j - u_i)`, never as the difference of two large coordinates.
+    pub u: Coords,
+    /// Node velocities (m/s).
+    pub v: Coords,
+    /// Internal forces of the last evaluation (N).
+    pub f: Coords,
+    /// Whether each spring is intact.
+    pub alive: Vec<bool>,
+    /// Normaliser `S_n = sum_t k_t L_t^2` over node n's intact springs (N m). Kept in step with
+    /// `alive` by [`State::kill_bond`].
+    pub norm: Vec<Real>,
+    /// Pool ratio `p_n = Pi_n / S_n` of the last evaluation (dimensionless strain-like measure:
+    /// `tr(eps)/d` under uniform strain).
+    pub pool: Vec<Real>,
+    /// Simulated time (s).
+    pub time: Real,
+    /// Steps taken.
+    pub step: u64,
+}
+
+impl State {
+    /// The body at rest in its reference configuration, every spring intact.
+    pub fn new(body: &Body) -> Self {
+        let n = body.nodes();
+        let mut s = State {
+            u: Coords::zeros(n),
+            v: Coords::zeros(n),
+            f: Coords::zeros(n),
+            alive: vec![true; body.springs()],
+            norm: vec![0.0; n],
+            pool: vec![0.0; n],
+            time: 0.0,
+            step: 0,
+        };
+        for i in 0..n {
+            s.norm[i] = node_norm(body, &s.alive, i);
+        }
+        s
+    }
+
+    /// Current position of node `i`.
+    pub fn position(&self, body: &Body, i: usize) -> Vector {
+        body.lattice.pos.get(i) + self.u.get(i)
+    }
+
+    /// Current positions of all nodes (for output).
+    pub fn positions(&self, body: &Body) -> Coords {
+        let mut x = body.lattice.pos.clone();
+        x.axpy(1.0, &self.u);
+        x
+    }
+
+    /// Remove spring `b`: it stops carrying direct and dispersed force, leaves its two nodes'
+    /// pools, and both nodes' normalisers `S_n` are recomputed over their remaining springs
+    /// (`design/MODEL.md`, bond removal). Returns false if it was already broken.
+    pub fn kill_bond(&mut self, body: &Body, b: usize) -> bool {
+        if !self.alive[b] {
+            return false;
+        }
+        self.alive[b] = false;
+        for n in body.lattice.bonds.ends[b] {
+            let n = n as usize;
+            // Recomputed from scratch rather than decremented: the sum then does not depend on
+            // the order in which springs broke, which keeps runs bit-reproducible.
+            self.norm[n] = node_norm(body, &self.alive, n);
+        }
+        true
+    }
+
+    /// Number of intact springs.
+    pub fn intact(&self) -> usize {
+        self.alive.iter().filter(|&&a| a).count()
+    }
+}
+
+/// `S_n` of node `n` over its intact springs.
+pub fn node_norm(body: &Body, alive: &[bool], n: usize) -> Real {
+    let bonds = &body.lattice.bonds;
+    let mut s = 0.0;
+    for e in bonds.row(n) {
+        let b = bonds.bond[e] as usize;
+        if alive[b] {
+            s += body.k[b] * bonds.rest[b] * bonds.rest[b];
+        }
+    }
+    s
+}
