@@ -1,0 +1,73 @@
+//! Helpers shared by the regression tests: a seeded generator and small bodies.
+
+use hooke_core::{Body, Coords, Lattice, LatticeKind, Real, State};
+
+/// A small deterministic generator (xorshift64*), so tests need no extra dependency and every
+/// run sees the same numbers.
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
+    }
+
+    pub fn next_u64(&mut self) -> u64 {
+        let mut x = self.0;
+        x ^= x >> 12;
+        x ^= x << 25;
+        x ^= x >> 27;
+        self.0 = x;
+        x.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+
+    /// Uniform in [0, 1).
+    pub fn uniform(&mut self) -> Real {
+        (self.next_u64() >> 11) as Real / (1u64 << 53) as Real
+    }
+
+    /// Uniform in [-a, a).
+    pub fn sym(&mut self, a: Real) -> Real {
+        a * (2.0 * self.uniform() - 1.0)
+    }
+}
+
+/// A small box of either lattice with unit spacing and stiffness and the given q.
+pub fn small_body(kind: LatticeKind, q: Real, n: usize) -> Body {
+    let lattice = match kind {
+        LatticeKind::Cubic => Lattice::cubic_box([n, n, n], 1.0),
+        LatticeKind::Hex => Lattice::hex_box(n, n, 1.0, 1.0),
+    }
+    .unwrap();
+    Body::uniform(lattice, 1.0, q, 1.0)
+}
+
+/// Random displacements of size `amp` (in-plane only for 2D lattices).
+pub fn random_displacement(body: &Body, rng: &mut Rng, amp: Real) -> Coords {
+    let mut u = Coords::zeros(body.nodes());
+    for i in 0..body.nodes() {
+        u.x[i] = rng.sym(amp);
+        u.y[i] = rng.sym(amp);
+        if body.lattice.dim() == 3 {
+            u.z[i] = rng.sym(amp);
+        }
+    }
+    u
+}
+
+/// Kill each spring with probability `p`.
+pub fn kill_random(body: &Body, state: &mut State, rng: &mut Rng, p: Real) -> usize {
+    let mut killed = 0;
+    for b in 0..body.springs() {
+        if rng.uniform() < p && state.kill_bond(body, b) {
+            killed += 1;
+        }
+    }
+    killed
+}
+
+/// Indices of the degrees of freedom a lattice uses (x, y, z per node; x, y in 2D) as
+/// (node, axis) pairs.
+pub fn dofs(body: &Body) -> Vec<(usize, usize)> {
+    let d = body.lattice.dim();
+    (0..body.nodes()).flat_map(|i| (0..d).map(move |c| (i, c))).collect()
+}
