@@ -15,7 +15,12 @@ fn energy(body: &Body, state: &State, u: &Coords) -> Real {
 /// removed; the relative error is bounded by the O(h^2) truncation.
 #[test]
 fn force_is_minus_energy_gradient() {
-    for (kind, nu, seed) in [(LatticeKind::Cubic, -0.8, 1), (LatticeKind::Cubic, 0.45, 2), (LatticeKind::Hex, 0.9, 3), (LatticeKind::Hex, -0.5, 4)] {
+    for (kind, nu, seed) in [
+        (LatticeKind::Cubic, -0.8, 1),
+        (LatticeKind::Cubic, 0.45, 2),
+        (LatticeKind::Hex, 0.9, 3),
+        (LatticeKind::Hex, -0.5, 4),
+    ] {
         let body = small_body(kind, q_from_nu(kind, nu).unwrap(), 4);
         let mut rng = Rng::new(seed);
         let mut state = State::new(&body);
@@ -23,7 +28,10 @@ fn force_is_minus_energy_gradient() {
         state.u = random_displacement(&body, &mut rng, 0.05);
         law::update_forces(&body, &mut state);
         let h = 1e-6;
-        let fmax = dofs(&body).iter().map(|&(i, c)| state.f.comp(c)[i].abs()).fold(0.0, Real::max);
+        let fmax = dofs(&body)
+            .iter()
+            .map(|&(i, c)| state.f.comp(c)[i].abs())
+            .fold(0.0, Real::max);
         for (i, c) in dofs(&body) {
             let mut up = state.u.clone();
             up.comp_mut(c)[i] += h;
@@ -31,7 +39,11 @@ fn force_is_minus_energy_gradient() {
             dn.comp_mut(c)[i] -= h;
             let grad = (energy(&body, &state, &up) - energy(&body, &state, &dn)) / (2.0 * h);
             let f = state.f.comp(c)[i];
-            assert!((f + grad).abs() < 1e-7 * fmax, "{kind:?} nu={nu} node {i} axis {c}: f={f}, -dU={}", -grad);
+            assert!(
+                (f + grad).abs() < 1e-7 * fmax,
+                "{kind:?} nu={nu} node {i} axis {c}: f={f}, -dU={}",
+                -grad
+            );
         }
     }
 }
@@ -39,7 +51,11 @@ fn force_is_minus_energy_gradient() {
 /// The tangent is the exact Jacobian of the forces: K v = -(f(u + h v) - f(u - h v)) / 2h.
 #[test]
 fn tangent_is_the_force_jacobian() {
-    for (kind, nu, seed) in [(LatticeKind::Cubic, -0.9, 5), (LatticeKind::Cubic, 0.49, 6), (LatticeKind::Hex, 0.7, 7)] {
+    for (kind, nu, seed) in [
+        (LatticeKind::Cubic, -0.9, 5),
+        (LatticeKind::Cubic, 0.49, 6),
+        (LatticeKind::Hex, 0.7, 7),
+    ] {
         let body = small_body(kind, q_from_nu(kind, nu).unwrap(), 4);
         let mut rng = Rng::new(seed);
         let mut state = State::new(&body);
@@ -61,7 +77,12 @@ fn tangent_is_the_force_jacobian() {
         fd.axpy(-1.0, &fm.f);
         let mut diff = kv.clone();
         diff.axpy(1.0 / (2.0 * h), &fd);
-        assert!(diff.norm() < 1e-7 * kv.norm(), "{kind:?} nu={nu}: |Kv + df/dv| = {} vs |Kv| = {}", diff.norm(), kv.norm());
+        assert!(
+            diff.norm() < 1e-7 * kv.norm(),
+            "{kind:?} nu={nu}: |Kv + df/dv| = {} vs |Kv| = {}",
+            diff.norm(),
+            kv.norm()
+        );
     }
 }
 
@@ -69,7 +90,11 @@ fn tangent_is_the_force_jacobian() {
 /// any springs removed.
 #[test]
 fn internal_forces_conserve_momentum() {
-    for (kind, nu) in [(LatticeKind::Cubic, -0.95), (LatticeKind::Cubic, 0.45), (LatticeKind::Hex, 0.95)] {
+    for (kind, nu) in [
+        (LatticeKind::Cubic, -0.95),
+        (LatticeKind::Cubic, 0.45),
+        (LatticeKind::Hex, 0.95),
+    ] {
         let body = small_body(kind, q_from_nu(kind, nu).unwrap(), 6);
         let mut rng = Rng::new(11);
         let mut state = State::new(&body);
@@ -85,8 +110,14 @@ fn internal_forces_conserve_momentum() {
             torque += state.position(&body, i).cross(&f);
             scale = scale.max(f.norm());
         }
-        assert!(sum.norm() < 1e-13 * scale * body.nodes() as Real, "{kind:?}: net force {sum:?}");
-        assert!(torque.norm() < 1e-12 * scale * body.nodes() as Real, "{kind:?}: net torque {torque:?}");
+        assert!(
+            sum.norm() < 1e-13 * scale * body.nodes() as Real,
+            "{kind:?}: net force {sum:?}"
+        );
+        assert!(
+            torque.norm() < 1e-12 * scale * body.nodes() as Real,
+            "{kind:?}: net torque {torque:?}"
+        );
     }
 }
 
@@ -95,7 +126,12 @@ fn internal_forces_conserve_momentum() {
 /// bit-for-bit unchanged.
 #[test]
 fn cut_halves_are_exactly_decoupled() {
-    for (kind, nu) in [(LatticeKind::Cubic, -0.8), (LatticeKind::Cubic, 0.45), (LatticeKind::Hex, -0.5), (LatticeKind::Hex, 0.9)] {
+    for (kind, nu) in [
+        (LatticeKind::Cubic, -0.8),
+        (LatticeKind::Cubic, 0.45),
+        (LatticeKind::Hex, -0.5),
+        (LatticeKind::Hex, 0.9),
+    ] {
         let body = small_body(kind, q_from_nu(kind, nu).unwrap(), 8);
         let cut = 3.3;
         let left = |i: usize| body.lattice.pos.x[i] < cut;
@@ -120,10 +156,17 @@ fn cut_halves_are_exactly_decoupled() {
         }
         law::update_forces(&body, &mut moved);
         for i in (0..body.nodes()).filter(|&i| left(i)) {
-            assert_eq!(before.get(i), moved.f.get(i), "{kind:?} nu={nu}: node {i} felt the other half");
+            assert_eq!(
+                before.get(i),
+                moved.f.get(i),
+                "{kind:?} nu={nu}: node {i} felt the other half"
+            );
         }
         // And the total force on each half is zero on its own.
-        let half_sum: Vector = (0..body.nodes()).filter(|&i| left(i)).map(|i| moved.f.get(i)).sum();
+        let half_sum: Vector = (0..body.nodes())
+            .filter(|&i| left(i))
+            .map(|i| moved.f.get(i))
+            .sum();
         assert!(half_sum.norm() < 1e-12, "{kind:?}: {half_sum:?}");
     }
 }
@@ -151,7 +194,12 @@ fn dense_tangent(body: &Body, state: &State) -> DMatrix<Real> {
 /// mechanisms of the damaged graph) and positive ones (`design/MODEL.md`, Cauchy-Schwarz bound).
 #[test]
 fn damaged_stiffness_stays_positive_semidefinite() {
-    for (kind, nu, n) in [(LatticeKind::Cubic, -0.98, 4), (LatticeKind::Cubic, 0.49, 4), (LatticeKind::Hex, -0.98, 8), (LatticeKind::Hex, 0.99, 8)] {
+    for (kind, nu, n) in [
+        (LatticeKind::Cubic, -0.98, 4),
+        (LatticeKind::Cubic, 0.49, 4),
+        (LatticeKind::Hex, -0.98, 8),
+        (LatticeKind::Hex, 0.99, 8),
+    ] {
         let body = small_body(kind, q_from_nu(kind, nu).unwrap(), n);
         for seed in 0..3 {
             let mut rng = Rng::new(100 + seed);
@@ -166,7 +214,10 @@ fn damaged_stiffness_stays_positive_semidefinite() {
             let eig = k.symmetric_eigen().eigenvalues;
             let lmin = eig.min();
             let lmax = eig.max();
-            assert!(lmin > -1e-12 * lmax, "{kind:?} nu={nu} seed {seed}: eigenvalue {lmin} (max {lmax})");
+            assert!(
+                lmin > -1e-12 * lmax,
+                "{kind:?} nu={nu} seed {seed}: eigenvalue {lmin} (max {lmax})"
+            );
         }
     }
 }
@@ -175,14 +226,35 @@ fn damaged_stiffness_stays_positive_semidefinite() {
 /// eigenvalues in 3D, 3 in 2D, and the smallest non-zero one is clearly positive.
 #[test]
 fn intact_stiffness_has_only_rigid_zero_modes() {
-    for (kind, nu, zeros) in [(LatticeKind::Cubic, -0.9, 6), (LatticeKind::Cubic, 0.45, 6), (LatticeKind::Hex, 0.9, 3)] {
-        let body = small_body(kind, q_from_nu(kind, nu).unwrap(), if kind == LatticeKind::Cubic { 3 } else { 5 });
+    for (kind, nu, zeros) in [
+        (LatticeKind::Cubic, -0.9, 6),
+        (LatticeKind::Cubic, 0.45, 6),
+        (LatticeKind::Hex, 0.9, 3),
+    ] {
+        let body = small_body(
+            kind,
+            q_from_nu(kind, nu).unwrap(),
+            if kind == LatticeKind::Cubic { 3 } else { 5 },
+        );
         let state = State::new(&body);
-        let mut eig: Vec<Real> = dense_tangent(&body, &state).symmetric_eigen().eigenvalues.iter().copied().collect();
+        let mut eig: Vec<Real> = dense_tangent(&body, &state)
+            .symmetric_eigen()
+            .eigenvalues
+            .iter()
+            .copied()
+            .collect();
         eig.sort_by(|a, b| a.partial_cmp(b).unwrap());
         let lmax = *eig.last().unwrap();
-        assert!(eig[..zeros].iter().all(|l| l.abs() < 1e-12 * lmax), "{kind:?}: {:?}", &eig[..zeros + 1]);
-        assert!(eig[zeros] > 1e-4 * lmax, "{kind:?}: first non-rigid eigenvalue {}", eig[zeros]);
+        assert!(
+            eig[..zeros].iter().all(|l| l.abs() < 1e-12 * lmax),
+            "{kind:?}: {:?}",
+            &eig[..zeros + 1]
+        );
+        assert!(
+            eig[zeros] > 1e-4 * lmax,
+            "{kind:?}: first non-rigid eigenvalue {}",
+            eig[zeros]
+        );
     }
 }
 
@@ -190,13 +262,20 @@ fn intact_stiffness_has_only_rigid_zero_modes() {
 /// split between threads.
 #[test]
 fn forces_are_bit_identical_for_any_thread_count() {
-    let body = small_body(LatticeKind::Cubic, q_from_nu(LatticeKind::Cubic, 0.4).unwrap(), 20);
+    let body = small_body(
+        LatticeKind::Cubic,
+        q_from_nu(LatticeKind::Cubic, 0.4).unwrap(),
+        20,
+    );
     let mut rng = Rng::new(7);
     let mut state = State::new(&body);
     kill_random(&body, &mut state, &mut rng, 0.1);
     state.u = random_displacement(&body, &mut rng, 0.02);
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| {
             let mut s = state.clone();
             law::update_forces(&body, &mut s);
@@ -206,7 +285,10 @@ fn forces_are_bit_identical_for_any_thread_count() {
     };
     let one = run(1);
     let two = run(2);
-    assert!(one.0 == two.0 && one.1 == two.1, "forces or pools differ between 1 and 2 threads");
+    assert!(
+        one.0 == two.0 && one.1 == two.1,
+        "forces or pools differ between 1 and 2 threads"
+    );
     // Energy is a parallel reduction (output only): identical here because rayon's split of an
     // indexed range does not depend on timing, but it may differ in the last bit across
     // thread counts; the hot path (forces) must not.
@@ -223,6 +305,8 @@ fn kill_bond_updates_normalisers() {
     let (si, sj) = (state.norm[i], state.norm[j]);
     let kl2 = body.k[b] * body.lattice.bonds.rest[b].powi(2);
     assert!(state.kill_bond(&body, b));
-    assert!((state.norm[i] - (si - kl2)).abs() < 1e-12 && (state.norm[j] - (sj - kl2)).abs() < 1e-12);
+    assert!(
+        (state.norm[i] - (si - kl2)).abs() < 1e-12 && (state.norm[j] - (sj - kl2)).abs() < 1e-12
+    );
     assert!(!state.kill_bond(&body, b));
 }

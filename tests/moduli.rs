@@ -6,14 +6,19 @@ use hooke_core::moduli::{block_test, bulk_moduli, bulk_stress, BlockTest, Ends};
 use hooke_core::{law, Body, Coords, LatticeKind, Matrix, Real, State};
 
 fn nu_grid(lo: Real, hi: Real, n: usize) -> Vec<Real> {
-    (0..=n).map(|i| lo + (hi - lo) * i as Real / n as Real).collect()
+    (0..=n)
+        .map(|i| lo + (hi - lo) * i as Real / n as Real)
+        .collect()
 }
 
 /// The bulk (affine) test: E and nu of the infinite lattice equal the closed forms to 1e-9, and
 /// the lattice is isotropic (C11 - C12 = 2 C44), over the whole admissible range.
 #[test]
 fn bulk_moduli_match_closed_forms_3d_and_2d() {
-    let cases = [(LatticeKind::Cubic, nu_grid(-0.99, 0.499, 60)), (LatticeKind::Hex, nu_grid(-0.99, 0.99, 60))];
+    let cases = [
+        (LatticeKind::Cubic, nu_grid(-0.99, 0.499, 60)),
+        (LatticeKind::Hex, nu_grid(-0.99, 0.99, 60)),
+    ];
     for (kind, nus) in cases {
         for nu in nus {
             let q = q_from_nu(kind, nu).unwrap();
@@ -21,8 +26,16 @@ fn bulk_moduli_match_closed_forms_3d_and_2d() {
             let (k, a) = (3.7e4, 2.5e-3);
             let m = bulk_moduli(kind, k, a, q);
             let e = youngs_from_k(kind, k, a, q);
-            assert!((m.youngs / e - 1.0).abs() < 1e-9, "{kind:?} nu={nu}: E {} vs {e}", m.youngs);
-            assert!((m.poisson - nu).abs() < 1e-9 * nu.abs().max(1.0), "{kind:?} nu={nu}: {}", m.poisson);
+            assert!(
+                (m.youngs / e - 1.0).abs() < 1e-9,
+                "{kind:?} nu={nu}: E {} vs {e}",
+                m.youngs
+            );
+            assert!(
+                (m.poisson - nu).abs() < 1e-9 * nu.abs().max(1.0),
+                "{kind:?} nu={nu}: {}",
+                m.poisson
+            );
             let iso = (m.c11 - m.c12 - 2.0 * m.c44) / m.c11.abs().max(m.c44.abs());
             assert!(iso.abs() < 1e-9, "{kind:?} nu={nu}: C11-C12-2C44 = {iso}");
         }
@@ -34,10 +47,16 @@ fn bulk_moduli_match_closed_forms_3d_and_2d() {
 fn plain_lattices_reproduce_paper_eqs_1_and_2() {
     let c = bulk_moduli(LatticeKind::Cubic, 1.0, 1.0, 0.0);
     assert!((c.youngs - 2.5).abs() < 1e-12 && (c.poisson - 0.25).abs() < 1e-12);
-    assert!((c.c12 - 1.0).abs() < 1e-12 && (c.c44 - 1.0).abs() < 1e-12, "lambda = mu = k/a");
+    assert!(
+        (c.c12 - 1.0).abs() < 1e-12 && (c.c44 - 1.0).abs() < 1e-12,
+        "lambda = mu = k/a"
+    );
     let h = bulk_moduli(LatticeKind::Hex, 1.0, 1.0, 0.0);
     let lame = 3.0 / (4.0 * 3f64.sqrt());
-    assert!((h.c12 - lame).abs() < 1e-12 && (h.c44 - lame).abs() < 1e-12, "lambda = mu = 3/(4 sqrt 3) k");
+    assert!(
+        (h.c12 - lame).abs() < 1e-12 && (h.c44 - lame).abs() < 1e-12,
+        "lambda = mu = 3/(4 sqrt 3) k"
+    );
     assert!((h.poisson - 1.0 / 3.0).abs() < 1e-12 && (h.youngs - 2.0 / 3f64.sqrt()).abs() < 1e-12);
 }
 
@@ -46,7 +65,11 @@ fn plain_lattices_reproduce_paper_eqs_1_and_2() {
 /// (the difference is the O(eps) geometric nonlinearity).
 #[test]
 fn nonlinear_law_reduces_to_linear_at_small_strain() {
-    for (kind, nu) in [(LatticeKind::Cubic, -0.7), (LatticeKind::Cubic, 0.45), (LatticeKind::Hex, 0.8)] {
+    for (kind, nu) in [
+        (LatticeKind::Cubic, -0.7),
+        (LatticeKind::Cubic, 0.45),
+        (LatticeKind::Hex, 0.8),
+    ] {
         let q = q_from_nu(kind, nu).unwrap();
         let n = 7;
         let body = tests_body(kind, q, n);
@@ -89,11 +112,18 @@ fn paper_block_reproduces_target_nu() {
     for nu in [-0.9, -0.5, 0.0, 0.25, 0.3, 0.45] {
         let r = block_test(&BlockTest::paper(LatticeKind::Cubic, nu)).unwrap();
         let err = r.nu_measured - nu;
-        assert!(err.abs() < 0.03, "nu={nu}: measured {} (error {err:+.4})", r.nu_measured);
+        assert!(
+            err.abs() < 0.03,
+            "nu={nu}: measured {} (error {err:+.4})",
+            r.nu_measured
+        );
         assert!(r.solve.residual <= 1e-9, "residual {}", r.solve.residual);
         // E with the nominal area overestimates (the true section is wider than the outer node
         // planes), with the node-cell area it underestimates: the target lies between them.
-        assert!(r.e_measured > r.e_target && r.e_measured_cell < r.e_target * 1.01, "nu={nu}: {r:?}");
+        assert!(
+            r.e_measured > r.e_target && r.e_measured_cell < r.e_target * 1.01,
+            "nu={nu}: {r:?}"
+        );
     }
 }
 
@@ -103,7 +133,11 @@ fn hex_block_reproduces_target_nu() {
     for nu in [-0.9, -0.5, 0.0, 1.0 / 3.0, 0.6, 0.9, 0.95] {
         let r = block_test(&BlockTest::paper(LatticeKind::Hex, nu)).unwrap();
         let err = r.nu_measured - nu;
-        assert!(err.abs() < 0.05, "nu_2D={nu}: measured {} (error {err:+.4})", r.nu_measured);
+        assert!(
+            err.abs() < 0.05,
+            "nu_2D={nu}: measured {} (error {err:+.4})",
+            r.nu_measured
+        );
     }
 }
 
@@ -125,11 +159,17 @@ fn surface_bias_halves_when_the_section_doubles() {
     for nu in [0.45, 0.25, -0.5] {
         let (e1, e2) = bias_halves(LatticeKind::Cubic, nu, [41, 11, 11], [81, 21, 21]);
         let ratio = e1 / e2;
-        assert!((1.5..2.7).contains(&ratio), "nu={nu}: errors {e1:+.5} (W=10a) and {e2:+.5} (W=20a, twice as long), ratio {ratio}");
+        assert!(
+            (1.5..2.7).contains(&ratio),
+            "nu={nu}: errors {e1:+.5} (W=10a) and {e2:+.5} (W=20a, twice as long), ratio {ratio}"
+        );
     }
     let (e1, e2) = bias_halves(LatticeKind::Hex, 0.8, [61, 12, 1], [121, 23, 1]);
     let ratio = e1 / e2;
-    assert!((1.5..2.7).contains(&ratio), "hex: errors {e1:+.5} and {e2:+.5}, ratio {ratio}");
+    assert!(
+        (1.5..2.7).contains(&ratio),
+        "hex: errors {e1:+.5} and {e2:+.5}, ratio {ratio}"
+    );
 }
 
 /// The paper's size against the doubled resolution (slow: 141 x 31 x 31 nodes).
@@ -138,7 +178,10 @@ fn surface_bias_halves_when_the_section_doubles() {
 fn paper_block_bias_halves_at_full_size() {
     for nu in [-0.9, 0.0, 0.25, 0.45, 0.49] {
         let (e1, e2) = bias_halves(LatticeKind::Cubic, nu, [71, 16, 16], [141, 31, 31]);
-        eprintln!("nu={nu}: W=15a error {e1:+.5}, W=30a error {e2:+.5}, ratio {:.3}", e1 / e2);
+        eprintln!(
+            "nu={nu}: W=15a error {e1:+.5}, W=30a error {e2:+.5}, ratio {:.3}",
+            e1 / e2
+        );
         assert!((1.6..2.5).contains(&(e1 / e2)), "nu={nu}");
     }
 }

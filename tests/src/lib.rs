@@ -69,5 +69,7 @@ pub fn kill_random(body: &Body, state: &mut State, rng: &mut Rng, p: Real) -> us
 /// (node, axis) pairs.
 pub fn dofs(body: &Body) -> Vec<(usize, usize)> {
     let d = body.lattice.dim();
-    (0..body.nodes()).flat_map(|i| (0..d).map(move |c| (i, c))).collect()
+    (0..body.nodes())
+        .flat_map(|i| (0..d).map(move |c| (i, c)))
+        .collect()
 }

@@ -46,10 +46,10 @@ pub struct ModuliArgs {
     #[arg(long, default_value_t = 1e-5, allow_negative_numbers = true)]
     pub strain: Real,
     /// Lattice spacing a (m).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub spacing: Real,
     /// Spring stiffness k (N/m).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub stiffness: Real,
     /// Print one JSON object (one per line with --sweep) instead of a table.
     #[arg(long)]
@@ -59,7 +59,7 @@ pub struct ModuliArgs {
     #[arg(long)]
     pub sweep: bool,
     /// The nu values of --sweep (default: -0.9 to 0.49 in 3D, -0.9 to 0.95 in 2D).
-    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub sweep_nu: Option<Vec<Real>>,
     /// Where --sweep writes moduli_sweep_<lattice>.csv and .png.
     #[arg(long, default_value = ".")]
@@ -73,19 +73,22 @@ fn test_for(args: &ModuliArgs, nu: Real) -> Result<BlockTest> {
     };
     let mut t = BlockTest::paper(kind, nu);
     if let Some(s) = &args.size {
-        t.size =
-            match (kind, s.as_slice()) {
-                (LatticeKind::Cubic, &[x, y, z]) => [x, y, z],
-                (LatticeKind::Hex, &[x, r]) => [x, r, 1],
-                (LatticeKind::Cubic, _) => return Err(InputError(format!(
+        t.size = match (kind, s.as_slice()) {
+            (LatticeKind::Cubic, &[x, y, z]) => [x, y, z],
+            (LatticeKind::Hex, &[x, r]) => [x, r, 1],
+            (LatticeKind::Cubic, _) => {
+                return Err(InputError(format!(
                     "--size {s:?}: the cubic lattice takes three numbers, NX,NY,NZ (e.g. 71,16,16)"
                 ))
-                .into()),
-                (LatticeKind::Hex, _) => return Err(InputError(format!(
+                .into())
+            }
+            (LatticeKind::Hex, _) => {
+                return Err(InputError(format!(
                     "--size {s:?}: the hexagonal lattice takes two numbers, NX,ROWS (e.g. 71,16)"
                 ))
-                .into()),
-            };
+                .into())
+            }
+        };
     }
     t.ends = match args.ends {
         EndsArg::Slide => Ends::Slide,

@@ -4,8 +4,7 @@
 use std::path::Path;
 
 use anyhow::{anyhow, Result};
-use hooke_core::material::nu_from_q;
-use hooke_core::{LatticeKind, Real};
+use hooke_core::Real;
 use plotters::prelude::*;
 
 fn register_font() {
@@ -24,7 +23,8 @@ fn register_font() {
 pub fn nu_sweep(path: &Path, title: &str, three_d: bool, points: &[(Real, Real)]) -> Result<()> {
     register_font();
     let (lo, hi) = if three_d { (-1.0, 0.5) } else { (-1.0, 1.0) };
-    let tmp = path.with_extension("png.tmp");
+    // The encoder picks the format from the extension, so the temporary name ends in .png.
+    let tmp = path.with_extension("partial.png");
     {
         let root = BitMapBackend::new(&tmp, (800, 640)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
@@ -42,19 +42,8 @@ pub fn nu_sweep(path: &Path, title: &str, three_d: bool, points: &[(Real, Real)]
             .label_style(("sans-serif", 16))
             .draw()
             .map_err(|e| anyhow!("{e}"))?;
-        // Theory: the closed form nu(q), traced over q (a straight line nu = nu_target).
-        let kind = if three_d {
-            LatticeKind::Cubic
-        } else {
-            LatticeKind::Hex
-        };
-        let curve: Vec<(Real, Real)> = (0..=200)
-            .map(|i| {
-                let q = -0.499 + (i as Real / 200.0).powi(3) * 60.0;
-                let nu = nu_from_q(kind, q);
-                (nu, nu)
-            })
-            .collect();
+        // Theory: the closed forms of q(nu) make the lattice's nu equal the target exactly.
+        let curve = vec![(lo, lo), (hi, hi)];
         chart
             .draw_series(LineSeries::new(curve, RED.stroke_width(2)))
             .map_err(|e| anyhow!("{e}"))?

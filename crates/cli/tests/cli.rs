@@ -1,0 +1,139 @@
+//! The `hooke` binary as users call it: exit codes, JSON keys, error messages.
+
+use std::process::{Command, Output};
+
+fn hooke(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hooke"))
+        .args(args)
+        .output()
+        .expect("the hooke binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn moduli_json_has_the_contract_keys() {
+    let o = hooke(&["moduli", "--nu", "0.3", "--size", "21,6,6", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for key in [
+        "nu_target",
+        "nu_measured",
+        "E_target",
+        "E_measured",
+        "q",
+        "nodes",
+        "springs",
+        "iterations",
+        "residual",
+    ] {
+        assert!(v.get(key).is_some(), "missing key {key} in {v}");
+    }
+    assert_eq!(v["nodes"], 21 * 36);
+    assert!(v["residual"].as_f64().unwrap() <= 1e-9);
+    assert!((v["nu_measured"].as_f64().unwrap() - 0.3).abs() < 0.05);
+}
+
+#[test]
+fn moduli_hex_runs_and_prints_a_table() {
+    let o = hooke(&[
+        "moduli",
+        "--lattice",
+        "hex",
+        "--nu",
+        "0.9",
+        "--size",
+        "31,8",
+        "--ends",
+        "clamp",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("hex lattice") && out.contains("nu"), "{out}");
+}
+
+#[test]
+fn bad_input_exits_2_with_a_clear_message() {
+    let cases: &[(&[&str], &str)] = &[
+        (&["moduli", "--nu", "0.5"], "-0.99 <= nu < 0.5"),
+        (&["moduli", "--nu", "-1.2"], "-0.99 <= nu < 0.5"),
+        (
+            &["moduli", "--lattice", "hex", "--nu", "1.0"],
+            "nu_2D <= 0.99",
+        ),
+        (
+            &["moduli", "--nu", "0.2", "--size", "0,4,4"],
+            "at least 2 nodes",
+        ),
+        (&["moduli", "--nu", "0.2", "--size", "4,4"], "three numbers"),
+        (
+            &[
+                "moduli",
+                "--lattice",
+                "hex",
+                "--nu",
+                "0.2",
+                "--size",
+                "4,4,4",
+            ],
+            "two numbers",
+        ),
+        (&["moduli", "--nu", "0.2", "--stiffness", "-3"], "positive"),
+        (&["moduli", "--nu", "0.2", "--spacing", "0"], "positive"),
+        (
+            &["moduli", "--nu", "0.2", "--strain", "0"],
+            "non-zero strain",
+        ),
+        (&["moduli", "--nu", "nan"], "out of range"),
+        (&["moduli"], "--nu"),
+        (
+            &["moduli", "--nu", "0.2", "--threads", "0"],
+            "at least 1 thread",
+        ),
+        (
+            &["moduli", "--lattice", "square", "--nu", "0.2"],
+            "invalid value",
+        ),
+    ];
+    for (args, needle) in cases {
+        let o = hooke(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains(needle),
+            "{args:?}: expected '{needle}' in: {}",
+            stderr(&o)
+        );
+        assert!(!stderr(&o).contains("panicked"), "{args:?}");
+    }
+}
+
+#[test]
+fn sweep_writes_csv_and_png() {
+    let dir = std::env::temp_dir().join(format!("hooke-sweep-{}", std::process::id()));
+    let o = hooke(&[
+        "moduli",
+        "--sweep",
+        "--sweep-nu",
+        "-0.5,0.25,0.45",
+        "--size",
+        "21,6,6",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(dir.join("moduli_sweep_cubic.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 4, "{csv}");
+    assert!(csv.starts_with("nu_target,nu_measured"));
+    let png = std::fs::read(dir.join("moduli_sweep_cubic.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn help_exits_0() {
+    let o = hooke(&["--help"]);
+    assert_eq!(o.status.code(), Some(0));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("moduli"));
+}
