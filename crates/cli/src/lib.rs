@@ -1,5 +1,6 @@
 //! The `hooke` command line, as a library so that tests can call [`run`] directly.
 
+mod bench;
 mod moduli;
 mod plot;
 
@@ -22,6 +23,9 @@ pub enum Command {
     /// The paper's Section 4 block test: measure E and nu of a lattice block under an axial
     /// strain and compare them with theory.
     Moduli(moduli::ModuliArgs),
+    /// Throughput of explicit steps on a block (unique spring-updates per second), or with
+    /// --static the solve time of the paper's block.
+    Bench(bench::BenchArgs),
 }
 
 /// An error in what the user asked for (exit code 2), as opposed to a run failure (exit 1).
@@ -61,5 +65,6 @@ pub fn run(cli: Cli) -> Result<()> {
         .build()?;
     pool.install(|| match cli.command {
         Command::Moduli(args) => moduli::run(args),
+        Command::Bench(args) => bench::run(args),
     })
 }

@@ -42,12 +42,40 @@ pub enum Error {
         newton: usize,
         cg: usize,
     },
+
+    /// A requested time step exceeds the stability limit of the explicit integrator.
+    #[error(
+        "time step dt = {dt:.4e} s exceeds the stability limit {limit:.4e} s (2/sqrt(lambda_max) = \
+         {critical:.4e} s times the safety factor {safety}); use dt <= {limit:.4e} s, or force it \
+         if you know better"
+    )]
+    TimeStepTooLarge {
+        dt: Real,
+        limit: Real,
+        critical: Real,
+        safety: Real,
+    },
+
+    /// The explicit run blew up.
+    #[error(
+        "the run became unstable at step {step} (t = {time:.6e} s): node {node} {reason}; {hint}"
+    )]
+    Unstable {
+        step: u64,
+        time: Real,
+        node: usize,
+        reason: String,
+        hint: &'static str,
+    },
 }
 
 impl Error {
     /// True when the error is the user's input (exit code 2), false for a run failure (exit 1).
     pub fn is_input_error(&self) -> bool {
-        matches!(self, Error::OutOfRange { .. } | Error::InvalidInput { .. })
+        matches!(
+            self,
+            Error::OutOfRange { .. } | Error::InvalidInput { .. } | Error::TimeStepTooLarge { .. }
+        )
     }
 }
 

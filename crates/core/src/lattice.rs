@@ -69,8 +69,14 @@ pub struct Bonds {
 }
 
 impl Bonds {
-    /// Build from a list of undirected springs `(i, j)` with `i != j`; rest lengths from `pos`.
-    pub fn from_pairs(n_nodes: usize, pairs: &[[u32; 2]], pos: &Coords) -> Result<Self> {
+    /// Build from a list of undirected springs `(i, j)` with `i != j`; rest lengths from `pos`
+    /// (minimum image along the axes where `period` is non-zero).
+    pub fn from_pairs(
+        n_nodes: usize,
+        pairs: &[[u32; 2]],
+        pos: &Coords,
+        period: [Real; 3],
+    ) -> Result<Self> {
         if n_nodes > u32::MAX as usize || 2 * pairs.len() > u32::MAX as usize {
             return Err(Error::InvalidInput {
                 what: "lattice size",
@@ -115,7 +121,10 @@ impl Bonds {
         }
         let rest = ends
             .iter()
-            .map(|&[i, j]| (pos.get(j as usize) - pos.get(i as usize)).norm())
+            .map(|&[i, j]| {
+                let d = reference_vector(pos, period, i as usize, j as usize);
+                (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+            })
             .collect();
         Ok(Bonds {
             offsets,
@@ -143,6 +152,28 @@ impl Bonds {
     }
 }
 
+/// Reference vector from node `i` to node `j`: `X_j - X_i`, wrapped to the nearest image along
+/// periodic axes (`period[c] > 0`).
+#[inline(always)]
+pub fn reference_vector(pos: &Coords, period: [Real; 3], i: usize, j: usize) -> [Real; 3] {
+    let mut d = [
+        pos.x[j] - pos.x[i],
+        pos.y[j] - pos.y[i],
+        pos.z[j] - pos.z[i],
+    ];
+    for c in 0..3 {
+        let p = period[c];
+        if p > 0.0 {
+            if d[c] > 0.5 * p {
+                d[c] -= p;
+            } else if d[c] < -0.5 * p {
+                d[c] += p;
+            }
+        }
+    }
+    d
+}
+
 /// A lattice filled into a region: reference geometry and spring topology.
 #[derive(Clone, Debug)]
 pub struct Lattice {
@@ -155,6 +186,9 @@ pub struct Lattice {
     pub cell_volume: Real,
     /// Plate thickness `h` for 2D lattices (m); 1 for 3D.
     pub thickness: Real,
+    /// Box length along each periodic axis (m); 0 where the axis is not periodic. Springs across
+    /// a periodic boundary join a node to its neighbour's nearest image.
+    pub period: [Real; 3],
     /// For box lattices: nodes per axis (`[nx, ny, 1]` for hex, with `ny` rows). Node index is
     /// `ix + nx * (iy + ny * iz)`.
     pub grid: Option<[usize; 3]>,
@@ -177,6 +211,17 @@ impl Lattice {
         self.kind.dim()
     }
 
+    /// True when some axis is periodic.
+    pub fn is_periodic(&self) -> bool {
+        self.period.iter().any(|&p| p > 0.0)
+    }
+
+    /// Reference vector from node `i` to node `j` (see [`reference_vector`]).
+    #[inline(always)]
+    pub fn reference_vector(&self, i: usize, j: usize) -> [Real; 3] {
+        reference_vector(&self.pos, self.period, i, j)
+    }
+
     /// Grid index of a box lattice's node `(ix, iy, iz)`.
     pub fn grid_index(&self, ix: usize, iy: usize, iz: usize) -> usize {
         let g = self
@@ -188,7 +233,19 @@ impl Lattice {
     /// A box of Ladd's cubic lattice with `n = [nx, ny, nz]` nodes per axis, spacing `a`, the
     /// first node at the origin.
     pub fn cubic_box(n: [usize; 3], a: Real) -> Result<Self> {
+        Self::cubic_box_periodic(n, a, [false; 3])
+    }
+
+    /// A cubic box that wraps around along the axes marked `periodic` (period `n a`; at least 3
+    /// nodes along a periodic axis, so that no two springs join the same pair of nodes).
+    pub fn cubic_box_periodic(n: [usize; 3], a: Real, periodic: [bool; 3]) -> Result<Self> {
         check_spacing(a)?;
+        if (0..3).any(|c| periodic[c] && n[c] < 3) {
+            return Err(Error::InvalidInput {
+                what: "box size",
+                why: format!("{n:?} nodes: a periodic axis needs at least 3 nodes"),
+            });
+        }
         if n.iter().any(|&v| v < 2) {
             return Err(Error::InvalidInput {
                 what: "box size",
@@ -232,27 +289,33 @@ impl Lattice {
             for iy in 0..n[1] {
                 for ix in 0..n[0] {
                     for d in HALF_STAR {
-                        let (jx, jy, jz) = (ix as i64 + d[0], iy as i64 + d[1], iz as i64 + d[2]);
-                        if (0..n[0] as i64).contains(&jx)
-                            && (0..n[1] as i64).contains(&jy)
-                            && (0..n[2] as i64).contains(&jz)
-                        {
+                        let mut j = [ix as i64 + d[0], iy as i64 + d[1], iz as i64 + d[2]];
+                        let mut inside = true;
+                        for c in 0..3 {
+                            if periodic[c] {
+                                j[c] = j[c].rem_euclid(n[c] as i64);
+                            }
+                            inside &= (0..n[c] as i64).contains(&j[c]);
+                        }
+                        if inside {
                             pairs.push([
                                 idx(ix, iy, iz) as u32,
-                                idx(jx as usize, jy as usize, jz as usize) as u32,
+                                idx(j[0] as usize, j[1] as usize, j[2] as usize) as u32,
                             ]);
                         }
                     }
                 }
             }
         }
-        let bonds = Bonds::from_pairs(total, &pairs, &pos)?;
+        let period = [0, 1, 2].map(|c| if periodic[c] { n[c] as Real * a } else { 0.0 });
+        let bonds = Bonds::from_pairs(total, &pairs, &pos, period)?;
         Ok(Lattice {
             kind: LatticeKind::Cubic,
             spacing: a,
             pos,
             cell_volume: a * a * a,
             thickness: 1.0,
+            period,
             grid: Some(n),
             bonds,
         })
@@ -261,7 +324,25 @@ impl Lattice {
     /// A rectangle of the hexagonal lattice: `rows` rows of `nx` nodes, spacing `a`, plate
     /// thickness `h`. Row `r` lies at `y = r sqrt(3)/2 a`; odd rows are shifted by `+a/2` in x.
     pub fn hex_box(nx: usize, rows: usize, a: Real, h: Real) -> Result<Self> {
+        Self::hex_box_periodic(nx, rows, a, h, [false; 2])
+    }
+
+    /// A hexagonal rectangle that wraps around along x (period `nx a`) and/or y (period
+    /// `rows sqrt(3)/2 a`; needs an even number of rows so that the row shifts repeat).
+    pub fn hex_box_periodic(
+        nx: usize,
+        rows: usize,
+        a: Real,
+        h: Real,
+        periodic: [bool; 2],
+    ) -> Result<Self> {
         check_spacing(a)?;
+        if (periodic[0] && nx < 3) || (periodic[1] && (rows < 4 || rows % 2 == 1)) {
+            return Err(Error::InvalidInput {
+                what: "box size",
+                why: format!("{nx} x {rows} nodes: periodic x needs 3 or more nodes per row, periodic y an even number of rows, at least 4"),
+            });
+        }
         if !(h.is_finite() && h > 0.0) {
             return Err(Error::InvalidInput {
                 what: "plate thickness",
@@ -314,13 +395,19 @@ impl Lattice {
                 }
             }
         }
-        let bonds = Bonds::from_pairs(total, &pairs, &pos)?;
+        let period = [
+            if periodic[0] { nx as Real * a } else { 0.0 },
+            if periodic[1] { rows as Real * dy } else { 0.0 },
+            0.0,
+        ];
+        let bonds = Bonds::from_pairs(total, &pairs, &pos, period)?;
         Ok(Lattice {
             kind: LatticeKind::Hex,
             spacing: a,
             pos,
             cell_volume: dy * a * h,
             thickness: h,
+            period,
             grid: Some([nx, rows, 1]),
             bonds,
         })
@@ -394,6 +481,25 @@ mod tests {
             }
         }
         assert!(count.iter().all(|&c| c == 2));
+    }
+
+    #[test]
+    fn periodic_boxes_give_every_node_a_full_star() {
+        let l = Lattice::cubic_box_periodic([5, 4, 3], 0.5, [true, true, true]).unwrap();
+        for n in 0..l.len() {
+            assert_eq!(l.bonds.row(n).len(), 18);
+        }
+        assert!(l
+            .bonds
+            .rest
+            .iter()
+            .all(|&r| (r - 0.5).abs() < 1e-12 || (r - 0.5 * 2f64.sqrt()).abs() < 1e-12));
+        let h = Lattice::hex_box_periodic(5, 4, 1.0, 1.0, [true, true]).unwrap();
+        for n in 0..h.len() {
+            assert_eq!(h.bonds.row(n).len(), 6);
+        }
+        assert!(h.bonds.rest.iter().all(|&r| (r - 1.0).abs() < 1e-12));
+        assert!(Lattice::hex_box_periodic(5, 5, 1.0, 1.0, [false, true]).is_err());
     }
 
     #[test]

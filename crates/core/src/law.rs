@@ -26,6 +26,7 @@
 use rayon::prelude::*;
 
 use crate::body::Body;
+use crate::lattice::Lattice;
 use crate::math::{Coords, Matrix, Real, Vector};
 use crate::state::State;
 
@@ -72,12 +73,14 @@ pub struct SpringGeometry {
 
 /// See [`SpringGeometry`].
 #[inline(always)]
-pub fn spring_geometry(pos: &Coords, u: &Coords, i: usize, j: usize, rest: Real) -> SpringGeometry {
-    let big = [
-        pos.x[j] - pos.x[i],
-        pos.y[j] - pos.y[i],
-        pos.z[j] - pos.z[i],
-    ];
+pub fn spring_geometry(
+    lat: &Lattice,
+    u: &Coords,
+    i: usize,
+    j: usize,
+    rest: Real,
+) -> SpringGeometry {
+    let big = lat.reference_vector(i, j);
     let w = [u.x[j] - u.x[i], u.y[j] - u.y[i], u.z[j] - u.z[i]];
     let d = [big[0] + w[0], big[1] + w[1], big[2] + w[2]];
     let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
@@ -90,13 +93,14 @@ pub fn spring_geometry(pos: &Coords, u: &Coords, i: usize, j: usize, rest: Real)
     }
 }
 
-/// Current vector from node `i` to node `j`: reference difference plus displacement difference.
+/// Current vector from node `i` to node `j`: reference vector plus displacement difference.
 #[inline]
-pub fn spring_vector(pos: &Coords, u: &Coords, i: usize, j: usize) -> (Real, Real, Real) {
+pub fn spring_vector(lat: &Lattice, u: &Coords, i: usize, j: usize) -> (Real, Real, Real) {
+    let d = lat.reference_vector(i, j);
     (
-        (pos.x[j] - pos.x[i]) + (u.x[j] - u.x[i]),
-        (pos.y[j] - pos.y[i]) + (u.y[j] - u.y[i]),
-        (pos.z[j] - pos.z[i]) + (u.z[j] - u.z[i]),
+        d[0] + (u.x[j] - u.x[i]),
+        d[1] + (u.y[j] - u.y[i]),
+        d[2] + (u.z[j] - u.z[i]),
     )
 }
 
@@ -111,7 +115,7 @@ fn node_pool(body: &Body, u: &Coords, alive: &[bool], n: usize) -> Real {
             let rest = bonds.rest[b];
             pi += body.k[b]
                 * rest
-                * spring_geometry(&body.lattice.pos, u, n, bonds.nbr[e] as usize, rest).dl;
+                * spring_geometry(&body.lattice, u, n, bonds.nbr[e] as usize, rest).dl;
         }
     }
     pi
@@ -140,7 +144,7 @@ pub fn compute_pools(body: &Body, u: &Coords, alive: &[bool], norm: &[Real], poo
 /// Spring pass: internal force on every node from the current pools.
 pub fn compute_forces(body: &Body, u: &Coords, alive: &[bool], pool: &[Real], f: &mut Coords) {
     let bonds = &body.lattice.bonds;
-    let pos = &body.lattice.pos;
+    let lat = &body.lattice;
     let q = body.q;
     f.x.par_iter_mut()
         .zip(f.y.par_iter_mut())
@@ -156,7 +160,7 @@ pub fn compute_forces(body: &Body, u: &Coords, alive: &[bool], pool: &[Real], f:
                 }
                 let j = bonds.nbr[e] as usize;
                 let rest = bonds.rest[b];
-                let g = spring_geometry(pos, u, n, j, rest);
+                let g = spring_geometry(lat, u, n, j, rest);
                 let t = tension(body.k[b], rest, g.dl, q, pool[n], pool[j]);
                 let s = t / g.l;
                 sx += s * g.d[0];
@@ -186,8 +190,7 @@ pub fn energy(body: &Body, u: &Coords, alive: &[bool], norm: &[Real]) -> Energy 
                 return 0.0;
             }
             let [i, j] = bonds.ends[b];
-            let dl =
-                spring_geometry(&body.lattice.pos, u, i as usize, j as usize, bonds.rest[b]).dl;
+            let dl = spring_geometry(&body.lattice, u, i as usize, j as usize, bonds.rest[b]).dl;
             0.5 * body.k[b] * dl * dl
         })
         .sum();
@@ -225,7 +228,7 @@ pub fn tensions(body: &Body, state: &State) -> Vec<Real> {
             tension(
                 body.k[b],
                 rest,
-                spring_geometry(&body.lattice.pos, &state.u, i, j, rest).dl,
+                spring_geometry(&body.lattice, &state.u, i, j, rest).dl,
                 body.q,
                 state.pool[i],
                 state.pool[j],
@@ -244,7 +247,7 @@ pub fn node_virial(body: &Body, u: &Coords, tension: &[Real], n: usize) -> Matri
     for e in bonds.row(n) {
         let b = bonds.bond[e] as usize;
         let j = bonds.nbr[e] as usize;
-        let (dx, dy, dz) = spring_vector(&body.lattice.pos, u, n, j);
+        let (dx, dy, dz) = spring_vector(&body.lattice, u, n, j);
         let d = Vector::new(dx, dy, dz);
         let l = d.norm();
         s += (0.5 * tension[b] / l) * d * d.transpose();

@@ -16,12 +16,16 @@
 //! Units: SI throughout. No I/O here.
 
 pub mod body;
+pub mod dynamics;
 pub mod error;
+pub mod kernel;
 pub mod lattice;
 pub mod law;
+pub mod loading;
 pub mod material;
 pub mod math;
 pub mod moduli;
+pub mod stability;
 pub mod state;
 pub mod statics;
 pub mod tangent;

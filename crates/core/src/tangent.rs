@@ -56,7 +56,7 @@ impl Tangent {
             for e in bonds.row(n) {
                 let b = bonds.bond[e] as usize;
                 let j = bonds.nbr[e] as usize;
-                let (dx, dy, dz) = crate::law::spring_vector(&body.lattice.pos, &state.u, n, j);
+                let (dx, dy, dz) = crate::law::spring_vector(&body.lattice, &state.u, n, j);
                 let d = crate::math::Vector::new(dx, dy, dz);
                 let l = d.norm();
                 ex[e] = d.x / l;
@@ -64,8 +64,7 @@ impl Tangent {
                 ez[e] = d.z / l;
                 if state.alive[b] {
                     let rest = bonds.rest[b];
-                    let dl =
-                        crate::law::spring_geometry(&body.lattice.pos, &state.u, n, j, rest).dl;
+                    let dl = crate::law::spring_geometry(&body.lattice, &state.u, n, j, rest).dl;
                     let t = crate::law::tension(
                         body.k[b],
                         rest,
@@ -215,4 +214,80 @@ impl Tangent {
         }
         d
     }
+}
+
+/// `out = K v` at `state` without storing the tangent (for one-off products on large bodies,
+/// e.g. the stable-step estimate). `dpool` is scratch of one entry per node. `state.pool` must
+/// be current.
+pub fn apply_unassembled(
+    body: &Body,
+    state: &State,
+    v: &Coords,
+    out: &mut Coords,
+    dpool: &mut [Real],
+) {
+    let bonds = &body.lattice.bonds;
+    let lat = &body.lattice;
+    let q = body.q;
+    let unit = |n: usize, j: usize| {
+        let (dx, dy, dz) = crate::law::spring_vector(lat, &state.u, n, j);
+        let l = (dx * dx + dy * dy + dz * dz).sqrt();
+        ([dx / l, dy / l, dz / l], l)
+    };
+    dpool
+        .par_iter_mut()
+        .with_min_len(MIN_NODES_PER_TASK)
+        .enumerate()
+        .for_each(|(n, dp)| {
+            let s_n = state.norm[n];
+            if q == 0.0 || s_n == 0.0 {
+                *dp = 0.0;
+                return;
+            }
+            let mut s = 0.0;
+            for e in bonds.row(n) {
+                let b = bonds.bond[e] as usize;
+                if state.alive[b] {
+                    let j = bonds.nbr[e] as usize;
+                    let (ev, _) = unit(n, j);
+                    let d = ev[0] * (v.x[j] - v.x[n])
+                        + ev[1] * (v.y[j] - v.y[n])
+                        + ev[2] * (v.z[j] - v.z[n]);
+                    s += body.k[b] * bonds.rest[b] * d;
+                }
+            }
+            *dp = s / s_n;
+        });
+    let dpool = &*dpool;
+    out.x
+        .par_iter_mut()
+        .zip(out.y.par_iter_mut())
+        .zip(out.z.par_iter_mut())
+        .with_min_len(MIN_NODES_PER_TASK)
+        .enumerate()
+        .for_each(|(n, ((ox, oy), oz))| {
+            let mut acc = [0.0; 3];
+            for e in bonds.row(n) {
+                let b = bonds.bond[e] as usize;
+                if !state.alive[b] {
+                    continue;
+                }
+                let j = bonds.nbr[e] as usize;
+                let (ev, l) = unit(n, j);
+                let w = [v.x[j] - v.x[n], v.y[j] - v.y[n], v.z[j] - v.z[n]];
+                let d = ev[0] * w[0] + ev[1] * w[1] + ev[2] * w[2];
+                let rest = bonds.rest[b];
+                let kl = body.k[b] * rest;
+                let dl = crate::law::spring_geometry(lat, &state.u, n, j, rest).dl;
+                let t = crate::law::tension(body.k[b], rest, dl, q, state.pool[n], state.pool[j]);
+                let dt = body.k[b] * d + q * kl * (dpool[n] + dpool[j]);
+                let g = t / l;
+                for c in 0..3 {
+                    acc[c] += dt * ev[c] + g * (w[c] - ev[c] * d);
+                }
+            }
+            *ox = -acc[0];
+            *oy = -acc[1];
+            *oz = -acc[2];
+        });
 }

@@ -1,0 +1,215 @@
+//! `hooke bench`: throughput of explicit steps (unique spring-updates per second), and the
+//! static solve time of the paper's block.
+
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use clap::{Args, ValueEnum};
+use hooke_core::dynamics::{Integrator, IntegratorOptions};
+use hooke_core::loading::Loading;
+use hooke_core::material::q_from_nu;
+use hooke_core::moduli::{block_test, BlockTest};
+use hooke_core::{Body, Lattice, LatticeKind, Real, State};
+
+use crate::moduli::LatticeArg;
+use crate::InputError;
+
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
+pub enum LawArg {
+    /// Plain springs (q = 0, nu fixed at 1/4 or 1/3).
+    Plain,
+    /// The dispersive law (nu = 0.3 in 3D, 0.45 in 2D).
+    Dispersive,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
+pub enum KernelArg {
+    /// The fastest kernel for the body (the vector stencil for cubic boxes).
+    Auto,
+    /// The stencil kernel without vector instructions.
+    Portable,
+    /// The general CSR kernel (what random lattices use).
+    Csr,
+}
+
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Lattice of the block.
+    #[arg(long, value_enum, default_value = "cubic")]
+    pub lattice: LatticeArg,
+    /// Approximate number of nodes (a cube, or a square plate for hex).
+    #[arg(long, default_value_t = 1_000_000)]
+    pub nodes: usize,
+    /// Force law.
+    #[arg(long, value_enum, default_value = "dispersive")]
+    pub law: LawArg,
+    /// Timed steps (after 3 warm-up steps).
+    #[arg(long, default_value_t = 50)]
+    pub steps: u64,
+    /// Kernel to use.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub kernel: KernelArg,
+    /// Instead: time the static solve of the paper's 71x16x16 block at nu = -0.9, 0.3 and 0.49.
+    #[arg(long = "static")]
+    pub static_solve: bool,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, serde::Serialize)]
+struct BenchJson {
+    law: &'static str,
+    lattice: &'static str,
+    kernel: String,
+    nodes: usize,
+    springs: usize,
+    steps: u64,
+    threads: usize,
+    seconds: f64,
+    seconds_per_step: f64,
+    spring_updates_per_s: f64,
+    node_updates_per_s: f64,
+    peak_memory_bytes: Option<u64>,
+    setup_seconds: f64,
+}
+
+/// Peak resident memory of this process (Linux), in bytes.
+pub fn peak_memory() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+pub fn run(args: BenchArgs) -> Result<()> {
+    if args.static_solve {
+        return bench_static(&args);
+    }
+    if args.nodes < 27 || args.steps == 0 {
+        return Err(InputError(format!(
+            "--nodes {} --steps {}: give at least 27 nodes and 1 step",
+            args.nodes, args.steps
+        ))
+        .into());
+    }
+    let setup = Instant::now();
+    let (kind, lattice) = match args.lattice {
+        LatticeArg::Cubic => {
+            let side = (args.nodes as f64).cbrt().round().max(3.0) as usize;
+            (
+                LatticeKind::Cubic,
+                Lattice::cubic_box([side, side, side], 1.0)?,
+            )
+        }
+        LatticeArg::Hex => {
+            let side = (args.nodes as f64).sqrt().round().max(3.0) as usize;
+            (LatticeKind::Hex, Lattice::hex_box(side, side, 1.0, 1.0)?)
+        }
+    };
+    let nu = match (args.law, kind) {
+        (LawArg::Plain, LatticeKind::Cubic) => 0.25,
+        (LawArg::Plain, LatticeKind::Hex) => 1.0 / 3.0,
+        (LawArg::Dispersive, LatticeKind::Cubic) => 0.3,
+        (LawArg::Dispersive, LatticeKind::Hex) => 0.45,
+    };
+    let q = q_from_nu(kind, nu)?;
+    let body = Body::uniform(lattice, 1.0, q, 1.0);
+    let mut state = State::new(&body);
+    // A smooth initial velocity field, so the springs do real work.
+    for i in 0..body.nodes() {
+        let p = body.lattice.pos.get(i);
+        state.v.x[i] = 1e-3 * (0.1 * p.y).sin();
+        state.v.y[i] = 1e-3 * (0.13 * p.z + 0.07 * p.x).cos();
+    }
+    let opts = IntegratorOptions {
+        portable: args.kernel == KernelArg::Portable,
+        force_csr: args.kernel == KernelArg::Csr,
+        ..Default::default()
+    };
+    let mut it = Integrator::new(&body, &mut state, Loading::default(), &opts)
+        .context("setting up the integrator")?;
+    let setup_seconds = setup.elapsed().as_secs_f64();
+    for _ in 0..3 {
+        it.step(&body, &mut state);
+    }
+    let start = Instant::now();
+    for _ in 0..args.steps {
+        it.step(&body, &mut state);
+    }
+    let seconds = start.elapsed().as_secs_f64();
+    it.check(&body, &state)?;
+    let springs = body.springs();
+    let out = BenchJson {
+        law: match args.law {
+            LawArg::Plain => "plain",
+            LawArg::Dispersive => "dispersive",
+        },
+        lattice: kind.name(),
+        kernel: it.kernel.name().to_string(),
+        nodes: body.nodes(),
+        springs,
+        steps: args.steps,
+        threads: rayon::current_num_threads(),
+        seconds,
+        seconds_per_step: seconds / args.steps as f64,
+        spring_updates_per_s: springs as f64 * args.steps as f64 / seconds,
+        node_updates_per_s: body.nodes() as f64 * args.steps as f64 / seconds,
+        peak_memory_bytes: peak_memory(),
+        setup_seconds,
+    };
+    if args.json {
+        println!("{}", serde_json::to_string(&out)?);
+    } else {
+        println!(
+            "{} law, {} lattice, {} kernel, {} threads: {} nodes, {} springs, {} steps in {:.3} s\n  {:.1} million spring-updates/s, {:.3} ms/step, peak memory {}",
+            out.law,
+            out.lattice,
+            out.kernel,
+            out.threads,
+            out.nodes,
+            out.springs,
+            out.steps,
+            out.seconds,
+            out.spring_updates_per_s / 1e6,
+            out.seconds_per_step * 1e3,
+            out.peak_memory_bytes.map_or("unknown".into(), |b| format!("{:.2} GiB", b as f64 / (1u64 << 30) as f64)),
+        );
+    }
+    Ok(())
+}
+
+fn bench_static(args: &BenchArgs) -> Result<()> {
+    let mut rows = Vec::new();
+    for nu in [-0.9, 0.3, 0.49] {
+        let t = BlockTest::paper(LatticeKind::Cubic, nu);
+        // Best of 3: the figure is the solver's, not the machine's noise.
+        let mut best = f64::INFINITY;
+        let mut last = None;
+        for _ in 0..3 {
+            let start = Instant::now();
+            let r = block_test(&t)?;
+            best = best.min(start.elapsed().as_secs_f64());
+            last = Some(r);
+        }
+        let r = last.expect("ran three times");
+        rows.push(serde_json::json!({
+            "nu": nu, "seconds": best, "newton": r.solve.newton_iterations,
+            "cg": r.solve.cg_iterations, "residual": r.solve.residual, "nodes": r.nodes,
+        }));
+        if !args.json {
+            println!(
+                "static solve, 71x16x16 block, nu = {nu:>5}: {best:.3} s ({} Newton, {} CG, residual {:.1e})",
+                r.solve.newton_iterations, r.solve.cg_iterations, r.solve.residual
+            );
+        }
+    }
+    if args.json {
+        println!(
+            "{}",
+            serde_json::json!({ "static_solve": rows, "threads": rayon::current_num_threads() })
+        );
+    }
+    let _: Real = 0.0;
+    Ok(())
+}

@@ -1,0 +1,182 @@
+//! Explicit-step kernels: the two sweeps of a leapfrog (velocity Verlet) step.
+//!
+//! Sweep 1 ([`Kernel::pools`]): `p_n = Pi_n / S_n` from the displacements `u`.
+//! Sweep 2 ([`Kernel::force_kick_drift`]): for each node, its force `f_n` from `u` and the pools,
+//! then at once the kick and the drift,
+//!
+//! ```text
+//! v_n <- ((1 - c dt/2) v_n + dt (f_n / m_n + g)) / (1 + c dt/2)      (v at t + dt/2)
+//! u'_n = u_n + dt v_n                                                 (u at t + dt)
+//! ```
+//!
+//! written into a second displacement buffer `u'`, so that every other node's force still sees
+//! the old `u`. Each node writes only its own entries; sums that span nodes (damping dissipation,
+//! body-force work) are formed per fixed chunk of [`CHUNK`] nodes and added in chunk order, so
+//! every result is bit-identical for any thread count.
+//!
+//! [`Kernel::Csr`] works on any lattice through its CSR rows. [`Kernel::Cubic`] is a stencil
+//! kernel for box-shaped Ladd lattices: no neighbour indices at all, x/y/z in separate arrays,
+//! AVX-512 where the processor has it.
+
+pub mod csr;
+pub mod cubic;
+
+use crate::body::Body;
+use crate::math::{Coords, Real};
+use crate::state::State;
+
+/// Nodes per parallel task and per partial sum. Fixed, not derived from the thread count, so
+/// reductions always add the same partial sums in the same order.
+pub const CHUNK: usize = 4096;
+
+/// Constants of one step.
+#[derive(Clone, Copy, Debug)]
+pub struct StepParams {
+    /// Time step (s).
+    pub dt: Real,
+    /// Mass-proportional damping coefficient c (1/s): damping force `-c m v`.
+    pub damping: Real,
+    /// Body acceleration g (m/s^2).
+    pub accel: [Real; 3],
+}
+
+/// Sums over all nodes gathered during sweep 2.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SweepSums {
+    /// Energy removed by damping over the step: `sum c m |v_mid|^2 dt` with `v_mid` the mean of
+    /// the half-step velocities before and after (J).
+    pub dissipated: Real,
+    /// Work of the body force over the step, `sum m g . v_mid dt` (J): the midpoint form that
+    /// matches leapfrog's discrete energy identity.
+    pub body_work: Real,
+}
+
+impl std::ops::AddAssign for SweepSums {
+    fn add_assign(&mut self, o: SweepSums) {
+        self.dissipated += o.dissipated;
+        self.body_work += o.body_work;
+    }
+}
+
+/// The force kernel a run uses.
+#[derive(Clone, Debug)]
+pub enum Kernel {
+    /// Any lattice: gathers over CSR rows.
+    Csr,
+    /// Box-shaped Ladd lattice with uniform spring constants: stencil kernel.
+    Cubic(cubic::CubicStencil),
+}
+
+impl Kernel {
+    /// The fastest kernel that can run `body`: the cubic stencil for a box-shaped Ladd lattice
+    /// with one stiffness, CSR otherwise.
+    pub fn for_body(body: &Body, state: &State) -> Kernel {
+        match cubic::CubicStencil::new(body, state) {
+            Some(s) => Kernel::Cubic(s),
+            None => Kernel::Csr,
+        }
+    }
+
+    /// Name for reports.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Kernel::Csr => "csr",
+            Kernel::Cubic(s) => s.name(),
+        }
+    }
+
+    /// Sweep 1: `state.pool` from `state.u`.
+    pub fn pools(&self, body: &Body, state: &mut State) {
+        match self {
+            Kernel::Csr => crate::law::compute_pools(
+                body,
+                &state.u,
+                &state.alive,
+                &state.norm,
+                &mut state.pool,
+            ),
+            Kernel::Cubic(s) => s.pools(body, state),
+        }
+    }
+
+    /// Sweep 2: force, kick and drift; writes `u_next`, updates `state.v` in place.
+    pub fn force_kick_drift(
+        &self,
+        body: &Body,
+        state: &mut State,
+        inv_mass: &[Real],
+        p: &StepParams,
+        u_next: &mut Coords,
+    ) -> SweepSums {
+        match self {
+            Kernel::Csr => csr::force_kick_drift(body, state, inv_mass, p, u_next),
+            Kernel::Cubic(s) => s.force_kick_drift(body, state, inv_mass, p, u_next),
+        }
+    }
+
+    /// Keep the kernel's own copy of the spring states in step after `state.kill_bond(b)`.
+    pub fn bond_killed(&mut self, body: &Body, b: usize) {
+        if let Kernel::Cubic(s) = self {
+            s.bond_killed(body, b);
+        }
+    }
+}
+
+/// A mutable slice shared by parallel tasks that each write a disjoint range of it.
+#[derive(Clone, Copy)]
+pub(crate) struct Disjoint<T> {
+    ptr: *mut T,
+    len: usize,
+}
+
+// SAFETY: tasks only obtain disjoint ranges through `range`, whose contract requires it.
+unsafe impl<T: Send> Send for Disjoint<T> {}
+unsafe impl<T: Send> Sync for Disjoint<T> {}
+
+impl<T> Disjoint<T> {
+    pub(crate) fn new(s: &mut [T]) -> Self {
+        Disjoint {
+            ptr: s.as_mut_ptr(),
+            len: s.len(),
+        }
+    }
+
+    /// # Safety
+    /// No two live results of `range` may overlap, and the source slice must outlive them.
+    #[allow(clippy::mut_from_ref)]
+    pub(crate) unsafe fn range(&self, r: std::ops::Range<usize>) -> &mut [T] {
+        assert!(r.start <= r.end && r.end <= self.len);
+        // SAFETY: in bounds (checked above); disjointness is the caller's contract.
+        unsafe { std::slice::from_raw_parts_mut(self.ptr.add(r.start), r.end - r.start) }
+    }
+}
+
+/// The kick-drift of one node (both kernels share it, so they integrate identically).
+/// Returns the node's contributions to [`SweepSums`].
+#[inline(always)]
+pub(crate) fn kick_drift(
+    f: [Real; 3],
+    inv_m: Real,
+    p: &StepParams,
+    v: [&mut Real; 3],
+    u: [Real; 3],
+    u_next: [&mut Real; 3],
+) -> (Real, Real) {
+    let h = 0.5 * p.damping * p.dt;
+    let (shrink, grow) = (1.0 - h, 1.0 / (1.0 + h));
+    let m = if inv_m > 0.0 { 1.0 / inv_m } else { 0.0 };
+    let mut v2 = 0.0;
+    let mut gw = 0.0;
+    let [vx, vy, vz] = v;
+    let [ux, uy, uz] = u_next;
+    for (c, (vc, unc)) in [(vx, ux), (vy, uy), (vz, uz)].into_iter().enumerate() {
+        let old = *vc;
+        let new = (shrink * old + p.dt * (f[c] * inv_m + p.accel[c])) * grow;
+        *vc = new;
+        *unc = u[c] + p.dt * new;
+        let mid = 0.5 * (old + new);
+        v2 += mid * mid;
+        gw += p.accel[c] * mid;
+    }
+    (p.damping * m * v2 * p.dt, m * gw * p.dt)
+}
