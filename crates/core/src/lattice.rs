@@ -377,19 +377,29 @@ impl Lattice {
         for r in 0..rows {
             for c in 0..nx {
                 let i = (c + nx * r) as u32;
-                if c + 1 < nx {
-                    pairs.push([i, (c + 1 + nx * r) as u32]);
-                }
-                if r + 1 < rows {
-                    // Up-neighbours: columns (c-1, c) from an even row, (c, c+1) from an odd row.
-                    let (lo, hi) = if r % 2 == 0 {
-                        (c as i64 - 1, c as i64)
+                let wrap = |cc: i64| {
+                    if periodic[0] {
+                        Some(cc.rem_euclid(nx as i64) as usize)
                     } else {
-                        (c as i64, c as i64 + 1)
-                    };
+                        (0..nx as i64).contains(&cc).then_some(cc as usize)
+                    }
+                };
+                if let Some(cc) = wrap(c as i64 + 1) {
+                    pairs.push([i, (cc + nx * r) as u32]);
+                }
+                let up = if r + 1 < rows {
+                    Some(r + 1)
+                } else if periodic[1] {
+                    Some(0)
+                } else {
+                    None
+                };
+                if let Some(ru) = up {
+                    // Up-neighbours: columns (c-1, c) from an even row, (c, c+1) from an odd row.
+                    let (lo, hi) = if r % 2 == 0 { (c as i64 - 1, c as i64) } else { (c as i64, c as i64 + 1) };
                     for cc in [lo, hi] {
-                        if (0..nx as i64).contains(&cc) {
-                            pairs.push([i, (cc as usize + nx * (r + 1)) as u32]);
+                        if let Some(cc) = wrap(cc) {
+                            pairs.push([i, (cc + nx * ru) as u32]);
                         }
                     }
                 }
