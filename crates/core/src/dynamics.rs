@@ -106,9 +106,12 @@ pub struct Integrator {
     u_next: Coords,
     ledger: Ledger,
     initial: Real,
+    /// Power of the non-conservative forces at the start (see [`Integrator::energy`]).
+    initial_power: Real,
     /// Scratch for the sparse bookkeeping (no allocation per step).
     v_before: Vec<[Real; 3]>,
     f_before: Vec<[Real; 3]>,
+    v_kernel: Vec<[Real; 3]>,
 }
 
 impl Integrator {
@@ -202,8 +205,10 @@ impl Integrator {
             u_next: Coords::zeros(body.nodes()),
             ledger: Ledger::default(),
             initial: 0.0,
+            initial_power: 0.0,
             v_before: Vec::with_capacity(sparse),
             f_before: Vec::with_capacity(sparse),
+            v_kernel: Vec::with_capacity(sparse),
         };
         // Prescribed positions and velocities at the start.
         let t = state.time;
@@ -215,6 +220,8 @@ impl Integrator {
         law::update_forces(body, state);
         it.initial = kinetic(body, &state.v)
             + law::energy(body, &state.u, &state.alive, &state.norm).total();
+        let v0 = state.v.clone();
+        it.initial_power = it.power(body, state, &v0);
         // v(t - dt/2) = v(t) - dt/2 a(t) for free DOFs (prescribed ones take their own).
         let mut a = it.acceleration(body, state);
         for d in &it.dofs {
@@ -304,17 +311,37 @@ impl Integrator {
         self.ledger.dissipated += sums.dissipated;
         self.ledger.body_work += sums.body_work;
         // External loads: the sweep kicked without them; add their share of the kick (linear in
-        // the force, so this equals kicking with it), then book their work.
+        // the force, so this equals kicking with it). The velocities the sweep computed are kept
+        // first, so that the work can be booked once every load on a node has acted.
         let grow = 1.0 / (1.0 + 0.5 * self.damping * dt);
-        for (k, &(i, li)) in self.loaded.iter().enumerate() {
+        self.v_kernel.clear();
+        for &(i, _) in &self.loaded {
+            self.v_kernel
+                .push([state.v.x[i], state.v.y[i], state.v.z[i]]);
+        }
+        for &(i, li) in &self.loaded {
             let l = &self.loading.loads[li];
-            let f: Vector = l.force * l.scale.value(t);
-            let dv = f * (dt * self.inv_mass[i] * grow);
+            let dv = l.force * (l.scale.value(t) * dt * self.inv_mass[i] * grow);
             for c in 0..3 {
                 state.v.comp_mut(c)[i] += dv[c];
                 self.u_next.comp_mut(c)[i] += dt * dv[c];
-                self.ledger.external_work +=
-                    f[c] * 0.5 * (self.v_before[k][c] + state.v.comp(c)[i]) * dt;
+            }
+        }
+        let g = self.loading.body_acceleration;
+        for (k, &(i, li)) in self.loaded.iter().enumerate() {
+            let f: Vector = self.loading.loads[li].force * self.loading.loads[li].scale.value(t);
+            let first = self.loaded.iter().position(|&(j, _)| j == i) == Some(k);
+            for c in 0..3 {
+                let (v0, v1) = (self.v_before[k][c], state.v.comp(c)[i]);
+                self.ledger.external_work += f[c] * 0.5 * (v0 + v1) * dt;
+                if first {
+                    // The sweep booked body-force work and damping with its own velocity.
+                    let (mid_kernel, mid) = (0.5 * (v0 + self.v_kernel[k][c]), 0.5 * (v0 + v1));
+                    let m = body.mass[i];
+                    self.ledger.body_work += m * g[c] * (mid - mid_kernel) * dt;
+                    self.ledger.dissipated +=
+                        self.damping * m * (mid * mid - mid_kernel * mid_kernel) * dt;
+                }
             }
         }
         // Prescribed motion overrides its DOFs; the reaction's work is booked.
@@ -333,10 +360,17 @@ impl Integrator {
                     (u1, (u1 - u_now) / dt)
                 }
             };
+            let v_kernel = state.v.comp(c)[i];
             self.u_next.comp_mut(c)[i] = u1;
             state.v.comp_mut(c)[i] = v_half;
             let v_old = self.v_before[nl + k][c];
             let m = body.mass[i];
+            // The sweep booked body-force work and damping for this DOF with the velocity it
+            // computed; the DOF moves with the prescribed velocity instead, so rebook them.
+            let (mid_kernel, mid) = (0.5 * (v_old + v_kernel), 0.5 * (v_old + v_half));
+            let g_c = self.loading.body_acceleration[c];
+            self.ledger.body_work += m * g_c * (mid - mid_kernel) * dt;
+            self.ledger.dissipated += self.damping * m * (mid * mid - mid_kernel * mid_kernel) * dt;
             let fext: Real = self
                 .loaded
                 .iter()
@@ -426,15 +460,62 @@ impl Integrator {
         v
     }
 
+    /// Power of the external loads, body force, damping and support reactions at this instant
+    /// (W), from the full-step velocity `v` and current `state.f`.
+    fn power(&self, body: &Body, state: &State, v: &Coords) -> Real {
+        let t = state.time;
+        let g = self.loading.body_acceleration;
+        let mut p = 0.0;
+        for i in 0..body.nodes() {
+            let vi = v.get(i);
+            p += body.mass[i] * (g.dot(&vi) - self.damping * vi.norm_squared());
+        }
+        for &(i, li) in &self.loaded {
+            let l = &self.loading.loads[li];
+            p += (l.force * l.scale.value(t)).dot(&v.get(i));
+        }
+        for d in &self.dofs {
+            let (i, c) = (d.node, d.axis);
+            let h = self.dt;
+            let accel = match &self.motions[d.motion] {
+                Motion::Fixed => continue,
+                Motion::Velocity(f) => (f.value(t + 0.5 * h) - f.value(t - 0.5 * h)) / h,
+                Motion::Displacement(f) => {
+                    (f.value(t + h) - 2.0 * f.value(t) + f.value(t - h)) / (h * h)
+                }
+            };
+            let m = body.mass[i];
+            let fext: Real = self
+                .loaded
+                .iter()
+                .filter(|&&(j, _)| j == i)
+                .map(|&(_, li)| {
+                    self.loading.loads[li].force[c] * self.loading.loads[li].scale.value(t)
+                })
+                .sum();
+            let vc = v.comp(c)[i];
+            let reaction = m * accel - state.f.comp(c)[i] - fext - m * g[c] + self.damping * m * vc;
+            p += reaction * vc;
+        }
+        p
+    }
+
     /// The energy balance now.
+    ///
+    /// The ledger books each step's work over `[t - dt/2, t + dt/2]` (the midpoint form that
+    /// matches leapfrog), so its sum runs from `t0 - dt/2` to `t - dt/2`; the half steps at both
+    /// ends are added as `(P(t) - P(t0)) dt/2`, P the power of the non-conservative forces.
+    /// Without it the balance would carry an O(dt) error that grows with the load.
     pub fn energy(&self, body: &Body, state: &mut State) -> EnergyBalance {
         let v = self.full_velocity(body, state);
         let kinetic = kinetic(body, &v);
         let strain = law::energy(body, &state.u, &state.alive, &state.norm);
         let l = self.ledger;
+        let ends = 0.5 * self.dt * (self.power(body, state, &v) - self.initial_power);
         let expected = self.initial + l.external_work + l.boundary_work + l.body_work
             - l.dissipated
-            - l.released;
+            - l.released
+            + ends;
         let error = kinetic + strain.total() - expected;
         let scale = [
             kinetic,

@@ -396,7 +396,11 @@ impl Lattice {
                 };
                 if let Some(ru) = up {
                     // Up-neighbours: columns (c-1, c) from an even row, (c, c+1) from an odd row.
-                    let (lo, hi) = if r % 2 == 0 { (c as i64 - 1, c as i64) } else { (c as i64, c as i64 + 1) };
+                    let (lo, hi) = if r % 2 == 0 {
+                        (c as i64 - 1, c as i64)
+                    } else {
+                        (c as i64, c as i64 + 1)
+                    };
                     for cc in [lo, hi] {
                         if let Some(cc) = wrap(cc) {
                             pairs.push([i, (cc + nx * ru) as u32]);

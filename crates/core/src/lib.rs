@@ -25,6 +25,7 @@ pub mod loading;
 pub mod material;
 pub mod math;
 pub mod moduli;
+pub mod relax;
 pub mod stability;
 pub mod state;
 pub mod statics;

@@ -16,6 +16,14 @@ pub enum TimeFunction {
         from: Real,
         to: Real,
     },
+    /// `from` until `t0`, then a half-cosine to `to` at `t1` (zero slope at both ends: loading
+    /// without a shock), then `to`.
+    SmoothRamp {
+        t0: Real,
+        t1: Real,
+        from: Real,
+        to: Real,
+    },
     /// Piecewise linear through `(t, value)` points with increasing t; constant outside.
     Table(Vec<(Real, Real)>),
 }
@@ -33,7 +41,8 @@ impl TimeFunction {
             TimeFunction::Constant(c) if !c.is_finite() => {
                 bad(format!("constant {c} is not finite"))
             }
-            TimeFunction::Ramp { t0, t1, from, to } => {
+            TimeFunction::Ramp { t0, t1, from, to }
+            | TimeFunction::SmoothRamp { t0, t1, from, to } => {
                 if ![*t0, *t1, *from, *to].iter().all(|v| v.is_finite()) || t1 <= t0 {
                     bad(format!(
                         "ramp needs finite values and t1 > t0 (got t0 = {t0}, t1 = {t1})"
@@ -68,6 +77,16 @@ impl TimeFunction {
                     *to
                 } else {
                     from + (to - from) * (t - t0) / (t1 - t0)
+                }
+            }
+            TimeFunction::SmoothRamp { t0, t1, from, to } => {
+                if t <= *t0 {
+                    *from
+                } else if t >= *t1 {
+                    *to
+                } else {
+                    let s = (t - t0) / (t1 - t0);
+                    from + (to - from) * 0.5 * (1.0 - (std::f64::consts::PI * s).cos())
                 }
             }
             TimeFunction::Table(p) => {
