@@ -134,7 +134,11 @@ impl Integrator {
             });
         }
         law::update_forces(body, state);
-        let stable = stability::estimate(body, state, 60);
+        let mut kernel = if opts.force_csr { Kernel::Csr } else { Kernel::for_body(body, state) };
+        if let (Kernel::Cubic(s), true) = (&mut kernel, opts.portable) {
+            s.set_simd(false);
+        }
+        let stable = stability::estimate(body, state, &kernel, 40, 1e-3);
         let dt = match opts.time_step {
             TimeStep::Auto { safety } => {
                 if !(safety > 0.0 && safety <= 1.0) {
@@ -165,14 +169,6 @@ impl Integrator {
                 dt
             }
         };
-        let mut kernel = if opts.force_csr {
-            Kernel::Csr
-        } else {
-            Kernel::for_body(body, state)
-        };
-        if let (Kernel::Cubic(s), true) = (&mut kernel, opts.portable) {
-            s.set_simd(false);
-        }
         let mut motions = Vec::new();
         let mut dofs = Vec::new();
         for p in &loading.prescribed {
