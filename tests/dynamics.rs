@@ -285,7 +285,9 @@ fn runs_are_bit_identical_for_any_thread_count() {
 }
 
 /// The stencil kernels (vector and portable) and the CSR kernel integrate the same motion: after
-/// 40 steps on a damaged, deformed block the displacements agree to 1e-11 of their size.
+/// 40 steps on a damaged, deformed block the displacements agree to 1e-9 of their size. (They
+/// are not bit-identical: the stencil forms the extension as `l - L`, the CSR kernel in its
+/// cancellation-free form, a difference of about 1e-13 of dL per step at these strains.)
 #[test]
 fn kernels_agree() {
     let csr = run_with_threads(2, true, false);
