@@ -1,7 +1,10 @@
-use std::time::Instant;
 use hooke_core::*;
+use std::time::Instant;
 fn main() {
-    let n: usize = std::env::args().nth(1).map(|s| s.parse().unwrap()).unwrap_or(100);
+    let n: usize = std::env::args()
+        .nth(1)
+        .map(|s| s.parse().unwrap())
+        .unwrap_or(100);
     let t = Instant::now();
     let lat = Lattice::cubic_box([n, n, n], 1.0).unwrap();
     eprintln!("lattice {:.2}s", t.elapsed().as_secs_f64());

@@ -112,6 +112,7 @@ pub struct Integrator {
     v_before: Vec<[Real; 3]>,
     f_before: Vec<[Real; 3]>,
     v_kernel: Vec<[Real; 3]>,
+    partials: Vec<crate::kernel::SweepSums>,
 }
 
 impl Integrator {
@@ -134,7 +135,11 @@ impl Integrator {
             });
         }
         law::update_forces(body, state);
-        let mut kernel = if opts.force_csr { Kernel::Csr } else { Kernel::for_body(body, state) };
+        let mut kernel = if opts.force_csr {
+            Kernel::Csr
+        } else {
+            Kernel::for_body(body, state)
+        };
         if let (Kernel::Cubic(s), true) = (&mut kernel, opts.portable) {
             s.set_simd(false);
         }
@@ -205,6 +210,7 @@ impl Integrator {
             v_before: Vec::with_capacity(sparse),
             f_before: Vec::with_capacity(sparse),
             v_kernel: Vec::with_capacity(sparse),
+            partials: vec![Default::default(); crate::kernel::partials_len(body.nodes())],
         };
         // Prescribed positions and velocities at the start.
         let t = state.time;
@@ -301,9 +307,14 @@ impl Integrator {
             damping: self.damping,
             accel: self.loading.body_acceleration.into(),
         };
-        let sums =
-            self.kernel
-                .force_kick_drift(body, state, &self.inv_mass, &params, &mut self.u_next);
+        let sums = self.kernel.force_kick_drift(
+            body,
+            state,
+            &self.inv_mass,
+            &params,
+            &mut self.u_next,
+            &mut self.partials,
+        );
         self.ledger.dissipated += sums.dissipated;
         self.ledger.body_work += sums.body_work;
         // External loads: the sweep kicked without them; add their share of the kick (linear in

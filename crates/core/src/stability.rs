@@ -22,9 +22,9 @@
 use nalgebra::DMatrix;
 
 use crate::body::Body;
+use crate::kernel::{Kernel, StepParams};
 use crate::math::{Coords, Real};
 use crate::state::State;
-use crate::kernel::{Kernel, StepParams};
 
 /// Default safety factor on the critical step.
 ///
@@ -48,7 +48,13 @@ pub struct StableStep {
 /// Estimate the stable step of `body` in `state` with the force kernel of the run: at most
 /// `iterations` Lanczos steps, stopping once the estimate changes by less than `tolerance`
 /// (relative) from one step to the next.
-pub fn estimate(body: &Body, state: &State, kernel: &Kernel, iterations: usize, tolerance: Real) -> StableStep {
+pub fn estimate(
+    body: &Body,
+    state: &State,
+    kernel: &Kernel,
+    iterations: usize,
+    tolerance: Real,
+) -> StableStep {
     let n = body.nodes();
     let inv_sqrt_m: Vec<Real> = body.mass.iter().map(|m| 1.0 / m.sqrt()).collect();
     let dims = body.lattice.dim();
@@ -104,7 +110,11 @@ pub fn estimate(body: &Body, state: &State, kernel: &Kernel, iterations: usize, 
         scale(&mut q, 1.0 / b);
     }
     let lambda_max = last;
-    StableStep { lambda_max, dt_critical: 2.0 / lambda_max.sqrt(), lambda_bound: damage_bound(body) }
+    StableStep {
+        lambda_max,
+        dt_critical: 2.0 / lambda_max.sqrt(),
+        lambda_bound: damage_bound(body),
+    }
 }
 
 /// `K v` as the central difference of a force kernel (see the module docs).
@@ -114,6 +124,7 @@ struct KernelJacobian {
     u_next: Coords,
     unit_inv_mass: Vec<Real>,
     spacing: Real,
+    partials: Vec<crate::kernel::SweepSums>,
 }
 
 impl KernelJacobian {
@@ -124,6 +135,7 @@ impl KernelJacobian {
             u_next: Coords::zeros(body.nodes()),
             unit_inv_mass: vec![1.0; body.nodes()],
             spacing: body.lattice.spacing,
+            partials: vec![Default::default(); crate::kernel::partials_len(body.nodes())],
         }
     }
 
@@ -134,13 +146,28 @@ impl KernelJacobian {
         self.scratch.u.axpy(s, v);
         self.scratch.v.fill_zero();
         kernel.pools(body, &mut self.scratch);
-        let p = StepParams { dt: 1.0, damping: 0.0, accel: [0.0; 3] };
-        kernel.force_kick_drift(body, &mut self.scratch, &self.unit_inv_mass, &p, &mut self.u_next);
+        let p = StepParams {
+            dt: 1.0,
+            damping: 0.0,
+            accel: [0.0; 3],
+        };
+        kernel.force_kick_drift(
+            body,
+            &mut self.scratch,
+            &self.unit_inv_mass,
+            &p,
+            &mut self.u_next,
+            &mut self.partials,
+        );
         out.clone_from(&self.scratch.v);
     }
 
     fn apply(&mut self, body: &Body, kernel: &Kernel, v: &Coords, out: &mut Coords) {
-        let vmax = v.x.iter().chain(&v.y).chain(&v.z).fold(0.0 as Real, |m, x| m.max(x.abs()));
+        let vmax =
+            v.x.iter()
+                .chain(&v.y)
+                .chain(&v.z)
+                .fold(0.0 as Real, |m, x| m.max(x.abs()));
         if vmax == 0.0 {
             out.fill_zero();
             return;

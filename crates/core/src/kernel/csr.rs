@@ -37,6 +37,7 @@ pub fn force_kick_drift(
     inv_mass: &[Real],
     p: &StepParams,
     u_next: &mut Coords,
+    partials: &mut [SweepSums],
 ) -> SweepSums {
     let n = body.nodes();
     let chunks = n.div_ceil(CHUNK);
@@ -51,9 +52,10 @@ pub fn force_kick_drift(
         Disjoint::new(&mut u_next.z),
     );
     let (u, alive, pool) = (&state.u, &state.alive, &state.pool);
-    let partial: Vec<SweepSums> = (0..chunks)
-        .into_par_iter()
-        .map(|c| {
+    partials[..chunks]
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(c, out)| {
             let r = c * CHUNK..((c + 1) * CHUNK).min(n);
             // SAFETY: chunk ranges are disjoint and each task touches only its own.
             let (vx, vy, vz, nx, ny, nz) = unsafe {
@@ -80,11 +82,10 @@ pub fn force_kick_drift(
                 sums.dissipated += d;
                 sums.body_work += w;
             }
-            sums
-        })
-        .collect();
+            *out = sums;
+        });
     let mut total = SweepSums::default();
-    for s in partial {
+    for &s in &partials[..chunks] {
         total += s;
     }
     total

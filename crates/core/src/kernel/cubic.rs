@@ -251,6 +251,7 @@ impl CubicStencil {
         inv_mass: &[Real],
         p: &StepParams,
         u_next: &mut Coords,
+        partials: &mut [SweepSums],
     ) -> SweepSums {
         let n = self.n;
         let chunks = n.div_ceil(CHUNK);
@@ -265,9 +266,10 @@ impl CubicStencil {
             Disjoint::new(&mut u_next.z),
         );
         let (u, pool) = (&state.u, &state.pool);
-        let partial: Vec<SweepSums> = (0..chunks)
-            .into_par_iter()
-            .map(|c| {
+        partials[..chunks]
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(c, out)| {
                 let r = c * CHUNK..((c + 1) * CHUNK).min(n);
                 // SAFETY: chunk ranges are disjoint and each task touches only its own.
                 let (vx, vy, vz, nx, ny, nz) = unsafe {
@@ -320,11 +322,10 @@ impl CubicStencil {
                         k += 1;
                     }
                 }
-                sums
-            })
-            .collect();
+                *out = sums;
+            });
         let mut total = SweepSums::default();
-        for s in partial {
+        for &s in &partials[..chunks] {
             total += s;
         }
         total

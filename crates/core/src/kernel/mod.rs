@@ -29,6 +29,12 @@ use crate::state::State;
 /// reductions always add the same partial sums in the same order.
 pub const CHUNK: usize = 4096;
 
+/// Length of the scratch that [`Kernel::force_kick_drift`] needs for `n` nodes (one partial sum
+/// per chunk; the caller owns it, so that a step allocates nothing).
+pub fn partials_len(n: usize) -> usize {
+    n.div_ceil(CHUNK)
+}
+
 /// Constants of one step.
 #[derive(Clone, Copy, Debug)]
 pub struct StepParams {
@@ -107,10 +113,11 @@ impl Kernel {
         inv_mass: &[Real],
         p: &StepParams,
         u_next: &mut Coords,
+        partials: &mut [SweepSums],
     ) -> SweepSums {
         match self {
-            Kernel::Csr => csr::force_kick_drift(body, state, inv_mass, p, u_next),
-            Kernel::Cubic(s) => s.force_kick_drift(body, state, inv_mass, p, u_next),
+            Kernel::Csr => csr::force_kick_drift(body, state, inv_mass, p, u_next, partials),
+            Kernel::Cubic(s) => s.force_kick_drift(body, state, inv_mass, p, u_next, partials),
         }
     }
 

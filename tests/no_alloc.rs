@@ -1,0 +1,81 @@
+//! A step allocates nothing: counted with a global allocator around 200 steps on each kernel,
+//! with loads, supports, damping and 2 threads.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use hooke_core::dynamics::{Integrator, IntegratorOptions};
+use hooke_core::loading::{Load, Loading, Motion, Prescribed, TimeFunction};
+use hooke_core::{Body, Lattice, State, Vector};
+
+struct Counting;
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        // SAFETY: forwarded unchanged to the system allocator.
+        unsafe { System.alloc(l) }
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        // SAFETY: forwarded unchanged to the system allocator.
+        unsafe { System.dealloc(p, l) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn steps_allocate_nothing() {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    pool.install(|| {
+        for force_csr in [false, true] {
+            let body = Body::uniform(
+                Lattice::cubic_box([30, 20, 20], 1.0).unwrap(),
+                1.0,
+                0.3,
+                1.0,
+            );
+            let mut state = State::new(&body);
+            let ends: Vec<u32> = (0..body.nodes() as u32)
+                .filter(|&i| body.lattice.pos.x[i as usize] == 0.0)
+                .collect();
+            let far: Vec<u32> = (0..body.nodes() as u32)
+                .filter(|&i| body.lattice.pos.x[i as usize] == 29.0)
+                .collect();
+            let loading = Loading {
+                prescribed: vec![Prescribed {
+                    nodes: ends,
+                    axis: 0,
+                    motion: Motion::Fixed,
+                }],
+                loads: vec![Load {
+                    nodes: far,
+                    force: Vector::new(1e-3, 0.0, 0.0),
+                    scale: TimeFunction::Constant(1.0),
+                }],
+                body_acceleration: Vector::new(0.0, -1e-6, 0.0),
+            };
+            let opts = IntegratorOptions {
+                damping: 0.01,
+                force_csr,
+                ..Default::default()
+            };
+            let mut it = Integrator::new(&body, &mut state, loading, &opts).unwrap();
+            it.run(&body, &mut state, 10).unwrap(); // warm up the thread pool
+            let before = ALLOCATIONS.load(Ordering::Relaxed);
+            it.run(&body, &mut state, 200).unwrap();
+            let during = ALLOCATIONS.load(Ordering::Relaxed) - before;
+            assert_eq!(
+                during,
+                0,
+                "kernel {}: {during} allocations in 200 steps",
+                it.kernel.name()
+            );
+        }
+    });
+}
