@@ -327,7 +327,7 @@ fn stable_step_estimate_matches_dense_eigenvalues() {
         let mut state = State::new(&body);
         kill_random(&body, &mut state, &mut rng, 0.3);
         hooke_core::law::update_forces(&body, &mut state);
-        let est = stability::estimate(&body, &state, &Kernel::Csr, 200, 1e-12);
+        let est = stability::estimate(&body, &state, &Kernel::Csr { plain: false }, 200, 1e-12);
         let d = dofs(&body);
         let mut t = Tangent::new(&body, &state);
         let mut k = DMatrix::zeros(d.len(), d.len());

@@ -57,6 +57,12 @@ pub struct IntegratorOptions {
     pub portable: bool,
     /// Use the CSR kernel even for box lattices (reference path).
     pub force_csr: bool,
+    /// Choose the step from a bound that holds for every pattern of broken springs,
+    /// `lambda_max <= (1 + 2 max(q, 0)) lambda_max(plain law, current body)` (see
+    /// [`crate::stability`]), instead of from the current body alone. Runs with fracture need it:
+    /// with q > 0, nodes on new free surfaces stiffen and the intact body's step can become
+    /// unstable.
+    pub damage_proof: bool,
 }
 
 /// Work and dissipation accumulated since the start (J).
@@ -136,14 +142,20 @@ impl Integrator {
         }
         law::update_forces(body, state);
         let mut kernel = if opts.force_csr {
-            Kernel::Csr
+            Kernel::Csr { plain: false }
         } else {
             Kernel::for_body(body, state)
         };
         if let (Kernel::Cubic(s), true) = (&mut kernel, opts.portable) {
             s.set_simd(false);
         }
-        let stable = stability::estimate(body, state, &kernel, 40, 1e-3);
+        let mut stable = stability::estimate(body, state, &kernel, 40, 1e-3);
+        if opts.damage_proof {
+            let plain = stability::estimate(body, state, &kernel.plain(), 40, 1e-3);
+            let lambda = ((1.0 + 2.0 * body.q.max(0.0)) * plain.lambda_max).max(stable.lambda_max);
+            stable.lambda_max = lambda;
+            stable.dt_critical = 2.0 / lambda.sqrt();
+        }
         let dt = match opts.time_step {
             TimeStep::Auto { safety } => {
                 if !(safety > 0.0 && safety <= 1.0) {
@@ -296,6 +308,7 @@ impl Integrator {
                 .push([state.v.x[i], state.v.y[i], state.v.z[i]]);
             self.f_before.push(csr::node_force(
                 body,
+                body.q,
                 &state.u,
                 &state.alive,
                 &state.pool,

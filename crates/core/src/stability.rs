@@ -12,7 +12,14 @@
 //! (10^6 nodes, plain lattice), which the safety factor covers. For the plain Ladd lattice
 //! `lambda_max = 12 k/m` (MODEL.md).
 //!
-//! We also give a bound that holds for every state of damage: with `delta_s` the extension rate
+//! **Damage-proof step.** Removing springs only lowers the plain quadratic form
+//! `sum_s k_s delta_s^2`, and Cauchy-Schwarz bounds the dispersive part by `2 max(q, 0)` times it,
+//! so for every pattern of broken springs `lambda_max <= (1 + 2 max(q, 0)) lambda_plain`, with
+//! `lambda_plain` the largest eigenvalue of the plain law on the current body (MODEL.md gives
+//! `12 (1 + 2q) k/m` for the Ladd lattice). [`crate::dynamics::IntegratorOptions::damage_proof`]
+//! uses it, estimating `lambda_plain` with the same Lanczos iteration on the kernel's plain copy.
+//!
+//! We also give a cruder bound that needs no iteration: with `delta_s` the extension rate
 //! of spring s, Cauchy-Schwarz gives `(sum_t k_t L_t delta_t)^2 <= S_n sum_t k_t delta_t^2`, so
 //! the material stiffness satisfies `v.K.v <= (1 + 2 max(q, 0)) sum_s k_s delta_s^2
 //! <= (1 + 2 max(q,0)) sum_n 2 (sum_t k_t) |v_n|^2`, hence

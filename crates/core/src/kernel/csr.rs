@@ -8,9 +8,16 @@ use crate::law::{spring_geometry, tension};
 use crate::math::{Coords, Real};
 use crate::state::State;
 
-/// Force of node `n` from the state's displacements and pools.
+/// Force of node `n` from the state's displacements and pools, with dispersion ratio `q`.
 #[inline]
-pub fn node_force(body: &Body, u: &Coords, alive: &[bool], pool: &[Real], n: usize) -> [Real; 3] {
+pub fn node_force(
+    body: &Body,
+    q: Real,
+    u: &Coords,
+    alive: &[bool],
+    pool: &[Real],
+    n: usize,
+) -> [Real; 3] {
     let bonds = &body.lattice.bonds;
     let lat = &body.lattice;
     let mut f = [0.0; 3];
@@ -22,7 +29,7 @@ pub fn node_force(body: &Body, u: &Coords, alive: &[bool], pool: &[Real], n: usi
         let j = bonds.nbr[e] as usize;
         let rest = bonds.rest[b];
         let g = spring_geometry(lat, u, n, j, rest);
-        let s = tension(body.k[b], rest, g.dl, body.q, pool[n], pool[j]) / g.l;
+        let s = tension(body.k[b], rest, g.dl, q, pool[n], pool[j]) / g.l;
         f[0] += s * g.d[0];
         f[1] += s * g.d[1];
         f[2] += s * g.d[2];
@@ -38,6 +45,7 @@ pub fn force_kick_drift(
     p: &StepParams,
     u_next: &mut Coords,
     partials: &mut [SweepSums],
+    q: Real,
 ) -> SweepSums {
     let n = body.nodes();
     let chunks = n.div_ceil(CHUNK);
@@ -70,7 +78,7 @@ pub fn force_kick_drift(
             };
             let mut sums = SweepSums::default();
             for (k, i) in r.enumerate() {
-                let f = node_force(body, u, alive, pool, i);
+                let f = node_force(body, q, u, alive, pool, i);
                 let (d, w) = kick_drift(
                     f,
                     inv_mass[i],

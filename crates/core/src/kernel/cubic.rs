@@ -123,6 +123,11 @@ impl CubicStencil {
         self.simd = on && simd_available();
     }
 
+    /// A copy with another dispersion ratio (q = 0: the plain law).
+    pub fn with_q(&self, q: Real) -> Self {
+        CubicStencil { q, ..self.clone() }
+    }
+
     /// Kernel name for reports.
     pub fn name(&self) -> &'static str {
         if self.simd {

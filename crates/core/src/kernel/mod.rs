@@ -67,8 +67,9 @@ impl std::ops::AddAssign for SweepSums {
 /// The force kernel a run uses.
 #[derive(Clone, Debug)]
 pub enum Kernel {
-    /// Any lattice: gathers over CSR rows.
-    Csr,
+    /// Any lattice: gathers over CSR rows. `plain` drops the dispersion (q = 0), for the
+    /// damage-proof stable step.
+    Csr { plain: bool },
     /// Box-shaped Ladd lattice with uniform spring constants: stencil kernel.
     Cubic(cubic::CubicStencil),
 }
@@ -79,14 +80,14 @@ impl Kernel {
     pub fn for_body(body: &Body, state: &State) -> Kernel {
         match cubic::CubicStencil::new(body, state) {
             Some(s) => Kernel::Cubic(s),
-            None => Kernel::Csr,
+            None => Kernel::Csr { plain: false },
         }
     }
 
     /// Name for reports.
     pub fn name(&self) -> &'static str {
         match self {
-            Kernel::Csr => "csr",
+            Kernel::Csr { .. } => "csr",
             Kernel::Cubic(s) => s.name(),
         }
     }
@@ -94,7 +95,8 @@ impl Kernel {
     /// Sweep 1: `state.pool` from `state.u`.
     pub fn pools(&self, body: &Body, state: &mut State) {
         match self {
-            Kernel::Csr => crate::law::compute_pools(
+            Kernel::Csr { plain: true } => state.pool.fill(0.0),
+            Kernel::Csr { plain: false } => crate::law::compute_pools(
                 body,
                 &state.u,
                 &state.alive,
@@ -116,8 +118,20 @@ impl Kernel {
         partials: &mut [SweepSums],
     ) -> SweepSums {
         match self {
-            Kernel::Csr => csr::force_kick_drift(body, state, inv_mass, p, u_next, partials),
+            Kernel::Csr { plain } => {
+                let q = if *plain { 0.0 } else { body.q };
+                csr::force_kick_drift(body, state, inv_mass, p, u_next, partials, q)
+            }
             Kernel::Cubic(s) => s.force_kick_drift(body, state, inv_mass, p, u_next, partials),
+        }
+    }
+
+    /// The same kernel for the plain law (q = 0): what the damage-proof stable step is
+    /// estimated with.
+    pub fn plain(&self) -> Kernel {
+        match self {
+            Kernel::Csr { .. } => Kernel::Csr { plain: true },
+            Kernel::Cubic(s) => Kernel::Cubic(s.with_q(0.0)),
         }
     }
 

@@ -1,0 +1,56 @@
+//! The failure-criterion trait and what a criterion sees of one spring.
+
+use hooke_core::Real;
+
+/// The state of one intact spring, as a criterion sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct SpringState {
+    /// Stiffness k (N/m).
+    pub k: Real,
+    /// Rest length L (m).
+    pub rest: Real,
+    /// Extension dL = l - L (m).
+    pub dl: Real,
+    /// Pool ratios p of its two end nodes (from the last force evaluation).
+    pub pool: [Real; 2],
+    /// Dispersion ratio q of the material.
+    pub q: Real,
+}
+
+impl SpringState {
+    /// Stretch dL / L.
+    pub fn stretch(&self) -> Real {
+        self.dl / self.rest
+    }
+
+    /// Tension T = k dL + q k L (p_i + p_j) (N).
+    pub fn tension(&self) -> Real {
+        hooke_core::law::tension(
+            self.k,
+            self.rest,
+            self.dl,
+            self.q,
+            self.pool[0],
+            self.pool[1],
+        )
+    }
+
+    /// Energy the spring carries (J): its direct energy plus its share of both end nodes'
+    /// dispersive energy, `w = 1/2 k dL^2 + q/2 k L dL (p_i + p_j)`. Node n's dispersive energy
+    /// `q/2 Pi_n^2/S_n = q/2 p_n sum_t k_t L_t dL_t` is split over its springs in proportion to
+    /// their terms of the pool, so the shares of all springs add up to U exactly. Under a
+    /// uniform stretch s every spring carries `1/2 k s^2 L^2 (1 + 2q)`.
+    pub fn energy(&self) -> Real {
+        0.5 * self.k * self.dl * self.dl
+            + 0.5 * self.q * self.k * self.rest * self.dl * (self.pool[0] + self.pool[1])
+    }
+}
+
+/// Decides whether an intact spring breaks. Stateless and `Sync`: criteria run in parallel over
+/// springs, and the decisions are committed after the pass.
+pub trait Criterion: Send + Sync + std::fmt::Debug {
+    /// Name used in reports and case files.
+    fn name(&self) -> &'static str;
+    /// True if the spring fails in this state.
+    fn breaks(&self, s: &SpringState) -> bool;
+}

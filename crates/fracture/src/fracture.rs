@@ -1,0 +1,275 @@
+//! Deciding and committing breaks.
+
+use rayon::prelude::*;
+
+use hooke_core::dynamics::Integrator;
+use hooke_core::kernel::CHUNK;
+use hooke_core::law::spring_geometry;
+use hooke_core::{Body, Real, State};
+
+use crate::criterion::{Criterion, SpringState};
+use crate::error::FractureError;
+use crate::precrack::{springs_cut, Crack};
+
+/// What one check did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BreakReport {
+    /// Springs broken.
+    pub broken: usize,
+    /// Energy released, `U(before) - U(after)` (J). Usually positive; it can be negative with a
+    /// large q when neighbouring springs are in opposite states.
+    pub released: Real,
+}
+
+/// Bond breaking for one body.
+#[derive(Debug)]
+pub struct Fracture {
+    criterion: Box<dyn Criterion>,
+    /// Nodes whose springs never break (near loading boundaries).
+    no_fail: Vec<bool>,
+    /// Springs each node had at set-up (for damage).
+    initial: Vec<u32>,
+    /// Per-chunk lists of springs that fail, reused between checks.
+    found: Vec<Vec<u32>>,
+    /// Scratch: nodes touched by a commit.
+    touched: Vec<u32>,
+    /// Total springs broken by checks (pre-cracks not counted).
+    pub broken_total: usize,
+    /// Total energy released by checks (J).
+    pub released_total: Real,
+}
+
+impl Fracture {
+    /// Breaking with `criterion` on `body`.
+    pub fn new(body: &Body, criterion: Box<dyn Criterion>) -> Self {
+        let bonds = &body.lattice.bonds;
+        Fracture {
+            criterion,
+            no_fail: vec![false; body.nodes()],
+            initial: (0..body.nodes())
+                .map(|n| bonds.row(n).len() as u32)
+                .collect(),
+            found: vec![Vec::new(); body.nodes().div_ceil(CHUNK)],
+            touched: Vec::new(),
+            broken_total: 0,
+            released_total: 0.0,
+        }
+    }
+
+    /// The criterion in use.
+    pub fn criterion(&self) -> &dyn Criterion {
+        self.criterion.as_ref()
+    }
+
+    /// Springs with an end in `nodes` never break.
+    pub fn set_no_fail(&mut self, nodes: &[u32]) {
+        for &n in nodes {
+            self.no_fail[n as usize] = true;
+        }
+    }
+
+    /// Remove every spring a pre-crack cuts (at set-up, before the integrator is built; no
+    /// energy is booked: the body must still be undeformed). Returns the number removed.
+    pub fn precrack(
+        &mut self,
+        body: &Body,
+        state: &mut State,
+        cracks: &[Crack],
+    ) -> Result<usize, FractureError> {
+        let mut n = 0;
+        for (k, c) in cracks.iter().enumerate() {
+            for s in springs_cut(body, c, k)? {
+                if state.kill_bond(body, s) {
+                    n += 1;
+                }
+            }
+        }
+        Ok(n)
+    }
+
+    /// Decide which intact springs fail in the current state and commit them: they leave the
+    /// state and the kernel's copy, and the energy ledger is told what they released. Call after
+    /// each step (or every few steps). The pool ratios the criterion sees are those of the
+    /// step's force evaluation.
+    pub fn check(
+        &mut self,
+        body: &Body,
+        state: &mut State,
+        integrator: &mut Integrator,
+    ) -> BreakReport {
+        self.decide(body, state);
+        let report = self.commit(body, state, Some(&mut *integrator));
+        integrator.add_released(report.released);
+        report
+    }
+
+    /// The decision pass: fills the per-chunk lists (no state changes).
+    pub fn decide(&mut self, body: &Body, state: &State) {
+        let bonds = &body.lattice.bonds;
+        let n = body.nodes();
+        let (crit, no_fail) = (&*self.criterion, &self.no_fail);
+        self.found.par_iter_mut().enumerate().for_each(|(c, list)| {
+            list.clear();
+            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                if no_fail[i] {
+                    continue;
+                }
+                for e in bonds.row(i) {
+                    let j = bonds.nbr[e] as usize;
+                    let b = bonds.bond[e] as usize;
+                    // Each spring once, from its lower end; rows are sorted, so the lists come
+                    // out in a fixed order.
+                    if j < i || !state.alive[b] || no_fail[j] {
+                        continue;
+                    }
+                    let rest = bonds.rest[b];
+                    let g = spring_geometry(&body.lattice, &state.u, i, j, rest);
+                    let s = SpringState {
+                        k: body.k[b],
+                        rest,
+                        dl: g.dl,
+                        pool: [state.pool[i], state.pool[j]],
+                        q: body.q,
+                    };
+                    if crit.breaks(&s) {
+                        list.push(b as u32);
+                    }
+                }
+            }
+        });
+    }
+
+    /// Commit the decided breaks, in chunk (so node, then spring) order.
+    ///
+    /// The energy released, `R(u) = U_before(u) - U_after(u)`, is exact at the current
+    /// displacements. In a run, the springs go between two steps, and leapfrog's discrete energy
+    /// identity then charges the mean of R at the two positions that share the step, `u(t)` and
+    /// `u(t - dt) = u(t) - dt v(t - dt/2)`; booking R(u(t)) alone would leave an O(dt) error per
+    /// event in the energy balance. With an integrator we book that mean; without one, R(u).
+    pub fn commit(
+        &mut self,
+        body: &Body,
+        state: &mut State,
+        mut integrator: Option<&mut Integrator>,
+    ) -> BreakReport {
+        let count: usize = self.found.iter().map(|l| l.len()).sum();
+        if count == 0 {
+            return BreakReport::default();
+        }
+        let bonds = &body.lattice.bonds;
+        let back = integrator.as_deref().map(|it| it.dt);
+        self.touched.clear();
+        for list in &self.found {
+            for &b in list {
+                self.touched.extend(bonds.ends[b as usize]);
+            }
+        }
+        self.touched.sort_unstable();
+        self.touched.dedup();
+        // R at u (shift 0) and, in a run, at u - dt v.
+        let shifts: &[Real] = if back.is_some() { &[0.0, 1.0] } else { &[0.0] };
+        let mut before = [0.0; 2];
+        for (k, &s) in shifts.iter().enumerate() {
+            let h = s * back.unwrap_or(0.0);
+            for list in &self.found {
+                for &b in list {
+                    let b = b as usize;
+                    let [i, j] = bonds.ends[b].map(|v| v as usize);
+                    let dl = shifted_extension(body, state, h, i, j, bonds.rest[b]);
+                    before[k] += 0.5 * body.k[b] * dl * dl;
+                }
+            }
+            before[k] += self
+                .touched
+                .iter()
+                .map(|&n| shifted_dispersive_energy(body, state, h, n as usize))
+                .sum::<Real>();
+        }
+        for list in &self.found {
+            for &b in list {
+                state.kill_bond(body, b as usize);
+                if let Some(it) = integrator.as_deref_mut() {
+                    it.kernel.bond_killed(body, b as usize);
+                }
+            }
+        }
+        let mut released = 0.0;
+        for (k, &s) in shifts.iter().enumerate() {
+            let h = s * back.unwrap_or(0.0);
+            let after: Real = self
+                .touched
+                .iter()
+                .map(|&n| shifted_dispersive_energy(body, state, h, n as usize))
+                .sum();
+            released += (before[k] - after) / shifts.len() as Real;
+        }
+        self.broken_total += count;
+        self.released_total += released;
+        BreakReport {
+            broken: count,
+            released,
+        }
+    }
+
+    /// Damage of every node: the fraction of the springs it had at set-up that are broken
+    /// (pre-cracks included).
+    pub fn damage(&self, body: &Body, state: &State) -> Vec<Real> {
+        let bonds = &body.lattice.bonds;
+        (0..body.nodes())
+            .map(|n| {
+                let alive = bonds
+                    .row(n)
+                    .filter(|&e| state.alive[bonds.bond[e] as usize])
+                    .count();
+                if self.initial[n] == 0 {
+                    0.0
+                } else {
+                    1.0 - alive as Real / self.initial[n] as Real
+                }
+            })
+            .collect()
+    }
+}
+
+/// `q/2 Pi_n^2 / S_n` of node n over its intact springs (J).
+pub fn node_dispersive_energy(body: &Body, state: &State, n: usize) -> Real {
+    shifted_dispersive_energy(body, state, 0.0, n)
+}
+
+/// Extension of spring (i, j) at the displacements `u - h v`.
+fn shifted_extension(body: &Body, state: &State, h: Real, i: usize, j: usize, rest: Real) -> Real {
+    if h == 0.0 {
+        return spring_geometry(&body.lattice, &state.u, i, j, rest).dl;
+    }
+    let d = body.lattice.reference_vector(i, j);
+    let (u, v) = (&state.u, &state.v);
+    let w = [
+        (u.x[j] - h * v.x[j]) - (u.x[i] - h * v.x[i]),
+        (u.y[j] - h * v.y[j]) - (u.y[i] - h * v.y[i]),
+        (u.z[j] - h * v.z[j]) - (u.z[i] - h * v.z[i]),
+    ];
+    let x = [d[0] + w[0], d[1] + w[1], d[2] + w[2]];
+    let l = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
+    (2.0 * (d[0] * w[0] + d[1] * w[1] + d[2] * w[2]) + (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]))
+        / (l + rest)
+}
+
+/// `q/2 Pi_n^2 / S_n` of node n at the displacements `u - h v`.
+fn shifted_dispersive_energy(body: &Body, state: &State, h: Real, n: usize) -> Real {
+    let s = state.norm[n];
+    if body.q == 0.0 || s <= 0.0 {
+        return 0.0;
+    }
+    let bonds = &body.lattice.bonds;
+    let mut pi = 0.0;
+    for e in bonds.row(n) {
+        let b = bonds.bond[e] as usize;
+        if state.alive[b] {
+            let rest = bonds.rest[b];
+            pi += body.k[b]
+                * rest
+                * shifted_extension(body, state, h, n, bonds.nbr[e] as usize, rest);
+        }
+    }
+    0.5 * body.q * pi * pi / s
+}
