@@ -34,6 +34,9 @@ pub struct StaticOptions {
     /// Inexact Newton: each inner solve reduces the residual by this factor [1e-3]. Smaller
     /// wastes CG iterations on a linearisation that is about to change; larger costs Newton steps.
     pub forcing: Real,
+    /// A force scale (N) to measure the residual against when the reactions are not a good
+    /// one, e.g. once a body has been cut through and carries no load [none].
+    pub reference_force: Option<Real>,
 }
 
 impl Default for StaticOptions {
@@ -43,6 +46,7 @@ impl Default for StaticOptions {
             max_newton: 30,
             max_cg: 20_000,
             forcing: 1e-3,
+            reference_force: None,
         }
     }
 }
@@ -152,7 +156,8 @@ pub fn solve(
         if let Some(fe) = external {
             r.axpy(1.0, fe);
         }
-        let scale = prescribed_norm(&state.f, cons) + ext_norm;
+        let scale =
+            (prescribed_norm(&state.f, cons) + ext_norm).max(opts.reference_force.unwrap_or(0.0));
         cons.project(&mut r);
         (r, scale)
     };

@@ -38,14 +38,18 @@ pub fn springs_cut(body: &Body, crack: &Crack, index: usize) -> Result<Vec<usize
             let orient = |o: Vector, u: Vector, w: Vector| {
                 (u.x - o.x) * (w.y - o.y) - (u.y - o.y) * (w.x - o.x)
             };
-            for (s, &[i, j]) in bonds.ends.iter().enumerate() {
-                let (x, y) = (lat.pos.get(i as usize), lat.pos.get(j as usize));
-                if lat.is_periodic() && (y - x).norm() > 1.5 * bonds.rest[s] {
-                    continue; // springs across a periodic boundary are not segments in space
-                }
+            let crosses = |x: Vector, y: Vector| {
                 let (d1, d2) = (orient(p, r, x), orient(p, r, y));
                 let (d3, d4) = (orient(x, y, p), orient(x, y, r));
-                if d1 * d2 < 0.0 && d3 * d4 < 0.0 {
+                d1 * d2 < 0.0 && d3 * d4 < 0.0
+            };
+            for (s, &[i, j]) in bonds.ends.iter().enumerate() {
+                // The spring as a segment along its (minimum-image) reference vector, seen from
+                // both ends: across a periodic boundary the two images differ.
+                let (x, y) = (lat.pos.get(i as usize), lat.pos.get(j as usize));
+                let dv = lat.reference_vector(i as usize, j as usize);
+                let d = Vector::new(dv[0], dv[1], dv[2]);
+                if crosses(x, x + d) || crosses(y - d, y) {
                     out.push(s);
                 }
             }
@@ -106,14 +110,27 @@ pub fn springs_cut(body: &Body, crack: &Crack, index: usize) -> Result<Vec<usize
                 c
             };
             for (s, &[i, j]) in bonds.ends.iter().enumerate() {
-                let (x, y) = (lat.pos.get(i as usize), lat.pos.get(j as usize));
-                if lat.is_periodic() && (y - x).norm() > 1.5 * bonds.rest[s] {
-                    continue;
-                }
+                // The spring as a segment from node i along its (minimum-image) reference vector.
+                let x = lat.pos.get(i as usize);
+                let d = lat.reference_vector(i as usize, j as usize);
+                let y = x + Vector::new(d[0], d[1], d[2]);
                 let (dx, dy) = ((x - v[0]).dot(&n), (y - v[0]).dot(&n));
                 if dx * dy < 0.0 {
                     let t = dx / (dx - dy);
-                    let hit = x + (y - x) * t;
+                    let mut hit = x + (y - x) * t;
+                    // Along periodic axes the crossing point is brought back into the box.
+                    for c in 0..3 {
+                        let p = lat.period[c];
+                        if p > 0.0 {
+                            let lo = lat
+                                .pos
+                                .comp(c)
+                                .iter()
+                                .cloned()
+                                .fold(Real::INFINITY, Real::min);
+                            hit[c] = lo + (hit[c] - lo).rem_euclid(p);
+                        }
+                    }
                     if inside(hit[ax], hit[ay]) {
                         out.push(s);
                     }
