@@ -23,7 +23,7 @@
 
 use crate::body::Body;
 use crate::error::{Error, Result};
-use crate::kernel::{csr, Kernel, StepParams};
+use crate::kernel::{Kernel, StepParams};
 use crate::law::{self, Energy};
 use crate::loading::{Loading, Motion};
 use crate::math::{Coords, Real, Vector};
@@ -306,7 +306,7 @@ impl Integrator {
             let i = d.node;
             self.v_before
                 .push([state.v.x[i], state.v.y[i], state.v.z[i]]);
-            self.f_before.push(csr::node_force(
+            self.f_before.push(crate::law::node_force(
                 body,
                 body.q,
                 &state.u,

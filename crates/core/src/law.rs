@@ -141,35 +141,44 @@ pub fn compute_pools(body: &Body, u: &Coords, alive: &[bool], norm: &[Real], poo
         });
 }
 
-/// Spring pass: internal force on every node from the current pools.
-pub fn compute_forces(body: &Body, u: &Coords, alive: &[bool], pool: &[Real], f: &mut Coords) {
+/// Force of node `n` from the state's displacements and pools, with dispersion ratio `q`.
+#[inline]
+pub fn node_force(
+    body: &Body,
+    q: Real,
+    u: &Coords,
+    alive: &[bool],
+    pool: &[Real],
+    n: usize,
+) -> [Real; 3] {
     let bonds = &body.lattice.bonds;
     let lat = &body.lattice;
-    let q = body.q;
+    let mut f = [0.0; 3];
+    for e in bonds.row(n) {
+        let b = bonds.bond[e] as usize;
+        if !alive[b] {
+            continue;
+        }
+        let j = bonds.nbr[e] as usize;
+        let rest = bonds.rest[b];
+        let g = spring_geometry(lat, u, n, j, rest);
+        let s = tension(body.k[b], rest, g.dl, q, pool[n], pool[j]) / g.l;
+        f[0] += s * g.d[0];
+        f[1] += s * g.d[1];
+        f[2] += s * g.d[2];
+    }
+    f
+}
+
+/// Spring pass: internal force on every node from the current pools.
+pub fn compute_forces(body: &Body, u: &Coords, alive: &[bool], pool: &[Real], f: &mut Coords) {
     f.x.par_iter_mut()
         .zip(f.y.par_iter_mut())
         .zip(f.z.par_iter_mut())
         .with_min_len(MIN_NODES_PER_TASK)
         .enumerate()
         .for_each(|(n, ((fx, fy), fz))| {
-            let (mut sx, mut sy, mut sz) = (0.0, 0.0, 0.0);
-            for e in bonds.row(n) {
-                let b = bonds.bond[e] as usize;
-                if !alive[b] {
-                    continue;
-                }
-                let j = bonds.nbr[e] as usize;
-                let rest = bonds.rest[b];
-                let g = spring_geometry(lat, u, n, j, rest);
-                let t = tension(body.k[b], rest, g.dl, q, pool[n], pool[j]);
-                let s = t / g.l;
-                sx += s * g.d[0];
-                sy += s * g.d[1];
-                sz += s * g.d[2];
-            }
-            *fx = sx;
-            *fy = sy;
-            *fz = sz;
+            [*fx, *fy, *fz] = node_force(body, body.q, u, alive, pool, n);
         });
 }
 

@@ -132,6 +132,8 @@ struct KernelJacobian {
     unit_inv_mass: Vec<Real>,
     spacing: Real,
     partials: Vec<crate::kernel::SweepSums>,
+    /// Scratch: the force at `u - eps v`.
+    minus: Coords,
 }
 
 impl KernelJacobian {
@@ -143,6 +145,7 @@ impl KernelJacobian {
             unit_inv_mass: vec![1.0; body.nodes()],
             spacing: body.lattice.spacing,
             partials: vec![Default::default(); crate::kernel::partials_len(body.nodes())],
+            minus: Coords::zeros(body.nodes()),
         }
     }
 
@@ -180,7 +183,7 @@ impl KernelJacobian {
             return;
         }
         let eps = 1e-7 * self.spacing / vmax;
-        let mut minus = Coords::zeros(v.len());
+        let mut minus = std::mem::take(&mut self.minus);
         self.force(body, kernel, v, -eps, &mut minus);
         self.force(body, kernel, v, eps, out);
         // K v = -(f(+) - f(-)) / (2 eps)
@@ -189,6 +192,7 @@ impl KernelJacobian {
                 *o = (m - *o) / (2.0 * eps);
             }
         }
+        self.minus = minus;
     }
 }
 

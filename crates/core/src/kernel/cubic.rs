@@ -18,7 +18,7 @@
 
 use rayon::prelude::*;
 
-use super::{kick_drift, Disjoint, StepParams, SweepSums, CHUNK};
+use super::{kick_drift, sweep_chunks, ChunkOut, StepParams, SweepSums, CHUNK};
 use crate::body::Body;
 use crate::lattice::LatticeKind;
 use crate::math::{Coords, Real};
@@ -258,82 +258,54 @@ impl CubicStencil {
         u_next: &mut Coords,
         partials: &mut [SweepSums],
     ) -> SweepSums {
-        let n = self.n;
-        let chunks = n.div_ceil(CHUNK);
-        let (vx, vy, vz) = (
-            Disjoint::new(&mut state.v.x),
-            Disjoint::new(&mut state.v.y),
-            Disjoint::new(&mut state.v.z),
-        );
-        let (nx, ny, nz) = (
-            Disjoint::new(&mut u_next.x),
-            Disjoint::new(&mut u_next.y),
-            Disjoint::new(&mut u_next.z),
-        );
         let (u, pool) = (&state.u, &state.pool);
-        partials[..chunks]
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(c, out)| {
-                let r = c * CHUNK..((c + 1) * CHUNK).min(n);
-                // SAFETY: chunk ranges are disjoint and each task touches only its own.
-                let (vx, vy, vz, nx, ny, nz) = unsafe {
-                    (
-                        vx.range(r.clone()),
-                        vy.range(r.clone()),
-                        vz.range(r.clone()),
-                        nx.range(r.clone()),
-                        ny.range(r.clone()),
-                        nz.range(r.clone()),
-                    )
-                };
-                let mut sums = SweepSums::default();
-                let len = r.len();
-                let mut k = 0;
-                while k < len {
-                    let i = r.start + k;
-                    if self.simd && k + 8 <= len && self.block_inside(i) {
-                        #[cfg(target_arch = "x86_64")]
-                        {
-                            // SAFETY: AVX-512F was detected; the block and its neighbours are in
-                            // bounds; the output slices hold the block's 8 nodes.
-                            let s = unsafe {
-                                avx512::force_kick_drift8(
-                                    self,
-                                    u,
-                                    pool,
-                                    inv_mass,
-                                    p,
-                                    i,
-                                    [&mut vx[k..k + 8], &mut vy[k..k + 8], &mut vz[k..k + 8]],
-                                    [&mut nx[k..k + 8], &mut ny[k..k + 8], &mut nz[k..k + 8]],
-                                )
-                            };
-                            sums += s;
-                        }
-                        k += 8;
-                    } else {
-                        let f = self.force_scalar(u, pool, i);
-                        let (d, w) = kick_drift(
-                            f,
-                            inv_mass[i],
-                            p,
-                            [&mut vx[k], &mut vy[k], &mut vz[k]],
-                            [u.x[i], u.y[i], u.z[i]],
-                            [&mut nx[k], &mut ny[k], &mut nz[k]],
-                        );
-                        sums.dissipated += d;
-                        sums.body_work += w;
-                        k += 1;
+        sweep_chunks(self.n, &mut state.v, u_next, partials, |r, o| {
+            let ChunkOut {
+                v: [vx, vy, vz],
+                u_next: [nx, ny, nz],
+            } = o;
+            let mut sums = SweepSums::default();
+            let len = r.len();
+            let mut k = 0;
+            while k < len {
+                let i = r.start + k;
+                if self.simd && k + 8 <= len && self.block_inside(i) {
+                    #[cfg(target_arch = "x86_64")]
+                    {
+                        // SAFETY: AVX-512F was detected; the block and its neighbours are in
+                        // bounds; the output slices hold the block's 8 nodes.
+                        let s = unsafe {
+                            avx512::force_kick_drift8(
+                                self,
+                                u,
+                                pool,
+                                inv_mass,
+                                p,
+                                i,
+                                [&mut vx[k..k + 8], &mut vy[k..k + 8], &mut vz[k..k + 8]],
+                                [&mut nx[k..k + 8], &mut ny[k..k + 8], &mut nz[k..k + 8]],
+                            )
+                        };
+                        sums += s;
                     }
+                    k += 8;
+                } else {
+                    let f = self.force_scalar(u, pool, i);
+                    let (d, w) = kick_drift(
+                        f,
+                        inv_mass[i],
+                        p,
+                        [&mut vx[k], &mut vy[k], &mut vz[k]],
+                        [u.x[i], u.y[i], u.z[i]],
+                        [&mut nx[k], &mut ny[k], &mut nz[k]],
+                    );
+                    sums.dissipated += d;
+                    sums.body_work += w;
+                    k += 1;
                 }
-                *out = sums;
-            });
-        let mut total = SweepSums::default();
-        for &s in &partials[..chunks] {
-            total += s;
-        }
-        total
+            }
+            sums
+        })
     }
 }
 
@@ -358,6 +330,35 @@ mod avx512 {
     use super::{CubicStencil, StepParams, SweepSums};
     use crate::math::{Coords, Real};
 
+    /// Current vectors of the springs in direction `d` of the block at `i`, and their squared
+    /// lengths.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn vector8(
+        s: &CubicStencil,
+        u: &Coords,
+        i: usize,
+        d: usize,
+        ui: [__m512d; 3],
+    ) -> ([__m512d; 3], __m512d) {
+        let j = (i as isize + s.off[d]) as usize;
+        let dv = s.dvec[d];
+        let comp = |c: &[Real], k: usize| {
+            // SAFETY (caller): j..j+8 is in bounds because the block is inside.
+            unsafe {
+                _mm512_add_pd(
+                    _mm512_set1_pd(dv[k]),
+                    _mm512_sub_pd(_mm512_loadu_pd(c.as_ptr().add(j)), ui[k]),
+                )
+            }
+        };
+        let (x, y, z) = (comp(&u.x, 0), comp(&u.y, 1), comp(&u.z, 2));
+        (
+            [x, y, z],
+            _mm512_fmadd_pd(x, x, _mm512_fmadd_pd(y, y, _mm512_mul_pd(z, z))),
+        )
+    }
+
     /// Spring vectors, 1/l and extension of direction `d` for the block at `i`.
     #[inline]
     #[target_feature(enable = "avx512f")]
@@ -368,30 +369,11 @@ mod avx512 {
         d: usize,
         ui: [__m512d; 3],
     ) -> ([__m512d; 3], __m512d, __m512d) {
-        let j = (i as isize + s.off[d]) as usize;
-        let dv = s.dvec[d];
-        // SAFETY (caller): j..j+8 is in bounds because the block is inside.
-        let (x, y, z) = unsafe {
-            (
-                _mm512_add_pd(
-                    _mm512_set1_pd(dv[0]),
-                    _mm512_sub_pd(_mm512_loadu_pd(u.x.as_ptr().add(j)), ui[0]),
-                ),
-                _mm512_add_pd(
-                    _mm512_set1_pd(dv[1]),
-                    _mm512_sub_pd(_mm512_loadu_pd(u.y.as_ptr().add(j)), ui[1]),
-                ),
-                _mm512_add_pd(
-                    _mm512_set1_pd(dv[2]),
-                    _mm512_sub_pd(_mm512_loadu_pd(u.z.as_ptr().add(j)), ui[2]),
-                ),
-            )
-        };
-        let ss = _mm512_fmadd_pd(x, x, _mm512_fmadd_pd(y, y, _mm512_mul_pd(z, z)));
+        let (x, ss) = unsafe { vector8(s, u, i, d, ui) };
         let l = _mm512_sqrt_pd(ss);
         let r = _mm512_div_pd(_mm512_set1_pd(1.0), l);
         let dl = _mm512_sub_pd(l, _mm512_set1_pd(s.rest[d]));
-        ([x, y, z], r, dl)
+        (x, r, dl)
     }
 
     #[inline]
@@ -429,30 +411,8 @@ mod avx512 {
                 continue;
             }
             // The pool needs only the length, not its inverse: one square root.
-            let j = (i as isize + s.off[d]) as usize;
-            let dv = s.dvec[d];
-            // SAFETY: the block is inside, so j..j+8 is in bounds.
-            let (x, y, z) = unsafe {
-                (
-                    _mm512_add_pd(
-                        _mm512_set1_pd(dv[0]),
-                        _mm512_sub_pd(_mm512_loadu_pd(u.x.as_ptr().add(j)), ui[0]),
-                    ),
-                    _mm512_add_pd(
-                        _mm512_set1_pd(dv[1]),
-                        _mm512_sub_pd(_mm512_loadu_pd(u.y.as_ptr().add(j)), ui[1]),
-                    ),
-                    _mm512_add_pd(
-                        _mm512_set1_pd(dv[2]),
-                        _mm512_sub_pd(_mm512_loadu_pd(u.z.as_ptr().add(j)), ui[2]),
-                    ),
-                )
-            };
-            let l = _mm512_sqrt_pd(_mm512_fmadd_pd(
-                x,
-                x,
-                _mm512_fmadd_pd(y, y, _mm512_mul_pd(z, z)),
-            ));
+            let (_, ss) = unsafe { vector8(s, u, i, d, ui) };
+            let l = _mm512_sqrt_pd(ss);
             let dl = _mm512_sub_pd(l, _mm512_set1_pd(s.rest[d]));
             acc = _mm512_mask3_fmadd_pd(_mm512_set1_pd(s.k * s.rest[d]), dl, acc, m);
         }

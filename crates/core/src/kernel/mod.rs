@@ -172,6 +172,60 @@ impl<T> Disjoint<T> {
     }
 }
 
+/// The outputs of sweep 2 for the nodes of one chunk: their velocities (updated in place) and
+/// next displacements, each as x, y, z slices indexed from the chunk's first node.
+pub(crate) struct ChunkOut<'a> {
+    pub v: [&'a mut [Real]; 3],
+    pub u_next: [&'a mut [Real]; 3],
+}
+
+/// Run sweep 2 over the fixed chunks of `n` nodes in parallel: `chunk(range, out)` handles the
+/// nodes of one chunk and returns their sums, which are added in chunk order into `partials`
+/// (one entry per chunk, owned by the caller so that nothing is allocated) and the total.
+pub(crate) fn sweep_chunks<F>(
+    n: usize,
+    v: &mut Coords,
+    u_next: &mut Coords,
+    partials: &mut [SweepSums],
+    chunk: F,
+) -> SweepSums
+where
+    F: Fn(std::ops::Range<usize>, ChunkOut<'_>) -> SweepSums + Sync,
+{
+    use rayon::prelude::*;
+    let chunks = n.div_ceil(CHUNK);
+    let vs = [
+        Disjoint::new(&mut v.x),
+        Disjoint::new(&mut v.y),
+        Disjoint::new(&mut v.z),
+    ];
+    let us = [
+        Disjoint::new(&mut u_next.x),
+        Disjoint::new(&mut u_next.y),
+        Disjoint::new(&mut u_next.z),
+    ];
+    partials[..chunks]
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(c, out)| {
+            let r = c * CHUNK..((c + 1) * CHUNK).min(n);
+            // SAFETY: chunk ranges are disjoint, each task takes only its own, and the slices do
+            // not outlive this call, during which `v` and `u_next` are borrowed mutably.
+            let o = unsafe {
+                ChunkOut {
+                    v: vs.each_ref().map(|d| d.range(r.clone())),
+                    u_next: us.each_ref().map(|d| d.range(r.clone())),
+                }
+            };
+            *out = chunk(r, o);
+        });
+    let mut total = SweepSums::default();
+    for &s in &partials[..chunks] {
+        total += s;
+    }
+    total
+}
+
 /// The kick-drift of one node (both kernels share it, so they integrate identically).
 /// Returns the node's contributions to [`SweepSums`].
 #[inline(always)]
