@@ -89,6 +89,16 @@ pub struct EnergyBalance {
     pub relative_error: Real,
 }
 
+/// The integrator's part of a checkpoint (see [`Integrator::checkpoint`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IntegratorCheckpoint {
+    pub dt: Real,
+    pub ledger: Ledger,
+    pub initial: Real,
+    pub initial_power: Real,
+    pub stable: StableStep,
+}
+
 #[derive(Clone, Debug)]
 struct PrescribedDof {
     node: usize,
@@ -186,44 +196,7 @@ impl Integrator {
                 dt
             }
         };
-        let mut motions = Vec::new();
-        let mut dofs = Vec::new();
-        for p in &loading.prescribed {
-            motions.push(p.motion.clone());
-            for &i in &p.nodes {
-                dofs.push(PrescribedDof {
-                    node: i as usize,
-                    axis: p.axis,
-                    motion: motions.len() - 1,
-                });
-            }
-        }
-        let loaded: Vec<(usize, usize)> = loading
-            .loads
-            .iter()
-            .enumerate()
-            .flat_map(|(li, l)| l.nodes.iter().map(move |&i| (i as usize, li)))
-            .collect();
-        let sparse = dofs.len() + loaded.len();
-        let mut it = Integrator {
-            dt,
-            damping: opts.damping,
-            kernel,
-            stable,
-            loading,
-            motions,
-            dofs,
-            loaded,
-            inv_mass: body.mass.iter().map(|&m| 1.0 / m).collect(),
-            u_next: Coords::zeros(body.nodes()),
-            ledger: Ledger::default(),
-            initial: 0.0,
-            initial_power: 0.0,
-            v_before: Vec::with_capacity(sparse),
-            f_before: Vec::with_capacity(sparse),
-            v_kernel: Vec::with_capacity(sparse),
-            partials: vec![Default::default(); crate::kernel::partials_len(body.nodes())],
-        };
+        let mut it = Self::assemble(body, loading, opts, kernel, dt, stable);
         // Prescribed positions and velocities at the start.
         let t = state.time;
         for d in &it.dofs {
@@ -246,6 +219,100 @@ impl Integrator {
             state.v.comp_mut(d.axis)[d.node] = v;
         }
         state.v.axpy(-0.5 * dt, &a);
+        Ok(it)
+    }
+
+    /// The parts shared by [`Integrator::new`] and [`Integrator::resume`].
+    fn assemble(
+        body: &Body,
+        loading: Loading,
+        opts: &IntegratorOptions,
+        kernel: Kernel,
+        dt: Real,
+        stable: StableStep,
+    ) -> Self {
+        let mut motions = Vec::new();
+        let mut dofs = Vec::new();
+        for p in &loading.prescribed {
+            motions.push(p.motion.clone());
+            for &i in &p.nodes {
+                dofs.push(PrescribedDof {
+                    node: i as usize,
+                    axis: p.axis,
+                    motion: motions.len() - 1,
+                });
+            }
+        }
+        let loaded: Vec<(usize, usize)> = loading
+            .loads
+            .iter()
+            .enumerate()
+            .flat_map(|(li, l)| l.nodes.iter().map(move |&i| (i as usize, li)))
+            .collect();
+        let sparse = dofs.len() + loaded.len();
+        Integrator {
+            dt,
+            damping: opts.damping,
+            kernel,
+            stable,
+            loading,
+            motions,
+            dofs,
+            loaded,
+            inv_mass: body.mass.iter().map(|&m| 1.0 / m).collect(),
+            u_next: Coords::zeros(body.nodes()),
+            ledger: Ledger::default(),
+            initial: 0.0,
+            initial_power: 0.0,
+            v_before: Vec::with_capacity(sparse),
+            f_before: Vec::with_capacity(sparse),
+            v_kernel: Vec::with_capacity(sparse),
+            partials: vec![Default::default(); crate::kernel::partials_len(body.nodes())],
+        }
+    }
+
+    /// What a checkpoint must keep of the integrator to continue a run bit for bit (the rest
+    /// is the [`State`], whose `v` holds the half-step velocities, and the loading).
+    pub fn checkpoint(&self) -> IntegratorCheckpoint {
+        IntegratorCheckpoint {
+            dt: self.dt,
+            ledger: self.ledger,
+            initial: self.initial,
+            initial_power: self.initial_power,
+            stable: self.stable,
+        }
+    }
+
+    /// Continue a run from a checkpoint: `state` as it was saved (half-step velocities, broken
+    /// springs, time and step), the same body, loading and options. Nothing is re-estimated or
+    /// converted, so the continued run is bit-identical to an uninterrupted one.
+    pub fn resume(
+        body: &Body,
+        state: &State,
+        loading: Loading,
+        opts: &IntegratorOptions,
+        ck: &IntegratorCheckpoint,
+    ) -> Result<Self> {
+        body.validate()?;
+        loading.validate(body.nodes())?;
+        if !(ck.dt.is_finite() && ck.dt > 0.0) {
+            return Err(Error::InvalidInput {
+                what: "checkpoint",
+                why: format!("time step {} is not positive", ck.dt),
+            });
+        }
+        let mut kernel = if opts.force_csr {
+            Kernel::Csr { plain: false }
+        } else {
+            Kernel::for_body(body, state)
+        };
+        if let (Kernel::Cubic(s), true) = (&mut kernel, opts.portable) {
+            s.set_simd(false);
+        }
+        let mut it = Self::assemble(body, loading, opts, kernel, ck.dt, ck.stable);
+        it.ledger = ck.ledger;
+        it.initial = ck.initial;
+        it.initial_power = ck.initial_power;
         Ok(it)
     }
 

@@ -42,7 +42,7 @@ use crate::state::State;
 pub const DEFAULT_SAFETY: Real = 0.8;
 
 /// The result of the stable-step estimate.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StableStep {
     /// Estimate of lambda_max(M^-1 K) (1/s^2).
     pub lambda_max: Real,

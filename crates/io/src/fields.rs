@@ -1,0 +1,61 @@
+//! Derived per-node fields, computed only for output (never on the hot path).
+
+use hooke_core::law::{self, spring_geometry, tension};
+use hooke_core::{Body, Matrix, Real, State};
+
+/// Fields derived from a state.
+#[derive(Clone, Debug)]
+pub struct Derived {
+    /// Pool ratio `p_n = Pi_n / S_n`: under uniform strain it equals `tr(eps)/d`, a local
+    /// dilatation.
+    pub pool: Vec<Real>,
+    /// Strain energy density (J/m^3): half of each intact spring's direct energy plus the node's
+    /// dispersive energy, over the node's volume. Summed times the volume it gives U exactly.
+    pub energy_density: Vec<Real>,
+    /// Virial stress `1/(2V) sum_t T_t l_t e_t e_t` (Pa), row-major 3x3.
+    pub stress: Vec<[Real; 9]>,
+}
+
+/// Compute the derived fields of `state`.
+pub fn derived(body: &Body, state: &State) -> Derived {
+    let n = body.nodes();
+    let mut pool = vec![0.0; n];
+    law::compute_pools(body, &state.u, &state.alive, &state.norm, &mut pool);
+    let bonds = &body.lattice.bonds;
+    let lat = &body.lattice;
+    let t: Vec<Real> = (0..bonds.len())
+        .map(|b| {
+            if !state.alive[b] {
+                return 0.0;
+            }
+            let [i, j] = bonds.ends[b].map(|v| v as usize);
+            let rest = bonds.rest[b];
+            tension(body.k[b], rest, spring_geometry(lat, &state.u, i, j, rest).dl, body.q, pool[i], pool[j])
+        })
+        .collect();
+    let v = lat.cell_volume;
+    let mut energy_density = vec![0.0; n];
+    let mut stress = vec![[0.0; 9]; n];
+    for i in 0..n {
+        let mut direct = 0.0;
+        let mut pi = 0.0;
+        for e in bonds.row(i) {
+            let b = bonds.bond[e] as usize;
+            if state.alive[b] {
+                let rest = bonds.rest[b];
+                let dl = spring_geometry(lat, &state.u, i, bonds.nbr[e] as usize, rest).dl;
+                direct += 0.25 * body.k[b] * dl * dl;
+                pi += body.k[b] * rest * dl;
+            }
+        }
+        let disp = if state.norm[i] > 0.0 { 0.5 * body.q * pi * pi / state.norm[i] } else { 0.0 };
+        energy_density[i] = (direct + disp) / v;
+        let s: Matrix = law::node_virial(body, &state.u, &t, i);
+        for r in 0..3 {
+            for c in 0..3 {
+                stress[i][3 * r + c] = s[(r, c)];
+            }
+        }
+    }
+    Derived { pool, energy_density, stress }
+}

@@ -1,0 +1,19 @@
+//! # hooke-io
+//!
+//! Output of hooke runs: VTK time series (`.vtu` frames and a `.pvd` collection) that ParaView,
+//! pyvista, VTK and meshio open, with the derived fields users look at (displacement, velocity,
+//! damage, pool ratio, strain energy density, virial stress, region ids) computed only here, at
+//! output time; and checkpoints from which a run continues bit for bit.
+//!
+//! Everything is written to a temporary file and renamed into place: a run killed at any moment
+//! (even with `kill -9`) leaves every completed frame, the collection and the last checkpoint
+//! readable.
+
+pub mod checkpoint;
+pub mod error;
+pub mod fields;
+pub mod vtk;
+
+pub use checkpoint::Checkpoint;
+pub use error::IoError;
+pub use vtk::{FrameExtras, VtkSeries};

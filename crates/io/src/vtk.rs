@@ -1,0 +1,180 @@
+//! VTK output: one XML unstructured-grid file (`.vtu`) per frame and a `.pvd` collection that
+//! ParaView and pyvista open as one time series.
+//!
+//! Data arrays are written as uncompressed base64 binary (vtkio's XML writer without a
+//! compressor): ParaView, VTK, pyvista and meshio all read it. (vtkio 0.6.3's compressed output is
+//! not readable by ParaView and meshio; we use 0.7 without compression.) Every file is written to
+//! a temporary name and renamed into place, so a run killed at any moment leaves each listed frame
+//! and the collection complete.
+
+use std::fs;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use hooke_core::{Body, Coords, Real, State};
+use vtkio::model::{
+    Attribute, Attributes, ByteOrder, CellType, Cells, DataArray, DataSet, ElementType, UnstructuredGridPiece, Version, VertexNumbers, Vtk,
+};
+
+use crate::error::{io, IoError};
+use crate::fields::derived;
+
+/// Per-frame inputs that are not in the state.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FrameExtras<'a> {
+    /// Full-step velocity (the state holds half-step velocities during a run).
+    pub velocity: Option<&'a Coords>,
+    /// Damage per node, 0..1.
+    pub damage: Option<&'a [Real]>,
+    /// Region id per node.
+    pub region: Option<&'a [u32]>,
+}
+
+/// A time series of `.vtu` frames with its `.pvd` index.
+#[derive(Debug)]
+pub struct VtkSeries {
+    dir: PathBuf,
+    stem: String,
+    springs: bool,
+    frames: Vec<(Real, String)>,
+}
+
+/// Write `bytes` to `path` through a temporary file in the same directory and a rename.
+pub fn write_atomic(path: &Path, write: impl FnOnce(&mut dyn Write) -> Result<(), IoError>) -> Result<(), IoError> {
+    let tmp = path.with_extension(format!("{}.partial", path.extension().and_then(|e| e.to_str()).unwrap_or("tmp")));
+    {
+        let file = fs::File::create(&tmp).map_err(io(&tmp))?;
+        let mut w = BufWriter::new(file);
+        write(&mut w)?;
+        let file = w.into_inner().map_err(|e| IoError::Io { path: tmp.clone(), source: e.into_error() })?;
+        file.sync_all().map_err(io(&tmp))?;
+    }
+    fs::rename(&tmp, path).map_err(io(path))
+}
+
+impl VtkSeries {
+    /// A new series in `dir` (created if needed). Fails at once, with the reason, when the
+    /// directory cannot be written, so a run never starts only to lose its output.
+    pub fn create(dir: &Path, stem: &str, springs: bool) -> Result<Self, IoError> {
+        fs::create_dir_all(dir).map_err(|e| IoError::NotWritable { path: dir.to_path_buf(), why: e.to_string() })?;
+        let probe = dir.join(format!(".{stem}.probe"));
+        fs::write(&probe, b"hooke").map_err(|e| IoError::NotWritable { path: dir.to_path_buf(), why: e.to_string() })?;
+        let _ = fs::remove_file(&probe);
+        Ok(VtkSeries { dir: dir.to_path_buf(), stem: stem.to_string(), springs, frames: Vec::new() })
+    }
+
+    /// Continue the series of a previous run in `dir`, keeping the frames its `.pvd` lists up
+    /// to time `until` (a resumed run rewrites what came after its checkpoint).
+    pub fn reopen(dir: &Path, stem: &str, springs: bool, until: Real) -> Result<Self, IoError> {
+        let mut s = Self::create(dir, stem, springs)?;
+        let pvd = s.pvd_path();
+        if let Ok(text) = fs::read_to_string(&pvd) {
+            for line in text.lines().filter(|l| l.contains("<DataSet")) {
+                let attr = |name: &str| line.split(&format!("{name}=\"")).nth(1).and_then(|r| r.split('"').next()).map(str::to_string);
+                if let (Some(t), Some(f)) = (attr("timestep").and_then(|t| t.parse::<Real>().ok()), attr("file")) {
+                    if t <= until {
+                        s.frames.push((t, f));
+                    }
+                }
+            }
+        }
+        Ok(s)
+    }
+
+    /// Path of the `.pvd` collection.
+    pub fn pvd_path(&self) -> PathBuf {
+        self.dir.join(format!("{}.pvd", self.stem))
+    }
+
+    /// Frames written so far (time, file name).
+    pub fn frames(&self) -> &[(Real, String)] {
+        &self.frames
+    }
+
+    /// Write one frame of `state` and update the collection. Returns the frame's path.
+    pub fn write(&mut self, body: &Body, state: &State, extras: FrameExtras) -> Result<PathBuf, IoError> {
+        let name = format!("{}_{:06}.vtu", self.stem, state.step);
+        let path = self.dir.join(&name);
+        let vtk = frame_vtk(body, state, extras, self.springs);
+        write_atomic(&path, |w| vtk.write_xml(w).map_err(|e| IoError::Vtk { path: path.clone(), msg: e.to_string() }))?;
+        self.frames.retain(|(_, f)| f != &name);
+        self.frames.push((state.time, name));
+        self.write_pvd()?;
+        Ok(path)
+    }
+
+    fn write_pvd(&self) -> Result<(), IoError> {
+        let path = self.pvd_path();
+        let mut text = String::from("<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n");
+        for (t, f) in &self.frames {
+            // 17 significant digits: the time reads back exactly.
+            text.push_str(&format!("    <DataSet timestep=\"{t:.17e}\" group=\"\" part=\"0\" file=\"{f}\"/>\n"));
+        }
+        text.push_str("  </Collection>\n</VTKFile>\n");
+        write_atomic(&path, |w| w.write_all(text.as_bytes()).map_err(io(&path)))
+    }
+}
+
+fn vectors(name: &str, c: &Coords) -> Attribute {
+    let mut data = Vec::with_capacity(3 * c.len());
+    for i in 0..c.len() {
+        data.extend([c.x[i], c.y[i], c.z[i]]);
+    }
+    Attribute::DataArray(DataArray { name: name.into(), elem: ElementType::Vectors, data: data.into() })
+}
+
+fn scalars(name: &str, data: Vec<Real>) -> Attribute {
+    Attribute::DataArray(DataArray { name: name.into(), elem: ElementType::Scalars { num_comp: 1, lookup_table: None }, data: data.into() })
+}
+
+/// The VTK model of one frame.
+pub fn frame_vtk(body: &Body, state: &State, extras: FrameExtras, springs: bool) -> Vtk {
+    let n = body.nodes();
+    let x = state.positions(body);
+    let mut points = Vec::with_capacity(3 * n);
+    for i in 0..n {
+        points.extend([x.x[i], x.y[i], x.z[i]]);
+    }
+    // One vertex cell per node, so that every reader shows the nodes; intact springs as lines
+    // on request (for small models: they double the file size per 9 springs per node).
+    let mut connectivity: Vec<u64> = (0..n as u64).collect();
+    let mut offsets: Vec<u64> = (1..=n as u64).collect();
+    let mut types = vec![CellType::Vertex; n];
+    if springs {
+        for (b, &[i, j]) in body.lattice.bonds.ends.iter().enumerate() {
+            if state.alive[b] {
+                connectivity.extend([i as u64, j as u64]);
+                offsets.push(connectivity.len() as u64);
+                types.push(CellType::Line);
+            }
+        }
+    }
+    let d = derived(body, state);
+    let mut point = vec![vectors("displacement", &state.u)];
+    point.push(vectors("velocity", extras.velocity.unwrap_or(&state.v)));
+    if let Some(dmg) = extras.damage {
+        point.push(scalars("damage", dmg.to_vec()));
+    }
+    point.push(scalars("pool_ratio", d.pool));
+    point.push(scalars("strain_energy_density", d.energy_density));
+    let stress: Vec<Real> = d.stress.iter().flatten().copied().collect();
+    point.push(Attribute::DataArray(DataArray { name: "stress".into(), elem: ElementType::Tensors, data: stress.into() }));
+    if let Some(r) = extras.region {
+        point.push(Attribute::DataArray(DataArray {
+            name: "region".into(),
+            elem: ElementType::Scalars { num_comp: 1, lookup_table: None },
+            data: r.to_vec().into(),
+        }));
+    }
+    Vtk {
+        version: Version::new_xml(1, 0),
+        title: format!("hooke frame, step {}, t = {:e} s", state.step, state.time),
+        byte_order: ByteOrder::LittleEndian,
+        file_path: None,
+        data: DataSet::inline(UnstructuredGridPiece {
+            points: points.into(),
+            cells: Cells { cell_verts: VertexNumbers::XML { connectivity, offsets }, types },
+            data: Attributes { point, cell: Vec::new() },
+        }),
+    }
+}
