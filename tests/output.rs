@@ -21,14 +21,41 @@ fn tmpdir(name: &str) -> PathBuf {
 }
 
 fn bar() -> Body {
-    Body::uniform(Lattice::cubic_box([14, 5, 5], 1.0).unwrap(), 1.0, q_from_nu(LatticeKind::Cubic, 0.4).unwrap(), 1.0)
+    Body::uniform(
+        Lattice::cubic_box([14, 5, 5], 1.0).unwrap(),
+        1.0,
+        q_from_nu(LatticeKind::Cubic, 0.4).unwrap(),
+        1.0,
+    )
 }
 
 fn pulled(body: &Body) -> Loading {
-    let ends = |x: Real| (0..body.nodes() as u32).filter(|&i| (body.lattice.pos.x[i as usize] - x).abs() < 0.1).collect::<Vec<_>>();
-    let v = |to: Real| Motion::Velocity(TimeFunction::SmoothRamp { t0: 0.0, t1: 10.0, from: 0.0, to });
+    let ends = |x: Real| {
+        (0..body.nodes() as u32)
+            .filter(|&i| (body.lattice.pos.x[i as usize] - x).abs() < 0.1)
+            .collect::<Vec<_>>()
+    };
+    let v = |to: Real| {
+        Motion::Velocity(TimeFunction::SmoothRamp {
+            t0: 0.0,
+            t1: 10.0,
+            from: 0.0,
+            to,
+        })
+    };
     Loading {
-        prescribed: vec![Prescribed { nodes: ends(0.0), axis: 0, motion: v(-5e-3) }, Prescribed { nodes: ends(13.0), axis: 0, motion: v(5e-3) }],
+        prescribed: vec![
+            Prescribed {
+                nodes: ends(0.0),
+                axis: 0,
+                motion: v(-5e-3),
+            },
+            Prescribed {
+                nodes: ends(13.0),
+                axis: 0,
+                motion: v(5e-3),
+            },
+        ],
         ..Default::default()
     }
 }
@@ -58,28 +85,53 @@ fn vtk_frames_read_back_exactly() {
     for step in 0..2 {
         state.step = step;
         state.time = step as Real * 0.25;
-        let path = series.write(&body, &state, FrameExtras { damage: Some(&damage), ..Default::default() }).unwrap();
+        let path = series
+            .write(
+                &body,
+                &state,
+                FrameExtras {
+                    damage: Some(&damage),
+                    ..Default::default()
+                },
+            )
+            .unwrap();
         let vtk = Vtk::import(&path).unwrap();
-        let DataSet::UnstructuredGrid { pieces, .. } = vtk.data else { panic!("not an unstructured grid") };
+        let DataSet::UnstructuredGrid { pieces, .. } = vtk.data else {
+            panic!("not an unstructured grid")
+        };
         let piece = pieces[0].load_piece_data(None).unwrap();
         assert_eq!(piece.num_points(), body.nodes());
-        let get = |name: &str| piece.data.point.iter().find(|a| a.name() == name).unwrap_or_else(|| panic!("no {name}"));
+        let get = |name: &str| {
+            piece
+                .data
+                .point
+                .iter()
+                .find(|a| a.name() == name)
+                .unwrap_or_else(|| panic!("no {name}"))
+        };
         let u = f64s(get("displacement"));
         for i in 0..body.nodes() {
-            assert_eq!([u[3 * i], u[3 * i + 1], u[3 * i + 2]], [state.u.x[i], state.u.y[i], state.u.z[i]]);
+            assert_eq!(
+                [u[3 * i], u[3 * i + 1], u[3 * i + 2]],
+                [state.u.x[i], state.u.y[i], state.u.z[i]]
+            );
         }
         assert_eq!(f64s(get("damage")), damage);
         for name in ["velocity", "pool_ratio", "strain_energy_density", "stress"] {
             get(name);
         }
         // Energy density integrates to U.
-        let w: Real = f64s(get("strain_energy_density")).iter().sum::<Real>() * body.lattice.cell_volume;
+        let w: Real =
+            f64s(get("strain_energy_density")).iter().sum::<Real>() * body.lattice.cell_volume;
         let u_total = hooke_core::law::energy(&body, &state.u, &state.alive, &state.norm).total();
         assert!((w / u_total - 1.0).abs() < 1e-12, "{w} vs {u_total}");
     }
     let pvd = std::fs::read_to_string(series.pvd_path()).unwrap();
     assert_eq!(pvd.matches("<DataSet").count(), 2);
-    assert!(pvd.contains("bar_000001.vtu") && pvd.contains("timestep=\"2.50000000000000000e-1\""), "{pvd}");
+    assert!(
+        pvd.contains("bar_000001.vtu") && pvd.contains("timestep=\"2.50000000000000000e-1\""),
+        "{pvd}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -95,7 +147,10 @@ fn run(body: &Body, state: &mut State, it: &mut Integrator, fr: &mut Fracture, s
 #[test]
 fn restart_is_bit_identical() {
     let body = bar();
-    let opts = IntegratorOptions { damage_proof: true, ..Default::default() };
+    let opts = IntegratorOptions {
+        damage_proof: true,
+        ..Default::default()
+    };
     let crit = || Box::new(CriticalStretch::new(0.004).unwrap());
     let case = digest(b"the pulled bar of restart_is_bit_identical");
     // Uninterrupted.
@@ -104,7 +159,10 @@ fn restart_is_bit_identical() {
     let mut fr = Fracture::new(&body, crit());
     run(&body, &mut a, &mut it, &mut fr, 700);
     let ledger_a = it.ledger();
-    assert!(fr.broken_total > 0, "nothing broke: the test would not cover breaking");
+    assert!(
+        fr.broken_total > 0,
+        "nothing broke: the test would not cover breaking"
+    );
     // Interrupted at step 350, written to disk, read back, continued.
     let dir = tmpdir("restart");
     std::fs::create_dir_all(&dir).unwrap();
@@ -114,7 +172,15 @@ fn restart_is_bit_identical() {
         let mut it = Integrator::new(&body, &mut b, pulled(&body), &opts).unwrap();
         let mut fr = Fracture::new(&body, crit());
         run(&body, &mut b, &mut it, &mut fr, 350);
-        Checkpoint { digest: case, state: b, integrator: it.checkpoint(), broken: fr.broken_total as u64, released: fr.released_total }.save(&path).unwrap();
+        Checkpoint {
+            digest: case,
+            state: b,
+            integrator: it.checkpoint(),
+            broken: fr.broken_total as u64,
+            released: fr.released_total,
+        }
+        .save(&path)
+        .unwrap();
     }
     let ck = Checkpoint::load(&path, &body, case).unwrap();
     let mut b = ck.state.clone();
@@ -123,10 +189,16 @@ fn restart_is_bit_identical() {
     fr2.broken_total = ck.broken as usize;
     fr2.released_total = ck.released;
     run(&body, &mut b, &mut it, &mut fr2, 350);
-    assert!(a.u == b.u && a.v == b.v && a.alive == b.alive, "resumed run differs");
+    assert!(
+        a.u == b.u && a.v == b.v && a.alive == b.alive,
+        "resumed run differs"
+    );
     assert_eq!((a.step, a.time.to_bits()), (b.step, b.time.to_bits()));
     assert_eq!(ledger_a, it.ledger());
-    assert_eq!((fr.broken_total, fr.released_total.to_bits()), (fr2.broken_total, fr2.released_total.to_bits()));
+    assert_eq!(
+        (fr.broken_total, fr.released_total.to_bits()),
+        (fr2.broken_total, fr2.released_total.to_bits())
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -139,17 +211,40 @@ fn checkpoints_refuse_what_is_not_theirs() {
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("run.ckpt");
     let mut state = State::new(&body);
-    let it = Integrator::new(&body, &mut state, Loading::default(), &IntegratorOptions::default()).unwrap();
-    Checkpoint { digest: 7, state, integrator: it.checkpoint(), broken: 0, released: 0.0 }.save(&path).unwrap();
+    let it = Integrator::new(
+        &body,
+        &mut state,
+        Loading::default(),
+        &IntegratorOptions::default(),
+    )
+    .unwrap();
+    Checkpoint {
+        digest: 7,
+        state,
+        integrator: it.checkpoint(),
+        broken: 0,
+        released: 0.0,
+    }
+    .save(&path)
+    .unwrap();
     assert!(Checkpoint::load(&path, &body, 7).is_ok());
     let e = Checkpoint::load(&path, &body, 8).unwrap_err();
-    assert!(matches!(e, IoError::DigestMismatch { .. }) && e.to_string().contains("another case"), "{e}");
+    assert!(
+        matches!(e, IoError::DigestMismatch { .. }) && e.to_string().contains("another case"),
+        "{e}"
+    );
     let other = Body::uniform(Lattice::cubic_box([5, 5, 5], 1.0).unwrap(), 1.0, 0.0, 1.0);
-    assert!(Checkpoint::load(&path, &other, 7).unwrap_err().to_string().contains("nodes"));
+    assert!(Checkpoint::load(&path, &other, 7)
+        .unwrap_err()
+        .to_string()
+        .contains("nodes"));
     let mut bytes = std::fs::read(&path).unwrap();
     bytes[100] ^= 0x40;
     std::fs::write(&path, &bytes).unwrap();
-    assert!(Checkpoint::load(&path, &body, 7).unwrap_err().to_string().contains("checksum"));
+    assert!(Checkpoint::load(&path, &body, 7)
+        .unwrap_err()
+        .to_string()
+        .contains("checksum"));
     for len in [0, 5, 30, 60, bytes.len() / 2] {
         std::fs::write(&path, &bytes[..len]).unwrap();
         let e = Checkpoint::load(&path, &body, 7).unwrap_err();
@@ -167,7 +262,10 @@ fn unwritable_output_is_reported_up_front() {
     let file = dir.join("a-file");
     std::fs::write(&file, b"x").unwrap();
     let e = VtkSeries::create(&file.join("out"), "run", false).unwrap_err();
-    assert!(matches!(e, IoError::NotWritable { .. }) && e.to_string().contains("--out"), "{e}");
+    assert!(
+        matches!(e, IoError::NotWritable { .. }) && e.to_string().contains("--out"),
+        "{e}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -177,12 +275,26 @@ const CHILD: &str = "HOOKE_KILL_TEST_DIR";
 fn child_writer(dir: &Path) -> ! {
     let body = bar();
     let mut state = State::new(&body);
-    let mut it = Integrator::new(&body, &mut state, pulled(&body), &IntegratorOptions::default()).unwrap();
+    let mut it = Integrator::new(
+        &body,
+        &mut state,
+        pulled(&body),
+        &IntegratorOptions::default(),
+    )
+    .unwrap();
     let mut series = VtkSeries::create(dir, "run", true).unwrap();
     loop {
         it.run(&body, &mut state, 5).unwrap();
         series.write(&body, &state, FrameExtras::default()).unwrap();
-        Checkpoint { digest: 1, state: state.clone(), integrator: it.checkpoint(), broken: 0, released: 0.0 }.save(&dir.join("run.ckpt")).unwrap();
+        Checkpoint {
+            digest: 1,
+            state: state.clone(),
+            integrator: it.checkpoint(),
+            broken: 0,
+            released: 0.0,
+        }
+        .save(&dir.join("run.ckpt"))
+        .unwrap();
     }
 }
 
@@ -197,7 +309,11 @@ fn killed_run_leaves_readable_output() {
         let dir = tmpdir(&format!("kill{round}"));
         std::fs::create_dir_all(&dir).unwrap();
         let mut child = std::process::Command::new(std::env::current_exe().unwrap())
-            .args(["--exact", "killed_run_leaves_readable_output", "--nocapture"])
+            .args([
+                "--exact",
+                "killed_run_leaves_readable_output",
+                "--nocapture",
+            ])
             .env(CHILD, &dir)
             .stdout(std::process::Stdio::null())
             .stderr(std::process::Stdio::null())
@@ -206,14 +322,23 @@ fn killed_run_leaves_readable_output() {
         std::thread::sleep(std::time::Duration::from_millis(400 + 170 * round));
         child.kill().unwrap(); // SIGKILL on Unix
         child.wait().unwrap();
-        let pvd = std::fs::read_to_string(dir.join("run.pvd")).expect("the collection exists and is complete");
-        assert!(pvd.trim_end().ends_with("</VTKFile>"), "truncated collection");
-        let files: Vec<&str> = pvd.lines().filter_map(|l| l.split("file=\"").nth(1)).map(|r| r.split('"').next().unwrap()).collect();
+        let pvd = std::fs::read_to_string(dir.join("run.pvd"))
+            .expect("the collection exists and is complete");
+        assert!(
+            pvd.trim_end().ends_with("</VTKFile>"),
+            "truncated collection"
+        );
+        let files: Vec<&str> = pvd
+            .lines()
+            .filter_map(|l| l.split("file=\"").nth(1))
+            .map(|r| r.split('"').next().unwrap())
+            .collect();
         assert!(!files.is_empty(), "no frame was written in time");
         for f in &files {
             Vtk::import(dir.join(f)).unwrap_or_else(|e| panic!("listed frame {f} unreadable: {e}"));
         }
-        Checkpoint::load(&dir.join("run.ckpt"), &bar(), 1).expect("the last checkpoint is readable");
+        Checkpoint::load(&dir.join("run.ckpt"), &bar(), 1)
+            .expect("the last checkpoint is readable");
         std::fs::remove_dir_all(&dir).ok();
     }
 }

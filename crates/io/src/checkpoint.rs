@@ -100,31 +100,54 @@ impl Checkpoint {
     /// Load from `path` for `body`; refuses a checkpoint of another case (`digest`) or body.
     pub fn load(path: &Path, body: &Body, digest: u64) -> Result<Self, IoError> {
         let bytes = std::fs::read(path).map_err(io(path))?;
-        let bad = |why: String| IoError::Format { path: path.to_path_buf(), why };
+        let bad = |why: String| IoError::Format {
+            path: path.to_path_buf(),
+            why,
+        };
         // Header (signature, version, four u64) plus the checksum, before anything is read.
         if bytes.len() < 8 + 4 + 32 + 8 || &bytes[..8] != MAGIC {
-            return Err(bad("it does not start with the hooke checkpoint signature".into()));
+            return Err(bad(
+                "it does not start with the hooke checkpoint signature".into()
+            ));
         }
         let (body_bytes, tail) = bytes.split_at(bytes.len() - 8);
         if fnv1a(body_bytes).to_le_bytes() != tail {
-            return Err(bad("checksum mismatch: the file is truncated or corrupted".into()));
+            return Err(bad(
+                "checksum mismatch: the file is truncated or corrupted".into()
+            ));
         }
-        let mut r = Reader { b: body_bytes, at: 8 };
+        let mut r = Reader {
+            b: body_bytes,
+            at: 8,
+        };
         let version = u32::from_le_bytes(r.take(4).try_into().unwrap());
         if version != VERSION {
-            return Err(bad(format!("version {version}, this hooke reads version {VERSION}")));
+            return Err(bad(format!(
+                "version {version}, this hooke reads version {VERSION}"
+            )));
         }
         let found = r.u64();
         if found != digest {
-            return Err(IoError::DigestMismatch { path: path.to_path_buf(), found, expected: digest });
+            return Err(IoError::DigestMismatch {
+                path: path.to_path_buf(),
+                found,
+                expected: digest,
+            });
         }
         let (n, springs) = (r.u64() as usize, r.u64() as usize);
         if n != body.nodes() || springs != body.springs() {
-            return Err(bad(format!("it holds {n} nodes and {springs} springs, the body has {} and {}", body.nodes(), body.springs())));
+            return Err(bad(format!(
+                "it holds {n} nodes and {springs} springs, the body has {} and {}",
+                body.nodes(),
+                body.springs()
+            )));
         }
         let expected = 8 + 4 + 8 * 4 + 8 * 12 + 16 + 48 * n + springs;
         if body_bytes.len() != expected {
-            return Err(bad(format!("{} bytes where {expected} were expected", body_bytes.len())));
+            return Err(bad(format!(
+                "{} bytes where {expected} were expected",
+                body_bytes.len()
+            )));
         }
         let step = r.u64();
         let f: Vec<Real> = (0..12).map(|_| r.f64()).collect();
@@ -151,12 +174,28 @@ impl Checkpoint {
         state.time = f[0];
         let integrator = IntegratorCheckpoint {
             dt: f[1],
-            ledger: Ledger { external_work: f[2], boundary_work: f[3], body_work: f[4], dissipated: f[5], released: f[6] },
+            ledger: Ledger {
+                external_work: f[2],
+                boundary_work: f[3],
+                body_work: f[4],
+                dissipated: f[5],
+                released: f[6],
+            },
             initial: f[7],
             initial_power: f[8],
-            stable: StableStep { lambda_max: f[9], dt_critical: f[10], lambda_bound: f[11] },
+            stable: StableStep {
+                lambda_max: f[9],
+                dt_critical: f[10],
+                lambda_bound: f[11],
+            },
         };
-        Ok(Checkpoint { digest: found, state, integrator, broken, released })
+        Ok(Checkpoint {
+            digest: found,
+            state,
+            integrator,
+            broken,
+            released,
+        })
     }
 }
 

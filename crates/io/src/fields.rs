@@ -30,7 +30,14 @@ pub fn derived(body: &Body, state: &State) -> Derived {
             }
             let [i, j] = bonds.ends[b].map(|v| v as usize);
             let rest = bonds.rest[b];
-            tension(body.k[b], rest, spring_geometry(lat, &state.u, i, j, rest).dl, body.q, pool[i], pool[j])
+            tension(
+                body.k[b],
+                rest,
+                spring_geometry(lat, &state.u, i, j, rest).dl,
+                body.q,
+                pool[i],
+                pool[j],
+            )
         })
         .collect();
     let v = lat.cell_volume;
@@ -48,7 +55,11 @@ pub fn derived(body: &Body, state: &State) -> Derived {
                 pi += body.k[b] * rest * dl;
             }
         }
-        let disp = if state.norm[i] > 0.0 { 0.5 * body.q * pi * pi / state.norm[i] } else { 0.0 };
+        let disp = if state.norm[i] > 0.0 {
+            0.5 * body.q * pi * pi / state.norm[i]
+        } else {
+            0.0
+        };
         energy_density[i] = (direct + disp) / v;
         let s: Matrix = law::node_virial(body, &state.u, &t, i);
         for r in 0..3 {
@@ -57,5 +68,9 @@ pub fn derived(body: &Body, state: &State) -> Derived {
             }
         }
     }
-    Derived { pool, energy_density, stress }
+    Derived {
+        pool,
+        energy_density,
+        stress,
+    }
 }

@@ -13,7 +13,8 @@ use std::path::{Path, PathBuf};
 
 use hooke_core::{Body, Coords, Real, State};
 use vtkio::model::{
-    Attribute, Attributes, ByteOrder, CellType, Cells, DataArray, DataSet, ElementType, UnstructuredGridPiece, Version, VertexNumbers, Vtk,
+    Attribute, Attributes, ByteOrder, CellType, Cells, DataArray, DataSet, ElementType,
+    UnstructuredGridPiece, Version, VertexNumbers, Vtk,
 };
 
 use crate::error::{io, IoError};
@@ -40,13 +41,22 @@ pub struct VtkSeries {
 }
 
 /// Write `bytes` to `path` through a temporary file in the same directory and a rename.
-pub fn write_atomic(path: &Path, write: impl FnOnce(&mut dyn Write) -> Result<(), IoError>) -> Result<(), IoError> {
-    let tmp = path.with_extension(format!("{}.partial", path.extension().and_then(|e| e.to_str()).unwrap_or("tmp")));
+pub fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&mut dyn Write) -> Result<(), IoError>,
+) -> Result<(), IoError> {
+    let tmp = path.with_extension(format!(
+        "{}.partial",
+        path.extension().and_then(|e| e.to_str()).unwrap_or("tmp")
+    ));
     {
         let file = fs::File::create(&tmp).map_err(io(&tmp))?;
         let mut w = BufWriter::new(file);
         write(&mut w)?;
-        let file = w.into_inner().map_err(|e| IoError::Io { path: tmp.clone(), source: e.into_error() })?;
+        let file = w.into_inner().map_err(|e| IoError::Io {
+            path: tmp.clone(),
+            source: e.into_error(),
+        })?;
         file.sync_all().map_err(io(&tmp))?;
     }
     fs::rename(&tmp, path).map_err(io(path))
@@ -56,11 +66,22 @@ impl VtkSeries {
     /// A new series in `dir` (created if needed). Fails at once, with the reason, when the
     /// directory cannot be written, so a run never starts only to lose its output.
     pub fn create(dir: &Path, stem: &str, springs: bool) -> Result<Self, IoError> {
-        fs::create_dir_all(dir).map_err(|e| IoError::NotWritable { path: dir.to_path_buf(), why: e.to_string() })?;
+        fs::create_dir_all(dir).map_err(|e| IoError::NotWritable {
+            path: dir.to_path_buf(),
+            why: e.to_string(),
+        })?;
         let probe = dir.join(format!(".{stem}.probe"));
-        fs::write(&probe, b"hooke").map_err(|e| IoError::NotWritable { path: dir.to_path_buf(), why: e.to_string() })?;
+        fs::write(&probe, b"hooke").map_err(|e| IoError::NotWritable {
+            path: dir.to_path_buf(),
+            why: e.to_string(),
+        })?;
         let _ = fs::remove_file(&probe);
-        Ok(VtkSeries { dir: dir.to_path_buf(), stem: stem.to_string(), springs, frames: Vec::new() })
+        Ok(VtkSeries {
+            dir: dir.to_path_buf(),
+            stem: stem.to_string(),
+            springs,
+            frames: Vec::new(),
+        })
     }
 
     /// Continue the series of a previous run in `dir`, keeping the frames its `.pvd` lists up
@@ -70,8 +91,16 @@ impl VtkSeries {
         let pvd = s.pvd_path();
         if let Ok(text) = fs::read_to_string(&pvd) {
             for line in text.lines().filter(|l| l.contains("<DataSet")) {
-                let attr = |name: &str| line.split(&format!("{name}=\"")).nth(1).and_then(|r| r.split('"').next()).map(str::to_string);
-                if let (Some(t), Some(f)) = (attr("timestep").and_then(|t| t.parse::<Real>().ok()), attr("file")) {
+                let attr = |name: &str| {
+                    line.split(&format!("{name}=\""))
+                        .nth(1)
+                        .and_then(|r| r.split('"').next())
+                        .map(str::to_string)
+                };
+                if let (Some(t), Some(f)) = (
+                    attr("timestep").and_then(|t| t.parse::<Real>().ok()),
+                    attr("file"),
+                ) {
                     if t <= until {
                         s.frames.push((t, f));
                     }
@@ -92,11 +121,21 @@ impl VtkSeries {
     }
 
     /// Write one frame of `state` and update the collection. Returns the frame's path.
-    pub fn write(&mut self, body: &Body, state: &State, extras: FrameExtras) -> Result<PathBuf, IoError> {
+    pub fn write(
+        &mut self,
+        body: &Body,
+        state: &State,
+        extras: FrameExtras,
+    ) -> Result<PathBuf, IoError> {
         let name = format!("{}_{:06}.vtu", self.stem, state.step);
         let path = self.dir.join(&name);
         let vtk = frame_vtk(body, state, extras, self.springs);
-        write_atomic(&path, |w| vtk.write_xml(w).map_err(|e| IoError::Vtk { path: path.clone(), msg: e.to_string() }))?;
+        write_atomic(&path, |w| {
+            vtk.write_xml(w).map_err(|e| IoError::Vtk {
+                path: path.clone(),
+                msg: e.to_string(),
+            })
+        })?;
         self.frames.retain(|(_, f)| f != &name);
         self.frames.push((state.time, name));
         self.write_pvd()?;
@@ -108,7 +147,9 @@ impl VtkSeries {
         let mut text = String::from("<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n");
         for (t, f) in &self.frames {
             // 17 significant digits: the time reads back exactly.
-            text.push_str(&format!("    <DataSet timestep=\"{t:.17e}\" group=\"\" part=\"0\" file=\"{f}\"/>\n"));
+            text.push_str(&format!(
+                "    <DataSet timestep=\"{t:.17e}\" group=\"\" part=\"0\" file=\"{f}\"/>\n"
+            ));
         }
         text.push_str("  </Collection>\n</VTKFile>\n");
         write_atomic(&path, |w| w.write_all(text.as_bytes()).map_err(io(&path)))
@@ -120,11 +161,22 @@ fn vectors(name: &str, c: &Coords) -> Attribute {
     for i in 0..c.len() {
         data.extend([c.x[i], c.y[i], c.z[i]]);
     }
-    Attribute::DataArray(DataArray { name: name.into(), elem: ElementType::Vectors, data: data.into() })
+    Attribute::DataArray(DataArray {
+        name: name.into(),
+        elem: ElementType::Vectors,
+        data: data.into(),
+    })
 }
 
 fn scalars(name: &str, data: Vec<Real>) -> Attribute {
-    Attribute::DataArray(DataArray { name: name.into(), elem: ElementType::Scalars { num_comp: 1, lookup_table: None }, data: data.into() })
+    Attribute::DataArray(DataArray {
+        name: name.into(),
+        elem: ElementType::Scalars {
+            num_comp: 1,
+            lookup_table: None,
+        },
+        data: data.into(),
+    })
 }
 
 /// The VTK model of one frame.
@@ -158,11 +210,18 @@ pub fn frame_vtk(body: &Body, state: &State, extras: FrameExtras, springs: bool)
     point.push(scalars("pool_ratio", d.pool));
     point.push(scalars("strain_energy_density", d.energy_density));
     let stress: Vec<Real> = d.stress.iter().flatten().copied().collect();
-    point.push(Attribute::DataArray(DataArray { name: "stress".into(), elem: ElementType::Tensors, data: stress.into() }));
+    point.push(Attribute::DataArray(DataArray {
+        name: "stress".into(),
+        elem: ElementType::Tensors,
+        data: stress.into(),
+    }));
     if let Some(r) = extras.region {
         point.push(Attribute::DataArray(DataArray {
             name: "region".into(),
-            elem: ElementType::Scalars { num_comp: 1, lookup_table: None },
+            elem: ElementType::Scalars {
+                num_comp: 1,
+                lookup_table: None,
+            },
             data: r.to_vec().into(),
         }));
     }
@@ -173,8 +232,17 @@ pub fn frame_vtk(body: &Body, state: &State, extras: FrameExtras, springs: bool)
         file_path: None,
         data: DataSet::inline(UnstructuredGridPiece {
             points: points.into(),
-            cells: Cells { cell_verts: VertexNumbers::XML { connectivity, offsets }, types },
-            data: Attributes { point, cell: Vec::new() },
+            cells: Cells {
+                cell_verts: VertexNumbers::XML {
+                    connectivity,
+                    offsets,
+                },
+                types,
+            },
+            data: Attributes {
+                point,
+                cell: Vec::new(),
+            },
         }),
     }
 }
