@@ -3,6 +3,7 @@
 mod bench;
 mod moduli;
 mod plot;
+mod run;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -26,6 +27,11 @@ pub enum Command {
     /// Throughput of explicit steps on a block (unique spring-updates per second), or with
     /// --static the solve time of the paper's block.
     Bench(bench::BenchArgs),
+    /// Run a case file (TOML): VTK frames, energy history and checkpoints in the output folder.
+    Run(run::RunArgs),
+    /// Validate a case file and print what would run: nodes, springs, k and q, dt, memory,
+    /// expected time.
+    Check(run::CheckArgs),
 }
 
 /// An error in what the user asked for (exit code 2), as opposed to a run failure (exit 1).
@@ -40,9 +46,12 @@ impl std::fmt::Display for InputError {
 
 impl std::error::Error for InputError {}
 
-/// Exit code for an error: 2 for bad input anywhere in the chain, 1 otherwise.
+/// Exit code for an error: 2 for bad input anywhere in the chain, 130 for Ctrl-C, 1 otherwise.
 pub fn exit_code(e: &anyhow::Error) -> u8 {
     for cause in e.chain() {
+        if cause.is::<run::Interrupted>() {
+            return 130;
+        }
         if cause.is::<InputError>() {
             return 2;
         }
@@ -66,5 +75,7 @@ pub fn run(cli: Cli) -> Result<()> {
     pool.install(|| match cli.command {
         Command::Moduli(args) => moduli::run(args),
         Command::Bench(args) => bench::run(args),
+        Command::Run(args) => run::run(args),
+        Command::Check(args) => run::check(args),
     })
 }

@@ -1,0 +1,675 @@
+//! Validation and building.
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use hooke_core::dynamics::{IntegratorOptions, TimeStep};
+use hooke_core::loading::{Loading, Motion, Prescribed, TimeFunction};
+use hooke_core::material::{self, Elastic, PlaneModel};
+use hooke_core::{Body, Lattice, LatticeKind, Real, State, Vector};
+use hooke_fracture::{Crack, CriticalStretch, Fracture};
+use toml::Spanned;
+
+use crate::error::{line_col, CaseError};
+use crate::schema::*;
+
+/// A case, built and ready to run.
+#[derive(Debug)]
+pub struct Simulation {
+    pub body: Body,
+    /// Initial state: pre-cracks applied, initial velocity set.
+    pub state: State,
+    pub loading: Loading,
+    pub fracture: Option<Fracture>,
+    pub options: IntegratorOptions,
+    /// Simulated time to reach (s).
+    pub end_time: Real,
+    /// Time between output frames (s).
+    pub output_every: Real,
+    /// Time between checkpoints (s).
+    pub checkpoint_every: Real,
+    /// Write intact springs as line cells.
+    pub springs: bool,
+    /// Spring stiffness k (N/m) and dispersion ratio q of the material.
+    pub k: Real,
+    pub q: Real,
+    /// Springs removed by pre-cracks.
+    pub precracked: usize,
+}
+
+struct Ctx<'a> {
+    file: &'a Path,
+    text: &'a str,
+}
+
+impl Ctx<'_> {
+    fn err(
+        &self,
+        span: Range<usize>,
+        key: impl Into<String>,
+        message: impl Into<String>,
+    ) -> CaseError {
+        let (line, column) = line_col(self.text, span.start);
+        CaseError {
+            file: self.file.to_path_buf(),
+            line,
+            column,
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+
+    fn positive(&self, v: &Spanned<Real>, key: &str, unit: &str) -> Result<Real, CaseError> {
+        let x = *v.get_ref();
+        if x.is_finite() && x > 0.0 {
+            Ok(x)
+        } else {
+            Err(self.err(
+                v.span(),
+                key,
+                format!("{x} is not a positive number; give a positive value in {unit}"),
+            ))
+        }
+    }
+
+    fn point(&self, v: &Spanned<Vec<Real>>, key: &str, dim: usize) -> Result<Vector, CaseError> {
+        let p = v.get_ref();
+        if !(p.len() == dim || (dim == 2 && p.len() == 3)) || !p.iter().all(|x| x.is_finite()) {
+            return Err(self.err(
+                v.span(),
+                key,
+                format!(
+                    "expected {dim} finite coordinates in m, e.g. {}",
+                    if dim == 3 {
+                        "[0.0, 0.0, 0.0]"
+                    } else {
+                        "[0.0, 0.0]"
+                    }
+                ),
+            ));
+        }
+        Ok(Vector::new(
+            p[0],
+            p[1],
+            if p.len() > 2 { p[2] } else { 0.0 },
+        ))
+    }
+}
+
+fn axis_index(ctx: &Ctx, a: &Spanned<String>, key: &str, dim: usize) -> Result<usize, CaseError> {
+    match (a.get_ref().as_str(), dim) {
+        ("x", _) => Ok(0),
+        ("y", _) => Ok(1),
+        ("z", 3) => Ok(2),
+        (other, _) => Err(ctx.err(
+            a.span(),
+            key,
+            format!(
+                "unknown axis \"{other}\"; use \"x\", \"y\"{}",
+                if dim == 3 {
+                    " or \"z\""
+                } else {
+                    " (the lattice is 2D)"
+                }
+            ),
+        )),
+    }
+}
+
+/// Read, validate and build the case at `path`, with the lattice spacing divided by `scale`.
+pub fn load(path: &Path, scale: Real) -> Result<Simulation, CaseError> {
+    let text = std::fs::read_to_string(path).map_err(|e| CaseError {
+        file: path.to_path_buf(),
+        line: 0,
+        column: 0,
+        key: String::new(),
+        message: format!("cannot read the case file: {e}"),
+    })?;
+    load_str(path, &text, scale)
+}
+
+/// As [`load`], from text (`path` only names the file in messages).
+pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, CaseError> {
+    let file: PathBuf = path.to_path_buf();
+    let ctx = Ctx { file: &file, text };
+    if !(scale.is_finite() && scale > 0.0) {
+        return Err(CaseError {
+            file,
+            line: 0,
+            column: 0,
+            key: "--scale".into(),
+            message: format!("{scale}: give a positive factor (0.25 divides the resolution by 4)"),
+        });
+    }
+    let raw: RawCase = toml::from_str(text).map_err(|e| {
+        let mut span = e.span().unwrap_or(0..0);
+        let mut key = String::from("(syntax)");
+        // toml reports an unknown key at the start of its table: point at the key itself.
+        if let Some(name) = e
+            .message()
+            .split("unknown field `")
+            .nth(1)
+            .and_then(|r| r.split('`').next())
+        {
+            key = name.to_string();
+            let mut at = span.start;
+            for line in text[span.start.min(text.len())..].split_inclusive('\n') {
+                let trimmed = line.trim_start();
+                if trimmed.starts_with(name)
+                    && trimmed[name.len()..]
+                        .trim_start()
+                        .starts_with(['=', '.', ' '])
+                {
+                    span = (at + line.len() - trimmed.len())..(at + line.len());
+                    break;
+                }
+                at += line.len();
+            }
+        } else if let Some(name) = e
+            .message()
+            .split("missing field `")
+            .nth(1)
+            .and_then(|r| r.split('`').next())
+        {
+            key = name.to_string();
+        }
+        if key == "(syntax)" {
+            // A value of the wrong type: name the key written on the line the error points at.
+            let line_start = text[..span.start.min(text.len())]
+                .rfind('\n')
+                .map_or(0, |p| p + 1);
+            let line = text[line_start..].lines().next().unwrap_or("");
+            if let Some((k, _)) = line.split_once('=') {
+                let k = k.trim();
+                if !k.is_empty()
+                    && k.chars()
+                        .all(|c| c.is_alphanumeric() || c == '_' || c == '.')
+                {
+                    key = k.to_string();
+                }
+            }
+        }
+        let (line, column) = line_col(text, span.start);
+        // toml names the unknown key and lists the expected ones in its message.
+        let msg = e.message().trim().replace('\n', " ");
+        let fix = if msg.contains("unknown field") {
+            " (see docs/case-format.md for the keys)"
+        } else if msg.contains("missing field") {
+            " (add it; see docs/case-format.md)"
+        } else {
+            ""
+        };
+        CaseError {
+            file: file.clone(),
+            line,
+            column,
+            key,
+            message: format!("{msg}{fix}"),
+        }
+    })?;
+
+    // Lattice.
+    let l = &raw.lattice;
+    let kind = match l.kind.get_ref().as_str() {
+        "cubic" => LatticeKind::Cubic,
+        "hex" => LatticeKind::Hex,
+        other => return Err(ctx.err(
+            l.kind.span(),
+            "lattice.kind",
+            format!(
+                "unknown lattice \"{other}\"; use \"cubic\" (3D Ladd) or \"hex\" (2D hexagonal)"
+            ),
+        )),
+    };
+    let dim = kind.dim();
+    let a = ctx.positive(&l.spacing, "lattice.spacing", "m")? / scale;
+    let h = match (&l.thickness, kind) {
+        (Some(t), LatticeKind::Hex) => ctx.positive(t, "lattice.thickness", "m")?,
+        (None, LatticeKind::Hex) => {
+            return Err(ctx.err(
+                l.kind.span(),
+                "lattice.thickness",
+                "a 2D (hex) lattice is a plate: give its thickness in m",
+            ))
+        }
+        (Some(t), LatticeKind::Cubic) => {
+            return Err(ctx.err(
+                t.span(),
+                "lattice.thickness",
+                "only 2D (hex) lattices have a thickness; remove it",
+            ))
+        }
+        (None, LatticeKind::Cubic) => 1.0,
+    };
+    let plane = match &l.plane {
+        None => PlaneModel::Stress,
+        Some(p) if kind == LatticeKind::Cubic => {
+            return Err(ctx.err(
+                p.span(),
+                "lattice.plane",
+                "only 2D (hex) lattices take a plane model; remove it",
+            ))
+        }
+        Some(p) => match p.get_ref().as_str() {
+            "stress" => PlaneModel::Stress,
+            "strain" => PlaneModel::Strain,
+            other => {
+                return Err(ctx.err(
+                    p.span(),
+                    "lattice.plane",
+                    format!("unknown plane model \"{other}\"; use \"stress\" or \"strain\""),
+                ))
+            }
+        },
+    };
+
+    // Geometry: a box filled with the lattice.
+    let g = &raw.geometry.bbox;
+    let lo = ctx.point(&g.min, "geometry.box.min", dim)?;
+    let hi = ctx.point(&g.max, "geometry.box.max", dim)?;
+    let size = hi - lo;
+    if (0..dim).any(|c| size[c] <= 0.0) {
+        return Err(ctx.err(
+            g.max.span(),
+            "geometry.box",
+            "the box is empty: every max coordinate must exceed its min",
+        ));
+    }
+    // Counted in floating point first: a mistyped spacing must give an error, not an overflow.
+    let countf = |len: Real, pitch: Real| (len / pitch + 1e-9).floor() + 1.0;
+    let count = |len: Real, pitch: Real| countf(len, pitch) as usize;
+    let total = match kind {
+        LatticeKind::Cubic => countf(size.x, a) * countf(size.y, a) * countf(size.z, a),
+        LatticeKind::Hex => countf(size.x, a) * countf(size.y, a * 3f64.sqrt() / 2.0),
+    };
+    // About 600 bytes per node at peak: 4e7 nodes is what this 24 GiB class of machine holds.
+    const MAX_NODES: Real = 4e7;
+    if !(total <= MAX_NODES) {
+        return Err(ctx.err(l.spacing.span(), "lattice.spacing", format!("{total:.3e} nodes would not fit in memory (at most {MAX_NODES:e}); use a larger spacing or --scale below 1")));
+    }
+    let mut lattice = match kind {
+        LatticeKind::Cubic => {
+            let n = [count(size.x, a), count(size.y, a), count(size.z, a)];
+            if n.iter().any(|&v| v < 2) {
+                return Err(ctx.err(g.max.span(), "geometry.box", format!("the box holds {n:?} nodes at spacing {a:e} m; make it larger or the spacing smaller")));
+            }
+            Lattice::cubic_box(n, a)
+        }
+        LatticeKind::Hex => {
+            let (nx, rows) = (count(size.x, a), count(size.y, a * 3f64.sqrt() / 2.0));
+            if nx < 2 || rows < 2 {
+                return Err(ctx.err(g.max.span(), "geometry.box", format!("the box holds {nx} x {rows} nodes at spacing {a:e} m; make it larger or the spacing smaller")));
+            }
+            Lattice::hex_box(nx, rows, a, h)
+        }
+    }
+    .map_err(|e| ctx.err(g.max.span(), "geometry.box", e.to_string()))?;
+    for i in 0..lattice.len() {
+        lattice.pos.x[i] += lo.x;
+        lattice.pos.y[i] += lo.y;
+        if dim == 3 {
+            lattice.pos.z[i] += lo.z;
+        }
+    }
+
+    // Material.
+    let m = &raw.material;
+    let elastic = Elastic {
+        youngs: *m.youngs.get_ref(),
+        poisson: *m.poisson.get_ref(),
+        density: *m.density.get_ref(),
+    };
+    material::check_elastic(&elastic).map_err(|e| {
+        let msg = e.to_string();
+        let (span, key) = if msg.contains("Poisson") {
+            (m.poisson.span(), "material.poisson")
+        } else if msg.contains("Young") {
+            (m.youngs.span(), "material.youngs")
+        } else {
+            (m.density.span(), "material.density")
+        };
+        ctx.err(span, key, msg)
+    })?;
+    let body = Body::new(lattice, &elastic, plane)
+        .map_err(|e| ctx.err(m.poisson.span(), "material.poisson", e.to_string()))?;
+    let (k, q) = (body.k[0], body.q);
+    let mut state = State::new(&body);
+
+    // Fracture.
+    let criterion = match (&m.fracture_energy, &m.critical_stretch) {
+        (Some(g), None) => Some(
+            CriticalStretch::from_fracture_energy(
+                kind,
+                k,
+                a,
+                q,
+                h,
+                ctx.positive(g, "material.fracture_energy", "J/m^2")?,
+            )
+            .map_err(|e| ctx.err(g.span(), "material.fracture_energy", e.to_string()))?,
+        ),
+        (None, Some(s)) => Some(
+            CriticalStretch::new(ctx.positive(
+                s,
+                "material.critical_stretch",
+                "(dimensionless)",
+            )?)
+            .map_err(|e| ctx.err(s.span(), "material.critical_stretch", e.to_string()))?,
+        ),
+        (Some(g), Some(_)) => {
+            return Err(ctx.err(
+                g.span(),
+                "material.fracture_energy",
+                "give fracture_energy or critical_stretch, not both",
+            ))
+        }
+        (None, None) => None,
+    };
+    let mut fracture = criterion.map(|c| Fracture::new(&body, Box::new(c)));
+    let mut precracked = 0;
+    for (n, c) in raw.precrack.iter().enumerate() {
+        let key = format!("precrack[{n}]");
+        let (crack, span) = match (&c.segment, &c.polygon) {
+            (Some(s), None) => {
+                let p = s.get_ref();
+                if dim != 2 || p.len() != 2 || p.iter().any(|q| q.len() != 2) {
+                    return Err(ctx.err(s.span(), &key, "a segment is two 2D points [[x, y], [x, y]] and cuts 2D (hex) bodies; 3D bodies take a polygon"));
+                }
+                (
+                    Crack::Segment {
+                        a: [p[0][0], p[0][1]],
+                        b: [p[1][0], p[1][1]],
+                    },
+                    s.span(),
+                )
+            }
+            (None, Some(s)) => {
+                let p = s.get_ref();
+                if dim != 3 || p.len() < 3 || p.iter().any(|q| q.len() != 3) {
+                    return Err(ctx.err(s.span(), &key, "a polygon is three or more 3D points [[x, y, z], ...] and cuts 3D (cubic) bodies; 2D bodies take a segment"));
+                }
+                (
+                    Crack::Polygon {
+                        vertices: p.iter().map(|q| [q[0], q[1], q[2]]).collect(),
+                    },
+                    s.span(),
+                )
+            }
+            _ => {
+                return Err(ctx.err(
+                    0..0,
+                    &key,
+                    "give exactly one of segment = [[x, y], [x, y]] or polygon = [[x, y, z], ...]",
+                ))
+            }
+        };
+        let fr = fracture.get_or_insert_with(|| {
+            Fracture::new(
+                &body,
+                Box::new(CriticalStretch {
+                    s_c: Real::INFINITY,
+                }),
+            )
+        });
+        precracked += fr.precrack(&body, &mut state, &[crack]).map_err(|e| {
+            ctx.err(
+                span.clone(),
+                &key,
+                e.to_string().replace("pre-crack 0: ", ""),
+            )
+        })?;
+    }
+
+    // Regions.
+    let select = |r: &Spanned<RawRegion>, key: &str| -> Result<Vec<u32>, CaseError> {
+        let reg = r.get_ref();
+        let nodes: Vec<u32> = match (&reg.bbox, &reg.plane, &reg.face) {
+            (None, None, Some(f)) => {
+                let s = f.get_ref().as_str();
+                let (axis, high) = match s {
+                    "x-" => (0, false),
+                    "x+" => (0, true),
+                    "y-" => (1, false),
+                    "y+" => (1, true),
+                    "z-" if dim == 3 => (2, false),
+                    "z+" if dim == 3 => (2, true),
+                    _ => return Err(ctx.err(f.span(), format!("{key}.face"), format!("unknown face \"{s}\"; use \"x-\", \"x+\", \"y-\", \"y+\"{}", if dim == 3 { ", \"z-\" or \"z+\"" } else { " (2D)" }))),
+                };
+                let c = body.lattice.pos.comp(axis);
+                let ext = if high { c.iter().cloned().fold(Real::NEG_INFINITY, Real::max) } else { c.iter().cloned().fold(Real::INFINITY, Real::min) };
+                // A hex lattice's odd rows are shifted by a/2: its x faces are zigzag.
+                let tol = if kind == LatticeKind::Hex && axis == 0 { 0.51 * a } else { 1e-6 * a };
+                (0..body.nodes() as u32).filter(|&i| (c[i as usize] - ext).abs() <= tol).collect()
+            }
+            (Some(b), None, None) => {
+                let (lo, hi) = (ctx.point(&b.min, &format!("{key}.box.min"), dim)?, ctx.point(&b.max, &format!("{key}.box.max"), dim)?);
+                (0..body.nodes() as u32).filter(|&i| { let p = body.lattice.pos.get(i as usize); (0..dim).all(|c| p[c] >= lo[c] && p[c] <= hi[c]) }).collect()
+            }
+            (None, Some(p), None) => {
+                let c = axis_index(&ctx, &p.axis, &format!("{key}.plane.axis"), dim)?;
+                let tol = match &p.tolerance { Some(t) => ctx.positive(t, &format!("{key}.plane.tolerance"), "m")?, None => 0.5 * a };
+                let at = *p.at.get_ref();
+                (0..body.nodes() as u32).filter(|&i| (body.lattice.pos.comp(c)[i as usize] - at).abs() <= tol).collect()
+            }
+            _ => return Err(ctx.err(r.span(), key, "give exactly one of box = { min = [...], max = [...] }, plane = { axis = \"x\", at = 0.0 } or face = \"x+\"")),
+        };
+        if nodes.is_empty() {
+            return Err(ctx.err(
+                r.span(),
+                key,
+                "the region selects no node: check it against the geometry (and --scale)",
+            ));
+        }
+        Ok(nodes)
+    };
+    let function = |mo: &RawMotion, key: &str| -> Result<TimeFunction, CaseError> {
+        match (&mo.value, &mo.table) {
+            (Some(v), None) => {
+                let v = *v.get_ref();
+                Ok(match &mo.ramp {
+                    None => TimeFunction::Constant(v),
+                    Some(r) => {
+                        let t1 = ctx.positive(r, &format!("{key}.ramp"), "s")?;
+                        if mo.smooth {
+                            TimeFunction::SmoothRamp {
+                                t0: 0.0,
+                                t1,
+                                from: 0.0,
+                                to: v,
+                            }
+                        } else {
+                            TimeFunction::Ramp {
+                                t0: 0.0,
+                                t1,
+                                from: 0.0,
+                                to: v,
+                            }
+                        }
+                    }
+                })
+            }
+            (None, Some(t)) => {
+                let pts: Option<Vec<(Real, Real)>> = t
+                    .get_ref()
+                    .iter()
+                    .map(|p| (p.len() == 2).then(|| (p[0], p[1])))
+                    .collect();
+                let f = TimeFunction::Table(pts.ok_or_else(|| {
+                    ctx.err(
+                        t.span(),
+                        format!("{key}.table"),
+                        "each table entry is [time in s, value]",
+                    )
+                })?);
+                f.validate()
+                    .map_err(|e| ctx.err(t.span(), format!("{key}.table"), e.to_string()))?;
+                Ok(f)
+            }
+            _ => Err(ctx.err(
+                mo.axis.span(),
+                key,
+                "give value = ... (with an optional ramp = seconds) or table = [[t, value], ...]",
+            )),
+        }
+    };
+    let mut loading = Loading::default();
+    for (n, b) in raw.boundary.iter().enumerate() {
+        let key = format!("boundary[{n}]");
+        let nodes = select(&b.region, &format!("{key}.region"))?;
+        for ax in &b.fixed {
+            let axis = axis_index(&ctx, ax, &format!("{key}.fixed"), dim)?;
+            loading.prescribed.push(Prescribed {
+                nodes: nodes.clone(),
+                axis,
+                motion: Motion::Fixed,
+            });
+        }
+        for (list, name) in [(&b.velocity, "velocity"), (&b.displacement, "displacement")] {
+            for (j, mo) in list.iter().enumerate() {
+                let k2 = format!("{key}.{name}[{j}]");
+                let axis = axis_index(&ctx, &mo.axis, &format!("{k2}.axis"), dim)?;
+                let f = function(mo, &k2)?;
+                let motion = if name == "velocity" {
+                    Motion::Velocity(f)
+                } else {
+                    Motion::Displacement(f)
+                };
+                loading.prescribed.push(Prescribed {
+                    nodes: nodes.clone(),
+                    axis,
+                    motion,
+                });
+            }
+        }
+        for (j, tr) in b.traction.iter().enumerate() {
+            let k2 = format!("{key}.traction[{j}]");
+            let t = ctx.point(&tr.value, &format!("{k2}.value"), dim)?;
+            let normal = axis_index(&ctx, &tr.normal, &format!("{k2}.normal"), dim)?;
+            // A node's share of the face: its volume over the lattice pitch along the normal
+            // (a^2 for a cubic face; a h along a hex row, (sqrt(3)/2) a h across).
+            let pitch = match (kind, normal) {
+                (LatticeKind::Hex, 1) => a * 3f64.sqrt() / 2.0,
+                _ => a,
+            };
+            let area = body.lattice.cell_volume / pitch;
+            let scale_fn = match &tr.ramp {
+                None => TimeFunction::Constant(1.0),
+                Some(r) => {
+                    let t1 = ctx.positive(r, &format!("{k2}.ramp"), "s")?;
+                    if tr.smooth {
+                        TimeFunction::SmoothRamp {
+                            t0: 0.0,
+                            t1,
+                            from: 0.0,
+                            to: 1.0,
+                        }
+                    } else {
+                        TimeFunction::Ramp {
+                            t0: 0.0,
+                            t1,
+                            from: 0.0,
+                            to: 1.0,
+                        }
+                    }
+                }
+            };
+            loading.loads.push(hooke_core::loading::Load {
+                nodes: nodes.clone(),
+                force: t * area,
+                scale: scale_fn,
+            });
+        }
+        if b.no_fail {
+            if let Some(fr) = fracture.as_mut() {
+                fr.set_no_fail(&nodes);
+            }
+        }
+        if b.fixed.is_empty()
+            && b.velocity.is_empty()
+            && b.displacement.is_empty()
+            && b.traction.is_empty()
+            && !b.no_fail
+        {
+            return Err(ctx.err(b.region.span(), &key, "the boundary does nothing: give fixed, velocity, displacement, traction or no_fail = true"));
+        }
+    }
+    for (n, init) in raw.initial.iter().enumerate() {
+        let key = format!("initial[{n}]");
+        let v = ctx.point(&init.velocity, &format!("{key}.velocity"), dim)?;
+        let nodes: Vec<u32> = match &init.region {
+            Some(r) => select(r, &format!("{key}.region"))?,
+            None => (0..body.nodes() as u32).collect(),
+        };
+        for i in nodes {
+            state.v.set(i as usize, v);
+        }
+    }
+
+    // Solver and output.
+    let s = &raw.solver;
+    let end_time = ctx.positive(&s.end_time, "solver.end_time", "s")?;
+    let time_step = match (&s.dt, &s.safety) {
+        (Some(dt), None) => TimeStep::Fixed {
+            dt: ctx.positive(dt, "solver.dt", "s")?,
+            force: false,
+        },
+        (None, Some(sf)) => {
+            let v = *sf.get_ref();
+            if !(v > 0.0 && v <= 1.0) {
+                return Err(ctx.err(
+                    sf.span(),
+                    "solver.safety",
+                    format!("{v}: give 0 < safety <= 1 (default 0.8)"),
+                ));
+            }
+            TimeStep::Auto { safety: v }
+        }
+        (None, None) => TimeStep::default(),
+        (Some(dt), Some(_)) => {
+            return Err(ctx.err(dt.span(), "solver.dt", "give dt or safety, not both"))
+        }
+    };
+    let damping = match &s.damping {
+        Some(d) if !(d.get_ref().is_finite() && *d.get_ref() >= 0.0) => {
+            return Err(ctx.err(
+                d.span(),
+                "solver.damping",
+                "give zero or a positive coefficient in 1/s",
+            ))
+        }
+        Some(d) => *d.get_ref(),
+        None => 0.0,
+    };
+    let o = &raw.output;
+    let output_every = match &o.every {
+        Some(e) => ctx.positive(e, "output.every", "s")?,
+        None => end_time / 20.0,
+    };
+    let checkpoint_every = match &o.checkpoint_every {
+        Some(e) => ctx.positive(e, "output.checkpoint_every", "s")?,
+        None => end_time / 4.0,
+    };
+    let options = IntegratorOptions {
+        time_step,
+        damping,
+        damage_proof: fracture.is_some(),
+        ..Default::default()
+    };
+    loading
+        .validate(body.nodes())
+        .map_err(|e| ctx.err(0..0, "boundary", e.to_string()))?;
+    Ok(Simulation {
+        body,
+        state,
+        loading,
+        fracture,
+        options,
+        end_time,
+        output_every,
+        checkpoint_every,
+        springs: o.springs,
+        k,
+        q,
+        precracked,
+    })
+}

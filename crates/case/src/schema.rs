@@ -1,0 +1,151 @@
+//! The raw case-file schema, exactly as written in TOML (SI units). Unknown keys are refused.
+//! Values whose meaning is checked after parsing keep their location (`Spanned`), so that every
+//! error can point at the line and column. `docs/case-format.md` documents every key.
+
+use serde::Deserialize;
+use toml::Spanned;
+
+pub type Real = f64;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawCase {
+    pub lattice: RawLattice,
+    pub material: RawMaterial,
+    pub geometry: RawGeometry,
+    #[serde(default)]
+    pub precrack: Vec<RawCrack>,
+    #[serde(default)]
+    pub boundary: Vec<RawBoundary>,
+    #[serde(default)]
+    pub initial: Vec<RawInitial>,
+    pub solver: RawSolver,
+    #[serde(default)]
+    pub output: RawOutput,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawLattice {
+    pub kind: Spanned<String>,
+    pub spacing: Spanned<Real>,
+    pub thickness: Option<Spanned<Real>>,
+    pub plane: Option<Spanned<String>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawMaterial {
+    pub youngs: Spanned<Real>,
+    pub poisson: Spanned<Real>,
+    pub density: Spanned<Real>,
+    pub fracture_energy: Option<Spanned<Real>>,
+    pub critical_stretch: Option<Spanned<Real>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawBox {
+    pub min: Spanned<Vec<Real>>,
+    pub max: Spanned<Vec<Real>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawGeometry {
+    #[serde(rename = "box")]
+    pub bbox: RawBox,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawCrack {
+    pub segment: Option<Spanned<Vec<Vec<Real>>>>,
+    pub polygon: Option<Spanned<Vec<Vec<Real>>>>,
+}
+
+/// A node set: the nodes inside a box, within `tolerance` of a plane `axis = at`, or on a face
+/// of the body (`"x-"`, `"x+"`, `"y-"`, ...: the nodes at its extreme along that axis, whatever
+/// the resolution).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawRegion {
+    #[serde(rename = "box")]
+    pub bbox: Option<RawBox>,
+    pub plane: Option<RawPlane>,
+    pub face: Option<Spanned<String>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawPlane {
+    pub axis: Spanned<String>,
+    pub at: Spanned<Real>,
+    pub tolerance: Option<Spanned<Real>>,
+}
+
+/// A function of time: a constant, a ramp from 0 to `value` over `ramp` seconds (`smooth`:
+/// half-cosine), or a table of `[t, value]` points.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawMotion {
+    pub axis: Spanned<String>,
+    pub value: Option<Spanned<Real>>,
+    pub ramp: Option<Spanned<Real>>,
+    #[serde(default)]
+    pub smooth: bool,
+    pub table: Option<Spanned<Vec<Vec<Real>>>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawBoundary {
+    pub region: Spanned<RawRegion>,
+    #[serde(default)]
+    pub fixed: Vec<Spanned<String>>,
+    #[serde(default)]
+    pub velocity: Vec<RawMotion>,
+    #[serde(default)]
+    pub displacement: Vec<RawMotion>,
+    #[serde(default)]
+    pub traction: Vec<RawTraction>,
+    #[serde(default)]
+    pub no_fail: bool,
+}
+
+/// A traction (Pa) on the region's nodes, which lie on a face with outward normal along
+/// `normal`: each node carries the traction times its share of the face.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawTraction {
+    pub value: Spanned<Vec<Real>>,
+    pub normal: Spanned<String>,
+    pub ramp: Option<Spanned<Real>>,
+    #[serde(default)]
+    pub smooth: bool,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawInitial {
+    pub region: Option<Spanned<RawRegion>>,
+    pub velocity: Spanned<Vec<Real>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawSolver {
+    pub end_time: Spanned<Real>,
+    pub dt: Option<Spanned<Real>>,
+    pub safety: Option<Spanned<Real>>,
+    pub damping: Option<Spanned<Real>>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawOutput {
+    pub every: Option<Spanned<Real>>,
+    pub checkpoint_every: Option<Spanned<Real>>,
+    #[serde(default)]
+    pub springs: bool,
+}

@@ -1,0 +1,169 @@
+//! Case files never panic: broken files give their specific error at the right line and
+//! column, and random mutations of a valid file give a result or an error, never a panic.
+
+use std::path::Path;
+
+const BASE: &str = r#"
+[lattice]
+kind = "hex"
+spacing = 1.0e-3
+thickness = 1.0e-3
+
+[material]
+youngs = 72e9
+poisson = 0.22
+density = 2440
+fracture_energy = 3.8
+
+[geometry]
+box = { min = [0.0, 0.0], max = [10e-3, 6e-3] }
+
+[[precrack]]
+segment = [[-1e-3, 3.03e-3], [4e-3, 3.03e-3]]
+
+[[boundary]]
+region = { face = "y+" }
+velocity = [{ axis = "y", value = 0.5, ramp = 1e-6 }]
+no_fail = true
+
+[[boundary]]
+region = { box = { min = [-1.0, -1.0], max = [1.0, 0.5e-3] } }
+fixed = ["x", "y"]
+
+[solver]
+end_time = 1e-5
+"#;
+
+fn load(text: &str) -> Result<hooke_case::Simulation, hooke_case::CaseError> {
+    hooke_case::load_str(Path::new("case.toml"), text, 1.0)
+}
+
+#[test]
+fn the_base_case_is_valid() {
+    let sim = load(BASE).unwrap();
+    assert!(sim.precracked > 0 && sim.fracture.is_some() && sim.loading.prescribed.len() == 3);
+}
+
+/// Each broken file: (what is replaced, by what, the line of the error, text the message must
+/// contain).
+#[test]
+fn broken_case_files_name_line_column_and_key() {
+    let cases: &[(&str, &str, usize, &str)] = &[
+        (
+            "density = 2440",
+            "density = 2440\ncolour = \"red\"",
+            11,
+            "unknown field",
+        ),
+        ("youngs = 72e9", "youngs = \"72 GPa\"", 8, "invalid type"),
+        ("youngs = 72e9", "youngs = -72e9", 8, "material.youngs"),
+        ("poisson = 0.22", "poisson = 0.5", 9, "material.poisson"),
+        ("poisson = 0.22", "poisson = 0.5", 9, "-0.99 <= nu < 0.5"),
+        (
+            "max = [10e-3, 6e-3]",
+            "max = [0.0, 6e-3]",
+            14,
+            "geometry.box",
+        ),
+        (
+            "region = { face = \"y+\" }",
+            "region = { box = { min = [1.0, 1.0], max = [2.0, 2.0] } }",
+            20,
+            "selects no node",
+        ),
+        (
+            "segment = [[-1e-3, 3.03e-3], [4e-3, 3.03e-3]]",
+            "segment = [[20e-3, 3.03e-3], [30e-3, 3.03e-3]]",
+            17,
+            "cuts no spring",
+        ),
+        ("kind = \"hex\"", "kind = \"square\"", 3, "lattice.kind"),
+        ("end_time = 1e-5", "end_time = 0", 29, "solver.end_time"),
+        ("[solver]\nend_time = 1e-5", "[solver]", 28, "missing field"),
+        (
+            "axis = \"y\", value",
+            "axis = \"w\", value",
+            21,
+            "unknown axis",
+        ),
+        ("spacing = 1.0e-3", "spacing = 1.0e-12", 4, "would not fit"),
+    ];
+    for (from, to, line, needle) in cases {
+        assert!(BASE.contains(from), "test table: {from}");
+        let text = BASE.replacen(from, to, 1);
+        let e = load(&text).expect_err(&format!("{to} should be refused"));
+        let msg = e.to_string();
+        eprintln!("{to:?} -> {msg}");
+        assert!(
+            msg.starts_with(&format!("case.toml:{line}:")),
+            "{to}: expected line {line}: {msg}"
+        );
+        assert!(msg.contains(needle), "{to}: expected '{needle}' in: {msg}");
+    }
+}
+
+/// Random mutations of a valid case: deletions, duplications, swapped characters and numbers.
+/// Every one gives a simulation or an error; none panics.
+#[test]
+fn random_mutations_never_panic() {
+    let mut x: u64 = 0x1234_5678_9abc_def1;
+    let mut rnd = |n: usize| {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x % n.max(1) as u64) as usize
+    };
+    let junk = [
+        "",
+        "0",
+        "-1",
+        "1e308",
+        "nan",
+        "\"",
+        "[",
+        "]",
+        "{",
+        "}",
+        "=",
+        ",",
+        "\n",
+        "[[boundary]]\n",
+        "x",
+        "1e-12",
+        "inf",
+    ];
+    let (mut ok, mut err) = (0, 0);
+    for _ in 0..1500 {
+        let mut t: Vec<char> = BASE.chars().collect();
+        for _ in 0..1 + rnd(3) {
+            let at = rnd(t.len());
+            match rnd(3) {
+                0 => {
+                    let len = rnd(8).min(t.len() - at);
+                    t.drain(at..at + len);
+                }
+                1 => {
+                    let j = junk[rnd(junk.len())];
+                    for (k, c) in j.chars().enumerate() {
+                        t.insert(at + k, c);
+                    }
+                }
+                _ => {
+                    let b = rnd(t.len());
+                    t.swap(at, b);
+                }
+            }
+        }
+        let text: String = t.into_iter().collect();
+        let r = std::panic::catch_unwind(|| load(&text).map(|_| ()));
+        match r {
+            Ok(Ok(())) => ok += 1,
+            Ok(Err(_)) => err += 1,
+            Err(_) => panic!("panicked on:\n{text}"),
+        }
+    }
+    assert!(
+        ok > 0 && err > 0,
+        "mutations should give both valid and invalid files ({ok} ok, {err} errors)"
+    );
+}

@@ -1,0 +1,211 @@
+//! `hooke run` and `hooke check` on the shipped cases, output safety, Ctrl-C and resume.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn hooke(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hooke"))
+        .args(args)
+        .output()
+        .expect("the hooke binary runs")
+}
+
+fn cases_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../cases")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("hooke-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+/// Every case in cases/ passes `hooke check` and runs to completion at reduced resolution,
+/// writing its frames, energy history and checkpoint.
+#[test]
+fn every_shipped_case_checks_and_runs_at_reduced_resolution() {
+    let mut n = 0;
+    for entry in std::fs::read_dir(cases_dir()).unwrap() {
+        let case = entry.unwrap().path();
+        if case.extension().and_then(|e| e.to_str()) != Some("toml") {
+            continue;
+        }
+        n += 1;
+        let c = case.to_str().unwrap();
+        let o = hooke(&["check", c, "--scale", "0.25"]);
+        assert!(
+            o.status.success(),
+            "check {c}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let out = tmp(&format!("case{n}"));
+        let o = hooke(&["run", c, "--scale", "0.25", "--out", out.to_str().unwrap()]);
+        assert!(
+            o.status.success(),
+            "run {c}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let stem = case.file_stem().unwrap().to_str().unwrap();
+        for f in [
+            format!("{stem}.pvd"),
+            format!("{stem}_energy.csv"),
+            format!("{stem}.ckpt"),
+        ] {
+            assert!(out.join(&f).exists(), "{c}: no {f}");
+        }
+        std::fs::remove_dir_all(&out).ok();
+    }
+    assert!(n >= 4, "expected the four shipped cases, found {n}");
+}
+
+/// A second run into the same folder is refused (exit 2) instead of overwriting the first.
+#[test]
+fn an_existing_run_is_never_overwritten_silently() {
+    let out = tmp("twice");
+    let case = cases_dir().join("mode1_plate.toml");
+    let args = [
+        "run",
+        case.to_str().unwrap(),
+        "--scale",
+        "0.25",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    assert!(hooke(&args).status.success());
+    let o = hooke(&args);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("already holds a run"));
+    std::fs::remove_dir_all(&out).ok();
+}
+
+/// Broken case files exit with code 2 and a file:line:column message; nothing panics.
+#[test]
+fn broken_case_files_exit_2_with_their_location() {
+    let dir = tmp("broken");
+    std::fs::create_dir_all(&dir).unwrap();
+    let good = std::fs::read_to_string(cases_dir().join("mode1_plate.toml")).unwrap();
+    for (n, (from, to)) in [
+        ("poisson = 0.22", "poisson = 0.7"),
+        ("youngs = 72e9", "youngs = 72e9\nyoung = 1"),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let path = dir.join(format!("bad{n}.toml"));
+        std::fs::write(&path, good.replacen(from, to, 1)).unwrap();
+        for cmd in ["check", "run"] {
+            let o = hooke(&[cmd, path.to_str().unwrap()]);
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(2), "{cmd} {to}: {err}");
+            assert!(
+                err.contains(&format!("bad{n}.toml:")) && !err.contains("panicked"),
+                "{err}"
+            );
+        }
+    }
+    let o = hooke(&["check", dir.join("missing.toml").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Ctrl-C stops a run cleanly (exit 130, last frame and checkpoint written, the command to
+/// continue printed); the continued run ends with a final frame byte-identical to that of an
+/// uninterrupted run.
+#[test]
+fn interrupted_run_resumes_to_the_same_result() {
+    let dir = tmp("resume");
+    std::fs::create_dir_all(&dir).unwrap();
+    let case = dir.join("long.toml");
+    let text = std::fs::read_to_string(cases_dir().join("mode1_plate.toml"))
+        .unwrap()
+        .replace("end_time = 40e-6", "end_time = 600e-6")
+        .replace("every = 2e-6", "every = 100e-6");
+    std::fs::write(&case, text).unwrap();
+    let c = case.to_str().unwrap();
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    let whole = hooke(&["run", c, "--scale", "0.5", "--out", a.to_str().unwrap()]);
+    assert!(
+        whole.status.success(),
+        "{}",
+        String::from_utf8_lossy(&whole.stderr)
+    );
+    let child = Command::new(env!("CARGO_BIN_EXE_hooke"))
+        .args(["run", c, "--scale", "0.5", "--out", b.to_str().unwrap()])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(700));
+    Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    if o.status.success() {
+        eprintln!(
+            "the run finished before the interrupt arrived; nothing to resume on this machine"
+        );
+    } else {
+        assert_eq!(o.status.code(), Some(130), "{err}");
+        assert!(err.contains("--resume"), "{err}");
+        let ck = b.join("long.ckpt");
+        let o = hooke(&[
+            "run",
+            c,
+            "--scale",
+            "0.5",
+            "--out",
+            b.to_str().unwrap(),
+            "--resume",
+            ck.to_str().unwrap(),
+        ]);
+        assert!(
+            o.status.success(),
+            "resume: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    // The last frame of each run: the one the .pvd lists last.
+    let last = |d: &Path| {
+        let pvd = std::fs::read_to_string(d.join("long.pvd")).unwrap();
+        let f = pvd
+            .lines()
+            .filter_map(|l| l.split("file=\"").nth(1))
+            .last()
+            .unwrap()
+            .split('"')
+            .next()
+            .unwrap()
+            .to_string();
+        (f.clone(), std::fs::read(d.join(f)).unwrap())
+    };
+    let (fa, da) = last(&a);
+    let (fb, db) = last(&b);
+    assert_eq!(fa, fb);
+    assert!(
+        da == db,
+        "final frames differ between the uninterrupted and the resumed run"
+    );
+    // A checkpoint of another case is refused.
+    std::fs::write(
+        dir.join("other.toml"),
+        std::fs::read_to_string(&case)
+            .unwrap()
+            .replace("poisson = 0.22", "poisson = 0.25"),
+    )
+    .unwrap();
+    let o = hooke(&[
+        "run",
+        dir.join("other.toml").to_str().unwrap(),
+        "--scale",
+        "0.5",
+        "--out",
+        b.to_str().unwrap(),
+        "--resume",
+        b.join("long.ckpt").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("another case"));
+    std::fs::remove_dir_all(&dir).ok();
+}
