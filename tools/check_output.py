@@ -64,6 +64,29 @@ def main(outdir):
         check(same(float(u[-1, 0]), f["ux_last"]), f"pyvista step {k}: displacement")
         check(same(float(np.max(mesh.point_data["damage"])), f["damage_max"]), f"pyvista step {k}: damage")
 
+    # HDF5 + XDMF (written when hooke-io is built with the hdf5 feature)
+    if man.get("xdmf"):
+        import h5py
+
+        with h5py.File(os.path.join(outdir, man["xdmf"].replace(".xdmf", ".h5")), "r") as h5:
+            check(h5["mesh/points"].shape == (npts, 3), "h5py: mesh/points shape")
+            steps = sorted(h5["frames"].keys())
+            check(len(steps) == len(man["frames"]), f"h5py: {len(steps)} frames")
+            for s, f in zip(steps, man["frames"]):
+                d = h5["frames"][s]["displacement"]
+                check(d.compression == "gzip" and d.chunks is not None, f"h5py frame {s}: not chunked and compressed")
+                check(same(float(d[0, 0]), f["ux_first"]) and same(float(d[-1, 0]), f["ux_last"]), f"h5py frame {s}: displacement")
+                check(same(float(np.max(h5["frames"][s]["damage"][()])), f["damage_max"]), f"h5py frame {s}: damage")
+        with meshio.xdmf.TimeSeriesReader(os.path.join(outdir, man["xdmf"])) as reader:
+            points, cells = reader.read_points_cells()
+            check(len(points) == npts, f"meshio xdmf: {len(points)} points")
+            check(reader.num_steps == len(man["frames"]), f"meshio xdmf: {reader.num_steps} steps")
+            for k, f in enumerate(man["frames"]):
+                t, pd, _ = reader.read_data(k)
+                check(same(t, f["time"]), f"meshio xdmf step {k}: time {t}")
+                check(same(float(pd["displacement"][-1, 0]), f["ux_last"]), f"meshio xdmf step {k}: displacement")
+                check(pd["stress"].shape == (npts, 9), f"meshio xdmf step {k}: stress shape")
+
     print(f"check_output: {passed} passed, {failed} failed")
     return 1 if failed else 0
 

@@ -30,6 +30,10 @@ pub struct Simulation {
     pub checkpoint_every: Real,
     /// Write intact springs as line cells.
     pub springs: bool,
+    /// Write the VTK series.
+    pub vtk: bool,
+    /// Write the HDF5 + XDMF series.
+    pub hdf5: bool,
     /// Spring stiffness k (N/m) and dispersion ratio q of the material.
     pub k: Real,
     pub q: Real,
@@ -213,13 +217,15 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
     let kind = match l.kind.get_ref().as_str() {
         "cubic" => LatticeKind::Cubic,
         "hex" => LatticeKind::Hex,
-        other => return Err(ctx.err(
-            l.kind.span(),
-            "lattice.kind",
-            format!(
+        other => {
+            return Err(ctx.err(
+                l.kind.span(),
+                "lattice.kind",
+                format!(
                 "unknown lattice \"{other}\"; use \"cubic\" (3D Ladd) or \"hex\" (2D hexagonal)"
             ),
-        )),
+            ))
+        }
     };
     let dim = kind.dim();
     let a = ctx.positive(&l.spacing, "lattice.spacing", "m")? / scale;
@@ -649,6 +655,30 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
         Some(e) => ctx.positive(e, "output.checkpoint_every", "s")?,
         None => end_time / 4.0,
     };
+    let (mut vtk, mut hdf5) = (true, false);
+    if let Some(f) = &o.format {
+        (vtk, hdf5) = (false, false);
+        for name in f.get_ref() {
+            match name.as_str() {
+                "vtk" => vtk = true,
+                "hdf5" => hdf5 = true,
+                other => {
+                    return Err(ctx.err(
+                        f.span(),
+                        "output.format",
+                        format!("unknown format \"{other}\"; use \"vtk\" and/or \"hdf5\""),
+                    ))
+                }
+            }
+        }
+        if !vtk && !hdf5 {
+            return Err(ctx.err(
+                f.span(),
+                "output.format",
+                "give at least one format: [\"vtk\"], [\"hdf5\"] or both",
+            ));
+        }
+    }
     let options = IntegratorOptions {
         time_step,
         damping,
@@ -668,6 +698,8 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
         output_every,
         checkpoint_every,
         springs: o.springs,
+        vtk,
+        hdf5,
         k,
         q,
         precracked,

@@ -148,4 +148,6 @@ pub struct RawOutput {
     pub checkpoint_every: Option<Spanned<Real>>,
     #[serde(default)]
     pub springs: bool,
+    /// Output formats: `"vtk"` (default) and/or `"hdf5"`.
+    pub format: Option<Spanned<Vec<String>>>,
 }

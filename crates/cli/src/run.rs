@@ -41,6 +41,13 @@ pub struct CheckArgs {
     pub scale: Real,
 }
 
+/// The series a run writes.
+struct Output {
+    vtk: Option<VtkSeries>,
+    #[cfg(feature = "hdf5")]
+    h5: Option<hooke_io::H5Series>,
+}
+
 /// A run stopped by Ctrl-C (exit code 130, the shell's convention for SIGINT).
 #[derive(Debug)]
 pub struct Interrupted(pub String);
@@ -129,18 +136,25 @@ pub fn run(args: RunArgs) -> Result<()> {
         }
     });
     let pvd = out.join(format!("{name}.pvd"));
-    if pvd.exists() && args.resume.is_none() {
-        return Err(InputError(format!("{} already holds a run; choose another --out, remove it, or continue it with --resume {}", out.display(), out.join(format!("{name}.ckpt")).display())).into());
-    }
     let ckpt_path = out.join(format!("{name}.ckpt"));
-    let (mut it, mut series) = match &args.resume {
-        None => {
-            let series = VtkSeries::create(&out, &name, sim.springs)
-                .map_err(|e| InputError(e.to_string()))?;
-            let it = Integrator::new(&sim.body, &mut sim.state, sim.loading.clone(), &sim.options)
-                .map_err(|e| InputError(e.to_string()))?;
-            (it, series)
-        }
+    if args.resume.is_none()
+        && [
+            pvd.clone(),
+            out.join(format!("{name}.xdmf")),
+            ckpt_path.clone(),
+        ]
+        .iter()
+        .any(|p| p.exists())
+    {
+        return Err(InputError(format!("{} already holds a run; choose another --out, remove it, or continue it with --resume {}", out.display(), ckpt_path.display())).into());
+    }
+    #[cfg(not(feature = "hdf5"))]
+    if sim.hdf5 {
+        return Err(InputError(format!("{}: output.format asks for \"hdf5\", but this hooke was built without HDF5; install the library (tools/install-hdf5.sh) and build with --features hdf5", args.case.display())).into());
+    }
+    let it = match &args.resume {
+        None => Integrator::new(&sim.body, &mut sim.state, sim.loading.clone(), &sim.options)
+            .map_err(|e| InputError(e.to_string()))?,
         Some(path) => {
             let ck = Checkpoint::load(path, &sim.body, case_digest)
                 .map_err(|e| InputError(e.to_string()))?;
@@ -149,17 +163,46 @@ pub fn run(args: RunArgs) -> Result<()> {
                 fr.broken_total = ck.broken as usize;
                 fr.released_total = ck.released;
             }
-            let it = Integrator::resume(
+            Integrator::resume(
                 &sim.body,
                 &sim.state,
                 sim.loading.clone(),
                 &sim.options,
                 &ck.integrator,
-            )?;
-            let series = VtkSeries::reopen(&out, &name, sim.springs, sim.state.time)
-                .map_err(|e| InputError(e.to_string()))?;
-            (it, series)
+            )?
         }
+    };
+    let mut it = it;
+    let until = sim.state.time;
+    let resuming = args.resume.is_some();
+    let mut output = Output {
+        vtk: if !sim.vtk {
+            None
+        } else if resuming {
+            Some(
+                VtkSeries::reopen(&out, &name, sim.springs, until)
+                    .map_err(|e| InputError(e.to_string()))?,
+            )
+        } else {
+            Some(
+                VtkSeries::create(&out, &name, sim.springs)
+                    .map_err(|e| InputError(e.to_string()))?,
+            )
+        },
+        #[cfg(feature = "hdf5")]
+        h5: if !sim.hdf5 {
+            None
+        } else if resuming {
+            Some(
+                hooke_io::H5Series::reopen(&out, &name, &sim.body, until)
+                    .map_err(|e| InputError(e.to_string()))?,
+            )
+        } else {
+            Some(
+                hooke_io::H5Series::create(&out, &name, &sim.body)
+                    .map_err(|e| InputError(e.to_string()))?,
+            )
+        },
     };
     let stop = Arc::new(AtomicBool::new(false));
     {
@@ -175,19 +218,22 @@ pub fn run(args: RunArgs) -> Result<()> {
     let write_frame = |it: &Integrator,
                        state: &mut hooke_core::State,
                        fr: Option<&hooke_fracture::Fracture>,
-                       series: &mut VtkSeries|
+                       output: &mut Output|
      -> Result<()> {
         let v = it.full_velocity(body, state);
         let damage = fr.map(|f| f.damage(body, state));
-        series.write(
-            body,
-            state,
-            FrameExtras {
-                velocity: Some(&v),
-                damage: damage.as_deref(),
-                region: None,
-            },
-        )?;
+        let extras = FrameExtras {
+            velocity: Some(&v),
+            damage: damage.as_deref(),
+            region: None,
+        };
+        if let Some(series) = output.vtk.as_mut() {
+            series.write(body, state, extras)?;
+        }
+        #[cfg(feature = "hdf5")]
+        if let Some(h5) = output.h5.as_mut() {
+            h5.write(body, state, extras)?;
+        }
         let b = it.energy(body, state);
         let l = b.ledger;
         let mut f = std::fs::OpenOptions::new()
@@ -226,7 +272,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         Ok(())
     };
     if args.resume.is_none() {
-        write_frame(&it, &mut sim.state, sim.fracture.as_ref(), &mut series)?;
+        write_frame(&it, &mut sim.state, sim.fracture.as_ref(), &mut output)?;
     }
     let interactive = std::io::stderr().is_terminal();
     let start = Instant::now();
@@ -247,7 +293,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         let done = sim.state.time >= sim.end_time - 0.5 * it.dt;
         if sim.state.time >= next_frame - 0.5 * it.dt || done {
             it.check(body, &sim.state)?;
-            write_frame(&it, &mut sim.state, sim.fracture.as_ref(), &mut series)?;
+            write_frame(&it, &mut sim.state, sim.fracture.as_ref(), &mut output)?;
             next_frame += sim.output_every;
         }
         if sim.state.time >= next_ckpt - 0.5 * it.dt || done {
@@ -255,7 +301,7 @@ pub fn run(args: RunArgs) -> Result<()> {
             next_ckpt += sim.checkpoint_every;
         }
         if stop.load(Ordering::SeqCst) {
-            write_frame(&it, &mut sim.state, sim.fracture.as_ref(), &mut series)?;
+            write_frame(&it, &mut sim.state, sim.fracture.as_ref(), &mut output)?;
             save(&it, &sim.state, sim.fracture.as_ref())?;
             return Err(Interrupted(format!("interrupted at step {} (t = {:e} s); the last frame and a checkpoint are written: continue with\n  hooke run {} --resume {}{}", sim.state.step, sim.state.time, args.case.display(), ckpt_path.display(), if args.out.is_some() { format!(" --out {}", out.display()) } else { String::new() })).into());
         }
@@ -290,10 +336,19 @@ pub fn run(args: RunArgs) -> Result<()> {
         (sim.state.step - step_start) as f64 / wall.max(1e-9)
     );
     println!("  springs broken {}, energy: kinetic {:.4e} J, strain {:.4e} J, released {:.4e} J, balance error {:.2e}", sim.fracture.as_ref().map_or(0, |f| f.broken_total), b.kinetic, b.strain.total(), b.ledger.released, b.relative_error);
+    if let Some(series) = &output.vtk {
+        println!(
+            "  output: {} ({} frames)",
+            series.pvd_path().display(),
+            series.frames().len()
+        );
+    }
+    #[cfg(feature = "hdf5")]
+    if let Some(h5) = &output.h5 {
+        println!("  output: {}", h5.xdmf_path().display());
+    }
     println!(
-        "  output: {} ({} frames), {}, {}",
-        series.pvd_path().display(),
-        series.frames().len(),
+        "  energy history {}, checkpoint {}",
         energy_path.display(),
         ckpt_path.display()
     );

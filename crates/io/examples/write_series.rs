@@ -58,6 +58,8 @@ fn main() {
     let mut it = Integrator::new(&body, &mut state, loading, &opts).unwrap();
     let mut fr = Fracture::new(&body, Box::new(CriticalStretch::new(2e-3).unwrap()));
     let mut series = VtkSeries::create(&dir, "bar", true).unwrap();
+    #[cfg(feature = "hdf5")]
+    let mut h5 = hooke_io::H5Series::create(&dir, "bar", &body).unwrap();
     let mut frames = Vec::new();
     for k in 0..6 {
         if k > 0 {
@@ -68,17 +70,14 @@ fn main() {
         }
         let velocity = it.full_velocity(&body, &mut state);
         let damage = fr.damage(&body, &state);
-        let path = series
-            .write(
-                &body,
-                &state,
-                FrameExtras {
-                    velocity: Some(&velocity),
-                    damage: Some(&damage),
-                    region: None,
-                },
-            )
-            .unwrap();
+        let extras = FrameExtras {
+            velocity: Some(&velocity),
+            damage: Some(&damage),
+            region: None,
+        };
+        let path = series.write(&body, &state, extras).unwrap();
+        #[cfg(feature = "hdf5")]
+        h5.write(&body, &state, extras).unwrap();
         let last = body.nodes() - 1;
         let dmax = damage.iter().cloned().fold(0.0, Real::max);
         let intact = state.alive.iter().filter(|&&a| a).count();
@@ -96,7 +95,12 @@ fn main() {
     let mut manifest = String::new();
     write!(
         manifest,
-        "{{\"pvd\": \"bar.pvd\", \"points\": {}, \"frames\": [\n  {}\n]}}\n",
+        "{{\"pvd\": \"bar.pvd\", \"xdmf\": {}, \"points\": {}, \"frames\": [\n  {}\n]}}\n",
+        if cfg!(feature = "hdf5") {
+            "\"bar.xdmf\""
+        } else {
+            "null"
+        },
         body.nodes(),
         frames.join(",\n  ")
     )

@@ -12,8 +12,12 @@
 pub mod checkpoint;
 pub mod error;
 pub mod fields;
+#[cfg(feature = "hdf5")]
+pub mod h5;
 pub mod vtk;
 
 pub use checkpoint::Checkpoint;
 pub use error::IoError;
+#[cfg(feature = "hdf5")]
+pub use h5::H5Series;
 pub use vtk::{FrameExtras, VtkSeries};
