@@ -30,6 +30,9 @@ pub struct Simulation {
     pub checkpoint_every: Real,
     /// Write intact springs as line cells.
     pub springs: bool,
+    /// Region id of every node: 1 + the index of the last `[[boundary]]` whose region holds it,
+    /// 0 for none (written as the `region` point field).
+    pub regions: Vec<u32>,
     /// Write the VTK series.
     pub vtk: bool,
     /// Write the HDF5 + XDMF series.
@@ -519,9 +522,13 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
         }
     };
     let mut loading = Loading::default();
+    let mut regions = vec![0u32; body.nodes()];
     for (n, b) in raw.boundary.iter().enumerate() {
         let key = format!("boundary[{n}]");
         let nodes = select(&b.region, &format!("{key}.region"))?;
+        for &i in &nodes {
+            regions[i as usize] = n as u32 + 1;
+        }
         for ax in &b.fixed {
             let axis = axis_index(&ctx, ax, &format!("{key}.fixed"), dim)?;
             loading.prescribed.push(Prescribed {
@@ -698,6 +705,7 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
         output_every,
         checkpoint_every,
         springs: o.springs,
+        regions,
         vtk,
         hdf5,
         k,

@@ -41,6 +41,47 @@ pub struct CheckArgs {
     pub scale: Real,
 }
 
+/// Free bytes on the file system that holds `dir` (or its nearest existing ancestor).
+fn free_space(dir: &Path) -> Option<u64> {
+    let mut p = dir;
+    while !p.exists() {
+        p = p.parent()?;
+    }
+    let c = std::ffi::CString::new(p.as_os_str().as_encoded_bytes()).ok()?;
+    let mut s = std::mem::MaybeUninit::<libc::statvfs>::uninit();
+    // SAFETY: `c` is a valid NUL-terminated path and `s` points to writable memory of the right
+    // type; statvfs only writes through it and reports failure by its return value.
+    let r = unsafe { libc::statvfs(c.as_ptr(), s.as_mut_ptr()) };
+    if r != 0 {
+        return None;
+    }
+    // SAFETY: statvfs succeeded, so it filled the struct.
+    let s = unsafe { s.assume_init() };
+    Some(s.f_bavail as u64 * s.f_frsize as u64)
+}
+
+/// What a run will write (bytes): frames (VTK base64 and/or HDF5), the energy history and the
+/// checkpoint (twice, while it is renamed into place).
+fn output_estimate(sim: &Simulation) -> f64 {
+    let (n, s) = (sim.body.nodes() as f64, sim.body.springs() as f64);
+    let frames = (sim.end_time / sim.output_every).ceil() + 2.0;
+    // Per node: coordinates and 17 values of 8 bytes (vectors, scalars, stress), a u32 region
+    // id, and a vertex cell; base64 adds a third.
+    let mut per_frame = 0.0;
+    if sim.vtk {
+        per_frame += n * (4.0 / 3.0) * (20.0 * 8.0 + 4.0 + 17.0)
+            + if sim.springs {
+                s * (4.0 / 3.0) * 25.0
+            } else {
+                0.0
+            };
+    }
+    if sim.hdf5 {
+        per_frame += n * 18.0 * 8.0;
+    }
+    frames * (per_frame + 200.0) + 2.0 * (48.0 * n + s + 200.0)
+}
+
 /// The series a run writes.
 struct Output {
     vtk: Option<VtkSeries>,
@@ -148,6 +189,18 @@ pub fn run(args: RunArgs) -> Result<()> {
     {
         return Err(InputError(format!("{} already holds a run; choose another --out, remove it, or continue it with --resume {}", out.display(), ckpt_path.display())).into());
     }
+    let need = output_estimate(&sim);
+    if let Some(free) = free_space(&out) {
+        if need > free as f64 {
+            return Err(InputError(format!(
+                "the run would write about {:.1} MB but only {:.1} MB are free under {}; write fewer frames (output.every), use --out on a larger disk, or a coarser --scale",
+                need / 1e6,
+                free as f64 / 1e6,
+                out.display()
+            ))
+            .into());
+        }
+    }
     #[cfg(not(feature = "hdf5"))]
     if sim.hdf5 {
         return Err(InputError(format!("{}: output.format asks for \"hdf5\", but this hooke was built without HDF5; install the library (tools/install-hdf5.sh) and build with --features hdf5", args.case.display())).into());
@@ -215,6 +268,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         std::fs::write(&energy_path, "time,kinetic,strain_direct,strain_dispersive,external_work,boundary_work,body_work,dissipated,released,balance_error\n").with_context(|| format!("writing {}", energy_path.display()))?;
     }
     let body = &sim.body;
+    let regions = sim.regions.clone();
     let write_frame = |it: &Integrator,
                        state: &mut hooke_core::State,
                        fr: Option<&hooke_fracture::Fracture>,
@@ -225,7 +279,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         let extras = FrameExtras {
             velocity: Some(&v),
             damage: damage.as_deref(),
-            region: None,
+            region: Some(&regions),
         };
         if let Some(series) = output.vtk.as_mut() {
             series.write(body, state, extras)?;

@@ -209,3 +209,31 @@ fn interrupted_run_resumes_to_the_same_result() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("another case"));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A run whose output cannot fit on the disk is refused before it starts (exit 2), with the
+/// size it needs, what is free, and the fix.
+#[test]
+fn output_that_cannot_fit_is_refused_up_front() {
+    let dir = tmp("disk");
+    std::fs::create_dir_all(&dir).unwrap();
+    let case = dir.join("huge.toml");
+    let text = std::fs::read_to_string(cases_dir().join("mode1_plate.toml"))
+        .unwrap()
+        .replace("every = 2e-6", "every = 1e-15");
+    std::fs::write(&case, text).unwrap();
+    let out = dir.join("out");
+    let o = hooke(&[
+        "run",
+        case.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("MB are free") && err.contains("output.every"),
+        "{err}"
+    );
+    assert!(!out.exists(), "nothing is written when the run is refused");
+    std::fs::remove_dir_all(&dir).ok();
+}
