@@ -1,0 +1,50 @@
+#!/usr/bin/env python3
+"""Crack angle(s) from a hooke run, for the Kalthoff-Winkler test.
+
+    python3 tools/crack_angle.py OUTDIR --tip X,Y [--tip X,Y ...] [--radius R] [--threshold 0.2]
+
+For each notch tip, the nodes that became damaged during the run (damage >= threshold in the
+last frame, not in the first) within R of the tip (default: a fifth of the body's size) are
+fitted with a line through the tip (principal direction of their offsets). The angle is
+measured from the notch direction (+x, the notches run along x into the plate), positive
+towards +y. Prints one angle per tip; Kalthoff and Winkler observed about 70 degrees.
+"""
+import argparse
+import math
+
+import numpy as np
+
+from hooke_output import frames, read
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("outdir")
+    ap.add_argument("--tip", action="append", required=True)
+    ap.add_argument("--radius", type=float)
+    ap.add_argument("--threshold", type=float, default=0.2)
+    a = ap.parse_args()
+    fs = frames(a.outdir)
+    m0, m1 = read(fs[0][1]), read(fs[-1][1])
+    ref = np.asarray(m1.points) - np.asarray(m1.point_data["displacement"])
+    new = (np.asarray(m1.point_data["damage"]) >= a.threshold) & (np.asarray(m0.point_data["damage"]) < a.threshold)
+    size = float(np.max(np.ptp(ref, axis=0)))
+    radius = a.radius or size / 5.0
+    for tip_s in a.tip:
+        tip = np.array([float(v) for v in tip_s.split(",")] + [0.0])[:3]
+        pts = ref[new & (np.linalg.norm(ref - tip, axis=1) <= radius)]
+        if len(pts) < 3:
+            print(f"crack_angle: tip {tip_s}: no crack grew (fewer than 3 new damaged nodes within {radius:.3e} m)")
+            continue
+        off = pts - tip
+        # Direction: principal axis of the offsets, oriented away from the tip.
+        u, s, vt = np.linalg.svd(off[:, :2], full_matrices=False)
+        d = vt[0]
+        if np.dot(off[:, :2].mean(axis=0), d) < 0:
+            d = -d
+        angle = math.degrees(math.atan2(d[1], d[0]))
+        print(f"crack_angle: tip {tip_s}: {angle:+.1f} degrees from the notch line ({len(pts)} new damaged nodes)")
+
+
+if __name__ == "__main__":
+    main()

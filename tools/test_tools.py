@@ -1,0 +1,86 @@
+#!/usr/bin/env python3
+"""Tests of the post-processing tools on synthetic runs with a known answer.
+
+    python3 tools/test_tools.py
+
+A two-frame series is written with meshio: a square of nodes with a notch along x ending at
+(0.5, 0.5), and in the second frame a crack of length 0.3 at +70 degrees from the notch tip,
+grown in 1e-5 s. crack_angle must find 70 degrees, crack_tip a growth of about 0.3 and a speed
+of about 0.3/1e-5; render_damage and energy_plot must write their images. Prints 'N passed,
+M failed'; exits non-zero on any failure.
+"""
+import math
+import os
+import subprocess
+import sys
+import tempfile
+
+import meshio
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def synthetic(outdir):
+    n = 81
+    xs, ys = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n))
+    pts = np.column_stack([xs.ravel(), ys.ravel(), np.zeros(n * n)])
+    h = 1.0 / (n - 1)
+    notch = (np.abs(pts[:, 1] - 0.5) < 0.6 * h) & (pts[:, 0] <= 0.5 + 1e-9)
+    a = math.radians(70.0)
+    rel = pts[:, :2] - [0.5, 0.5]
+    along = rel @ [math.cos(a), math.sin(a)]
+    across = np.abs(rel @ [-math.sin(a), math.cos(a)])
+    crack = (along > 0) & (along <= 0.3) & (across < 0.6 * h)
+    files = []
+    for k, (t, dmg) in enumerate([(0.0, notch), (1e-5, notch | crack)]):
+        name = f"run_{k:06}.vtu"
+        m = meshio.Mesh(pts, [("vertex", np.arange(n * n).reshape(-1, 1))],
+                        point_data={"damage": dmg.astype(float), "displacement": np.zeros((n * n, 3))})
+        m.write(os.path.join(outdir, name))
+        files.append((t, name))
+    with open(os.path.join(outdir, "run.pvd"), "w") as f:
+        f.write('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n<Collection>\n')
+        for t, name in files:
+            f.write(f'<DataSet timestep="{t:.17e}" group="" part="0" file="{name}"/>\n')
+        f.write("</Collection>\n</VTKFile>\n")
+    with open(os.path.join(outdir, "run_energy.csv"), "w") as f:
+        f.write("time,kinetic,strain_direct,strain_dispersive,external_work,boundary_work,body_work,dissipated,released,balance_error\n")
+        f.write("0,0,0,0,0,0,0,0,0,0\n1e-5,1,2,0.5,0,4,0,0,0.5,0\n")
+
+
+def run(*args):
+    r = subprocess.run([sys.executable, *args], capture_output=True, text=True)
+    return r.returncode, r.stdout + r.stderr
+
+
+def main():
+    passed, failed = 0, 0
+
+    def check(ok, what):
+        nonlocal passed, failed
+        if ok:
+            passed += 1
+        else:
+            failed += 1
+            print("FAILED:", what)
+
+    with tempfile.TemporaryDirectory() as d:
+        synthetic(d)
+        code, out = run(os.path.join(HERE, "crack_angle.py"), d, "--tip", "0.5,0.5", "--radius", "0.4")
+        angle = float(out.split("tip 0.5,0.5: ")[1].split(" degrees")[0]) if "degrees" in out else float("nan")
+        check(code == 0 and abs(angle - 70.0) < 2.0, f"crack_angle: {out.strip()}")
+        code, out = run(os.path.join(HERE, "crack_tip.py"), d, "--origin", "0.5,0.5")
+        rows = np.loadtxt(os.path.join(d, "crack_tip.csv"), delimiter=",", skiprows=1)
+        check(code == 0 and abs(rows[-1, 4] - 0.3) < 0.02, f"crack_tip growth: {out.strip()}")
+        check(abs(rows[-1, 5] - 0.3 / 1e-5) < 0.02 / 1e-5, f"crack_tip speed: {rows[-1, 5]}")
+        code, out = run(os.path.join(HERE, "render_damage.py"), d)
+        check(code == 0 and os.path.getsize(os.path.join(d, "png", "damage_000001.png")) > 1000, f"render_damage: {out.strip()[-300:]}")
+        code, out = run(os.path.join(HERE, "energy_plot.py"), d)
+        check(code == 0 and os.path.getsize(os.path.join(d, "energy.png")) > 1000, f"energy_plot: {out.strip()}")
+    print(f"test_tools: {passed} passed, {failed} failed")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
