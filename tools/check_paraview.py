@@ -32,11 +32,15 @@ def main(outdir):
         check(r is not None, f"ParaView cannot open {name}")
         if r is None:
             continue
+        r.UpdatePipelineInformation()
         times = list(r.TimestepValues) if hasattr(r.TimestepValues, "__len__") else [r.TimestepValues]
         check(len(times) == len(man["frames"]), f"{name}: {len(times)} time steps, expected {len(man['frames'])}")
+        # The first update of a fresh reader can report an empty output in pvpython; prime it.
         UpdatePipeline(time=times[-1], proxy=r)
-        info = r.GetDataInformation()
-        check(info.GetNumberOfPoints() == man["points"], f"{name}: {info.GetNumberOfPoints()} points, expected {man['points']}")
+        for t in times:
+            UpdatePipeline(time=t, proxy=r)
+            npts = r.GetDataInformation().GetNumberOfPoints()
+            check(npts == man["points"], f"{name} at t = {t}: {npts} points, expected {man['points']}")
         arrays = [r.PointData.GetArray(i).GetName() for i in range(len(r.PointData))]
         for field in ["displacement", "velocity", "damage", "stress"]:
             check(field in arrays, f"{name}: no point array {field} (has {arrays})")

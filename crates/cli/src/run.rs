@@ -379,6 +379,10 @@ pub fn run(args: RunArgs) -> Result<()> {
     if interactive {
         eprintln!();
     }
+    #[cfg(feature = "hdf5")]
+    if let Some(h5) = output.h5.as_mut() {
+        h5.finish()?;
+    }
     let b = it.energy(body, &mut sim.state);
     let wall = start.elapsed().as_secs_f64();
     println!(

@@ -92,6 +92,8 @@ fn main() {
             intact
         ));
     }
+    #[cfg(feature = "hdf5")]
+    h5.finish().unwrap();
     let mut manifest = String::new();
     write!(
         manifest,

@@ -1,16 +1,19 @@
 //! HDF5 + XDMF output for large runs (cargo feature `hdf5`; needs the system HDF5 library,
 //! `tools/install-hdf5.sh`).
 //!
-//! One `.h5` file per run holds the reference mesh (`/mesh/points`, `/mesh/vertices`) and one
-//! group per frame (`/frames/STEP/displacement`, `velocity`, `damage`, `pool_ratio`,
-//! `strain_energy_density`, `stress`), chunked and deflate-compressed. An `.xdmf` file describes
+//! When a run completes, one `.h5` file holds the reference mesh (`/mesh/points`,
+//! `/mesh/vertices`) and one group per frame (`/frames/STEP/displacement`, `velocity`, `damage`,
+//! `pool_ratio`, `strain_energy_density`, `stress`), chunked and deflate-compressed. An `.xdmf` file describes
 //! the time series in the layout meshio's `TimeSeriesReader` and ParaView's XDMF3 reader read: a
 //! uniform grid with the mesh, and a temporal collection whose grids include it and carry the
 //! frame's point data; warp by `displacement` to see the deformed body.
 //!
-//! The `.h5` file is flushed after every frame and the `.xdmf` is rewritten atomically, listing
-//! only complete frames. HDF5 itself is not crash-safe: a run killed in the middle of writing a
-//! frame can damage the `.h5`, so the VTK series remains the crash-safe output.
+//! HDF5 files are not crash-safe when appended in place, so during a run each frame goes to its
+//! own small file (`STEM.frames/STEP.h5`, written under a temporary name and renamed), and the
+//! `.xdmf`, rewritten atomically, lists only completed frames: a run killed at any moment leaves
+//! every listed frame readable, and `hooke run --resume` continues the series. When the run
+//! completes, [`H5Series::finish`] merges everything into `STEM.h5` (again through a temporary
+//! name) and points the `.xdmf` at it.
 
 use std::path::{Path, PathBuf};
 
@@ -22,12 +25,12 @@ use crate::vtk::{write_atomic, FrameExtras};
 
 /// An HDF5 time series with its XDMF description.
 pub struct H5Series {
-    file: hdf5_metno::File,
-    h5_name: String,
-    h5_path: PathBuf,
+    dir: PathBuf,
+    stem: String,
     xdmf_path: PathBuf,
     n: usize,
-    frames: Vec<(Real, String)>,
+    /// (time, frame name, file that holds the frame).
+    frames: Vec<(Real, String, String)>,
     has_damage: bool,
 }
 
@@ -38,53 +41,64 @@ fn h5err(path: &Path) -> impl FnOnce(hdf5_metno::Error) -> IoError + '_ {
     }
 }
 
+/// The fields of a frame, in the order they are written.
+const FIELDS: [(&str, &str, usize); 6] = [
+    ("displacement", "Vector", 3),
+    ("velocity", "Vector", 3),
+    ("damage", "Scalar", 1),
+    ("pool_ratio", "Scalar", 1),
+    ("strain_energy_density", "Scalar", 1),
+    ("stress", "Tensor", 9),
+];
+
+/// Create an HDF5 file through a temporary name, fill it, and rename it into place.
+fn atomic_h5(
+    path: &Path,
+    fill: impl FnOnce(&hdf5_metno::File) -> Result<(), IoError>,
+) -> Result<(), IoError> {
+    let tmp = path.with_extension("h5.partial");
+    {
+        let f = hdf5_metno::File::create(&tmp).map_err(h5err(&tmp))?;
+        fill(&f)?;
+        f.flush().map_err(h5err(&tmp))?;
+    }
+    std::fs::rename(&tmp, path).map_err(io(path))
+}
+
 impl H5Series {
-    /// A new series `dir/stem.h5` + `dir/stem.xdmf` for `body`.
+    /// A new series for `body` in `dir`: `stem.xdmf`, the mesh in `stem.mesh.h5`, frames in
+    /// `stem.frames/`; [`H5Series::finish`] merges them into `stem.h5`.
     pub fn create(dir: &Path, stem: &str, body: &Body) -> Result<Self, IoError> {
-        std::fs::create_dir_all(dir).map_err(|e| IoError::NotWritable {
+        let frames_dir = dir.join(format!("{stem}.frames"));
+        std::fs::create_dir_all(&frames_dir).map_err(|e| IoError::NotWritable {
             path: dir.to_path_buf(),
             why: e.to_string(),
         })?;
-        let h5_name = format!("{stem}.h5");
-        let h5_path = dir.join(&h5_name);
-        let file = hdf5_metno::File::create(&h5_path).map_err(h5err(&h5_path))?;
-        let n = body.nodes();
-        let pos = &body.lattice.pos;
-        let points: Vec<Real> = (0..n)
-            .flat_map(|i| [pos.x[i], pos.y[i], pos.z[i]])
-            .collect();
-        let mesh = file.create_group("mesh").map_err(h5err(&h5_path))?;
-        write(&mesh, "points", &points, 3, &h5_path)?;
-        let vertices: Vec<i64> = (0..n as i64).collect();
-        let ds = mesh
-            .new_dataset::<i64>()
-            .shape((n, 1))
-            .create("vertices")
-            .map_err(h5err(&h5_path))?;
-        ds.write_raw(&vertices[..]).map_err(h5err(&h5_path))?;
-        file.create_group("frames").map_err(h5err(&h5_path))?;
-        Ok(H5Series {
-            file,
-            h5_name,
-            h5_path,
+        let s = H5Series {
+            dir: dir.to_path_buf(),
+            stem: stem.to_string(),
             xdmf_path: dir.join(format!("{stem}.xdmf")),
-            n,
+            n: body.nodes(),
             frames: Vec::new(),
             has_damage: false,
-        })
+        };
+        let mesh = s.dir.join(s.mesh_file());
+        atomic_h5(&mesh, |f| write_mesh(f, body, &mesh))?;
+        Ok(s)
+    }
+
+    fn mesh_file(&self) -> String {
+        format!("{}.mesh.h5", self.stem)
     }
 
     /// Continue the series of a previous run in `dir`, keeping the frames its `.xdmf` lists up
     /// to time `until` (a resumed run rewrites what came after its checkpoint).
     pub fn reopen(dir: &Path, stem: &str, body: &Body, until: Real) -> Result<Self, IoError> {
-        let h5_name = format!("{stem}.h5");
-        let h5_path = dir.join(&h5_name);
         let xdmf_path = dir.join(format!("{stem}.xdmf"));
         let Ok(text) = std::fs::read_to_string(&xdmf_path) else {
             return Self::create(dir, stem, body);
         };
-        let file = hdf5_metno::File::append(&h5_path).map_err(h5err(&h5_path))?;
-        let mut frames = Vec::new();
+        let mut s = Self::create(dir, stem, body)?;
         let mut time = None;
         for line in text.lines() {
             if let Some(v) = line
@@ -94,27 +108,23 @@ impl H5Series {
             {
                 time = v.parse::<Real>().ok();
             }
-            if let (Some(t), Some(name)) = (
+            // A frame's data items read `FILE:/frames/NAME/field`.
+            if let (Some(t), Some(item)) = (
                 time,
-                line.split("/frames/")
+                line.split("Precision=\"8\">")
                     .nth(1)
-                    .and_then(|r| r.split('/').next()),
+                    .and_then(|r| r.split('<').next()),
             ) {
-                if t <= until && !frames.iter().any(|(_, f): &(Real, String)| f == name) {
-                    frames.push((t, name.to_string()));
+                if let Some((file, path)) = item.split_once(":/frames/") {
+                    let name = path.split('/').next().unwrap_or("").to_string();
+                    if t <= until && !s.frames.iter().any(|(_, f, _)| f == &name) {
+                        s.frames.push((t, name, file.to_string()));
+                    }
                 }
             }
         }
-        let has_damage = text.contains("Name=\"damage\"");
-        Ok(H5Series {
-            file,
-            h5_name,
-            h5_path,
-            xdmf_path,
-            n: body.nodes(),
-            frames,
-            has_damage,
-        })
+        s.has_damage = text.contains("Name=\"damage\"");
+        Ok(s)
     }
 
     /// Path of the `.xdmf` description.
@@ -122,80 +132,142 @@ impl H5Series {
         &self.xdmf_path
     }
 
-    /// Write one frame and update the description.
+    /// Write one frame (to its own file, atomically) and update the description.
     pub fn write(
         &mut self,
         body: &Body,
         state: &State,
         extras: FrameExtras,
     ) -> Result<(), IoError> {
-        let p = &self.h5_path;
         let name = format!("{:06}", state.step);
-        let frames = self.file.group("frames").map_err(h5err(p))?;
-        if frames.link_exists(&name) {
-            frames.unlink(&name).map_err(h5err(p))?;
-        }
-        let g = frames.create_group(&name).map_err(h5err(p))?;
+        let file = format!("{}.frames/{name}.h5", self.stem);
+        let path = self.dir.join(&file);
         let n = self.n;
         let vec3 = |c: &hooke_core::Coords| -> Vec<Real> {
             (0..n).flat_map(|i| [c.x[i], c.y[i], c.z[i]]).collect()
         };
-        write(&g, "displacement", &vec3(&state.u), 3, p)?;
-        write(
-            &g,
-            "velocity",
-            &vec3(extras.velocity.unwrap_or(&state.v)),
-            3,
-            p,
-        )?;
-        if let Some(d) = extras.damage {
-            write(&g, "damage", d, 1, p)?;
-            self.has_damage = true;
-        }
         let d = derived(body, state);
-        write(&g, "pool_ratio", &d.pool, 1, p)?;
-        write(&g, "strain_energy_density", &d.energy_density, 1, p)?;
         let stress: Vec<Real> = d.stress.iter().flatten().copied().collect();
-        write(&g, "stress", &stress, 9, p)?;
-        self.file.flush().map_err(h5err(p))?;
-        self.frames.retain(|(_, f)| f != &name);
-        self.frames.push((state.time, name));
+        let has_damage = extras.damage.is_some();
+        atomic_h5(&path, |f| {
+            let g = f
+                .create_group("frames")
+                .and_then(|g| g.create_group(&name))
+                .map_err(h5err(&path))?;
+            write(&g, "displacement", &vec3(&state.u), 3, &path)?;
+            write(
+                &g,
+                "velocity",
+                &vec3(extras.velocity.unwrap_or(&state.v)),
+                3,
+                &path,
+            )?;
+            if let Some(dmg) = extras.damage {
+                write(&g, "damage", dmg, 1, &path)?;
+            }
+            write(&g, "pool_ratio", &d.pool, 1, &path)?;
+            write(&g, "strain_energy_density", &d.energy_density, 1, &path)?;
+            write(&g, "stress", &stress, 9, &path)
+        })?;
+        self.has_damage |= has_damage;
+        self.frames.retain(|(_, f, _)| f != &name);
+        self.frames.push((state.time, name, file));
         self.write_xdmf()
     }
 
+    /// Merge the mesh and every frame into the single file `stem.h5` (through a temporary name),
+    /// point the description at it and remove the per-frame files. Call when the run completes.
+    pub fn finish(&mut self) -> Result<PathBuf, IoError> {
+        let target = self.dir.join(format!("{}.h5", self.stem));
+        let merged_name = format!("{}.h5", self.stem);
+        let sources: Vec<(String, String)> = self
+            .frames
+            .iter()
+            .map(|(_, name, file)| (name.clone(), file.clone()))
+            .collect();
+        let mesh_path = self.dir.join(self.mesh_file());
+        let dir = self.dir.clone();
+        atomic_h5(&target, |out| {
+            let mesh = hdf5_metno::File::open(&mesh_path).map_err(h5err(&mesh_path))?;
+            let g = out.create_group("mesh").map_err(h5err(&target))?;
+            let pts: Vec<Real> = mesh
+                .dataset("mesh/points")
+                .and_then(|d| d.read_raw())
+                .map_err(h5err(&mesh_path))?;
+            write(&g, "points", &pts, 3, &target)?;
+            let v: Vec<i64> = mesh
+                .dataset("mesh/vertices")
+                .and_then(|d| d.read_raw())
+                .map_err(h5err(&mesh_path))?;
+            let ds = g
+                .new_dataset::<i64>()
+                .shape((v.len(), 1))
+                .create("vertices")
+                .map_err(h5err(&target))?;
+            ds.write_raw(&v[..]).map_err(h5err(&target))?;
+            let frames = out.create_group("frames").map_err(h5err(&target))?;
+            for (name, file) in &sources {
+                let src_path = dir.join(file);
+                let src = hdf5_metno::File::open(&src_path).map_err(h5err(&src_path))?;
+                let fg = frames.create_group(name).map_err(h5err(&target))?;
+                for (field, _, cols) in FIELDS {
+                    if let Ok(ds) = src.dataset(&format!("frames/{name}/{field}")) {
+                        let data: Vec<Real> = ds.read_raw().map_err(h5err(&src_path))?;
+                        write(&fg, field, &data, cols, &target)?;
+                    }
+                }
+            }
+            Ok(())
+        })?;
+        for f in self.frames.iter_mut() {
+            f.2 = merged_name.clone();
+        }
+        self.write_xdmf_with_mesh(&merged_name)?;
+        let _ = std::fs::remove_dir_all(self.dir.join(format!("{}.frames", self.stem)));
+        let _ = std::fs::remove_file(self.dir.join(self.mesh_file()));
+        Ok(target)
+    }
+
     fn write_xdmf(&self) -> Result<(), IoError> {
-        let (h5, n) = (&self.h5_name, self.n);
-        let item = |path: &str, dims: &str, ty: &str| {
-            format!("<DataItem DataType=\"{ty}\" Dimensions=\"{dims}\" Format=\"HDF\" Precision=\"8\">{h5}:{path}</DataItem>")
+        self.write_xdmf_with_mesh(&self.mesh_file())
+    }
+
+    fn write_xdmf_with_mesh(&self, mesh_file: &str) -> Result<(), IoError> {
+        let n = self.n;
+        let item = |file: &str, path: &str, dims: &str, ty: &str| {
+            format!("<DataItem DataType=\"{ty}\" Dimensions=\"{dims}\" Format=\"HDF\" Precision=\"8\">{file}:{path}</DataItem>")
         };
         let mut x = String::from("<?xml version=\"1.0\"?>\n<Xdmf xmlns:xi=\"http://www.w3.org/2001/XInclude\" Version=\"3.0\">\n  <Domain>\n");
         x.push_str("    <Grid Name=\"mesh\" GridType=\"Uniform\">\n");
         x.push_str(&format!(
             "      <Geometry GeometryType=\"XYZ\">{}</Geometry>\n",
-            item("/mesh/points", &format!("{n} 3"), "Float")
+            item(mesh_file, "/mesh/points", &format!("{n} 3"), "Float")
         ));
-        x.push_str(&format!("      <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"{n}\" NodesPerElement=\"1\">{}</Topology>\n", item("/mesh/vertices", &format!("{n} 1"), "Int")));
+        x.push_str(&format!(
+            "      <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"{n}\" NodesPerElement=\"1\">{}</Topology>\n",
+            item(mesh_file, "/mesh/vertices", &format!("{n} 1"), "Int")
+        ));
         x.push_str("    </Grid>\n    <Grid Name=\"TimeSeries\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
-        for (t, f) in &self.frames {
-            x.push_str("      <Grid Name=\"mesh\" GridType=\"Uniform\">\n");
+        for (t, name, file) in &self.frames {
+            // Named apart from the mesh grid: the include below selects `Grid[@Name="mesh"]`.
+            x.push_str(&format!(
+                "      <Grid Name=\"step_{name}\" GridType=\"Uniform\">\n"
+            ));
             x.push_str("        <xi:include xpointer=\"xpointer(//Grid[@Name=&quot;mesh&quot;]/*[self::Topology or self::Geometry])\"/>\n");
             x.push_str(&format!("        <Time Value=\"{t:.17e}\"/>\n"));
-            let mut fields = vec![("displacement", "Vector", 3), ("velocity", "Vector", 3)];
-            if self.has_damage {
-                fields.push(("damage", "Scalar", 1));
-            }
-            fields.extend([
-                ("pool_ratio", "Scalar", 1),
-                ("strain_energy_density", "Scalar", 1),
-                ("stress", "Tensor", 9),
-            ]);
-            for (name, kind, c) in fields {
+            for (field, kind, c) in FIELDS {
+                if field == "damage" && !self.has_damage {
+                    continue;
+                }
                 let dims = if c == 1 {
                     format!("{n}")
                 } else {
                     format!("{n} {c}")
                 };
-                x.push_str(&format!("        <Attribute Name=\"{name}\" AttributeType=\"{kind}\" Center=\"Node\">{}</Attribute>\n", item(&format!("/frames/{f}/{name}"), &dims, "Float")));
+                x.push_str(&format!(
+                    "        <Attribute Name=\"{field}\" AttributeType=\"{kind}\" Center=\"Node\">{}</Attribute>\n",
+                    item(file, &format!("/frames/{name}/{field}"), &dims, "Float")
+                ));
             }
             x.push_str("      </Grid>\n");
         }
@@ -203,6 +275,23 @@ impl H5Series {
         let path = &self.xdmf_path;
         write_atomic(path, |w| w.write_all(x.as_bytes()).map_err(io(path)))
     }
+}
+
+fn write_mesh(f: &hdf5_metno::File, body: &Body, path: &Path) -> Result<(), IoError> {
+    let n = body.nodes();
+    let pos = &body.lattice.pos;
+    let points: Vec<Real> = (0..n)
+        .flat_map(|i| [pos.x[i], pos.y[i], pos.z[i]])
+        .collect();
+    let mesh = f.create_group("mesh").map_err(h5err(path))?;
+    write(&mesh, "points", &points, 3, path)?;
+    let vertices: Vec<i64> = (0..n as i64).collect();
+    let ds = mesh
+        .new_dataset::<i64>()
+        .shape((n, 1))
+        .create("vertices")
+        .map_err(h5err(path))?;
+    ds.write_raw(&vertices[..]).map_err(h5err(path))
 }
 
 /// A chunked, deflate-compressed `rows x cols` dataset of `data` (row-major).

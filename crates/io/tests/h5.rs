@@ -1,32 +1,122 @@
 //! HDF5 output read back with the HDF5 library itself (feature `hdf5`).
 #![cfg(feature = "hdf5")]
 
+use std::path::{Path, PathBuf};
+
 use hooke_core::{Body, Lattice, State};
 use hooke_io::{FrameExtras, H5Series};
 
+fn body() -> Body {
+    Body::uniform(Lattice::cubic_box([6, 4, 3], 1e-3).unwrap(), 1e4, 0.2, 1e-6)
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("hooke-h5-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+/// Frames are written one file each while the run goes on, merged into one chunked file at the
+/// end, and read back exactly from either.
 #[test]
 fn hdf5_frames_read_back_exactly() {
-    let body = Body::uniform(Lattice::cubic_box([6, 4, 3], 1e-3).unwrap(), 1e4, 0.2, 1e-6);
+    let body = body();
     let mut state = State::new(&body);
     for i in 0..body.nodes() {
         state.u.x[i] = 1e-6 * i as f64;
     }
-    let dir = std::env::temp_dir().join(format!("hooke-h5-{}", std::process::id()));
+    let dir = tmp("frames");
     let mut s = H5Series::create(&dir, "t", &body).unwrap();
     for step in [0u64, 10] {
         state.step = step;
         state.time = step as f64 * 1e-7;
         s.write(&body, &state, FrameExtras::default()).unwrap();
     }
-    let f = hdf5_metno::File::open(dir.join("t.h5")).unwrap();
-    let d = f.dataset("frames/000010/displacement").unwrap();
-    assert_eq!(d.shape(), vec![body.nodes(), 3]);
-    assert!(d.chunk().is_some(), "not chunked");
-    let v: Vec<f64> = d.read_raw().unwrap();
-    for i in 0..body.nodes() {
-        assert_eq!(v[3 * i], state.u.x[i]);
-    }
+    let read = |file: &Path| -> Vec<f64> {
+        let f = hdf5_metno::File::open(file).unwrap();
+        let d = f.dataset("frames/000010/displacement").unwrap();
+        assert_eq!(d.shape(), vec![body.nodes(), 3]);
+        assert!(d.chunk().is_some(), "not chunked");
+        d.read_raw().unwrap()
+    };
+    let during = read(&dir.join("t.frames/000010.h5"));
     let x = std::fs::read_to_string(s.xdmf_path()).unwrap();
     assert_eq!(x.matches("<Time Value").count(), 2);
+    assert!(
+        x.contains("t.frames/000010.h5:/frames/000010/displacement"),
+        "{x}"
+    );
+    let merged = s.finish().unwrap();
+    assert_eq!(read(&merged), during);
+    for i in 0..body.nodes() {
+        assert_eq!(during[3 * i], state.u.x[i]);
+    }
+    let x = std::fs::read_to_string(s.xdmf_path()).unwrap();
+    assert!(
+        x.contains("t.h5:/frames/000000/displacement") && !x.contains("t.frames"),
+        "{x}"
+    );
+    assert!(
+        !dir.join("t.frames").exists(),
+        "per-frame files are removed after the merge"
+    );
     std::fs::remove_dir_all(&dir).ok();
+}
+
+const CHILD: &str = "HOOKE_H5_KILL_DIR";
+
+/// SIGKILL at an arbitrary moment while HDF5 frames are written: every frame the XDMF lists
+/// opens and reads.
+#[test]
+fn killed_run_leaves_readable_hdf5_frames() {
+    if let Some(dir) = std::env::var_os(CHILD) {
+        let body = body();
+        let mut state = State::new(&body);
+        let mut s = H5Series::create(Path::new(&dir), "run", &body).unwrap();
+        loop {
+            state.step += 1;
+            state.time += 1e-7;
+            state.u.x[0] += 1e-9;
+            s.write(&body, &state, FrameExtras::default()).unwrap();
+        }
+    }
+    for round in 0..3u64 {
+        let dir = tmp(&format!("kill{round}"));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut child = std::process::Command::new(std::env::current_exe().unwrap())
+            .args([
+                "--exact",
+                "killed_run_leaves_readable_hdf5_frames",
+                "--nocapture",
+            ])
+            .env(CHILD, &dir)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(300 + 130 * round));
+        child.kill().unwrap();
+        child.wait().unwrap();
+        let x = std::fs::read_to_string(dir.join("run.xdmf"))
+            .expect("the description exists and is complete");
+        assert!(x.trim_end().ends_with("</Xdmf>"));
+        let mut n = 0;
+        for item in x.split("Precision=\"8\">").skip(1) {
+            let item = item.split('<').next().unwrap();
+            let (file, path) = item.split_once(':').unwrap();
+            let f =
+                hdf5_metno::File::open(dir.join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+            let d = f
+                .dataset(path.trim_start_matches('/'))
+                .unwrap_or_else(|e| panic!("{item}: {e}"));
+            let _: Vec<f64> = if path.ends_with("vertices") {
+                Vec::new()
+            } else {
+                d.read_raw().unwrap()
+            };
+            n += 1;
+        }
+        assert!(n > 10, "too few data items listed ({n})");
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }
