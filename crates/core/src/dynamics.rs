@@ -346,6 +346,15 @@ impl Integrator {
         a
     }
 
+    /// The external load on axis `c` of node `i` at time `t` (N).
+    fn load_on(&self, i: usize, c: usize, t: Real) -> Real {
+        self.loaded
+            .iter()
+            .filter(|&&(j, _)| j == i)
+            .map(|&(_, li)| self.loading.loads[li].force[c] * self.loading.loads[li].scale.value(t))
+            .sum()
+    }
+
     /// Energy accumulated in the ledger so far.
     pub fn ledger(&self) -> Ledger {
         self.ledger
@@ -458,14 +467,7 @@ impl Integrator {
             let g_c = self.loading.body_acceleration[c];
             self.ledger.body_work += m * g_c * (mid - mid_kernel) * dt;
             self.ledger.dissipated += self.damping * m * (mid * mid - mid_kernel * mid_kernel) * dt;
-            let fext: Real = self
-                .loaded
-                .iter()
-                .filter(|&&(j, _)| j == i)
-                .map(|&(_, li)| {
-                    self.loading.loads[li].force[c] * self.loading.loads[li].scale.value(t)
-                })
-                .sum();
+            let fext = self.load_on(i, c, t);
             let g = self.loading.body_acceleration[c];
             let reaction = m * (v_half - v_old) / dt - self.f_before[k][c] - fext - m * g
                 + self.damping * m * 0.5 * (v_half + v_old);
@@ -572,14 +574,7 @@ impl Integrator {
                 }
             };
             let m = body.mass[i];
-            let fext: Real = self
-                .loaded
-                .iter()
-                .filter(|&&(j, _)| j == i)
-                .map(|&(_, li)| {
-                    self.loading.loads[li].force[c] * self.loading.loads[li].scale.value(t)
-                })
-                .sum();
+            let fext = self.load_on(i, c, t);
             let vc = v.comp(c)[i];
             let reaction = m * accel - state.f.comp(c)[i] - fext - m * g[c] + self.damping * m * vc;
             p += reaction * vc;

@@ -226,10 +226,15 @@ pub fn energy(body: &Body, u: &Coords, alive: &[bool], norm: &[Real]) -> Energy 
 /// Current tension of every spring (0 for broken ones), from the state's pools. For output and
 /// measurements, not the hot path.
 pub fn tensions(body: &Body, state: &State) -> Vec<Real> {
+    spring_tensions(body, &state.u, &state.alive, &state.pool)
+}
+
+/// Tension of every spring (0 for broken ones) for displacements `u` and pool ratios `pool`.
+pub fn spring_tensions(body: &Body, u: &Coords, alive: &[bool], pool: &[Real]) -> Vec<Real> {
     let bonds = &body.lattice.bonds;
     (0..bonds.len())
         .map(|b| {
-            if !state.alive[b] {
+            if !alive[b] {
                 return 0.0;
             }
             let [i, j] = bonds.ends[b].map(|v| v as usize);
@@ -237,10 +242,10 @@ pub fn tensions(body: &Body, state: &State) -> Vec<Real> {
             tension(
                 body.k[b],
                 rest,
-                spring_geometry(&body.lattice, &state.u, i, j, rest).dl,
+                spring_geometry(&body.lattice, u, i, j, rest).dl,
                 body.q,
-                state.pool[i],
-                state.pool[j],
+                pool[i],
+                pool[j],
             )
         })
         .collect()

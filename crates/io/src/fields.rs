@@ -1,6 +1,6 @@
 //! Derived per-node fields, computed only for output (never on the hot path).
 
-use hooke_core::law::{self, spring_geometry, tension};
+use hooke_core::law::{self, spring_geometry};
 use hooke_core::{Body, Matrix, Real, State};
 
 /// Fields derived from a state.
@@ -23,23 +23,7 @@ pub fn derived(body: &Body, state: &State) -> Derived {
     law::compute_pools(body, &state.u, &state.alive, &state.norm, &mut pool);
     let bonds = &body.lattice.bonds;
     let lat = &body.lattice;
-    let t: Vec<Real> = (0..bonds.len())
-        .map(|b| {
-            if !state.alive[b] {
-                return 0.0;
-            }
-            let [i, j] = bonds.ends[b].map(|v| v as usize);
-            let rest = bonds.rest[b];
-            tension(
-                body.k[b],
-                rest,
-                spring_geometry(lat, &state.u, i, j, rest).dl,
-                body.q,
-                pool[i],
-                pool[j],
-            )
-        })
-        .collect();
+    let t = law::spring_tensions(body, &state.u, &state.alive, &pool);
     let v = lat.cell_volume;
     let mut energy_density = vec![0.0; n];
     let mut stress = vec![[0.0; 9]; n];
