@@ -56,7 +56,7 @@ fn free_vibration_conserves_energy() {
         state.v = smooth_field(&body, 1e-5);
         let mut tangent = Tangent::new(&body, &State::new(&body));
         let mut kv = Coords::zeros(body.nodes());
-        tangent.apply(&state.v, &mut kv);
+        tangent.apply(&body, &state.v, &mut kv);
         let vmv: Real = (0..body.nodes())
             .map(|i| body.mass[i] * state.v.get(i).norm_squared())
             .sum();
@@ -335,7 +335,7 @@ fn stable_step_estimate_matches_dense_eigenvalues() {
         for (col, &(i, c)) in d.iter().enumerate() {
             v.fill_zero();
             v.comp_mut(c)[i] = 1.0 / body.mass[i].sqrt();
-            t.apply(&v, &mut kv);
+            t.apply(&body, &v, &mut kv);
             for (row, &(j, r)) in d.iter().enumerate() {
                 k[(row, col)] = kv.comp(r)[j] / body.mass[j].sqrt();
             }

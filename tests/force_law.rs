@@ -65,7 +65,7 @@ fn tangent_is_the_force_jacobian() {
         let mut tangent = Tangent::new(&body, &state);
         let v = random_displacement(&body, &mut rng, 1.0);
         let mut kv = Coords::zeros(body.nodes());
-        tangent.apply(&v, &mut kv);
+        tangent.apply(&body, &v, &mut kv);
         let h = 1e-6;
         let mut fp = state.clone();
         fp.u.axpy(h, &v);
@@ -181,7 +181,7 @@ fn dense_tangent(body: &Body, state: &State) -> DMatrix<Real> {
     for (col, &(i, c)) in d.iter().enumerate() {
         v.fill_zero();
         v.comp_mut(c)[i] = 1.0;
-        t.apply(&v, &mut kv);
+        t.apply(body, &v, &mut kv);
         for (row, &(j, r)) in d.iter().enumerate() {
             k[(row, col)] = kv.comp(r)[j];
         }

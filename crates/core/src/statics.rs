@@ -190,7 +190,16 @@ pub fn solve(
         }
         let mut tangent = Tangent::new(body, state);
         let target = (opts.forcing * rn).max(0.1 * opts.tolerance * scale);
-        report.cg_iterations += pcg(&mut tangent, cons, &r, &mut du, target, opts.max_cg, newton)?;
+        report.cg_iterations += pcg(
+            body,
+            &mut tangent,
+            cons,
+            &r,
+            &mut du,
+            target,
+            opts.max_cg,
+            newton,
+        )?;
         // Newton update with a backtracking safeguard: far from equilibrium a full step can
         // overshoot; near it the full step is always taken.
         let u0 = state.u.clone();
@@ -217,7 +226,9 @@ pub fn solve(
 }
 
 /// Preconditioned CG for `K du = r` on the free DOFs; returns the iterations taken.
+#[allow(clippy::too_many_arguments)]
 fn pcg(
+    body: &Body,
     k: &mut Tangent,
     cons: &Constraints,
     r0: &Coords,
@@ -227,7 +238,7 @@ fn pcg(
     newton: usize,
 ) -> Result<usize> {
     let n = r0.len();
-    let mut inv_diag = k.diagonal();
+    let mut inv_diag = k.diagonal(body);
     for c in 0..3 {
         for (d, m) in inv_diag.comp_mut(c).iter_mut().zip(cons.free.comp(c)) {
             *d = if *m != 0.0 && *d > 0.0 { 1.0 / *d } else { 0.0 };
@@ -257,7 +268,7 @@ fn pcg(
         if r.norm() <= target {
             return Ok(it);
         }
-        k.apply(&p, &mut kp);
+        k.apply(body, &p, &mut kp);
         cons.project(&mut kp);
         let pkp = p.dot(&kp);
         if pkp <= 0.0 {
