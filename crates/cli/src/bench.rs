@@ -49,6 +49,14 @@ pub struct BenchArgs {
     /// Kernel to use.
     #[arg(long, value_enum, default_value = "auto")]
     pub kernel: KernelArg,
+    /// Instead: time the plain and the dispersive law on the same block, alternating windows of
+    /// --steps steps --repeats times in one process, and report the medians and their ratio
+    /// (this machine is noisy; interleaving and medians make the ratio reproducible).
+    #[arg(long)]
+    pub compare: bool,
+    /// Windows per law for --compare.
+    #[arg(long, default_value_t = 5)]
+    pub repeats: usize,
     /// Instead: time the static solve of the paper's 71x16x16 block at nu = -0.9, 0.3 and 0.49.
     #[arg(long = "static")]
     pub static_solve: bool,
@@ -85,6 +93,9 @@ pub fn peak_memory() -> Option<u64> {
 pub fn run(args: BenchArgs) -> Result<()> {
     if args.static_solve {
         return bench_static(&args);
+    }
+    if args.compare {
+        return bench_compare(&args);
     }
     if args.nodes < 27 || args.steps == 0 {
         return Err(InputError(format!(
@@ -174,6 +185,73 @@ pub fn run(args: BenchArgs) -> Result<()> {
             out.spring_updates_per_s / 1e6,
             out.seconds_per_step * 1e3,
             out.peak_memory_bytes.map_or("unknown".into(), |b| format!("{:.2} GiB", b as f64 / (1u64 << 30) as f64)),
+        );
+    }
+    Ok(())
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+fn bench_compare(args: &BenchArgs) -> Result<()> {
+    if args.repeats == 0 || args.steps == 0 {
+        return Err(InputError("--repeats and --steps must be at least 1".into()).into());
+    }
+    let side = (args.nodes as f64).cbrt().round().max(3.0) as usize;
+    let mut runs = Vec::new();
+    for nu in [0.25, 0.3] {
+        let lattice = Lattice::cubic_box([side, side, side], 1.0)?;
+        let body = Body::uniform(lattice, 1.0, q_from_nu(LatticeKind::Cubic, nu)?, 1.0);
+        let mut state = State::new(&body);
+        for i in 0..body.nodes() {
+            let p = body.lattice.pos.get(i);
+            state.v.x[i] = 1e-3 * (0.1 * p.y).sin();
+            state.v.y[i] = 1e-3 * (0.13 * p.z + 0.07 * p.x).cos();
+        }
+        let opts = IntegratorOptions {
+            portable: args.kernel == KernelArg::Portable,
+            force_csr: args.kernel == KernelArg::Csr,
+            ..Default::default()
+        };
+        let mut it = Integrator::new(&body, &mut state, Loading::default(), &opts)?;
+        for _ in 0..3 {
+            it.step(&body, &mut state);
+        }
+        runs.push((body, state, it, Vec::new()));
+    }
+    for _ in 0..args.repeats {
+        for (body, state, it, times) in runs.iter_mut() {
+            let start = Instant::now();
+            for _ in 0..args.steps {
+                it.step(body, state);
+            }
+            times.push(start.elapsed().as_secs_f64() / args.steps as f64);
+        }
+    }
+    let springs = runs[0].0.springs();
+    let plain = median(&mut runs[0].3.clone());
+    let disp = median(&mut runs[1].3.clone());
+    let out = serde_json::json!({
+        "nodes": runs[0].0.nodes(), "springs": springs, "threads": rayon::current_num_threads(),
+        "kernel": runs[1].2.kernel.name(), "repeats": args.repeats, "steps": args.steps,
+        "plain_seconds_per_step": plain, "dispersive_seconds_per_step": disp,
+        "plain_spring_updates_per_s": springs as f64 / plain, "dispersive_spring_updates_per_s": springs as f64 / disp,
+        "ratio_dispersive_over_plain": disp / plain,
+    });
+    if args.json {
+        println!("{out}");
+    } else {
+        println!(
+            "{} nodes, {} springs, {} kernel, {} threads, medians of {} windows of {} steps:\n  plain {:.3} ms/step ({:.1} M spring-updates/s), dispersive {:.3} ms/step ({:.1} M/s), ratio {:.3}",
+            runs[0].0.nodes(), springs, runs[1].2.kernel.name(), rayon::current_num_threads(), args.repeats, args.steps,
+            plain * 1e3, springs as f64 / plain / 1e6, disp * 1e3, springs as f64 / disp / 1e6, disp / plain
         );
     }
     Ok(())
