@@ -123,6 +123,196 @@ fn axis_index(ctx: &Ctx, a: &Spanned<String>, key: &str, dim: usize) -> Result<u
     }
 }
 
+/// A primitive of the geometry.
+enum Shape {
+    Box {
+        lo: Vector,
+        hi: Vector,
+    },
+    Ball {
+        c: Vector,
+        r: Real,
+    },
+    Cylinder {
+        c: Vector,
+        axis: usize,
+        r: Real,
+        half: Real,
+    },
+    Polygon {
+        pts: Vec<(Real, Real)>,
+        z: Option<(Real, Real)>,
+    },
+}
+
+impl Shape {
+    fn bounds(&self) -> (Vector, Vector) {
+        match self {
+            Shape::Box { lo, hi } => (*lo, *hi),
+            Shape::Ball { c, r } => (c - Vector::repeat(*r), c + Vector::repeat(*r)),
+            Shape::Cylinder { c, axis, r, half } => {
+                let mut d = Vector::repeat(*r);
+                d[*axis] = *half;
+                (c - d, c + d)
+            }
+            Shape::Polygon { pts, z } => {
+                let (z0, z1) = z.unwrap_or((0.0, 0.0));
+                let x0 = pts.iter().map(|p| p.0).fold(Real::INFINITY, Real::min);
+                let x1 = pts.iter().map(|p| p.0).fold(Real::NEG_INFINITY, Real::max);
+                let y0 = pts.iter().map(|p| p.1).fold(Real::INFINITY, Real::min);
+                let y1 = pts.iter().map(|p| p.1).fold(Real::NEG_INFINITY, Real::max);
+                (Vector::new(x0, y0, z0), Vector::new(x1, y1, z1))
+            }
+        }
+    }
+
+    /// `p` inside, with the surface moved out by `tol` (negative: in).
+    fn contains(&self, p: Vector, tol: Real, dim: usize) -> bool {
+        match self {
+            Shape::Box { lo, hi } => (0..dim).all(|c| p[c] >= lo[c] - tol && p[c] <= hi[c] + tol),
+            Shape::Ball { c, r } => {
+                let mut d = p - c;
+                if dim == 2 {
+                    d.z = 0.0;
+                }
+                d.norm() <= r + tol
+            }
+            Shape::Cylinder { c, axis, r, half } => {
+                let mut d = p - c;
+                let along = d[*axis];
+                d[*axis] = 0.0;
+                if dim == 2 {
+                    d.z = 0.0;
+                }
+                along.abs() <= half + tol && d.norm() <= r + tol
+            }
+            Shape::Polygon { pts, z } => {
+                if let (Some((z0, z1)), 3) = (z, dim) {
+                    if p.z < z0 - tol || p.z > z1 + tol {
+                        return false;
+                    }
+                }
+                // Crossing-number test; points within tol of an edge count as on the edge.
+                let mut inside = false;
+                let mut near = false;
+                for k in 0..pts.len() {
+                    let (a, b) = (pts[k], pts[(k + 1) % pts.len()]);
+                    if (a.1 > p.y) != (b.1 > p.y)
+                        && p.x < a.0 + (p.y - a.1) * (b.0 - a.0) / (b.1 - a.1)
+                    {
+                        inside = !inside;
+                    }
+                    let (ex, ey) = (b.0 - a.0, b.1 - a.1);
+                    let len2 = ex * ex + ey * ey;
+                    let t = (((p.x - a.0) * ex + (p.y - a.1) * ey) / len2).clamp(0.0, 1.0);
+                    let (dx, dy) = (p.x - a.0 - t * ex, p.y - a.1 - t * ey);
+                    near |= (dx * dx + dy * dy).sqrt() <= tol.abs();
+                }
+                if tol >= 0.0 {
+                    inside || near
+                } else {
+                    inside && !near
+                }
+            }
+        }
+    }
+}
+
+fn shape(ctx: &Ctx, sh: &Spanned<RawShape>, key: &str, dim: usize) -> Result<Shape, CaseError> {
+    let s = sh.get_ref();
+    let given = [
+        s.bbox.is_some(),
+        s.sphere.is_some(),
+        s.circle.is_some(),
+        s.cylinder.is_some(),
+        s.polygon.is_some(),
+    ]
+    .iter()
+    .filter(|&&b| b)
+    .count();
+    if given != 1 {
+        return Err(ctx.err(
+            sh.span(),
+            key,
+            "give exactly one of box, sphere (circle in 2D), cylinder or polygon",
+        ));
+    }
+    if let Some(b) = &s.bbox {
+        let (lo, hi) = (
+            ctx.point(&b.min, &format!("{key}.box.min"), dim)?,
+            ctx.point(&b.max, &format!("{key}.box.max"), dim)?,
+        );
+        if (0..dim).any(|c| hi[c] <= lo[c]) {
+            return Err(ctx.err(
+                b.max.span(),
+                key,
+                "the box is empty: every max coordinate must exceed its min",
+            ));
+        }
+        return Ok(Shape::Box { lo, hi });
+    }
+    if let Some(b) = s.sphere.as_ref().or(s.circle.as_ref()) {
+        return Ok(Shape::Ball {
+            c: ctx.point(&b.center, &format!("{key}.center"), dim)?,
+            r: ctx.positive(&b.radius, &format!("{key}.radius"), "m")?,
+        });
+    }
+    if let Some(c) = &s.cylinder {
+        let axis = axis_index(ctx, &c.axis, &format!("{key}.axis"), 3)?;
+        return Ok(Shape::Cylinder {
+            c: ctx.point(&c.center, &format!("{key}.center"), dim)?,
+            axis,
+            r: ctx.positive(&c.radius, &format!("{key}.radius"), "m")?,
+            half: 0.5 * ctx.positive(&c.length, &format!("{key}.length"), "m")?,
+        });
+    }
+    let p = s.polygon.as_ref().expect("one shape is given");
+    let pts = p.points.get_ref();
+    if pts.len() < 3
+        || pts
+            .iter()
+            .any(|q| q.len() != 2 || !q.iter().all(|v| v.is_finite()))
+    {
+        return Err(ctx.err(
+            p.points.span(),
+            format!("{key}.points"),
+            "a polygon is three or more points [x, y] in the x-y plane, in order",
+        ));
+    }
+    let z = match (&p.z, dim) {
+        (Some(z), 3) => {
+            let v = z.get_ref();
+            if v.len() != 2 || !(v[1] > v[0]) {
+                return Err(ctx.err(
+                    z.span(),
+                    format!("{key}.z"),
+                    "give the extrusion as z = [z0, z1] with z1 > z0",
+                ));
+            }
+            Some((v[0], v[1]))
+        }
+        (None, 3) => {
+            return Err(ctx.err(
+                p.points.span(),
+                format!("{key}.z"),
+                "a polygon in a 3D body needs its extrusion z = [z0, z1]",
+            ))
+        }
+        (Some(z), _) => {
+            return Err(ctx.err(
+                z.span(),
+                format!("{key}.z"),
+                "2D bodies take no extrusion; remove z",
+            ))
+        }
+        (None, _) => None,
+    };
+    Ok(Shape::Polygon {
+        pts: pts.iter().map(|q| (q[0], q[1])).collect(),
+        z,
+    })
+}
+
 /// Read, validate and build the case at `path`, with the lattice spacing divided by `scale`.
 pub fn load(path: &Path, scale: Real) -> Result<Simulation, CaseError> {
     let text = std::fs::read_to_string(path).map_err(|e| CaseError {
@@ -272,14 +462,55 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
         },
     };
 
-    // Geometry: a box filled with the lattice.
-    let g = &raw.geometry.bbox;
-    let lo = ctx.point(&g.min, "geometry.box.min", dim)?;
-    let hi = ctx.point(&g.max, "geometry.box.max", dim)?;
+    // Geometry: the lattice fills the bounding box, then keeps the nodes inside the body.
+    let geo = &raw.geometry;
+    let mut adds = Vec::new();
+    for (k, sh) in geo.add.iter().enumerate() {
+        adds.push(shape(&ctx, sh, &format!("geometry.add[{k}]"), dim)?);
+    }
+    let mut subs = Vec::new();
+    for (k, sh) in geo.subtract.iter().enumerate() {
+        subs.push(shape(&ctx, sh, &format!("geometry.subtract[{k}]"), dim)?);
+    }
+    let (lo, hi, geo_span) = match (&geo.bbox, adds.is_empty()) {
+        (Some(g), true) => (
+            ctx.point(&g.min, "geometry.box.min", dim)?,
+            ctx.point(&g.max, "geometry.box.max", dim)?,
+            g.max.span(),
+        ),
+        (None, false) => {
+            let mut lo = Vector::repeat(Real::INFINITY);
+            let mut hi = Vector::repeat(Real::NEG_INFINITY);
+            for sh in &adds {
+                let (l, h) = sh.bounds();
+                lo = lo.inf(&l);
+                hi = hi.sup(&h);
+            }
+            if dim == 2 {
+                lo.z = 0.0;
+                hi.z = 0.0;
+            }
+            (lo, hi, geo.add[0].span())
+        }
+        (Some(g), false) => {
+            return Err(ctx.err(
+                g.min.span(),
+                "geometry",
+                "give the body as geometry.box or as [[geometry.add]] shapes, not both",
+            ))
+        }
+        (None, true) => {
+            return Err(ctx.err(
+                0..0,
+                "geometry",
+                "give the body: box = { min = [...], max = [...] }, or [[geometry.add]] shapes",
+            ))
+        }
+    };
     let size = hi - lo;
     if (0..dim).any(|c| size[c] <= 0.0) {
         return Err(ctx.err(
-            g.max.span(),
+            geo_span.clone(),
             "geometry.box",
             "the box is empty: every max coordinate must exceed its min",
         ));
@@ -300,25 +531,37 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
         LatticeKind::Cubic => {
             let n = [count(size.x, a), count(size.y, a), count(size.z, a)];
             if n.iter().any(|&v| v < 2) {
-                return Err(ctx.err(g.max.span(), "geometry.box", format!("the box holds {n:?} nodes at spacing {a:e} m; make it larger or the spacing smaller")));
+                return Err(ctx.err(geo_span.clone(), "geometry", format!("the box holds {n:?} nodes at spacing {a:e} m; make it larger or the spacing smaller")));
             }
             Lattice::cubic_box(n, a)
         }
         LatticeKind::Hex => {
             let (nx, rows) = (count(size.x, a), count(size.y, a * 3f64.sqrt() / 2.0));
             if nx < 2 || rows < 2 {
-                return Err(ctx.err(g.max.span(), "geometry.box", format!("the box holds {nx} x {rows} nodes at spacing {a:e} m; make it larger or the spacing smaller")));
+                return Err(ctx.err(geo_span.clone(), "geometry", format!("the box holds {nx} x {rows} nodes at spacing {a:e} m; make it larger or the spacing smaller")));
             }
             Lattice::hex_box(nx, rows, a, h)
         }
     }
-    .map_err(|e| ctx.err(g.max.span(), "geometry.box", e.to_string()))?;
+    .map_err(|e| ctx.err(geo_span.clone(), "geometry", e.to_string()))?;
     for i in 0..lattice.len() {
         lattice.pos.x[i] += lo.x;
         lattice.pos.y[i] += lo.y;
         if dim == 3 {
             lattice.pos.z[i] += lo.z;
         }
+    }
+    if !adds.is_empty() || !subs.is_empty() {
+        // A node counts as inside within 1e-9 a of a surface, so that faces placed exactly on a
+        // node plane keep their nodes.
+        let tol = 1e-9 * a;
+        let inside = |p: Vector| {
+            (adds.is_empty() || adds.iter().any(|s| s.contains(p, tol, dim)))
+                && !subs.iter().any(|s| s.contains(p, -tol, dim))
+        };
+        lattice = lattice
+            .retain(inside)
+            .map_err(|e| ctx.err(geo_span.clone(), "geometry", e.to_string()))?;
     }
 
     // Material.

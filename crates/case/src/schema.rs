@@ -50,11 +50,56 @@ pub struct RawBox {
     pub max: Spanned<Vec<Real>>,
 }
 
+/// The body: `box = {...}`, or the union of `[[geometry.add]]` shapes; minus the union of
+/// `[[geometry.subtract]]` shapes (holes, notches) in either case.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawGeometry {
     #[serde(rename = "box")]
-    pub bbox: RawBox,
+    pub bbox: Option<RawBox>,
+    #[serde(default)]
+    pub add: Vec<Spanned<RawShape>>,
+    #[serde(default)]
+    pub subtract: Vec<Spanned<RawShape>>,
+}
+
+/// One primitive (exactly one key).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawShape {
+    #[serde(rename = "box")]
+    pub bbox: Option<RawBox>,
+    /// A ball (3D) or disk (2D).
+    pub sphere: Option<RawBall>,
+    /// Same as `sphere`, the name for 2D bodies.
+    pub circle: Option<RawBall>,
+    pub cylinder: Option<RawCylinder>,
+    pub polygon: Option<RawPolygon>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawBall {
+    pub center: Spanned<Vec<Real>>,
+    pub radius: Spanned<Real>,
+}
+
+/// A circular cylinder along a coordinate axis, centred at `center`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawCylinder {
+    pub center: Spanned<Vec<Real>>,
+    pub axis: Spanned<String>,
+    pub radius: Spanned<Real>,
+    pub length: Spanned<Real>,
+}
+
+/// A polygon in the x-y plane (vertices in order); in 3D extruded between `z = [z0, z1]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawPolygon {
+    pub points: Spanned<Vec<Vec<Real>>>,
+    pub z: Option<Spanned<Vec<Real>>>,
 }
 
 #[derive(Debug, Deserialize)]

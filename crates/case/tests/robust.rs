@@ -167,3 +167,79 @@ fn random_mutations_never_panic() {
         "mutations should give both valid and invalid files ({ok} ok, {err} errors)"
     );
 }
+
+fn with_geometry(geometry: &str) -> String {
+    let start = BASE.find("[geometry]").unwrap();
+    let end = BASE.find("[[precrack]]").unwrap();
+    let boundary = BASE.find("[[boundary]]").unwrap();
+    // Keep lattice and material; replace geometry; drop the pre-crack and the second boundary.
+    format!("{}{}\n{}", &BASE[..start], geometry, &BASE[boundary..]).replace("[[boundary]]\nregion = { box = { min = [-1.0, -1.0], max = [1.0, 0.5e-3] } }\nfixed = [\"x\", \"y\"]\n", "").replace(&BASE[end..boundary], "")
+}
+
+/// A plate with a circular hole: the nodes fill the plate but not the hole, and their number
+/// matches the area to within the lattice's staircase error.
+#[test]
+fn geometry_with_a_hole() {
+    let text = with_geometry("[geometry]\nadd = [{ box = { min = [0.0, 0.0], max = [20e-3, 12e-3] } }]\nsubtract = [{ circle = { center = [10e-3, 6e-3], radius = 3e-3 } }]\n");
+    let sim = load(&text).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    let lat = &sim.body.lattice;
+    for i in 0..lat.len() {
+        let p = lat.pos.get(i);
+        assert!(
+            ((p.x - 10e-3).powi(2) + (p.y - 6e-3).powi(2)).sqrt() >= 3e-3 - 1e-12,
+            "node {i} in the hole"
+        );
+    }
+    let a = 1e-3;
+    let cell = 3f64.sqrt() / 2.0 * a * a;
+    let expected = (20e-3 * 12e-3 - std::f64::consts::PI * 9e-6) / cell;
+    let n = lat.len() as f64;
+    assert!(
+        (n / expected - 1.0).abs() < 0.15,
+        "{n} nodes, about {expected} expected"
+    );
+    assert!(
+        lat.grid.is_none(),
+        "a body with a hole runs on the CSR kernel"
+    );
+}
+
+/// 3D: an L-shaped union of two boxes, and an extruded triangle.
+#[test]
+fn geometry_unions_and_polygons_3d() {
+    let base = BASE
+        .replace("kind = \"hex\"", "kind = \"cubic\"")
+        .replace("thickness = 1.0e-3\n", "");
+    let cube = |geom: &str| {
+        let start = base.find("[geometry]").unwrap();
+        let end = base.find("[solver]").unwrap();
+        format!("{}{}\n{}", &base[..start], geom, &base[end..])
+    };
+    let l = cube("[geometry]\nadd = [{ box = { min = [0.0, 0.0, 0.0], max = [4e-3, 1e-3, 1e-3] } }, { box = { min = [0.0, 0.0, 0.0], max = [1e-3, 4e-3, 1e-3] } }]\n");
+    let sim = load(&l).unwrap_or_else(|e| panic!("{e}\n{l}"));
+    assert_eq!(sim.body.nodes(), 5 * 2 * 2 + 5 * 2 * 2 - 2 * 2 * 2);
+    let tri = cube("[geometry]\nadd = [{ polygon = { points = [[0.0, 0.0], [6e-3, 0.0], [0.0, 6e-3]], z = [0.0, 2e-3] } }]\n");
+    let sim = load(&tri).unwrap_or_else(|e| panic!("{e}\n{tri}"));
+    for i in 0..sim.body.nodes() {
+        let p = sim.body.lattice.pos.get(i);
+        assert!(p.x + p.y <= 6e-3 + 1e-12 && p.z <= 2e-3 + 1e-12);
+    }
+    // 7 nodes on the diagonal row x + y = 6 mm, 28 in the triangle, 3 layers in z.
+    assert_eq!(sim.body.nodes(), 28 * 3);
+}
+
+/// Geometry mistakes are refused at their location.
+#[test]
+fn geometry_errors_name_the_shape() {
+    for (geom, needle) in [
+        ("[geometry]\nbox = { min = [0.0, 0.0], max = [1e-2, 1e-2] }\nadd = [{ circle = { center = [0.0, 0.0], radius = 1e-3 } }]\n", "not both"),
+        ("[geometry]\nadd = [{ circle = { center = [0.0, 0.0], radius = 1e-3 }, box = { min = [0.0, 0.0], max = [1e-2, 1e-2] } }]\n", "exactly one"),
+        ("[geometry]\nadd = [{ box = { min = [0.0, 0.0], max = [1e-2, 1e-2] } }]\nsubtract = [{ box = { min = [-1.0, -1.0], max = [1.0, 1.0] } }]\n", "contains no lattice node"),
+        ("[geometry]\nadd = [{ circle = { center = [0.0, 0.0], radius = -1e-3 } }]\n", "geometry.add[0].radius"),
+        ("[geometry]\nadd = [{ polygon = { points = [[0.0, 0.0], [1e-2, 0.0]] } }]\n", "three or more points"),
+    ] {
+        let text = with_geometry(geom);
+        let e = load(&text).expect_err(geom).to_string();
+        assert!(e.contains(needle) && e.starts_with("case.toml:"), "{geom}: {e}");
+    }
+}

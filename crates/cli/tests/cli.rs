@@ -141,18 +141,58 @@ fn help_exits_0() {
 /// `hooke bench --json` keeps the keys other tools rely on; --compare and --static answer too.
 #[test]
 fn bench_json_has_the_contract_keys() {
-    let o = hooke(&["bench", "--nodes", "8000", "--steps", "3", "--law", "plain", "--threads", "1", "--json"]);
+    let o = hooke(&[
+        "bench",
+        "--nodes",
+        "8000",
+        "--steps",
+        "3",
+        "--law",
+        "plain",
+        "--threads",
+        "1",
+        "--json",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    for key in ["law", "nodes", "springs", "steps", "threads", "seconds", "spring_updates_per_s", "seconds_per_step", "peak_memory_bytes"] {
+    for key in [
+        "law",
+        "nodes",
+        "springs",
+        "steps",
+        "threads",
+        "seconds",
+        "spring_updates_per_s",
+        "seconds_per_step",
+        "peak_memory_bytes",
+    ] {
         assert!(v.get(key).is_some(), "missing {key} in {v}");
     }
     assert_eq!(v["law"], "plain");
     assert_eq!(v["threads"], 1);
     assert_eq!(v["nodes"], 8000);
-    let o = hooke(&["bench", "--lattice", "hex", "--nodes", "5000", "--steps", "2", "--json"]);
+    let o = hooke(&[
+        "bench",
+        "--lattice",
+        "hex",
+        "--nodes",
+        "5000",
+        "--steps",
+        "2",
+        "--json",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = hooke(&["bench", "--compare", "--nodes", "8000", "--steps", "2", "--repeats", "2", "--json"]);
+    let o = hooke(&[
+        "bench",
+        "--compare",
+        "--nodes",
+        "8000",
+        "--steps",
+        "2",
+        "--repeats",
+        "2",
+        "--json",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert!(v["ratio_dispersive_over_plain"].as_f64().unwrap() > 0.0);

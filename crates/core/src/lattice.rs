@@ -428,6 +428,49 @@ impl Lattice {
     }
 }
 
+impl Lattice {
+    /// Keep only the nodes for which `keep(reference position)` is true, with the springs
+    /// between kept nodes: a lattice filled into an arbitrary shape. If every node is kept the
+    /// lattice is returned unchanged (a box keeps its grid, and so the stencil kernel);
+    /// otherwise it has no grid and runs on the CSR kernel.
+    pub fn retain(self, keep: impl Fn(Vector) -> bool) -> Result<Self> {
+        let n = self.len();
+        let kept: Vec<bool> = (0..n).map(|i| keep(self.pos.get(i))).collect();
+        if kept.iter().all(|&k| k) {
+            return Ok(self);
+        }
+        let mut new_index = vec![u32::MAX; n];
+        let mut pos = Coords::default();
+        for i in (0..n).filter(|&i| kept[i]) {
+            new_index[i] = pos.x.len() as u32;
+            pos.x.push(self.pos.x[i]);
+            pos.y.push(self.pos.y[i]);
+            pos.z.push(self.pos.z[i]);
+        }
+        if pos.is_empty() {
+            return Err(Error::InvalidInput {
+                what: "geometry",
+                why: "the shape contains no lattice node: make it larger or the spacing smaller"
+                    .into(),
+            });
+        }
+        let pairs: Vec<[u32; 2]> = self
+            .bonds
+            .ends
+            .iter()
+            .filter(|&&[i, j]| kept[i as usize] && kept[j as usize])
+            .map(|&[i, j]| [new_index[i as usize], new_index[j as usize]])
+            .collect();
+        let bonds = Bonds::from_pairs(pos.len(), &pairs, &pos, self.period)?;
+        Ok(Lattice {
+            pos,
+            bonds,
+            grid: None,
+            ..self
+        })
+    }
+}
+
 fn check_spacing(a: Real) -> Result<()> {
     if a.is_finite() && a > 0.0 {
         Ok(())
