@@ -33,6 +33,8 @@ pub struct Simulation {
     /// Region id of every node: 1 + the index of the last `[[boundary]]` whose region holds it,
     /// 0 for none (written as the `region` point field).
     pub regions: Vec<u32>,
+    /// Quasi-static solve in this many load steps (None: explicit dynamics).
+    pub quasi_static: Option<usize>,
     /// Write the VTK series.
     pub vtk: bool,
     /// Write the HDF5 + XDMF series.
@@ -905,6 +907,40 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
         Some(e) => ctx.positive(e, "output.checkpoint_every", "s")?,
         None => end_time / 4.0,
     };
+    let quasi_static = match &s.kind {
+        None => None,
+        Some(k) => match k.get_ref().as_str() {
+            "explicit" => None,
+            "quasi-static" => {
+                let n = match &s.steps {
+                    Some(st) if *st.get_ref() < 1 || *st.get_ref() > 1_000_000 => {
+                        return Err(ctx.err(
+                            st.span(),
+                            "solver.steps",
+                            "give 1 to 1 000 000 load steps",
+                        ))
+                    }
+                    Some(st) => *st.get_ref() as usize,
+                    None => 20,
+                };
+                Some(n)
+            }
+            other => {
+                return Err(ctx.err(
+                    k.span(),
+                    "solver.type",
+                    format!("unknown solver \"{other}\"; use \"explicit\" or \"quasi-static\""),
+                ))
+            }
+        },
+    };
+    if let (None, Some(st)) = (&quasi_static, &s.steps) {
+        return Err(ctx.err(
+            st.span(),
+            "solver.steps",
+            "load steps are for type = \"quasi-static\"; explicit runs take end_time",
+        ));
+    }
     let (mut vtk, mut hdf5) = (true, false);
     if let Some(f) = &o.format {
         (vtk, hdf5) = (false, false);
@@ -949,6 +985,7 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
         checkpoint_every,
         springs: o.springs,
         regions,
+        quasi_static,
         vtk,
         hdf5,
         k,

@@ -180,6 +180,11 @@ pub struct RawInitial {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawSolver {
+    /// `"explicit"` (default) or `"quasi-static"`.
+    #[serde(rename = "type")]
+    pub kind: Option<Spanned<String>>,
+    /// Load steps of a quasi-static solve (default 20).
+    pub steps: Option<Spanned<i64>>,
     pub end_time: Spanned<Real>,
     pub dt: Option<Spanned<Real>>,
     pub safety: Option<Spanned<Real>>,

@@ -89,6 +89,43 @@ struct Output {
     h5: Option<hooke_io::H5Series>,
 }
 
+/// The series a run writes, new or continued.
+fn open_output(
+    sim: &Simulation,
+    out: &Path,
+    name: &str,
+    resuming: bool,
+    until: Real,
+) -> Result<Output> {
+    let _ = until;
+    Ok(Output {
+        vtk: if !sim.vtk {
+            None
+        } else if resuming {
+            Some(
+                VtkSeries::reopen(out, name, sim.springs, until)
+                    .map_err(|e| InputError(e.to_string()))?,
+            )
+        } else {
+            Some(VtkSeries::create(out, name, sim.springs).map_err(|e| InputError(e.to_string()))?)
+        },
+        #[cfg(feature = "hdf5")]
+        h5: if !sim.hdf5 {
+            None
+        } else if resuming {
+            Some(
+                hooke_io::H5Series::reopen(out, name, &sim.body, until)
+                    .map_err(|e| InputError(e.to_string()))?,
+            )
+        } else {
+            Some(
+                hooke_io::H5Series::create(out, name, &sim.body)
+                    .map_err(|e| InputError(e.to_string()))?,
+            )
+        },
+    })
+}
+
 /// A run stopped by Ctrl-C (exit code 130, the shell's convention for SIGINT).
 #[derive(Debug)]
 pub struct Interrupted(pub String);
@@ -205,6 +242,17 @@ pub fn run(args: RunArgs) -> Result<()> {
     if sim.hdf5 {
         return Err(InputError(format!("{}: output.format asks for \"hdf5\", but this hooke was built without HDF5; install the library (tools/install-hdf5.sh) and build with --features hdf5", args.case.display())).into());
     }
+    if let Some(steps) = sim.quasi_static {
+        if args.resume.is_some() {
+            return Err(InputError(
+                "--resume continues explicit runs; a quasi-static run restarts from its case"
+                    .into(),
+            )
+            .into());
+        }
+        let output = open_output(&sim, &out, &name, false, 0.0)?;
+        return quasi_static(&args, sim, steps, output, &out, &name);
+    }
     let it = match &args.resume {
         None => Integrator::new(&sim.body, &mut sim.state, sim.loading.clone(), &sim.options)
             .map_err(|e| InputError(e.to_string()))?,
@@ -228,35 +276,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     let mut it = it;
     let until = sim.state.time;
     let resuming = args.resume.is_some();
-    let mut output = Output {
-        vtk: if !sim.vtk {
-            None
-        } else if resuming {
-            Some(
-                VtkSeries::reopen(&out, &name, sim.springs, until)
-                    .map_err(|e| InputError(e.to_string()))?,
-            )
-        } else {
-            Some(
-                VtkSeries::create(&out, &name, sim.springs)
-                    .map_err(|e| InputError(e.to_string()))?,
-            )
-        },
-        #[cfg(feature = "hdf5")]
-        h5: if !sim.hdf5 {
-            None
-        } else if resuming {
-            Some(
-                hooke_io::H5Series::reopen(&out, &name, &sim.body, until)
-                    .map_err(|e| InputError(e.to_string()))?,
-            )
-        } else {
-            Some(
-                hooke_io::H5Series::create(&out, &name, &sim.body)
-                    .map_err(|e| InputError(e.to_string()))?,
-            )
-        },
-    };
+    let mut output = open_output(&sim, &out, &name, resuming, until)?;
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = stop.clone();
@@ -410,5 +430,238 @@ pub fn run(args: RunArgs) -> Result<()> {
         energy_path.display(),
         ckpt_path.display()
     );
+    Ok(())
+}
+
+/// A quasi-static run: load steps, each brought to equilibrium (Newton-CG), springs beyond the
+/// criterion broken in rounds with a new equilibrium after each round.
+fn quasi_static(
+    args: &RunArgs,
+    mut sim: Simulation,
+    steps: usize,
+    mut output: Output,
+    out: &Path,
+    name: &str,
+) -> Result<()> {
+    use hooke_core::loading::Motion;
+    use hooke_core::statics::{self, Constraints, StaticOptions};
+    use hooke_core::{law, Coords};
+    let body = &sim.body;
+    let (n, dim) = (body.nodes(), body.lattice.dim());
+    let mut cons = Constraints::all_free(n);
+    if dim == 2 {
+        for i in 0..n {
+            cons.fix(i, 2);
+        }
+    }
+    let mut dofs: Vec<(usize, usize, Motion)> = Vec::new();
+    for p in &sim.loading.prescribed {
+        for &i in &p.nodes {
+            cons.fix(i as usize, p.axis);
+            dofs.push((i as usize, p.axis, p.motion.clone()));
+        }
+    }
+    // Prescribed displacement at time t; a prescribed velocity is integrated (trapezoid).
+    let disp_at = |m: &Motion, u0: Real, t: Real| match m {
+        Motion::Fixed => u0,
+        Motion::Displacement(f) => f.value(t),
+        Motion::Velocity(f) => {
+            let k = 256;
+            let h = t / k as Real;
+            u0 + (0..k)
+                .map(|j| 0.5 * h * (f.value(j as Real * h) + f.value((j + 1) as Real * h)))
+                .sum::<Real>()
+        }
+    };
+    // A translation along an axis that no boundary condition touches is a free rigid motion:
+    // project it out rather than leave the stiffness singular.
+    for c in 0..dim {
+        if !dofs.iter().any(|&(_, axis, _)| axis == c) {
+            let mut mode = Coords::zeros(n);
+            mode.comp_mut(c).fill(1.0);
+            cons.add_null_mode(mode);
+        }
+    }
+    let u0: Vec<Real> = dofs
+        .iter()
+        .map(|&(i, c, _)| sim.state.u.comp(c)[i])
+        .collect();
+    let energy_path = out.join(format!("{name}_energy.csv"));
+    std::fs::write(&energy_path, "time,kinetic,strain_direct,strain_dispersive,external_work,boundary_work,body_work,dissipated,released,balance_error\n").with_context(|| format!("writing {}", energy_path.display()))?;
+    let zero = Coords::zeros(n);
+    let regions = sim.regions.clone();
+    let (mut w_ext, mut w_bc) = (0.0, 0.0);
+    let write = |state: &mut hooke_core::State,
+                 fr: Option<&hooke_fracture::Fracture>,
+                 output: &mut Output,
+                 w_ext: Real,
+                 w_bc: Real|
+     -> Result<()> {
+        let damage = fr.map(|f| f.damage(body, state));
+        let extras = FrameExtras {
+            velocity: Some(&zero),
+            damage: damage.as_deref(),
+            region: Some(&regions),
+        };
+        if let Some(series) = output.vtk.as_mut() {
+            series.write(body, state, extras)?;
+        }
+        #[cfg(feature = "hdf5")]
+        if let Some(h5) = output.h5.as_mut() {
+            h5.write(body, state, extras)?;
+        }
+        let e = law::energy(body, &state.u, &state.alive, &state.norm);
+        let released = fr.map_or(0.0, |f| f.released_total);
+        let mut f = std::fs::OpenOptions::new()
+            .append(true)
+            .open(&energy_path)?;
+        writeln!(
+            f,
+            "{:e},0e0,{:e},{:e},{:e},{:e},0e0,0e0,{:e},{:e}",
+            state.time,
+            e.direct,
+            e.dispersive,
+            w_ext,
+            w_bc,
+            released,
+            e.total() + released - w_ext - w_bc
+        )?;
+        Ok(())
+    };
+    write(&mut sim.state, sim.fracture.as_ref(), &mut output, 0.0, 0.0)?;
+    let every = ((sim.output_every / (sim.end_time / steps as Real)).round() as usize).max(1);
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = stop.clone();
+        let _ = ctrlc::set_handler(move || stop.store(true, Ordering::SeqCst));
+    }
+    let mut fext = Coords::zeros(n);
+    let mut fext_prev = Coords::zeros(n);
+    let mut reactions_prev = vec![0.0; dofs.len()];
+    let mut peak: Real = 0.0;
+    let start = Instant::now();
+    let interactive = std::io::stderr().is_terminal();
+    for k in 1..=steps {
+        let t = sim.end_time * k as Real / steps as Real;
+        let u_prev = sim.state.u.clone();
+        for (m, &(i, c, ref mo)) in dofs.iter().enumerate() {
+            sim.state.u.comp_mut(c)[i] = disp_at(mo, u0[m], t);
+        }
+        fext.fill_zero();
+        let g = sim.loading.body_acceleration;
+        for i in 0..n {
+            fext.set(i, body.mass[i] * g);
+        }
+        for l in &sim.loading.loads {
+            for &i in &l.nodes {
+                let i = i as usize;
+                fext.set(i, fext.get(i) + l.force * l.scale.value(t));
+            }
+        }
+        // Newton-CG first; where it cannot (a mechanism or a loose fragment after breaking,
+        // a buckling tangent), adaptive dynamic relaxation, which tolerates both.
+        let solve = |state: &mut hooke_core::State, peak: Real| -> Result<()> {
+            let opts = StaticOptions {
+                reference_force: Some((1e-6 * peak).max(1e-300)),
+                ..Default::default()
+            };
+            let before = state.u.clone();
+            match statics::solve(body, state, &cons, Some(&fext), &opts) {
+                Ok(_) => Ok(()),
+                Err(newton) => {
+                    state.u = before;
+                    let ropts = hooke_core::relax::RelaxOptions {
+                        tolerance: 1e-6,
+                        max_iterations: 50_000,
+                    };
+                    hooke_core::relax::relax(body, state, &cons, Some(&fext), &ropts)
+                        .map(|_| ())
+                        .with_context(|| format!("load step {k} of {steps} (t = {t:e} s): Newton-CG failed ({newton}) and dynamic relaxation did not converge either"))
+                }
+            }
+        };
+        solve(&mut sim.state, peak)?;
+        if let Some(fr) = sim.fracture.as_mut() {
+            for _ in 0..10_000 {
+                fr.decide(body, &sim.state);
+                if fr.commit(body, &mut sim.state, None).broken == 0 {
+                    break;
+                }
+                solve(&mut sim.state, peak)?;
+            }
+        }
+        // Work of the loads and of the supports' reactions over the step (trapezoid).
+        for c in 0..3 {
+            for i in 0..n {
+                w_ext += 0.5
+                    * (fext_prev.comp(c)[i] + fext.comp(c)[i])
+                    * (sim.state.u.comp(c)[i] - u_prev.comp(c)[i]);
+            }
+        }
+        for (m, &(i, c, _)) in dofs.iter().enumerate() {
+            let r = -sim.state.f.comp(c)[i] - fext.comp(c)[i];
+            w_bc += 0.5 * (reactions_prev[m] + r) * (sim.state.u.comp(c)[i] - u_prev.comp(c)[i]);
+            reactions_prev[m] = r;
+            peak = peak.max(r.abs());
+        }
+        std::mem::swap(&mut fext_prev, &mut fext);
+        sim.state.time = t;
+        sim.state.step = k as u64;
+        if k % every == 0 || k == steps {
+            write(
+                &mut sim.state,
+                sim.fracture.as_ref(),
+                &mut output,
+                w_ext,
+                w_bc,
+            )?;
+        }
+        if stop.load(Ordering::SeqCst) {
+            write(
+                &mut sim.state,
+                sim.fracture.as_ref(),
+                &mut output,
+                w_ext,
+                w_bc,
+            )?;
+            return Err(Interrupted(format!("interrupted after load step {k} of {steps}; the last frame is written (quasi-static runs restart from the case)")).into());
+        }
+        if interactive {
+            eprint!(
+                "\r  load step {k}/{steps}  broken springs {}   ",
+                sim.fracture.as_ref().map_or(0, |f| f.broken_total)
+            );
+        }
+    }
+    if interactive {
+        eprintln!();
+    }
+    #[cfg(feature = "hdf5")]
+    if let Some(h5) = output.h5.as_mut() {
+        h5.finish()?;
+    }
+    let e = law::energy(body, &sim.state.u, &sim.state.alive, &sim.state.norm);
+    let released = sim.fracture.as_ref().map_or(0.0, |f| f.released_total);
+    println!(
+        "{}: {steps} quasi-static load steps in {:.1} s",
+        args.case.display(),
+        start.elapsed().as_secs_f64()
+    );
+    println!(
+        "  springs broken {}, strain energy {:.4e} J, work in {:.4e} J, released {:.4e} J, balance error {:.2e}",
+        sim.fracture.as_ref().map_or(0, |f| f.broken_total),
+        e.total(),
+        w_ext + w_bc,
+        released,
+        (e.total() + released - w_ext - w_bc).abs() / (w_ext + w_bc).abs().max(e.total()).max(1e-300)
+    );
+    if let Some(series) = &output.vtk {
+        println!(
+            "  output: {} ({} frames)",
+            series.pvd_path().display(),
+            series.frames().len()
+        );
+    }
+    println!("  energy history {}", energy_path.display());
     Ok(())
 }

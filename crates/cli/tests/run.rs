@@ -237,3 +237,56 @@ fn output_that_cannot_fit_is_refused_up_front() {
     assert!(!out.exists(), "nothing is written when the run is refused");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A quasi-static run of the compression block: every load step in equilibrium, and the work of
+/// the supports equals the strain energy stored (no dynamics, no losses).
+#[test]
+fn quasi_static_run_balances_work_and_strain_energy() {
+    let dir = tmp("qs");
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = std::fs::read_to_string(cases_dir().join("compression_block.toml"))
+        .unwrap()
+        .replace(
+            "[solver]\n",
+            "[solver]\ntype = \"quasi-static\"\nsteps = 8\n",
+        )
+        .replace("damping = 2e5", "");
+    let case = dir.join("qs.toml");
+    std::fs::write(&case, text).unwrap();
+    let out = dir.join("out");
+    let o = hooke(&[
+        "run",
+        case.to_str().unwrap(),
+        "--scale",
+        "0.5",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("qs_energy.csv")).unwrap();
+    let last: Vec<f64> = csv
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    let (strain, work) = (last[2] + last[3], last[4] + last[5]);
+    assert!(
+        strain > 0.0 && ((strain - work) / work).abs() < 1e-4,
+        "strain {strain} vs work {work}"
+    );
+    assert_eq!(
+        csv.lines().count(),
+        1 + 9,
+        "a frame per load step plus the initial one"
+    );
+    let bad = std::fs::read_to_string(&case)
+        .unwrap()
+        .replace("steps = 8", "steps = 0");
+    std::fs::write(&case, bad).unwrap();
+    let o = hooke(&["check", case.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("solver.steps"));
+    std::fs::remove_dir_all(&dir).ok();
+}
