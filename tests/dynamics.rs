@@ -605,6 +605,7 @@ fn dynamic_relaxation_matches_the_static_solver() {
         &RelaxOptions {
             tolerance: 1e-9,
             max_iterations: 200_000,
+            reference_force: None,
         },
     )
     .unwrap();

@@ -560,7 +560,10 @@ fn quasi_static(
         }
         // Newton-CG first; where it cannot (a mechanism or a loose fragment after breaking,
         // a buckling tangent), adaptive dynamic relaxation, which tolerates both.
-        let solve = |state: &mut hooke_core::State, peak: Real| -> Result<()> {
+        let solve = |state: &mut hooke_core::State,
+                     peak: Real,
+                     fr: Option<&mut hooke_fracture::Fracture>|
+         -> Result<()> {
             let opts = StaticOptions {
                 reference_force: Some((1e-6 * peak).max(1e-300)),
                 ..Default::default()
@@ -570,25 +573,36 @@ fn quasi_static(
                 Ok(_) => Ok(()),
                 Err(newton) => {
                     state.u = before;
-                    let ropts = hooke_core::relax::RelaxOptions {
-                        tolerance: 1e-6,
-                        max_iterations: 50_000,
+                    // Springs break while the body relaxes: an unstable crack runs through.
+                    let mut fr = fr;
+                    let mut hook = |s: &mut hooke_core::State| match fr.as_deref_mut() {
+                        Some(f) => {
+                            f.decide(body, s);
+                            f.commit(body, s, None).broken > 0
+                        }
+                        None => false,
                     };
-                    hooke_core::relax::relax(body, state, &cons, Some(&fext), &ropts)
+                    let ropts = hooke_core::relax::RelaxOptions {
+                        tolerance: 1e-4,
+                        max_iterations: 100_000,
+                        reference_force: Some((1e-3 * peak).max(1e-300)),
+                    };
+                    hooke_core::relax::relax_with(body, state, &cons, Some(&fext), &ropts, &mut hook)
                         .map(|_| ())
                         .with_context(|| format!("load step {k} of {steps} (t = {t:e} s): Newton-CG failed ({newton}) and dynamic relaxation did not converge either"))
                 }
             }
         };
-        solve(&mut sim.state, peak)?;
-        if let Some(fr) = sim.fracture.as_mut() {
-            for _ in 0..10_000 {
-                fr.decide(body, &sim.state);
-                if fr.commit(body, &mut sim.state, None).broken == 0 {
-                    break;
-                }
-                solve(&mut sim.state, peak)?;
+        solve(&mut sim.state, peak, sim.fracture.as_mut())?;
+        for _ in 0..10_000 {
+            let Some(fr) = sim.fracture.as_mut() else {
+                break;
+            };
+            fr.decide(body, &sim.state);
+            if fr.commit(body, &mut sim.state, None).broken == 0 {
+                break;
             }
+            solve(&mut sim.state, peak, sim.fracture.as_mut())?;
         }
         // Work of the loads and of the supports' reactions over the step (trapezoid).
         for c in 0..3 {

@@ -29,6 +29,9 @@ use crate::statics::Constraints;
 pub struct RelaxOptions {
     pub tolerance: Real,
     pub max_iterations: usize,
+    /// A force scale (N) for the residual when the reactions are not a good one, e.g. once a
+    /// body has been cut through [none].
+    pub reference_force: Option<Real>,
 }
 
 impl Default for RelaxOptions {
@@ -36,6 +39,7 @@ impl Default for RelaxOptions {
         RelaxOptions {
             tolerance: 1e-6,
             max_iterations: 200_000,
+            reference_force: None,
         }
     }
 }
@@ -107,6 +111,21 @@ pub fn relax(
     external: Option<&Coords>,
     opts: &RelaxOptions,
 ) -> Result<RelaxReport> {
+    relax_with(body, state, cons, external, opts, &mut |_| false)
+}
+
+/// [`relax`] with a hook called every 10 iterations on the current state, e.g. to break springs
+/// as the body relaxes (unstable crack growth settles only if springs break on the way). The
+/// hook returns true when it changed the springs; the fictitious masses stay valid because
+/// breaking only lowers the stiffness.
+pub fn relax_with(
+    body: &Body,
+    state: &mut State,
+    cons: &Constraints,
+    external: Option<&Coords>,
+    opts: &RelaxOptions,
+    hook: &mut dyn FnMut(&mut State) -> bool,
+) -> Result<RelaxReport> {
     let n = body.nodes();
     law::update_forces(body, state);
     let lambda = fictitious_mass(body, state);
@@ -125,7 +144,7 @@ pub fn relax(
             }
         }
         cons.project(r);
-        fixed.sqrt() + ext_norm
+        (fixed.sqrt() + ext_norm).max(opts.reference_force.unwrap_or(0.0))
     };
     let mut r = Coords::zeros(n);
     let mut r_old = Coords::zeros(n);
@@ -182,6 +201,9 @@ pub fn relax(
             }
         }
         r_old.clone_from(&r);
+        if it % 10 == 9 {
+            hook(state);
+        }
         law::update_forces(body, state);
         scale = residual(state, &mut r);
         if !r.norm().is_finite() {
