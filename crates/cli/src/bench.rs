@@ -124,22 +124,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         (LawArg::Dispersive, LatticeKind::Cubic) => 0.3,
         (LawArg::Dispersive, LatticeKind::Hex) => 0.45,
     };
-    let q = q_from_nu(kind, nu)?;
-    let body = Body::uniform(lattice, 1.0, q, 1.0);
-    let mut state = State::new(&body);
-    // A smooth initial velocity field, so the springs do real work.
-    for i in 0..body.nodes() {
-        let p = body.lattice.pos.get(i);
-        state.v.x[i] = 1e-3 * (0.1 * p.y).sin();
-        state.v.y[i] = 1e-3 * (0.13 * p.z + 0.07 * p.x).cos();
-    }
-    let opts = IntegratorOptions {
-        portable: args.kernel == KernelArg::Portable,
-        force_csr: args.kernel == KernelArg::Csr,
-        ..Default::default()
-    };
-    let mut it = Integrator::new(&body, &mut state, Loading::default(), &opts)
-        .context("setting up the integrator")?;
+    let (body, mut state, mut it) = bench_run(&args, lattice, q_from_nu(kind, nu)?)?;
     let setup_seconds = setup.elapsed().as_secs_f64();
     for _ in 0..3 {
         it.step(&body, &mut state);
@@ -190,6 +175,26 @@ pub fn run(args: BenchArgs) -> Result<()> {
     Ok(())
 }
 
+/// A body on `lattice` in lattice units with ratio `q`, moving with a smooth velocity field (so
+/// the springs do real work), and its integrator on the kernel `args` asks for.
+fn bench_run(args: &BenchArgs, lattice: Lattice, q: Real) -> Result<(Body, State, Integrator)> {
+    let body = Body::uniform(lattice, 1.0, q, 1.0);
+    let mut state = State::new(&body);
+    for i in 0..body.nodes() {
+        let p = body.lattice.pos.get(i);
+        state.v.x[i] = 1e-3 * (0.1 * p.y).sin();
+        state.v.y[i] = 1e-3 * (0.13 * p.z + 0.07 * p.x).cos();
+    }
+    let opts = IntegratorOptions {
+        portable: args.kernel == KernelArg::Portable,
+        force_csr: args.kernel == KernelArg::Csr,
+        ..Default::default()
+    };
+    let it = Integrator::new(&body, &mut state, Loading::default(), &opts)
+        .context("setting up the integrator")?;
+    Ok((body, state, it))
+}
+
 fn median(v: &mut [f64]) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));
     let n = v.len();
@@ -208,19 +213,8 @@ fn bench_compare(args: &BenchArgs) -> Result<()> {
     let mut runs = Vec::new();
     for nu in [0.25, 0.3] {
         let lattice = Lattice::cubic_box([side, side, side], 1.0)?;
-        let body = Body::uniform(lattice, 1.0, q_from_nu(LatticeKind::Cubic, nu)?, 1.0);
-        let mut state = State::new(&body);
-        for i in 0..body.nodes() {
-            let p = body.lattice.pos.get(i);
-            state.v.x[i] = 1e-3 * (0.1 * p.y).sin();
-            state.v.y[i] = 1e-3 * (0.13 * p.z + 0.07 * p.x).cos();
-        }
-        let opts = IntegratorOptions {
-            portable: args.kernel == KernelArg::Portable,
-            force_csr: args.kernel == KernelArg::Csr,
-            ..Default::default()
-        };
-        let mut it = Integrator::new(&body, &mut state, Loading::default(), &opts)?;
+        let (body, mut state, mut it) =
+            bench_run(args, lattice, q_from_nu(LatticeKind::Cubic, nu)?)?;
         for _ in 0..3 {
             it.step(&body, &mut state);
         }

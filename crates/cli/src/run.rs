@@ -89,6 +89,34 @@ struct Output {
     h5: Option<hooke_io::H5Series>,
 }
 
+impl Output {
+    /// One frame into every series: the given velocity, damage from the fracture state, region
+    /// ids.
+    fn write(
+        &mut self,
+        body: &hooke_core::Body,
+        state: &hooke_core::State,
+        velocity: &hooke_core::Coords,
+        fr: Option<&hooke_fracture::Fracture>,
+        regions: &[u32],
+    ) -> Result<()> {
+        let damage = fr.map(|f| f.damage(body, state));
+        let extras = FrameExtras {
+            velocity: Some(velocity),
+            damage: damage.as_deref(),
+            region: Some(regions),
+        };
+        if let Some(series) = self.vtk.as_mut() {
+            series.write(body, state, extras)?;
+        }
+        #[cfg(feature = "hdf5")]
+        if let Some(h5) = self.h5.as_mut() {
+            h5.write(body, state, extras)?;
+        }
+        Ok(())
+    }
+}
+
 /// The series a run writes, new or continued.
 fn open_output(
     sim: &Simulation,
@@ -295,19 +323,7 @@ pub fn run(args: RunArgs) -> Result<()> {
                        output: &mut Output|
      -> Result<()> {
         let v = it.full_velocity(body, state);
-        let damage = fr.map(|f| f.damage(body, state));
-        let extras = FrameExtras {
-            velocity: Some(&v),
-            damage: damage.as_deref(),
-            region: Some(&regions),
-        };
-        if let Some(series) = output.vtk.as_mut() {
-            series.write(body, state, extras)?;
-        }
-        #[cfg(feature = "hdf5")]
-        if let Some(h5) = output.h5.as_mut() {
-            h5.write(body, state, extras)?;
-        }
+        output.write(body, state, &v, fr, &regions)?;
         let b = it.energy(body, state);
         let l = b.ledger;
         let mut f = std::fs::OpenOptions::new()
@@ -497,19 +513,7 @@ fn quasi_static(
                  w_ext: Real,
                  w_bc: Real|
      -> Result<()> {
-        let damage = fr.map(|f| f.damage(body, state));
-        let extras = FrameExtras {
-            velocity: Some(&zero),
-            damage: damage.as_deref(),
-            region: Some(&regions),
-        };
-        if let Some(series) = output.vtk.as_mut() {
-            series.write(body, state, extras)?;
-        }
-        #[cfg(feature = "hdf5")]
-        if let Some(h5) = output.h5.as_mut() {
-            h5.write(body, state, extras)?;
-        }
+        output.write(body, state, &zero, fr, &regions)?;
         let e = law::energy(body, &state.u, &state.alive, &state.norm);
         let released = fr.map_or(0.0, |f| f.released_total);
         let mut f = std::fs::OpenOptions::new()
