@@ -402,13 +402,17 @@ pub fn run(args: RunArgs) -> Result<()> {
             let rate = (sim.state.step - step_start) as f64 / wall;
             let eta = wall * (1.0 - frac) / frac.max(1e-9);
             let broken = sim.fracture.as_ref().map_or(0, |f| f.broken_total);
+            // Once a second at most: one extra force evaluation, on terminals only.
+            let b = it.energy(body, &mut sim.state);
             eprint!(
-                "\r  t = {:.3e} s ({:5.1} %)  {:.0} steps/s  ETA {:.0} s  broken springs {}   ",
+                "\r  t = {:.3e} s ({:5.1} %)  {:.0} steps/s  ETA {:.0} s  broken springs {}  energy {:.3e} J (balance {:.1e})   ",
                 sim.state.time,
                 100.0 * frac,
                 rate,
                 eta,
-                broken
+                broken,
+                b.kinetic + b.strain.total(),
+                b.relative_error
             );
         }
     }
