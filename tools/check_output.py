@@ -9,6 +9,7 @@ collection, with pyvista; point counts, cell counts, array names and values must
 manifest exactly (the files carry the f64 values bit for bit). Prints 'N passed, M failed' and
 exits non-zero on any failure.
 """
+from checks import Checks
 import json
 import math
 import os
@@ -24,15 +25,7 @@ FIELDS = ["displacement", "velocity", "damage", "pool_ratio", "strain_energy_den
 def main(outdir):
     man = json.load(open(os.path.join(outdir, "manifest.json")))
     npts = man["points"]
-    passed, failed = 0, 0
-
-    def check(ok, what):
-        nonlocal passed, failed
-        if ok:
-            passed += 1
-        else:
-            failed += 1
-            print("FAILED:", what)
+    check = Checks("check_output")
 
     def same(a, b):
         return a == b or (math.isfinite(a) and math.isclose(a, b, rel_tol=1e-12, abs_tol=1e-300))
@@ -87,8 +80,7 @@ def main(outdir):
                 check(same(float(pd["displacement"][-1, 0]), f["ux_last"]), f"meshio xdmf step {k}: displacement")
                 check(pd["stress"].shape == (npts, 9), f"meshio xdmf step {k}: stress shape")
 
-    print(f"check_output: {passed} passed, {failed} failed")
-    return 1 if failed else 0
+    return check.finish()
 
 
 if __name__ == "__main__":

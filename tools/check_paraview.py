@@ -6,6 +6,7 @@ Opens the .pvd series (ParaView's PVD reader) and, when present, the .xdmf serie
 reader), and checks the number of points, time steps and arrays against OUTDIR/manifest.json.
 Prints 'N passed, M failed'; exits non-zero on any failure.
 """
+from checks import Checks
 import json
 import os
 import sys
@@ -16,15 +17,7 @@ from paraview.simple import OpenDataFile, UpdatePipeline
 
 def main(outdir):
     man = json.load(open(os.path.join(outdir, "manifest.json")))
-    passed, failed = 0, 0
-
-    def check(ok, what):
-        nonlocal passed, failed
-        if ok:
-            passed += 1
-        else:
-            failed += 1
-            print("FAILED:", what)
+    check = Checks("check_paraview")
 
     files = [man["pvd"]] + ([man["xdmf"]] if man.get("xdmf") else [])
     for name in files:
@@ -46,8 +39,7 @@ def main(outdir):
             check(field in arrays, f"{name}: no point array {field} (has {arrays})")
         rng = r.PointData["damage"].GetRange()
         check(abs(rng[1] - man["frames"][-1]["damage_max"]) < 1e-12, f"{name}: damage max {rng[1]}")
-    print(f"check_paraview: {passed} passed, {failed} failed")
-    return 1 if failed else 0
+    return check.finish()
 
 
 if __name__ == "__main__":

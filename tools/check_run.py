@@ -7,6 +7,7 @@ Reads every frame of the VTK series with meshio and pyvista, and of the HDF5 ser
 meshio's XDMF TimeSeriesReader, and checks that the two independent writers agree exactly: the
 same times, point counts and point data. Prints 'N passed, M failed'; exits non-zero on failure.
 """
+from checks import Checks
 import glob
 import os
 import sys
@@ -22,15 +23,7 @@ FIELDS = ["displacement", "velocity", "damage", "pool_ratio", "strain_energy_den
 
 
 def main(outdir):
-    passed, failed = 0, 0
-
-    def check(ok, what):
-        nonlocal passed, failed
-        if ok:
-            passed += 1
-        else:
-            failed += 1
-            print("FAILED:", what)
+    check = Checks("check_run")
 
     vtk = frames(outdir)
     xdmf = glob.glob(os.path.join(outdir, "*.xdmf"))
@@ -56,8 +49,7 @@ def main(outdir):
                 check(np.array_equal(a, b) and np.array_equal(a, c), f"frame {k}: {name} differs between VTK and HDF5")
             group = sorted(h5["frames"].keys())[k]
             check(np.array_equal(h5["frames"][group]["displacement"][()], m.point_data["displacement"]), f"frame {k}: h5py displacement")
-    print(f"check_run: {passed} passed, {failed} failed")
-    return 1 if failed else 0
+    return check.finish()
 
 
 if __name__ == "__main__":

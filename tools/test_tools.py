@@ -9,6 +9,7 @@ grown in 1e-5 s. crack_angle must find 70 degrees, crack_tip a growth of about 0
 of about 0.3/1e-5; render_damage and energy_plot must write their images. Prints 'N passed,
 M failed'; exits non-zero on any failure.
 """
+from checks import Checks
 import math
 import os
 import subprocess
@@ -55,15 +56,7 @@ def run(*args):
 
 
 def main():
-    passed, failed = 0, 0
-
-    def check(ok, what):
-        nonlocal passed, failed
-        if ok:
-            passed += 1
-        else:
-            failed += 1
-            print("FAILED:", what)
+    check = Checks("test_tools")
 
     with tempfile.TemporaryDirectory() as d:
         synthetic(d)
@@ -78,8 +71,7 @@ def main():
         check(code == 0 and os.path.getsize(os.path.join(d, "png", "damage_000001.png")) > 1000, f"render_damage: {out.strip()[-300:]}")
         code, out = run(os.path.join(HERE, "energy_plot.py"), d)
         check(code == 0 and os.path.getsize(os.path.join(d, "energy.png")) > 1000, f"energy_plot: {out.strip()}")
-    print(f"test_tools: {passed} passed, {failed} failed")
-    return 1 if failed else 0
+    return check.finish()
 
 
 if __name__ == "__main__":
