@@ -4,6 +4,7 @@ mod bench;
 mod moduli;
 mod plot;
 mod run;
+mod toughness;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -29,6 +30,9 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// Run a case file (TOML): VTK frames, energy history and checkpoints in the output folder.
     Run(run::RunArgs),
+    /// Measure the fracture energy a lattice crack dissipates (a strip under fixed grips) and
+    /// compare it with the G_c calibration; --table regenerates the calibration table.
+    Toughness(toughness::ToughnessArgs),
     /// Validate a case file and print what would run: nodes, springs, k and q, dt, memory,
     /// expected time.
     Check(run::CheckArgs),
@@ -77,5 +81,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Bench(args) => bench::run(args),
         Command::Run(args) => run::run(args),
         Command::Check(args) => run::check(args),
+        Command::Toughness(args) => toughness::run(args),
     })
 }

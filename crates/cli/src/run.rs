@@ -214,6 +214,15 @@ pub fn check(args: CheckArgs) -> Result<()> {
             .as_ref()
             .map_or("off".to_string(), |f| format!("{:?}", f.criterion()))
     );
+    let kind = sim.body.lattice.kind;
+    if sim.fracture.is_some() && !hooke_fracture::stretch::toughness_calibrated(kind, sim.q) {
+        println!(
+            "  note         nu = {:.3} lies outside the range where the lattice toughness was \
+             measured (hooke toughness): cracks leave their plane there and G_c is matched \
+             only roughly",
+            hooke_core::material::nu_from_q(kind, sim.q)
+        );
+    }
     println!(
         "  dt           {:e} s (critical {:e} s), {} steps to {:e} s",
         it.dt, it.stable.dt_critical, steps, sim.end_time

@@ -199,3 +199,48 @@ fn bench_json_has_the_contract_keys() {
     let o = hooke(&["bench", "--nodes", "3", "--steps", "1"]);
     assert_eq!(o.status.code(), Some(2));
 }
+
+#[test]
+fn toughness_json_reports_g_measured_near_g_c() {
+    let o = hooke(&[
+        "toughness",
+        "--lattice",
+        "hex",
+        "--nu",
+        "0.3",
+        "--height",
+        "16",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for key in [
+        "G_c",
+        "G_measured",
+        "ratio",
+        "G_release",
+        "gamma",
+        "broken",
+        "off_plane",
+    ] {
+        assert!(v.get(key).is_some(), "missing key {key} in {v}");
+    }
+    // A short strip: within 10 % of the calibration measured on 40 rows.
+    assert!((v["ratio"].as_f64().unwrap() - 1.0).abs() < 0.1, "{v}");
+    for (args, msg) in [
+        (
+            &["toughness", "--nu", "0.3", "--height", "7"][..],
+            "even number",
+        ),
+        (&["toughness"][..], "--nu"),
+        (&["toughness", "--nu", "0.3", "--window", "1"][..], "window"),
+        (
+            &["toughness", "--lattice", "cubic", "--nu", "0.5"][..],
+            "nu",
+        ),
+    ] {
+        let o = hooke(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(msg), "{args:?}: {}", stderr(&o));
+    }
+}

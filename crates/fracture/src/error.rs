@@ -12,4 +12,7 @@ pub enum FractureError {
     },
     #[error("pre-crack {index}: {why}")]
     BadCrack { index: usize, why: String },
+    /// A toughness experiment that could not be set up or did not finish.
+    #[error("{0}")]
+    Experiment(String),
 }

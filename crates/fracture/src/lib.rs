@@ -21,6 +21,7 @@ pub mod energy;
 pub mod error;
 pub mod precrack;
 pub mod stretch;
+pub mod toughness;
 
 mod fracture;
 

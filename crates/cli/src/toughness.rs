@@ -1,0 +1,189 @@
+//! `hooke toughness`: the fracture energy a lattice crack really dissipates, measured on a strip
+//! under fixed grips (see `hooke_fracture::toughness`), and the table the G_c calibration uses.
+
+use std::time::Instant;
+
+use anyhow::Result;
+use clap::{Args, ValueEnum};
+use hooke_core::material::q_from_nu;
+use hooke_core::{LatticeKind, Real};
+use hooke_fracture::stretch::{lattice_toughness, nominal_toughness, table_nu};
+use hooke_fracture::toughness::{strip_test, StripResult, StripTest};
+
+use crate::moduli::LatticeArg;
+use crate::InputError;
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum CriterionArg {
+    /// Critical stretch (the calibrated criterion).
+    Stretch,
+    /// Spring energy matching the critical stretch under uniform stretch.
+    Energy,
+}
+
+#[derive(Debug, Args)]
+pub struct ToughnessArgs {
+    /// Lattice to test.
+    #[arg(long, value_enum, default_value = "hex")]
+    pub lattice: LatticeArg,
+    /// The lattice's Poisson's ratio (3D nu, or the hexagonal lattice's nu_2D). Required unless
+    /// --table.
+    #[arg(long, allow_negative_numbers = true)]
+    pub nu: Option<Real>,
+    /// Node rows between the grips (even; default 40 hex, 20 cubic). Larger is closer to the
+    /// limit of a crack in an infinite body and slower.
+    #[arg(long)]
+    pub height: Option<usize>,
+    /// Crack growth to measure over (spacings).
+    #[arg(long, default_value_t = 10)]
+    pub window: usize,
+    /// Cubic lattice: nodes across the periodic front.
+    #[arg(long, default_value_t = 3)]
+    pub depth: usize,
+    /// Failure criterion.
+    #[arg(long, value_enum, default_value = "stretch")]
+    pub criterion: CriterionArg,
+    /// Print one JSON object per nu.
+    #[arg(long)]
+    pub json: bool,
+    /// Measure the calibration table (all nu of the lattice's table) and print it as the Rust
+    /// constant `hooke_fracture::stretch` holds.
+    #[arg(long)]
+    pub table: bool,
+}
+
+/// The figures of one strip, as printed by `--json`.
+#[derive(Debug, serde::Serialize)]
+pub struct ToughnessJson {
+    pub lattice: &'static str,
+    pub criterion: &'static str,
+    pub nu: Real,
+    pub q: Real,
+    pub height: usize,
+    pub window: Real,
+    /// Fracture energy the calibration assigns to the springs' s_c (lattice units).
+    #[serde(rename = "G_c")]
+    pub g_c: Real,
+    /// Energy dissipated per unit of new crack area in steady growth (work of the grips minus
+    /// stored energy, against crack length).
+    #[serde(rename = "G_measured")]
+    pub g_measured: Real,
+    /// G_measured / G_c.
+    pub ratio: Real,
+    /// Steady-state release U_strip / (length x width) at the running strain (cross-check).
+    #[serde(rename = "G_release")]
+    pub g_release: Real,
+    pub gamma: Real,
+    pub gamma_nominal: Real,
+    pub eps_run: Real,
+    pub broken: usize,
+    pub off_plane: usize,
+    pub solves: usize,
+    pub seconds: f64,
+}
+
+fn kind_of(l: LatticeArg) -> LatticeKind {
+    match l {
+        LatticeArg::Cubic => LatticeKind::Cubic,
+        LatticeArg::Hex => LatticeKind::Hex,
+    }
+}
+
+fn measure(args: &ToughnessArgs, nu: Real) -> Result<ToughnessJson> {
+    let kind = kind_of(args.lattice);
+    let q = q_from_nu(kind, nu).map_err(|e| InputError(format!("--nu {nu}: {e}")))?;
+    let height = args.height.unwrap_or(match kind {
+        LatticeKind::Hex => 40,
+        LatticeKind::Cubic => 20,
+    });
+    let mut t = StripTest::new(kind, q, height, args.window);
+    t.depth = args.depth;
+    t.energy = matches!(args.criterion, CriterionArg::Energy);
+    let start = Instant::now();
+    let r: StripResult = strip_test(&t).map_err(|e| anyhow::anyhow!("strip at nu = {nu}: {e}"))?;
+    Ok(ToughnessJson {
+        lattice: kind.name(),
+        criterion: if t.energy { "energy" } else { "stretch" },
+        nu,
+        q,
+        height,
+        window: r.window,
+        g_c: r.g_calibrated,
+        g_measured: r.g_measured,
+        ratio: r.ratio(),
+        g_release: r.g_release,
+        gamma: r.gamma,
+        gamma_nominal: nominal_toughness(kind, q),
+        eps_run: r.eps_run,
+        broken: r.broken,
+        off_plane: r.off_plane,
+        solves: r.solves,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+pub fn run(args: ToughnessArgs) -> Result<()> {
+    if args.height.is_some_and(|h| h < 6 || h % 2 == 1) {
+        return Err(InputError(format!(
+            "--height {}: give an even number of rows, 6 or more",
+            args.height.unwrap()
+        ))
+        .into());
+    }
+    if args.window < 2 || args.depth < 3 {
+        return Err(InputError(format!(
+            "--window {} --depth {}: give a window of 2 or more spacings and a depth of 3 or \
+             more nodes",
+            args.window, args.depth
+        ))
+        .into());
+    }
+    let kind = kind_of(args.lattice);
+    let list: Vec<Real> = match (args.table, args.nu) {
+        (true, _) => table_nu(kind).to_vec(),
+        (false, Some(nu)) => vec![nu],
+        (false, None) => {
+            return Err(
+                InputError("give --nu NU, or --table for the calibration table".into()).into(),
+            )
+        }
+    };
+    let mut rows = Vec::new();
+    for nu in list {
+        let j = measure(&args, nu)?;
+        if args.json {
+            println!("{}", serde_json::to_string(&j)?);
+        } else {
+            println!(
+                "{} nu = {:+.3} (q = {:+.4}): G_measured / G_c = {:.4}  (release cross-check {:.4}), \
+                 Gamma = {:.4} (nominal {:.4}, trapping x{:.2}), {} springs broken, {} off the \
+                 plane, {} solves, {:.1} s",
+                j.lattice,
+                j.nu,
+                j.q,
+                j.ratio,
+                j.g_release / j.g_c,
+                j.gamma,
+                j.gamma_nominal,
+                j.gamma / j.gamma_nominal,
+                j.broken,
+                j.off_plane,
+                j.solves,
+                j.seconds
+            );
+        }
+        rows.push((nu, j.gamma, lattice_toughness(kind, j.q)));
+    }
+    if args.table {
+        let name = match kind {
+            LatticeKind::Cubic => "CUBIC_TOUGHNESS",
+            LatticeKind::Hex => "HEX_TOUGHNESS",
+        };
+        println!("const {name}: &[(Real, Real)] = &[");
+        for (nu, g, _) in &rows {
+            println!("    ({nu:?}, {g:.4}),");
+        }
+        println!("];");
+    }
+    Ok(())
+}

@@ -1,0 +1,419 @@
+//! The toughness a lattice really has: steady-state crack growth in a strip under fixed grips.
+//!
+//! # Why a measurement
+//!
+//! [`crate::stretch`] turns G_c into a critical stretch by counting the energy the springs
+//! crossing a crack plane carry when they break. A running lattice crack dissipates more than
+//! that: when the spring at the tip breaks, its neighbours, strained by the tip field, unload
+//! and radiate, and the tip needs a higher load to break the next spring than a smooth
+//! continuum would (lattice trapping). The factor depends on the lattice and on q, and it is
+//! what users see, so it is measured here and divided out of the calibration.
+//!
+//! # The experiment
+//!
+//! A long strip of height `H` between two rigid grips (top and bottom node rows, held fixed in
+//! every direction) carries a straight pre-crack on its mid-plane from the left end. Far ahead
+//! of the tip the strip is in uniaxial strain `eps = delta / H`; far behind it is unloaded. When
+//! the crack advances by `da` at fixed grips, the energy released per unit of new crack area is
+//! exactly the energy of the strained strip per unit length and width, whatever happens at the
+//! tip:
+//!
+//! ```text
+//! G(eps) = U_strip(eps) / (length x width)          (steady state, fixed grips)
+//! ```
+//!
+//! The grips are opened quasi-statically and event by event: at every stage the load is scaled
+//! (the body is linear between breaks) until the most stretched breakable spring just reaches
+//! the criterion, then every spring past it breaks at fixed grips, equilibrium is found again
+//! (Newton-CG, [`hooke_core::statics`]) and so on. The work of the grips `W` and the stored energy
+//! `U` are booked at every equilibrium; the energy dissipated, `D = W - U`, is what the broken
+//! springs and the unstable jumps between equilibria took. Its slope against the crack length
+//! over the middle of the strip, where growth is steady, is the measured toughness
+//! `G_measured = dD / (width da)`. The energy balance above gives the same number from the
+//! strain at which the crack runs, which the result reports as a cross-check.
+
+use hooke_core::law::{self, spring_geometry};
+use hooke_core::relax::{relax, RelaxOptions};
+use hooke_core::statics::{self, Constraints, StaticOptions};
+use hooke_core::{Body, Lattice, LatticeKind, Real, State};
+
+use crate::criterion::SpringState;
+use crate::energy::SpringEnergy;
+use crate::error::FractureError;
+use crate::precrack::{springs_cut, Crack};
+use crate::stretch::CriticalStretch;
+
+/// A strip experiment, in lattice units (`k = 1`, `a = 1`, plate thickness 1).
+#[derive(Clone, Debug)]
+pub struct StripTest {
+    pub kind: LatticeKind,
+    /// Dispersion ratio q.
+    pub q: Real,
+    /// Nodes along the strip (x).
+    pub length: usize,
+    /// Node rows between and including the grips (y); even, so that the crack plane is the
+    /// mid-plane.
+    pub height: usize,
+    /// Cubic lattice: nodes across (z), periodic (at least 3). Ignored for hex.
+    pub depth: usize,
+    /// Pre-crack length (spacings).
+    pub notch: usize,
+    /// Crack growth to measure over (spacings), starting half a height past the notch.
+    pub window: usize,
+    /// Critical stretch of the springs.
+    pub s_c: Real,
+    /// Break on the spring energy ([`crate::SpringEnergy`] matching `s_c`) instead of the
+    /// stretch.
+    pub energy: bool,
+    /// Equilibrium solves allowed.
+    pub max_solves: usize,
+}
+
+impl StripTest {
+    /// A strip of height `h` rows with a notch of `h`, a window of `window` spacings and a
+    /// height of intact ligament beyond it.
+    pub fn new(kind: LatticeKind, q: Real, h: usize, window: usize) -> Self {
+        StripTest {
+            kind,
+            q,
+            length: 2 * h + h / 2 + window + h / 2,
+            height: h,
+            depth: 3,
+            notch: h,
+            window,
+            s_c: 1e-4,
+            energy: false,
+            max_solves: 20_000,
+        }
+    }
+}
+
+/// What the strip did.
+#[derive(Clone, Debug)]
+pub struct StripResult {
+    /// Energy dissipated per unit of new crack area in steady growth (J/m^2 in lattice units).
+    pub g_measured: Real,
+    /// Steady-state energy release `U_strip(eps) / (length x width)` at the strain at which the
+    /// crack ran through the window (the cross-check of `g_measured`).
+    pub g_release: Real,
+    /// The fracture energy this s_c stands for in the calibration of [`crate::stretch`].
+    pub g_calibrated: Real,
+    /// The lattice toughness coefficient measured: `G / (k s_c^2)` (cubic) or
+    /// `G h / (k a s_c^2)` (hex), the number [`crate::stretch`] tabulates.
+    pub gamma: Real,
+    /// Grip strain at which the crack crossed the window.
+    pub eps_run: Real,
+    /// Crack advance over the measuring window (spacings).
+    pub window: Real,
+    /// Springs broken (pre-crack not counted), and how many of them were off the crack plane.
+    pub broken: usize,
+    pub off_plane: usize,
+    /// Equilibrium solves.
+    pub solves: usize,
+}
+
+impl StripResult {
+    /// Measured over calibrated fracture energy (1 when the calibration is right).
+    pub fn ratio(&self) -> Real {
+        self.g_measured / self.g_calibrated
+    }
+}
+
+fn strip_lattice(t: &StripTest, periodic_x: bool) -> Result<Lattice, FractureError> {
+    let lat = match t.kind {
+        LatticeKind::Hex => {
+            Lattice::hex_box_periodic(t.length, t.height, 1.0, 1.0, [periodic_x, false])
+        }
+        LatticeKind::Cubic => Lattice::cubic_box_periodic(
+            [t.length, t.height, t.depth],
+            1.0,
+            [periodic_x, false, true],
+        ),
+    };
+    lat.map_err(|e| FractureError::Experiment(e.to_string()))
+}
+
+/// Height of the crack plane and of the top grip row.
+fn rows(t: &StripTest) -> (Real, Real) {
+    let dy = match t.kind {
+        LatticeKind::Hex => (3.0 as Real).sqrt() / 2.0,
+        LatticeKind::Cubic => 1.0,
+    };
+    (
+        (t.height as Real / 2.0 - 0.5) * dy,
+        (t.height - 1) as Real * dy,
+    )
+}
+
+/// Width of the crack front (the thickness, 1, in 2D; the periodic depth in 3D).
+fn width(t: &StripTest) -> Real {
+    match t.kind {
+        LatticeKind::Hex => 1.0,
+        LatticeKind::Cubic => t.depth as Real,
+    }
+}
+
+/// Grip constraints: bottom and top rows prescribed in every direction; z fixed in 2D.
+fn grips(body: &Body, top: Real) -> (Constraints, Vec<usize>, Vec<Real>) {
+    let n = body.nodes();
+    let mut cons = Constraints::all_free(n);
+    let (mut nodes, mut sign) = (Vec::new(), Vec::new());
+    for i in 0..n {
+        let y = body.lattice.pos.y[i];
+        if body.lattice.dim() == 2 {
+            cons.fix(i, 2);
+        }
+        let s = if y < 1e-9 {
+            -1.0
+        } else if y > top - 1e-9 {
+            1.0
+        } else {
+            continue;
+        };
+        for c in 0..3 {
+            cons.fix(i, c);
+        }
+        nodes.push(i);
+        sign.push(s);
+    }
+    (cons, nodes, sign)
+}
+
+/// Equilibrium: Newton-CG, or adaptive dynamic relaxation when a broken pattern leaves a
+/// mechanism Newton cannot cross (a dangling node in compression).
+fn solve(body: &Body, state: &mut State, cons: &Constraints) -> Result<(), FractureError> {
+    let opts = StaticOptions {
+        tolerance: 1e-10,
+        ..StaticOptions::default()
+    };
+    let start = state.u.clone();
+    if statics::solve(body, state, cons, None, &opts).is_ok() {
+        return Ok(());
+    }
+    state.u = start;
+    let ropts = RelaxOptions {
+        tolerance: 1e-8,
+        ..RelaxOptions::default()
+    };
+    relax(body, state, cons, None, &ropts)
+        .map(|_| ())
+        .map_err(|e| FractureError::Experiment(format!("strip equilibrium: {e}")))
+}
+
+fn stored(body: &Body, state: &State) -> Real {
+    let e = law::energy(body, &state.u, &state.alive, &state.norm);
+    e.direct + e.dispersive
+}
+
+/// Energy per unit length of the intact strip at grip strain 1 (from a periodic strip at a
+/// small strain, scaled: the response is linear to far below round-off at that strain).
+fn strip_energy_per_length(t: &StripTest) -> Result<Real, FractureError> {
+    let short = StripTest {
+        length: 8,
+        ..t.clone()
+    };
+    let lat = strip_lattice(&short, true)?;
+    let body = Body::uniform(lat, 1.0, t.q, 1.0);
+    let (_, top) = rows(t);
+    let (cons, nodes, sign) = grips(&body, top);
+    let mut state = State::new(&body);
+    let eps = 1e-6;
+    for (&i, &s) in nodes.iter().zip(&sign) {
+        state.u.y[i] = s * 0.5 * eps * top;
+    }
+    solve(&body, &mut state, &cons)?;
+    Ok(stored(&body, &state) / (8.0 * eps * eps))
+}
+
+/// Run the strip experiment (see the module docs).
+pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
+    if t.height < 6
+        || t.height % 2 == 1
+        || t.notch < 2
+        || t.window < 2
+        || t.length < t.notch + t.height / 2 + t.window + t.height
+    {
+        return Err(FractureError::Experiment(format!(
+            "strip {} x {} with notch {} and window {}: give an even height of 6 rows or \
+             more, a notch and a window of 2 or more, and a length of at least notch + 1.5 \
+             height + window",
+            t.length, t.height, t.notch, t.window
+        )));
+    }
+    let lat = strip_lattice(t, false)?;
+    let body = Body::uniform(lat, 1.0, t.q, 1.0);
+    let (yc, top) = rows(t);
+    let w = width(t);
+    let tip0 = t.notch as Real + 0.1;
+    let crack = match t.kind {
+        LatticeKind::Hex => Crack::Segment {
+            a: [-1.0, yc],
+            b: [tip0, yc],
+        },
+        LatticeKind::Cubic => {
+            let d = t.depth as Real + 1.0;
+            Crack::Polygon {
+                vertices: vec![
+                    [-1.0, yc, -1.0],
+                    [tip0, yc, -1.0],
+                    [tip0, yc, d],
+                    [-1.0, yc, d],
+                ],
+            }
+        }
+    };
+    let mut state = State::new(&body);
+    for s in springs_cut(&body, &crack, 0)? {
+        state.kill_bond(&body, s);
+    }
+    let (cons, grip, sign) = grips(&body, top);
+    // The measuring window, and where the experiment stops breaking springs: the crack must not
+    // start from the far end of the strip.
+    let x1 = tip0 + t.height as Real / 2.0;
+    let x2 = x1 + t.window as Real;
+    let mut breakable: Vec<bool> = (0..body.nodes())
+        .map(|i| body.lattice.pos.x[i] < x2 + t.height as Real / 2.0)
+        .collect();
+    for &i in &grip {
+        breakable[i] = false;
+    }
+    let bonds = &body.lattice.bonds;
+    let crosses = |b: usize| {
+        let [i, j] = bonds.ends[b].map(|v| v as usize);
+        (body.lattice.pos.y[i] - yc) * (body.lattice.pos.y[j] - yc) < 0.0
+    };
+    let per_length = strip_energy_per_length(t)?;
+    // Critical energy of a unit-length spring (the energy criterion's w_c / L_ref^2).
+    let w_c = SpringEnergy::matching(t.s_c, 1.0, t.q, 1.0)?.w_c;
+
+    // Start from a small opening; the first load scaling brings the tip to the criterion.
+    let eps0 = 1e-3 * t.s_c;
+    for (&i, &s) in grip.iter().zip(&sign) {
+        state.u.y[i] = s * 0.5 * eps0 * top;
+    }
+    let mut eps = eps0;
+    solve(&body, &mut state, &cons)?;
+    let mut solves = 1;
+    let mut work = stored(&body, &state); // the grips did the work of the first opening
+    let (mut broken, mut off_plane) = (0, 0);
+    let mut tip = tip0;
+    // (tip, dissipated, eps) after each round of breaks.
+    let mut history: Vec<(Real, Real, Real)> = Vec::new();
+    let reaction = |state: &State| -> Real {
+        // Force the grips exert along y, weighted by their direction of motion.
+        grip.iter()
+            .zip(&sign)
+            .map(|(&i, &s)| -state.f.y[i] * s)
+            .sum()
+    };
+    while tip < x2 {
+        if solves >= t.max_solves {
+            return Err(FractureError::Experiment(format!(
+                "strip: {} solves without the crack crossing the strip (tip at {tip:.1})",
+                t.max_solves
+            )));
+        }
+        // The most stretched breakable spring, relative to s_c.
+        let mut worst = 0.0 as Real;
+        let mut over = Vec::new();
+        for b in 0..bonds.len() {
+            let [i, j] = bonds.ends[b].map(|v| v as usize);
+            if !state.alive[b] || !breakable[i] || !breakable[j] {
+                continue;
+            }
+            let g = spring_geometry(&body.lattice, &state.u, i, j, bonds.rest[b]);
+            let s = SpringState {
+                k: body.k[b],
+                rest: bonds.rest[b],
+                dl: g.dl,
+                pool: [state.pool[i], state.pool[j]],
+                q: body.q,
+            };
+            // Load ratio: linear in the grip opening for either criterion.
+            let r = if t.energy {
+                if s.dl > 0.0 {
+                    (s.energy().max(0.0) / (w_c * s.rest * s.rest)).sqrt()
+                } else {
+                    0.0
+                }
+            } else {
+                s.stretch() / t.s_c
+            };
+            if r > 1.0 {
+                over.push((b, r));
+            }
+            worst = worst.max(r);
+        }
+        // Only the most stretched spring breaks (and its exact ties, e.g. the periodic copies
+        // across a 3D strip): the classic quasi-static rule, one event per equilibrium.
+        over.retain(|&(_, r)| r >= worst * (1.0 - 1e-9));
+        if over.is_empty() {
+            // Scale the opening (and, as the initial guess, the whole field) so that the most
+            // stretched spring just passes the criterion.
+            let f = (1.0 + 1e-6) / worst.max(1e-300);
+            let r0 = reaction(&state);
+            let d0 = 0.5 * eps * top;
+            for c in 0..3 {
+                state.u.comp_mut(c).iter_mut().for_each(|v| *v *= f);
+            }
+            eps *= f;
+            solve(&body, &mut state, &cons)?;
+            solves += 1;
+            let r1 = reaction(&state);
+            work += 0.5 * (r0 + r1) * (0.5 * eps * top - d0);
+            continue;
+        }
+        for &(b, _) in &over {
+            state.kill_bond(&body, b);
+            broken += 1;
+            if crosses(b) {
+                let [i, j] = bonds.ends[b].map(|v| v as usize);
+                tip = tip.max(0.5 * (body.lattice.pos.x[i] + body.lattice.pos.x[j]));
+            } else {
+                off_plane += 1;
+                if std::env::var_os("HOOKE_STRIP_TRACE").is_some() {
+                    let [i, j] = bonds.ends[b].map(|v| v as usize);
+                    let p = |n: usize| {
+                        (
+                            body.lattice.pos.x[n],
+                            body.lattice.pos.y[n],
+                            body.lattice.pos.z[n],
+                        )
+                    };
+                    eprintln!("  off-plane {:?} - {:?}", p(i), p(j));
+                }
+            }
+        }
+        solve(&body, &mut state, &cons)?;
+        solves += 1;
+        history.push((tip, work - stored(&body, &state), eps));
+        if std::env::var_os("HOOKE_STRIP_TRACE").is_some() {
+            eprintln!("round {solves}: broke {} (off-plane so far {off_plane}), tip {tip:.2}, eps {eps:.4e}", over.len());
+        }
+    }
+    let first = history.iter().position(|h| h.0 >= x1).ok_or_else(|| {
+        FractureError::Experiment("strip: the crack never reached the window".into())
+    })?;
+    // The window closes with the last equilibrium before the tip leaves it: the final event can
+    // need a higher load (the crack then feels the end of the strip) and is not steady growth.
+    let last = history.len() - 2;
+    let (ta, da, _) = history[first];
+    let (tb, db, eps_run) = history[last.max(first)];
+    if tb - ta < 2.0 {
+        return Err(FractureError::Experiment(format!(
+            "strip: measuring window of {:.1} spacings; make the strip longer",
+            tb - ta
+        )));
+    }
+    Ok(StripResult {
+        g_measured: (db - da) / ((tb - ta) * w),
+        g_release: per_length * eps_run * eps_run / w,
+        g_calibrated: CriticalStretch::fracture_energy(t.kind, 1.0, 1.0, t.q, 1.0, t.s_c),
+        gamma: (db - da) / ((tb - ta) * w) / (t.s_c * t.s_c),
+        eps_run,
+        window: tb - ta,
+        broken,
+        off_plane,
+        solves,
+    })
+}
