@@ -2,9 +2,13 @@
 //! springs were calibrated for, and a mode-I crack loaded dynamically runs straight, below the
 //! Rayleigh speed.
 
+use hooke_core::dynamics::{Integrator, IntegratorOptions, TimeStep};
+use hooke_core::loading::{Loading, Motion, Prescribed, TimeFunction};
 use hooke_core::material::q_from_nu;
-use hooke_core::LatticeKind;
+use hooke_core::moduli::bulk_moduli;
+use hooke_core::{Body, Lattice, LatticeKind, Real, State};
 use hooke_fracture::toughness::{strip_test, StripTest};
+use hooke_fracture::{Crack, CriticalStretch, Fracture};
 
 /// Pulling a pre-cracked strip apart quasi-statically (fixed grips opened event by event,
 /// equilibrium after every break): the work of the grips minus the stored energy, per unit of
@@ -45,5 +49,153 @@ fn dissipated_energy_per_crack_area_matches_g_c() {
             );
             assert!(r.window >= 9.0 && r.off_plane * 10 <= r.broken);
         }
+    }
+}
+
+/// Rayleigh speed from c_T and c_L: the root in (0, 1) of
+/// `(2 - x^2)^2 = 4 sqrt(1 - x^2) sqrt(1 - x^2 c_T^2 / c_L^2)`, x = c / c_T.
+fn rayleigh(c_t: Real, c_l: Real) -> Real {
+    let f = |x: Real| {
+        (2.0 - x * x).powi(2)
+            - 4.0 * (1.0 - x * x).sqrt() * (1.0 - x * x * c_t * c_t / (c_l * c_l)).sqrt()
+    };
+    let (mut lo, mut hi) = (0.5, 0.999_999);
+    for _ in 0..100 {
+        let m = 0.5 * (lo + hi);
+        if f(lo) * f(m) <= 0.0 {
+            hi = m;
+        } else {
+            lo = m;
+        }
+    }
+    0.5 * (lo + hi) * c_t
+}
+
+/// A dynamic mode-I crack in a hexagonal strip whose grips are opened smoothly to
+/// `G = over x G_c` and held. Returns (growth, springs broken on the line, off it, fastest tip
+/// speed over 10 spacings / c_R).
+fn dynamic_strip(nu: Real, over: Real, ramp: Real, damping: Real) -> (Real, usize, usize, Real) {
+    let kind = LatticeKind::Hex;
+    let (nx, rows) = (220, 40);
+    let q = q_from_nu(kind, nu).unwrap();
+    let body = Body::uniform(Lattice::hex_box(nx, rows, 1.0, 1.0).unwrap(), 1.0, q, 1.0);
+    let dy = (3.0 as Real).sqrt() / 2.0;
+    let (yc, top) = ((rows as Real / 2.0 - 0.5) * dy, (rows - 1) as Real * dy);
+    let notch = 40.0;
+    let g_c = 1e-6;
+    let mut state = State::new(&body);
+    let crit = CriticalStretch::from_fracture_energy(kind, 1.0, 1.0, q, 1.0, g_c).unwrap();
+    let mut fr = Fracture::new(&body, Box::new(crit));
+    let crack = Crack::Segment {
+        a: [-1.0, yc],
+        b: [notch + 0.1, yc],
+    };
+    fr.precrack(&body, &mut state, &[crack]).unwrap();
+    // Far ahead the strip is in uniaxial strain: G = 1/2 C11 eps^2 H.
+    let m = bulk_moduli(kind, 1.0, 1.0, q);
+    let eps = (2.0 * over * g_c / (m.c11 * top)).sqrt();
+    let rows_where = |sel: &dyn Fn(Real) -> bool| -> Vec<u32> {
+        (0..body.nodes() as u32)
+            .filter(|&i| sel(body.lattice.pos.y[i as usize]))
+            .collect()
+    };
+    let (lower, upper) = (rows_where(&|y| y < 1e-9), rows_where(&|y| y > top - 1e-9));
+    let mut prescribed = Vec::new();
+    for (nodes, sign) in [(lower.clone(), -1.0), (upper.clone(), 1.0)] {
+        prescribed.push(Prescribed {
+            nodes: nodes.clone(),
+            axis: 0,
+            motion: Motion::Fixed,
+        });
+        prescribed.push(Prescribed {
+            nodes,
+            axis: 1,
+            motion: Motion::Displacement(TimeFunction::SmoothRamp {
+                t0: 0.0,
+                t1: ramp,
+                from: 0.0,
+                to: sign * 0.5 * eps * top,
+            }),
+        });
+    }
+    let mut keep: Vec<u32> = lower.iter().chain(&upper).copied().collect();
+    keep.extend(
+        (0..body.nodes() as u32).filter(|&i| body.lattice.pos.x[i as usize] > nx as Real - 30.0),
+    );
+    fr.set_no_fail(&keep);
+    let loading = Loading {
+        prescribed,
+        ..Default::default()
+    };
+    let opts = IntegratorOptions {
+        time_step: TimeStep::Auto { safety: 0.8 },
+        damage_proof: true,
+        damping,
+        ..Default::default()
+    };
+    let mut it = Integrator::new(&body, &mut state, loading, &opts).unwrap();
+    let bonds = &body.lattice.bonds;
+    let crosses = |b: usize| {
+        let [i, j] = bonds.ends[b].map(|v| v as usize);
+        (body.lattice.pos.y[i] - yc) * (body.lattice.pos.y[j] - yc) < 0.0
+    };
+    let mut was_alive = state.alive.clone();
+    let (mut on, mut off) = (0usize, 0usize);
+    let mut tip = notch;
+    let mut history: Vec<(Real, Real)> = Vec::new();
+    while state.time < ramp + 1500.0 && tip < nx as Real - 40.0 {
+        it.step(&body, &mut state);
+        if fr.check(&body, &mut state, &mut it).broken > 0 {
+            for b in 0..bonds.len() {
+                if was_alive[b] && !state.alive[b] {
+                    if crosses(b) {
+                        on += 1;
+                        let [i, j] = bonds.ends[b].map(|v| v as usize);
+                        tip = tip.max(0.5 * (body.lattice.pos.x[i] + body.lattice.pos.x[j]));
+                        history.push((state.time, tip));
+                    } else {
+                        off += 1;
+                    }
+                }
+            }
+            was_alive.copy_from_slice(&state.alive);
+        }
+    }
+    it.check(&body, &state).unwrap();
+    let rho = 1.0 / dy; // mass per area: one unit mass per cell of area sqrt(3)/2
+    let c_r = rayleigh((m.c44 / rho).sqrt(), (m.c11 / rho).sqrt());
+    let mut vmax: Real = 0.0;
+    for (k, &(t0, x0)) in history.iter().enumerate() {
+        if let Some(&(t1, x1)) = history[k..].iter().find(|h| h.1 >= x0 + 10.0) {
+            vmax = vmax.max((x1 - x0) / (t1 - t0));
+        }
+    }
+    (tip - notch, on, off, vmax / c_r)
+}
+
+/// The dynamic half of the mode-I requirement: grips opened smoothly to 1.2 G_c over 400 time
+/// units and held, mass-proportional damping 0.05 (about critical for the strip's lowest mode,
+/// 2 % for the lattice-scale ones). Wanted: at least 60 spacings of growth, at most 5 % of the
+/// broken springs off the crack line, tip speed below c_R. **Open, and failing:** on the
+/// regular hexagonal lattice the crack leaves its row after a few spacings (nu = 0: 112 springs
+/// on the line, 270 off it; nu = 0.45: 8 on, 377 off), undamped too. The lattice-trapping
+/// factor of 3 to 7 makes a crack start overdriven. `cargo test --release -p hooke-tests
+/// --test toughness -- --ignored --nocapture`.
+#[test]
+#[ignore = "open: dynamic lattice cracks leave their row (see the fracture issue)"]
+fn dynamic_mode_one_crack_runs_straight_below_the_rayleigh_speed() {
+    for nu in [0.0, 0.25, 0.45] {
+        let (growth, on, off, v) = dynamic_strip(nu, 1.2, 400.0, 0.05);
+        eprintln!("hex nu = {nu}: growth {growth:.1}, {on} springs on the line, {off} off it, fastest {v:.3} c_R");
+        assert!(
+            growth >= 60.0,
+            "nu = {nu}: the crack grew {growth:.1} spacings"
+        );
+        assert!(
+            off * 20 <= on + off,
+            "nu = {nu}: {off} of {} springs off the line",
+            on + off
+        );
+        assert!(v > 0.0 && v < 1.0, "nu = {nu}: tip speed {v:.3} c_R");
     }
 }
