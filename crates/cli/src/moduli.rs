@@ -66,11 +66,17 @@ pub struct ModuliArgs {
     pub out: PathBuf,
 }
 
+impl From<LatticeArg> for LatticeKind {
+    fn from(l: LatticeArg) -> Self {
+        match l {
+            LatticeArg::Cubic => LatticeKind::Cubic,
+            LatticeArg::Hex => LatticeKind::Hex,
+        }
+    }
+}
+
 fn test_for(args: &ModuliArgs, nu: Real) -> Result<BlockTest> {
-    let kind = match args.lattice {
-        LatticeArg::Cubic => LatticeKind::Cubic,
-        LatticeArg::Hex => LatticeKind::Hex,
-    };
+    let kind = LatticeKind::from(args.lattice);
     let mut t = BlockTest::paper(kind, nu);
     if let Some(s) = &args.size {
         t.size = match (kind, s.as_slice()) {

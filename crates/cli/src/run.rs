@@ -638,7 +638,9 @@ fn quasi_static(
         std::mem::swap(&mut fext_prev, &mut fext);
         sim.state.time = t;
         sim.state.step = k as u64;
-        if k % every == 0 || k == steps {
+        // An interrupted run writes its last step as a frame too (once, even on a frame step).
+        let stopping = stop.load(Ordering::SeqCst);
+        if k % every == 0 || k == steps || stopping {
             write(
                 &mut sim.state,
                 sim.fracture.as_ref(),
@@ -647,14 +649,7 @@ fn quasi_static(
                 w_bc,
             )?;
         }
-        if stop.load(Ordering::SeqCst) {
-            write(
-                &mut sim.state,
-                sim.fracture.as_ref(),
-                &mut output,
-                w_ext,
-                w_bc,
-            )?;
+        if stopping {
             return Err(Interrupted(format!("interrupted after load step {k} of {steps}; the last frame is written (quasi-static runs restart from the case)")).into());
         }
         if interactive {

@@ -7,7 +7,7 @@ use anyhow::Result;
 use clap::{Args, ValueEnum};
 use hooke_core::material::q_from_nu;
 use hooke_core::{LatticeKind, Real};
-use hooke_fracture::stretch::{lattice_toughness, nominal_toughness, table_nu};
+use hooke_fracture::stretch::{nominal_toughness, table_nu};
 use hooke_fracture::toughness::{strip_test, StripResult, StripTest};
 
 use crate::moduli::LatticeArg;
@@ -82,15 +82,8 @@ pub struct ToughnessJson {
     pub seconds: f64,
 }
 
-fn kind_of(l: LatticeArg) -> LatticeKind {
-    match l {
-        LatticeArg::Cubic => LatticeKind::Cubic,
-        LatticeArg::Hex => LatticeKind::Hex,
-    }
-}
-
 fn measure(args: &ToughnessArgs, nu: Real) -> Result<ToughnessJson> {
-    let kind = kind_of(args.lattice);
+    let kind = LatticeKind::from(args.lattice);
     let q = q_from_nu(kind, nu).map_err(|e| InputError(format!("--nu {nu}: {e}")))?;
     let height = args.height.unwrap_or(match kind {
         LatticeKind::Hex => 40,
@@ -138,7 +131,7 @@ pub fn run(args: ToughnessArgs) -> Result<()> {
         ))
         .into());
     }
-    let kind = kind_of(args.lattice);
+    let kind = LatticeKind::from(args.lattice);
     let list: Vec<Real> = match (args.table, args.nu) {
         (true, _) => table_nu(kind).to_vec(),
         (false, Some(nu)) => vec![nu],
@@ -172,7 +165,7 @@ pub fn run(args: ToughnessArgs) -> Result<()> {
                 j.seconds
             );
         }
-        rows.push((nu, j.gamma, lattice_toughness(kind, j.q)));
+        rows.push((nu, j.gamma));
     }
     if args.table {
         let name = match kind {
@@ -180,7 +173,7 @@ pub fn run(args: ToughnessArgs) -> Result<()> {
             LatticeKind::Hex => "HEX_TOUGHNESS",
         };
         println!("const {name}: &[(Real, Real)] = &[");
-        for (nu, g, _) in &rows {
+        for (nu, g) in &rows {
             println!("    ({nu:?}, {g:.4}),");
         }
         println!("];");

@@ -371,17 +371,6 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
                 tip = tip.max(0.5 * (body.lattice.pos.x[i] + body.lattice.pos.x[j]));
             } else {
                 off_plane += 1;
-                if std::env::var_os("HOOKE_STRIP_TRACE").is_some() {
-                    let [i, j] = bonds.ends[b].map(|v| v as usize);
-                    let p = |n: usize| {
-                        (
-                            body.lattice.pos.x[n],
-                            body.lattice.pos.y[n],
-                            body.lattice.pos.z[n],
-                        )
-                    };
-                    eprintln!("  off-plane {:?} - {:?}", p(i), p(j));
-                }
             }
         }
         solve(&body, &mut state, &cons)?;
