@@ -385,9 +385,9 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
     })?;
     // The window closes with the last equilibrium before the tip leaves it: the final event can
     // need a higher load (the crack then feels the end of the strip) and is not steady growth.
-    let last = history.len() - 2;
+    let last = history.len().saturating_sub(2).max(first);
     let (ta, da, _) = history[first];
-    let (tb, db, eps_run) = history[last.max(first)];
+    let (tb, db, eps_run) = history[last];
     if tb - ta < 2.0 {
         return Err(FractureError::Experiment(format!(
             "strip: measuring window of {:.1} spacings; make the strip longer",

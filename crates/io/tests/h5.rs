@@ -10,6 +10,10 @@ fn body() -> Body {
     Body::uniform(Lattice::cubic_box([6, 4, 3], 1e-3).unwrap(), 1e4, 0.2, 1e-6)
 }
 
+/// The HDF5 library locks files per process and its state is global: the two tests, run on
+/// parallel test threads, once failed with "unable to lock file" (errno 11). They take turns.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("hooke-h5-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
@@ -20,6 +24,7 @@ fn tmp(name: &str) -> PathBuf {
 /// end, and read back exactly from either.
 #[test]
 fn hdf5_frames_read_back_exactly() {
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let body = body();
     let mut state = State::new(&body);
     for i in 0..body.nodes() {
@@ -69,6 +74,7 @@ const CHILD: &str = "HOOKE_H5_KILL_DIR";
 /// opens and reads.
 #[test]
 fn killed_run_leaves_readable_hdf5_frames() {
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     if let Some(dir) = std::env::var_os(CHILD) {
         let body = body();
         let mut state = State::new(&body);
