@@ -20,6 +20,10 @@ fn force_is_minus_energy_gradient() {
         (LatticeKind::Cubic, 0.45, 2),
         (LatticeKind::Hex, 0.9, 3),
         (LatticeKind::Hex, -0.5, 4),
+        (LatticeKind::Random3d, -0.8, 8),
+        (LatticeKind::Random3d, 0.45, 9),
+        (LatticeKind::Random2d, 0.9, 10),
+        (LatticeKind::Random2d, -0.5, 11),
     ] {
         let body = small_body(kind, q_from_nu(kind, nu).unwrap(), 4);
         let mut rng = Rng::new(seed);
@@ -55,6 +59,8 @@ fn tangent_is_the_force_jacobian() {
         (LatticeKind::Cubic, -0.9, 5),
         (LatticeKind::Cubic, 0.49, 6),
         (LatticeKind::Hex, 0.7, 7),
+        (LatticeKind::Random3d, 0.3, 12),
+        (LatticeKind::Random2d, -0.7, 13),
     ] {
         let body = small_body(kind, q_from_nu(kind, nu).unwrap(), 4);
         let mut rng = Rng::new(seed);
@@ -131,6 +137,10 @@ fn cut_halves_are_exactly_decoupled() {
         (LatticeKind::Cubic, 0.45),
         (LatticeKind::Hex, -0.5),
         (LatticeKind::Hex, 0.9),
+        (LatticeKind::Random3d, -0.8),
+        (LatticeKind::Random3d, 0.45),
+        (LatticeKind::Random2d, -0.5),
+        (LatticeKind::Random2d, 0.9),
     ] {
         let body = small_body(kind, q_from_nu(kind, nu).unwrap(), 8);
         let cut = 3.3;
@@ -199,6 +209,9 @@ fn damaged_stiffness_stays_positive_semidefinite() {
         (LatticeKind::Cubic, 0.49, 4),
         (LatticeKind::Hex, -0.98, 8),
         (LatticeKind::Hex, 0.99, 8),
+        (LatticeKind::Random3d, -0.98, 4),
+        (LatticeKind::Random3d, 0.49, 4),
+        (LatticeKind::Random2d, 0.99, 8),
     ] {
         let body = small_body(kind, q_from_nu(kind, nu).unwrap(), n);
         for seed in 0..3 {
@@ -230,11 +243,17 @@ fn intact_stiffness_has_only_rigid_zero_modes() {
         (LatticeKind::Cubic, -0.9, 6),
         (LatticeKind::Cubic, 0.45, 6),
         (LatticeKind::Hex, 0.9, 3),
+        (LatticeKind::Random3d, 0.2, 6),
+        (LatticeKind::Random2d, -0.5, 3),
     ] {
         let body = small_body(
             kind,
             q_from_nu(kind, nu).unwrap(),
-            if kind == LatticeKind::Cubic { 3 } else { 5 },
+            match kind {
+                LatticeKind::Cubic => 3,
+                LatticeKind::Random3d => 4,
+                _ => 5,
+            },
         );
         let state = State::new(&body);
         let mut eig: Vec<Real> = dense_tangent(&body, &state)

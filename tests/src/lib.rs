@@ -1,5 +1,6 @@
 //! Helpers shared by the regression tests: a seeded generator and small bodies.
 
+use hooke_core::random::RandomSpec;
 use hooke_core::{Body, Coords, Lattice, LatticeKind, Real, State};
 
 /// A small deterministic generator (xorshift64*), so tests need no extra dependency and every
@@ -33,12 +34,46 @@ impl Rng {
 
 /// A small box of either lattice with unit spacing and stiffness and the given q.
 pub fn small_body(kind: LatticeKind, q: Real, n: usize) -> Body {
+    let side = (n - 1) as Real;
     let lattice = match kind {
         LatticeKind::Cubic => Lattice::cubic_box([n, n, n], 1.0),
         LatticeKind::Hex => Lattice::hex_box(n, n, 1.0, 1.0),
+        LatticeKind::Random2d => {
+            let spec = RandomSpec {
+                seed: n as u64,
+                ..Default::default()
+            };
+            Lattice::random(2, [0.0; 3], [side, side, 0.0], 1.0, 1.0, spec, &|_| true)
+        }
+        LatticeKind::Random3d => {
+            let spec = RandomSpec {
+                seed: n as u64,
+                ..Default::default()
+            };
+            Lattice::random(3, [0.0; 3], [side; 3], 1.0, 1.0, spec, &|_| true)
+        }
     }
     .unwrap();
-    Body::uniform(lattice, 1.0, q, 1.0)
+    match lattice.cells.clone() {
+        // Random lattices: the stiffness of each spring from its volume (kappa = 1), so the
+        // springs differ as in a real run.
+        Some(c) => {
+            let k = c
+                .spring
+                .iter()
+                .zip(&lattice.bonds.rest)
+                .map(|(v, l)| v / (l * l))
+                .collect();
+            let mass = c.node.clone();
+            Body {
+                lattice,
+                k,
+                q,
+                mass,
+            }
+        }
+        None => Body::uniform(lattice, 1.0, q, 1.0),
+    }
 }
 
 /// Random displacements of size `amp` (in-plane only for 2D lattices).

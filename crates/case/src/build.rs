@@ -3,9 +3,11 @@
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
+use hooke_contact::MeshShape;
 use hooke_core::dynamics::{IntegratorOptions, TimeStep};
 use hooke_core::loading::{Loading, Motion, Prescribed, TimeFunction};
 use hooke_core::material::{self, Elastic, PlaneModel};
+use hooke_core::random::{RandomSpec, Sampler};
 use hooke_core::{Body, Lattice, LatticeKind, Real, State, Vector};
 use hooke_fracture::{Crack, CriticalStretch, Fracture};
 use toml::Spanned;
@@ -145,6 +147,7 @@ enum Shape {
         pts: Vec<(Real, Real)>,
         z: Option<(Real, Real)>,
     },
+    Mesh(Box<MeshShape>),
 }
 
 impl Shape {
@@ -165,12 +168,18 @@ impl Shape {
                 let y1 = pts.iter().map(|p| p.1).fold(Real::NEG_INFINITY, Real::max);
                 (Vector::new(x0, y0, z0), Vector::new(x1, y1, z1))
             }
+            Shape::Mesh(m) => {
+                let (lo, hi) = m.bounds();
+                (Vector::from(lo), Vector::from(hi))
+            }
         }
     }
 
     /// `p` inside, with the surface moved out by `tol` (negative: in).
     fn contains(&self, p: Vector, tol: Real, dim: usize) -> bool {
         match self {
+            // The mesh's own inside test; `tol` (1e-9 a) is below its resolution.
+            Shape::Mesh(m) => m.contains([p.x, p.y, p.z]),
             Shape::Box { lo, hi } => (0..dim).all(|c| p[c] >= lo[c] - tol && p[c] <= hi[c] + tol),
             Shape::Ball { c, r } => {
                 let mut d = p - c;
@@ -220,6 +229,69 @@ impl Shape {
     }
 }
 
+/// How a random lattice scatters its nodes (`lattice.sampler`, `jitter`, `seed`); refused on
+/// regular lattices.
+fn random_spec(ctx: &Ctx, l: &RawLattice, kind: LatticeKind) -> Result<RandomSpec, CaseError> {
+    if !kind.is_random() {
+        for (present, key) in [
+            (l.sampler.as_ref().map(|v| v.span()), "lattice.sampler"),
+            (l.jitter.as_ref().map(|v| v.span()), "lattice.jitter"),
+            (l.seed.as_ref().map(|v| v.span()), "lattice.seed"),
+        ] {
+            if let Some(span) = present {
+                return Err(ctx.err(
+                    span,
+                    key,
+                    "only random lattices (random2d, random3d) take this key; remove it",
+                ));
+            }
+        }
+        return Ok(RandomSpec::default());
+    }
+    let seed = match &l.seed {
+        None => 1,
+        Some(s) if *s.get_ref() >= 0 => *s.get_ref() as u64,
+        Some(s) => {
+            return Err(ctx.err(s.span(), "lattice.seed", "give a non-negative integer seed"))
+        }
+    };
+    let amplitude = match &l.jitter {
+        None => 0.6,
+        Some(j) => {
+            let v = *j.get_ref();
+            if !(0.0..=1.0).contains(&v) {
+                return Err(ctx.err(
+                    j.span(),
+                    "lattice.jitter",
+                    format!("{v}: give the largest move as a fraction of the spacing, 0 to 1"),
+                ));
+            }
+            v
+        }
+    };
+    let sampler = match l.sampler.as_ref().map(|s| (s.get_ref().as_str(), s.span())) {
+        None | Some(("poisson", _)) => {
+            if let Some(j) = &l.jitter {
+                return Err(ctx.err(
+                    j.span(),
+                    "lattice.jitter",
+                    "jitter applies to sampler = \"jitter\"; remove it or set the sampler",
+                ));
+            }
+            Sampler::Poisson
+        }
+        Some(("jitter", _)) => Sampler::Jitter { amplitude },
+        Some((other, span)) => {
+            return Err(ctx.err(
+                span,
+                "lattice.sampler",
+                format!("unknown sampler \"{other}\"; use \"poisson\" or \"jitter\""),
+            ))
+        }
+    };
+    Ok(RandomSpec { sampler, seed })
+}
+
 fn shape(ctx: &Ctx, sh: &Spanned<RawShape>, key: &str, dim: usize) -> Result<Shape, CaseError> {
     let s = sh.get_ref();
     let given = [
@@ -228,6 +300,7 @@ fn shape(ctx: &Ctx, sh: &Spanned<RawShape>, key: &str, dim: usize) -> Result<Sha
         s.circle.is_some(),
         s.cylinder.is_some(),
         s.polygon.is_some(),
+        s.mesh.is_some(),
     ]
     .iter()
     .filter(|&&b| b)
@@ -236,8 +309,26 @@ fn shape(ctx: &Ctx, sh: &Spanned<RawShape>, key: &str, dim: usize) -> Result<Sha
         return Err(ctx.err(
             sh.span(),
             key,
-            "give exactly one of box, sphere (circle in 2D), cylinder or polygon",
+            "give exactly one of box, sphere (circle in 2D), cylinder, polygon or mesh",
         ));
+    }
+    if let Some(m) = &s.mesh {
+        if dim != 3 {
+            return Err(ctx.err(
+                m.file.span(),
+                format!("{key}.mesh"),
+                "a triangle mesh bounds a 3D body; 2D bodies take a polygon",
+            ));
+        }
+        let scale = match &m.scale {
+            Some(v) => ctx.positive(v, &format!("{key}.mesh.scale"), "(m per file unit)")?,
+            None => 1.0,
+        };
+        let base = ctx.file.parent().unwrap_or(Path::new("."));
+        let path = base.join(m.file.get_ref());
+        let mesh = MeshShape::load(&path, scale)
+            .map_err(|e| ctx.err(m.file.span(), format!("{key}.mesh.file"), e.to_string()))?;
+        return Ok(Shape::Mesh(Box::new(mesh)));
     }
     if let Some(b) = &s.bbox {
         let (lo, hi) = (
@@ -412,43 +503,46 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
     let kind = match l.kind.get_ref().as_str() {
         "cubic" => LatticeKind::Cubic,
         "hex" => LatticeKind::Hex,
+        "random2d" => LatticeKind::Random2d,
+        "random3d" => LatticeKind::Random3d,
         other => {
             return Err(ctx.err(
                 l.kind.span(),
                 "lattice.kind",
                 format!(
-                "unknown lattice \"{other}\"; use \"cubic\" (3D Ladd) or \"hex\" (2D hexagonal)"
+                "unknown lattice \"{other}\"; use \"cubic\" (3D Ladd), \"hex\" (2D hexagonal), \"random2d\" or \"random3d\""
             ),
             ))
         }
     };
+    let random = random_spec(&ctx, l, kind)?;
     let dim = kind.dim();
     let a = ctx.positive(&l.spacing, "lattice.spacing", "m")? / scale;
-    let h = match (&l.thickness, kind) {
-        (Some(t), LatticeKind::Hex) => ctx.positive(t, "lattice.thickness", "m")?,
-        (None, LatticeKind::Hex) => {
+    let h = match (&l.thickness, kind.dim()) {
+        (Some(t), 2) => ctx.positive(t, "lattice.thickness", "m")?,
+        (None, 2) => {
             return Err(ctx.err(
                 l.kind.span(),
                 "lattice.thickness",
-                "a 2D (hex) lattice is a plate: give its thickness in m",
+                "a 2D lattice is a plate: give its thickness in m",
             ))
         }
-        (Some(t), LatticeKind::Cubic) => {
+        (Some(t), _) => {
             return Err(ctx.err(
                 t.span(),
                 "lattice.thickness",
                 "only 2D (hex) lattices have a thickness; remove it",
             ))
         }
-        (None, LatticeKind::Cubic) => 1.0,
+        (None, _) => 1.0,
     };
     let plane = match &l.plane {
         None => PlaneModel::Stress,
-        Some(p) if kind == LatticeKind::Cubic => {
+        Some(p) if kind.dim() == 3 => {
             return Err(ctx.err(
                 p.span(),
                 "lattice.plane",
-                "only 2D (hex) lattices take a plane model; remove it",
+                "only 2D lattices take a plane model; remove it",
             ))
         }
         Some(p) => match p.get_ref().as_str() {
@@ -523,6 +617,8 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
     let total = match kind {
         LatticeKind::Cubic => countf(size.x, a) * countf(size.y, a) * countf(size.z, a),
         LatticeKind::Hex => countf(size.x, a) * countf(size.y, a * 3f64.sqrt() / 2.0),
+        LatticeKind::Random2d => countf(size.x, a) * countf(size.y, a),
+        LatticeKind::Random3d => countf(size.x, a) * countf(size.y, a) * countf(size.z, a),
     };
     // About 600 bytes per node at peak: 4e7 nodes is what this 24 GiB class of machine holds.
     const MAX_NODES: Real = 4e7;
@@ -544,16 +640,30 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
             }
             Lattice::hex_box(nx, rows, a, h)
         }
+        LatticeKind::Random2d | LatticeKind::Random3d => {
+            // Sampled in place: nodes inside the body only, simplices bridging a hole or a notch
+            // dropped (`hooke_core::random`).
+            let tol = 1e-9 * a;
+            let inside = |p: [Real; 3]| {
+                let p = Vector::new(p[0], p[1], p[2]);
+                (adds.is_empty() || adds.iter().any(|s| s.contains(p, tol, dim)))
+                    && !subs.iter().any(|s| s.contains(p, -tol, dim))
+            };
+            Lattice::random(dim, lo.into(), hi.into(), a, h, random, &inside)
+        }
     }
     .map_err(|e| ctx.err(geo_span.clone(), "geometry", e.to_string()))?;
     for i in 0..lattice.len() {
+        if kind.is_random() {
+            break; // already in place
+        }
         lattice.pos.x[i] += lo.x;
         lattice.pos.y[i] += lo.y;
         if dim == 3 {
             lattice.pos.z[i] += lo.z;
         }
     }
-    if !adds.is_empty() || !subs.is_empty() {
+    if !kind.is_random() && (!adds.is_empty() || !subs.is_empty()) {
         // A node counts as inside within 1e-9 a of a surface, so that faces placed exactly on a
         // node plane keep their nodes.
         let tol = 1e-9 * a;
@@ -586,7 +696,16 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
     })?;
     let body = Body::new(lattice, &elastic, plane)
         .map_err(|e| ctx.err(m.poisson.span(), "material.poisson", e.to_string()))?;
-    let (k, q) = (body.k[0], body.q);
+    // The lattice's stiffness constant: k of every spring of a regular lattice, kappa (per
+    // volume) of a random one.
+    let k = if kind.is_random() {
+        material::constants_for(kind, a, &elastic, h, plane)
+            .map_err(|e| ctx.err(m.poisson.span(), "material.poisson", e.to_string()))?
+            .k
+    } else {
+        body.k[0]
+    };
+    let q = body.q;
     let mut state = State::new(&body);
 
     // Fracture.
@@ -809,7 +928,7 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
                 (LatticeKind::Hex, 1) => a * 3f64.sqrt() / 2.0,
                 _ => a,
             };
-            let area = body.lattice.cell_volume / pitch;
+            let cell_area = body.lattice.cell_volume / pitch;
             let scale_fn = match &tr.ramp {
                 None => TimeFunction::Constant(1.0),
                 Some(r) => {
@@ -831,11 +950,26 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
                     }
                 }
             };
-            loading.loads.push(hooke_core::loading::Load {
-                nodes: nodes.clone(),
-                force: t * area,
-                scale: scale_fn,
-            });
+            match &body.lattice.cells {
+                // Random lattice: each node carries its own share of the boundary facets.
+                Some(cells) => {
+                    for &i in &nodes {
+                        let area = cells.surface[i as usize][normal].abs();
+                        if area > 0.0 {
+                            loading.loads.push(hooke_core::loading::Load {
+                                nodes: vec![i],
+                                force: t * area,
+                                scale: scale_fn.clone(),
+                            });
+                        }
+                    }
+                }
+                None => loading.loads.push(hooke_core::loading::Load {
+                    nodes: nodes.clone(),
+                    force: t * cell_area,
+                    scale: scale_fn,
+                }),
+            }
         }
         if b.no_fail {
             if let Some(fr) = fracture.as_mut() {

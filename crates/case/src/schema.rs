@@ -31,6 +31,12 @@ pub struct RawLattice {
     pub spacing: Spanned<Real>,
     pub thickness: Option<Spanned<Real>>,
     pub plane: Option<Spanned<String>>,
+    /// Random lattices: "poisson" (default) or "jitter".
+    pub sampler: Option<Spanned<String>>,
+    /// Random lattices with the jittered grid: largest move per axis over the spacing (0.6).
+    pub jitter: Option<Spanned<Real>>,
+    /// Random lattices: the seed (default 1).
+    pub seed: Option<Spanned<i64>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -75,6 +81,17 @@ pub struct RawShape {
     pub circle: Option<RawBall>,
     pub cylinder: Option<RawCylinder>,
     pub polygon: Option<RawPolygon>,
+    /// A closed triangle mesh (3D): `mesh = { file = "part.stl", scale = 1e-3 }`.
+    pub mesh: Option<RawMesh>,
+}
+
+/// A closed triangle mesh file (STL or OBJ), relative to the case file; coordinates times
+/// `scale` (default 1: metres).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawMesh {
+    pub file: Spanned<String>,
+    pub scale: Option<Spanned<Real>>,
 }
 
 #[derive(Debug, Deserialize)]

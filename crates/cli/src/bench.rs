@@ -117,12 +117,23 @@ pub fn run(args: BenchArgs) -> Result<()> {
             let side = (args.nodes as f64).sqrt().round().max(3.0) as usize;
             (LatticeKind::Hex, Lattice::hex_box(side, side, 1.0, 1.0)?)
         }
+        LatticeArg::Random3d => {
+            let side = (args.nodes as f64).cbrt().round().max(3.0) - 1.0;
+            let spec = hooke_core::random::RandomSpec::default();
+            let l = Lattice::random(3, [0.0; 3], [side; 3], 1.0, 1.0, spec, &|_| true)?;
+            (LatticeKind::Random3d, l)
+        }
+        LatticeArg::Random2d => {
+            let side = (args.nodes as f64).sqrt().round().max(3.0) - 1.0;
+            let spec = hooke_core::random::RandomSpec::default();
+            let l = Lattice::random(2, [0.0; 3], [side, side, 0.0], 1.0, 1.0, spec, &|_| true)?;
+            (LatticeKind::Random2d, l)
+        }
     };
     let nu = match (args.law, kind) {
-        (LawArg::Plain, LatticeKind::Cubic) => 0.25,
-        (LawArg::Plain, LatticeKind::Hex) => 1.0 / 3.0,
-        (LawArg::Dispersive, LatticeKind::Cubic) => 0.3,
-        (LawArg::Dispersive, LatticeKind::Hex) => 0.45,
+        (LawArg::Plain, _) => hooke_core::material::nu_from_q(kind, 0.0),
+        (LawArg::Dispersive, LatticeKind::Cubic | LatticeKind::Random3d) => 0.3,
+        (LawArg::Dispersive, LatticeKind::Hex | LatticeKind::Random2d) => 0.45,
     };
     let (body, mut state, mut it) = bench_run(&args, lattice, q_from_nu(kind, nu)?)?;
     let setup_seconds = setup.elapsed().as_secs_f64();

@@ -6,6 +6,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use hooke_core::moduli::{block_test, BlockResult, BlockTest, Ends};
+use hooke_core::random::{calibration, Sampler};
 use hooke_core::{LatticeKind, Real};
 
 use crate::InputError;
@@ -16,6 +17,25 @@ pub enum LatticeArg {
     Cubic,
     /// 2D hexagonal lattice (6 neighbours).
     Hex,
+    /// 2D random lattice (Delaunay triangulation of scattered nodes).
+    Random2d,
+    /// 3D random lattice (Delaunay tetrahedralisation of scattered nodes).
+    Random3d,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum SamplerArg {
+    /// Blue noise: maximal Poisson-disk sampling.
+    Poisson,
+    /// A jittered grid (see --jitter).
+    Jitter,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum AxisArg {
+    X,
+    Y,
+    Z,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -64,6 +84,27 @@ pub struct ModuliArgs {
     /// Where --sweep writes moduli_sweep_<lattice>.csv and .png.
     #[arg(long, default_value = ".")]
     pub out: PathBuf,
+    /// Random lattices: seed of the first sample (sample s uses seed + s).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Random lattices: number of seeded samples; the mean and the spread (standard deviation)
+    /// of E and nu are reported.
+    #[arg(long, default_value_t = 1)]
+    pub samples: usize,
+    /// Random lattices: how the nodes are scattered.
+    #[arg(long, value_enum, default_value = "poisson")]
+    pub sampler: SamplerArg,
+    /// Random lattices with --sampler jitter: largest move of a node along each axis, as a
+    /// fraction of the spacing (0 to 1).
+    #[arg(long, default_value_t = 0.6)]
+    pub jitter: Real,
+    /// Random lattices: the axis the bar lies and is loaded along.
+    #[arg(long, value_enum, default_value = "x")]
+    pub axis: AxisArg,
+    /// Random lattices: measure the calibration table (nu and E/E_affine against q over the
+    /// samples) that `hooke_core::random::calibration` holds, and print it as Rust source.
+    #[arg(long)]
+    pub table: bool,
 }
 
 impl From<LatticeArg> for LatticeKind {
@@ -71,6 +112,8 @@ impl From<LatticeArg> for LatticeKind {
         match l {
             LatticeArg::Cubic => LatticeKind::Cubic,
             LatticeArg::Hex => LatticeKind::Hex,
+            LatticeArg::Random2d => LatticeKind::Random2d,
+            LatticeArg::Random3d => LatticeKind::Random3d,
         }
     }
 }
@@ -79,27 +122,52 @@ fn test_for(args: &ModuliArgs, nu: Real) -> Result<BlockTest> {
     let kind = LatticeKind::from(args.lattice);
     let mut t = BlockTest::paper(kind, nu);
     if let Some(s) = &args.size {
-        t.size = match (kind, s.as_slice()) {
-            (LatticeKind::Cubic, &[x, y, z]) => [x, y, z],
-            (LatticeKind::Hex, &[x, r]) => [x, r, 1],
-            (LatticeKind::Cubic, _) => {
+        t.size = match (kind.dim(), s.as_slice()) {
+            (3, &[x, y, z]) => [x, y, z],
+            (2, &[x, r]) => [x, r, 1],
+            (3, _) => {
                 return Err(InputError(format!(
-                    "--size {s:?}: the cubic lattice takes three numbers, NX,NY,NZ (e.g. 71,16,16)"
+                    "--size {s:?}: the {} lattice takes three numbers, NX,NY,NZ (e.g. 71,16,16)",
+                    kind.name()
                 ))
                 .into())
             }
-            (LatticeKind::Hex, _) => {
+            _ => {
                 return Err(InputError(format!(
-                    "--size {s:?}: the hexagonal lattice takes two numbers, NX,ROWS (e.g. 71,16)"
+                    "--size {s:?}: the {} lattice takes two numbers, NX,ROWS (e.g. 71,16)",
+                    kind.name()
                 ))
                 .into())
             }
         };
+        if t.size.iter().take(kind.dim()).any(|&v| v < 2) {
+            return Err(InputError(format!("--size {s:?}: give at least 2 nodes per axis")).into());
+        }
     }
     t.ends = match args.ends {
         EndsArg::Slide => Ends::Slide,
         EndsArg::Clamp => Ends::Clamp,
     };
+    t.random.seed = args.seed;
+    t.random.sampler = match args.sampler {
+        SamplerArg::Poisson => Sampler::Poisson,
+        SamplerArg::Jitter => {
+            if !(0.0..=1.0).contains(&args.jitter) {
+                return Err(InputError(format!(
+                    "--jitter {}: give a fraction of the spacing in [0, 1]",
+                    args.jitter
+                ))
+                .into());
+            }
+            Sampler::Jitter {
+                amplitude: args.jitter,
+            }
+        }
+    };
+    t.axis = args.axis as usize;
+    if t.axis >= kind.dim() {
+        return Err(InputError(format!("--axis z: the {} lattice is 2D", kind.name())).into());
+    }
     t.strain = args.strain;
     t.spacing = args.spacing;
     t.stiffness = args.stiffness;
@@ -136,6 +204,25 @@ pub struct ModuliJson {
     pub residual: Real,
     pub strain: Real,
     pub seconds: f64,
+    /// Random lattices: the sampler, load axis, first seed and number of samples.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sampler: Option<&'static str>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub axis: Option<&'static str>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub samples: Option<usize>,
+    /// Standard deviation of nu and of E over the samples (`nu_measured`, `E_measured` are the
+    /// means).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nu_spread: Option<Real>,
+    #[serde(rename = "E_spread", skip_serializing_if = "Option::is_none")]
+    pub e_spread: Option<Real>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nu_samples: Option<Vec<Real>>,
+    #[serde(rename = "E_samples", skip_serializing_if = "Option::is_none")]
+    pub e_samples: Option<Vec<Real>>,
 }
 
 fn to_json(t: &BlockTest, r: &BlockResult, seconds: f64) -> ModuliJson {
@@ -165,17 +252,136 @@ fn to_json(t: &BlockTest, r: &BlockResult, seconds: f64) -> ModuliJson {
         residual: r.solve.residual,
         strain: t.strain,
         seconds,
+        sampler: None,
+        axis: None,
+        seed: None,
+        samples: None,
+        nu_spread: None,
+        e_spread: None,
+        nu_samples: None,
+        e_samples: None,
     }
 }
 
 fn measure(args: &ModuliArgs, nu: Real) -> Result<ModuliJson> {
     let t = test_for(args, nu)?;
+    if !t.kind.is_random() {
+        if args.samples != 1 {
+            return Err(InputError(format!(
+                "--samples {}: the {} lattice is not random (every sample is the same); \
+                 --samples applies to random2d and random3d",
+                args.samples,
+                t.kind.name()
+            ))
+            .into());
+        }
+        let start = Instant::now();
+        let r = block_test(&t).with_context(|| format!("block test at nu = {nu}"))?;
+        return Ok(to_json(&t, &r, start.elapsed().as_secs_f64()));
+    }
+    ensemble(&t, args.samples)
+}
+
+/// The block test over `samples` random lattices (seeds `seed`, `seed + 1`, ...): means and
+/// standard deviations.
+pub fn ensemble(t: &BlockTest, samples: usize) -> Result<ModuliJson> {
+    if samples == 0 {
+        return Err(InputError("--samples 0: give at least one sample".into()).into());
+    }
     let start = Instant::now();
-    let r = block_test(&t).with_context(|| format!("block test at nu = {nu}"))?;
-    Ok(to_json(&t, &r, start.elapsed().as_secs_f64()))
+    let mut runs = Vec::with_capacity(samples);
+    for s in 0..samples {
+        let mut ts = t.clone();
+        ts.random.seed = t.random.seed.wrapping_add(s as u64);
+        let r = block_test(&ts)
+            .with_context(|| format!("block test at nu = {}, seed {}", t.nu, ts.random.seed))?;
+        runs.push(r);
+    }
+    let nus: Vec<Real> = runs.iter().map(|r| r.nu_measured).collect();
+    let es: Vec<Real> = runs.iter().map(|r| r.e_measured).collect();
+    let (nu_mean, nu_sd) = mean_sd(&nus);
+    let (e_mean, e_sd) = mean_sd(&es);
+    let mut m = to_json(t, &runs[0], start.elapsed().as_secs_f64());
+    m.nu_measured = nu_mean;
+    m.nu_error = nu_mean - t.nu;
+    m.e_measured = e_mean;
+    m.e_measured_cell = e_mean;
+    m.e_relative_error = e_mean / m.e_target - 1.0;
+    m.nodes = runs.iter().map(|r| r.nodes).sum::<usize>() / samples;
+    m.springs = runs.iter().map(|r| r.springs).sum::<usize>() / samples;
+    m.iterations = runs
+        .iter()
+        .map(|r| r.solve.newton_iterations)
+        .max()
+        .unwrap_or(0);
+    m.cg_iterations = runs.iter().map(|r| r.solve.cg_iterations).sum();
+    m.residual = runs.iter().map(|r| r.solve.residual).fold(0.0, Real::max);
+    m.sampler = Some(t.random.sampler.name());
+    m.axis = Some(["x", "y", "z"][t.axis]);
+    m.seed = Some(t.random.seed);
+    m.samples = Some(samples);
+    m.nu_spread = Some(nu_sd);
+    m.e_spread = Some(e_sd);
+    m.nu_samples = Some(nus);
+    m.e_samples = Some(es);
+    Ok(m)
+}
+
+/// `--table`: nu and E/E_affine of random lattices against q, over `--samples` seeds, printed
+/// as the Rust table `hooke_core::random::calibration` holds.
+fn random_table(args: &ModuliArgs) -> Result<()> {
+    let kind = LatticeKind::from(args.lattice);
+    if !kind.is_random() {
+        return Err(InputError("--table measures the random lattices' calibration: give --lattice random2d or random3d".into()).into());
+    }
+    let qs = [
+        -0.49, -0.45, -0.4, -0.3, -0.2, -0.1, 0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 40.0,
+    ];
+    let name = if kind.dim() == 3 {
+        "RANDOM3D"
+    } else {
+        "RANDOM2D"
+    };
+    let mut rows = Vec::new();
+    for &q in &qs {
+        let nu_aff = calibration::nu_affine(kind, q);
+        let mut t = test_for(args, nu_aff.min(0.49))?;
+        t.q = Some(q);
+        let m = ensemble(&t, args.samples)?;
+        let e_affine = m.e_target / calibration::youngs_factor(kind, q);
+        let ratio = m.e_measured / e_affine;
+        eprintln!(
+            "q {q:>6}: nu {:.4} (affine {nu_aff:.4}, spread {:.4}), E/E_affine {ratio:.4} (spread {:.4}), {:.1} s",
+            m.nu_measured,
+            m.nu_spread.unwrap_or(0.0),
+            m.e_spread.unwrap_or(0.0) / e_affine,
+            m.seconds
+        );
+        rows.push((q, m.nu_measured, ratio));
+    }
+    println!("pub const {name}: &[(Real, Real, Real)] = &[");
+    for (q, nu, r) in rows {
+        println!("    ({q:?}, {nu:.4}, {r:.4}),");
+    }
+    println!("];");
+    Ok(())
+}
+
+/// Mean and sample standard deviation (0 for one value).
+fn mean_sd(v: &[Real]) -> (Real, Real) {
+    let n = v.len() as Real;
+    let mean = v.iter().sum::<Real>() / n;
+    if v.len() < 2 {
+        return (mean, 0.0);
+    }
+    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<Real>() / (n - 1.0);
+    (mean, var.sqrt())
 }
 
 pub fn run(args: ModuliArgs) -> Result<()> {
+    if args.table {
+        return random_table(&args);
+    }
     if args.sweep {
         return sweep(&args);
     }
@@ -192,7 +398,7 @@ pub fn run(args: ModuliArgs) -> Result<()> {
 }
 
 fn print_table(m: &ModuliJson) {
-    let unit = if m.lattice == "hex" {
+    let unit = if m.lattice == "hex" || m.lattice == "random2d" {
         "N/m per unit thickness"
     } else {
         "Pa"
@@ -202,6 +408,16 @@ fn print_table(m: &ModuliJson) {
         m.lattice, m.size, m.springs, m.ends, m.strain
     );
     println!("  q = {:.6}", m.q);
+    if let (Some(n), Some(nsd), Some(esd)) = (m.samples, m.nu_spread, m.e_spread) {
+        println!(
+            "  {n} samples ({} sampler, load along {}, seeds from {}): means below; spread \
+             (standard deviation) nu {nsd:.4}, E {:.2} %",
+            m.sampler.unwrap_or("?"),
+            m.axis.unwrap_or("x"),
+            m.seed.unwrap_or(0),
+            100.0 * esd / m.e_measured
+        );
+    }
     println!("               target        measured      error");
     println!(
         "  nu       {:>12.6}  {:>12.6}  {:>+10.2e} (absolute)",

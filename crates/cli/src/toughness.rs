@@ -84,10 +84,17 @@ pub struct ToughnessJson {
 
 fn measure(args: &ToughnessArgs, nu: Real) -> Result<ToughnessJson> {
     let kind = LatticeKind::from(args.lattice);
+    if kind.is_random() {
+        return Err(InputError(format!(
+            "--lattice {}: the strip experiment runs on the regular lattices (cubic, hex) only",
+            kind.name()
+        ))
+        .into());
+    }
     let q = q_from_nu(kind, nu).map_err(|e| InputError(format!("--nu {nu}: {e}")))?;
-    let height = args.height.unwrap_or(match kind {
-        LatticeKind::Hex => 40,
-        LatticeKind::Cubic => 20,
+    let height = args.height.unwrap_or(match kind.dim() {
+        2 => 40,
+        _ => 20,
     });
     let mut t = StripTest::new(kind, q, height, args.window);
     t.depth = args.depth;
@@ -168,9 +175,9 @@ pub fn run(args: ToughnessArgs) -> Result<()> {
         rows.push((nu, j.gamma));
     }
     if args.table {
-        let name = match kind {
-            LatticeKind::Cubic => "CUBIC_TOUGHNESS",
-            LatticeKind::Hex => "HEX_TOUGHNESS",
+        let name = match kind.dim() {
+            3 => "CUBIC_TOUGHNESS",
+            _ => "HEX_TOUGHNESS",
         };
         println!("const {name}: &[(Real, Real)] = &[");
         for (nu, g) in &rows {

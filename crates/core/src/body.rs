@@ -24,6 +24,28 @@ impl Body {
     pub fn new(lattice: Lattice, m: &Elastic, plane: PlaneModel) -> Result<Self> {
         let c =
             material::constants_for(lattice.kind, lattice.spacing, m, lattice.thickness, plane)?;
+        if let Some(cells) = &lattice.cells {
+            // Random lattice: c.k is kappa; each spring gets kappa V_s / L_s^2 (per thickness in
+            // 2D), each node the mass of its cell (`crate::random`).
+            let per = if lattice.dim() == 2 {
+                lattice.thickness
+            } else {
+                1.0
+            };
+            let k = cells
+                .spring
+                .iter()
+                .zip(&lattice.bonds.rest)
+                .map(|(&v, &l)| c.k * v / (per * l * l))
+                .collect();
+            let mass = cells.node.iter().map(|&v| m.density * v).collect();
+            return Ok(Body {
+                lattice,
+                k,
+                q: c.q,
+                mass,
+            });
+        }
         let mass = m.density * lattice.cell_volume;
         Ok(Self::uniform(lattice, c.k, c.q, mass))
     }

@@ -23,23 +23,34 @@ pub enum LatticeKind {
     Cubic,
     /// 2D hexagonal (triangular) lattice (6 neighbours).
     Hex,
+    /// 2D random lattice: Delaunay triangulation of scattered nodes ([`crate::random`]).
+    Random2d,
+    /// 3D random lattice: Delaunay tetrahedralisation of scattered nodes.
+    Random3d,
 }
 
 impl LatticeKind {
     /// Spatial dimension of the lattice's elasticity (2 or 3).
     pub fn dim(self) -> usize {
         match self {
-            LatticeKind::Cubic => 3,
-            LatticeKind::Hex => 2,
+            LatticeKind::Cubic | LatticeKind::Random3d => 3,
+            LatticeKind::Hex | LatticeKind::Random2d => 2,
         }
     }
 
-    /// Springs per node in the bulk.
+    /// Springs per node in the bulk (the mean for random lattices: 6 for any planar Delaunay
+    /// triangulation, about 15.5 for a 3D Poisson point set).
     pub fn coordination(self) -> usize {
         match self {
             LatticeKind::Cubic => 18,
-            LatticeKind::Hex => 6,
+            LatticeKind::Hex | LatticeKind::Random2d => 6,
+            LatticeKind::Random3d => 15,
         }
+    }
+
+    /// True for the random lattices (springs of many lengths and stiffnesses).
+    pub fn is_random(self) -> bool {
+        matches!(self, LatticeKind::Random2d | LatticeKind::Random3d)
     }
 
     /// Name used on the command line and in case files.
@@ -47,6 +58,8 @@ impl LatticeKind {
         match self {
             LatticeKind::Cubic => "cubic",
             LatticeKind::Hex => "hex",
+            LatticeKind::Random2d => "random2d",
+            LatticeKind::Random3d => "random3d",
         }
     }
 }
@@ -174,6 +187,18 @@ pub fn reference_vector(pos: &Coords, period: [Real; 3], i: usize, j: usize) -> 
     d
 }
 
+/// Volumes that differ from node to node and from spring to spring (random lattices): what each
+/// node and each spring stands for, in m^3 (a 2D plate's areas times its thickness).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cells {
+    pub node: Vec<Real>,
+    pub spring: Vec<Real>,
+    /// Each node's share of the body's boundary as an area vector (m^2, outward; a 2D plate's
+    /// edge lengths times its thickness): a third (3D) or a half (2D) of each boundary facet
+    /// around it. Zero inside. Tractions are spread over faces with it.
+    pub surface: Vec<[Real; 3]>,
+}
+
 /// A lattice filled into a region: reference geometry and spring topology.
 #[derive(Clone, Debug)]
 pub struct Lattice {
@@ -193,6 +218,9 @@ pub struct Lattice {
     /// `ix + nx * (iy + ny * iz)`.
     pub grid: Option<[usize; 3]>,
     pub bonds: Bonds,
+    /// Per-node and per-spring volumes of random lattices; `None` for the regular lattices, whose
+    /// nodes all stand for `cell_volume`.
+    pub cells: Option<Cells>,
 }
 
 impl Lattice {
@@ -214,6 +242,16 @@ impl Lattice {
     /// True when some axis is periodic.
     pub fn is_periodic(&self) -> bool {
         self.period.iter().any(|&p| p > 0.0)
+    }
+
+    /// The volume node `n` stands for (m^3): its cell in a random lattice, `cell_volume` in a
+    /// regular one.
+    #[inline]
+    pub fn node_volume(&self, n: usize) -> Real {
+        match &self.cells {
+            Some(c) => c.node[n],
+            None => self.cell_volume,
+        }
     }
 
     /// Reference vector from node `i` to node `j` (see [`reference_vector`]).
@@ -318,6 +356,7 @@ impl Lattice {
             period,
             grid: Some(n),
             bonds,
+            cells: None,
         })
     }
 
@@ -424,6 +463,7 @@ impl Lattice {
             period,
             grid: Some([nx, rows, 1]),
             bonds,
+            cells: None,
         })
     }
 }
@@ -454,18 +494,32 @@ impl Lattice {
                     .into(),
             });
         }
-        let pairs: Vec<[u32; 2]> = self
-            .bonds
-            .ends
+        // Kept springs in their old order: the renumbering is monotone, so `from_pairs` keeps
+        // that order and per-spring data can follow it.
+        let kept_bonds: Vec<usize> = (0..self.bonds.len())
+            .filter(|&b| {
+                let [i, j] = self.bonds.ends[b];
+                kept[i as usize] && kept[j as usize]
+            })
+            .collect();
+        let pairs: Vec<[u32; 2]> = kept_bonds
             .iter()
-            .filter(|&&[i, j]| kept[i as usize] && kept[j as usize])
-            .map(|&[i, j]| [new_index[i as usize], new_index[j as usize]])
+            .map(|&b| {
+                let [i, j] = self.bonds.ends[b];
+                [new_index[i as usize], new_index[j as usize]]
+            })
             .collect();
         let bonds = Bonds::from_pairs(pos.len(), &pairs, &pos, self.period)?;
+        let cells = self.cells.as_ref().map(|c| Cells {
+            node: (0..n).filter(|&i| kept[i]).map(|i| c.node[i]).collect(),
+            spring: kept_bonds.iter().map(|&b| c.spring[b]).collect(),
+            surface: (0..n).filter(|&i| kept[i]).map(|i| c.surface[i]).collect(),
+        });
         Ok(Lattice {
             pos,
             bonds,
             grid: None,
+            cells,
             ..self
         })
     }

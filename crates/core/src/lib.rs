@@ -25,6 +25,7 @@ pub mod loading;
 pub mod material;
 pub mod math;
 pub mod moduli;
+pub mod random;
 pub mod relax;
 pub mod stability;
 pub mod state;
@@ -33,7 +34,7 @@ pub mod tangent;
 
 pub use body::Body;
 pub use error::{Error, Result};
-pub use lattice::{Lattice, LatticeKind};
+pub use lattice::{Cells, Lattice, LatticeKind};
 pub use material::{Elastic, PlaneModel, SpringConstants};
 pub use math::{Coords, Matrix, Real, Vector};
 pub use state::State;

@@ -23,6 +23,7 @@
 use crate::error::{Error, Result};
 use crate::lattice::LatticeKind;
 use crate::math::Real;
+use crate::random::calibration;
 
 /// Lowest Poisson's ratio accepted: keeps `1 + 2q` (the stability margin) above about 1e-3.
 pub const NU_MIN: Real = -0.99;
@@ -65,6 +66,7 @@ pub fn q_from_nu(kind: LatticeKind, nu: Real) -> Result<Real> {
     Ok(match kind {
         LatticeKind::Cubic => 0.3 * (4.0 * nu - 1.0) / (1.0 - 2.0 * nu),
         LatticeKind::Hex => (3.0 * nu - 1.0) / (4.0 * (1.0 - nu)),
+        LatticeKind::Random2d | LatticeKind::Random3d => calibration::q_for_nu(kind, nu)?,
     })
 }
 
@@ -76,15 +78,26 @@ pub fn nu_from_q(kind: LatticeKind, q: Real) -> Real {
             (1.0 + t) / (2.0 * (2.0 + t))
         }
         LatticeKind::Hex => (1.0 + 4.0 * q) / (3.0 + 4.0 * q),
+        LatticeKind::Random2d | LatticeKind::Random3d => calibration::nu_of_q(kind, q),
     }
 }
 
 /// Young's modulus of the lattice for stiffness `k`, spacing `a` and ratio `q`: E in Pa (3D) or
 /// the per-thickness E_2D in N/m (2D; multiply by nothing, it is independent of a).
+///
+/// For random lattices `k` stands for kappa, the stiffness per unit volume of
+/// `k_s = kappa V_s / L_s^2` (Pa in 3D; N/m in 2D with areas), see [`crate::random`]; `a` is
+/// not used.
 pub fn youngs_from_k(kind: LatticeKind, k: Real, a: Real, q: Real) -> Real {
     match kind {
         LatticeKind::Cubic => k / a * 15.0 * (1.0 + 2.0 * q) / (6.0 + 10.0 * q),
         LatticeKind::Hex => (3.0 as Real).sqrt() * k * (2.0 + 4.0 * q) / (3.0 + 4.0 * q),
+        LatticeKind::Random3d => {
+            k * (1.0 + 2.0 * q) / (6.0 + 10.0 * q) * calibration::youngs_factor(kind, q)
+        }
+        LatticeKind::Random2d => {
+            k * (1.0 + 2.0 * q) / (3.0 + 4.0 * q) * calibration::youngs_factor(kind, q)
+        }
     }
 }
 
@@ -94,6 +107,10 @@ pub fn shear_from_k(kind: LatticeKind, k: Real, a: Real) -> Real {
     match kind {
         LatticeKind::Cubic => k / a,
         LatticeKind::Hex => (3.0 as Real).sqrt() / 4.0 * k,
+        // Affine value (kappa/15, kappa/8); the calibrated E and nu are what random lattices
+        // promise.
+        LatticeKind::Random3d => k / 15.0,
+        LatticeKind::Random2d => k / 8.0,
     }
 }
 
@@ -131,8 +148,10 @@ pub fn constants_for(
 ) -> Result<SpringConstants> {
     check_elastic(m)?;
     match kind {
-        LatticeKind::Cubic => constants_from_lattice_moduli(kind, a, m.youngs, m.poisson),
-        LatticeKind::Hex => {
+        LatticeKind::Cubic | LatticeKind::Random3d => {
+            constants_from_lattice_moduli(kind, a, m.youngs, m.poisson)
+        }
+        LatticeKind::Hex | LatticeKind::Random2d => {
             check_positive("plate thickness h", h)?;
             let (e2, nu2) = plate_moduli(m, h, plane);
             constants_from_lattice_moduli(kind, a, e2, nu2)
@@ -160,14 +179,14 @@ pub fn check_elastic(m: &Elastic) -> Result<()> {
 
 fn check_lattice_nu(kind: LatticeKind, nu: Real) -> Result<()> {
     let (ok, why) = match kind {
-        LatticeKind::Cubic => (
+        LatticeKind::Cubic | LatticeKind::Random3d => (
             (NU_MIN..0.5).contains(&nu),
             format!(
                 "the 3D lattice reaches -1 < nu < 1/2 (q from -1/2 to infinity); hooke accepts \
                  {NU_MIN} <= nu < 0.5 so that the stability margin 1 + 2q stays positive"
             ),
         ),
-        LatticeKind::Hex => (
+        LatticeKind::Hex | LatticeKind::Random2d => (
             (NU_MIN..=NU2D_MAX).contains(&nu),
             format!(
                 "the 2D lattice's in-plane ratio nu_2D spans -1 < nu_2D < 1 (q from -1/2 to \

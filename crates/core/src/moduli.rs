@@ -29,6 +29,7 @@ use crate::lattice::{Lattice, LatticeKind};
 use crate::law;
 use crate::material::{nu_from_q, q_from_nu, youngs_from_k};
 use crate::math::{Coords, Matrix, Real, Vector};
+use crate::random::RandomSpec;
 use crate::state::State;
 use crate::statics::{self, Constraints, StaticOptions, StaticReport};
 use crate::tangent::Tangent;
@@ -57,6 +58,12 @@ pub struct BlockTest {
     pub spacing: Real,
     pub stiffness: Real,
     pub solver: StaticOptions,
+    /// Random lattices only: how the nodes are scattered, and the load axis (0, 1, 2 = x, y, z;
+    /// the box's long side lies along it). Regular lattices are loaded along x.
+    pub random: RandomSpec,
+    pub axis: usize,
+    /// Build with this q instead of the one `nu` maps to (calibration runs).
+    pub q: Option<Real>,
 }
 
 impl BlockTest {
@@ -66,15 +73,18 @@ impl BlockTest {
         BlockTest {
             kind,
             nu,
-            size: match kind {
-                LatticeKind::Cubic => [71, 16, 16],
-                LatticeKind::Hex => [71, 16, 1],
+            size: match kind.dim() {
+                3 => [71, 16, 16],
+                _ => [71, 16, 1],
             },
             ends: Ends::Slide,
             strain: 1e-5,
             spacing: 1.0,
             stiffness: 1.0,
             solver: StaticOptions::default(),
+            random: RandomSpec::default(),
+            axis: 0,
+            q: None,
         }
     }
 }
@@ -107,9 +117,13 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
             ),
         });
     }
+    if t.kind.is_random() {
+        return random_block_test(t);
+    }
     let q = q_from_nu(t.kind, t.nu)?;
     let a = t.spacing;
     let lattice = match t.kind {
+        LatticeKind::Random2d | LatticeKind::Random3d => unreachable!("handled above"),
         LatticeKind::Cubic => Lattice::cubic_box(t.size, a)?,
         LatticeKind::Hex => {
             if t.size[2] != 1 {
@@ -241,6 +255,7 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
             };
             (w, ny as Real * dyr, (row_mean(ny - 1) - row_mean(0)) / w)
         }
+        LatticeKind::Random2d | LatticeKind::Random3d => unreachable!("handled above"),
     };
     let e_target = youngs_from_k(t.kind, t.stiffness, a, q);
     Ok(BlockResult {
@@ -249,6 +264,149 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
         e_target,
         e_measured: force / area / t.strain,
         e_measured_cell: force / area_cell / t.strain,
+        q,
+        nodes: n,
+        springs: body.springs(),
+        solve,
+    })
+}
+
+/// The block test on a random lattice. The box is `(size - 1) a` long per axis (the regular
+/// lattices' nominal box), its long side along `t.axis`. Its faces are flat (the samplers conform
+/// to the box), so the cross-section is exact: `E = F / (W H eps)`, `F` the reaction on the
+/// loaded end face. `nu` is the mean lateral strain of the middle third of the bar: the mean
+/// displacement of the nodes on each side face there, differenced across the bar.
+fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
+    let dim = t.kind.dim();
+    if t.axis >= dim {
+        return Err(Error::InvalidInput {
+            what: "load axis",
+            why: format!(
+                "axis {} does not exist in {dim}D: give 0 (x), 1 (y) or 2 (z)",
+                t.axis
+            ),
+        });
+    }
+    let a = t.spacing;
+    let q = match t.q {
+        Some(q) => q,
+        None => q_from_nu(t.kind, t.nu)?,
+    };
+    let ax = t.axis;
+    // Lateral axes in order, the long side along the load axis.
+    let lateral: Vec<usize> = (0..dim).filter(|&c| c != ax).collect();
+    let mut ext = [0.0; 3];
+    ext[ax] = (t.size[0].max(2) - 1) as Real * a;
+    for (m, &c) in lateral.iter().enumerate() {
+        ext[c] = (t.size[m + 1].max(2) - 1) as Real * a;
+    }
+    let lattice = Lattice::random(dim, [0.0; 3], ext, a, 1.0, t.random, &|_| true)?;
+    let e_target = youngs_from_k(t.kind, t.stiffness, a, q);
+    // k_s = kappa V_s / L_s^2 (`crate::random`), kappa = t.stiffness; unit node masses.
+    let cells = lattice
+        .cells
+        .clone()
+        .expect("random lattices carry their cells");
+    let k = cells
+        .spring
+        .iter()
+        .zip(&lattice.bonds.rest)
+        .map(|(&v, &l)| t.stiffness * v / (l * l))
+        .collect();
+    let n = lattice.len();
+    let body = Body {
+        lattice,
+        k,
+        q,
+        mass: vec![1.0; n],
+    };
+    body.validate()?;
+    let lat = &body.lattice;
+    let pos = &lat.pos;
+    let n = body.nodes();
+    let len = ext[ax];
+    let coord = |c: usize, i: usize| pos.comp(c)[i];
+    let mut cons = Constraints::all_free(n);
+    let mut state = State::new(&body);
+    let end_of = |i: usize| -> Option<Real> {
+        let x = coord(ax, i);
+        if x == 0.0 {
+            Some(-1.0)
+        } else if x == len {
+            Some(1.0)
+        } else {
+            None
+        }
+    };
+    let mut centre = [0.0; 3];
+    for c in 0..dim {
+        centre[c] = 0.5 * ext[c];
+    }
+    for i in 0..n {
+        let mut u = [0.0; 3];
+        for c in 0..dim {
+            let d = coord(c, i) - centre[c];
+            u[c] = if c == ax {
+                t.strain * d
+            } else {
+                -t.nu * t.strain * d
+            };
+        }
+        if dim == 2 {
+            cons.fix(i, 2);
+        }
+        if let Some(side) = end_of(i) {
+            u[ax] = side * t.strain * len / 2.0;
+            cons.fix(i, ax);
+            if t.ends == Ends::Clamp {
+                for &c in &lateral {
+                    u[c] = 0.0;
+                    cons.fix(i, c);
+                }
+            }
+        }
+        state.u.set(i, Vector::new(u[0], u[1], u[2]));
+    }
+    if t.ends == Ends::Slide {
+        for &c in &lateral {
+            let mut tr = Coords::zeros(n);
+            tr.comp_mut(c).fill(1.0);
+            cons.add_null_mode(tr);
+        }
+        if dim == 3 {
+            let (b, c) = (lateral[0], lateral[1]);
+            let mut rot = Coords::zeros(n);
+            for i in 0..n {
+                rot.comp_mut(b)[i] = -(coord(c, i) - centre[c]);
+                rot.comp_mut(c)[i] = coord(b, i) - centre[b];
+            }
+            cons.add_null_mode(rot);
+        }
+    }
+    let solve = statics::solve(&body, &mut state, &cons, None, &t.solver)?;
+    let force: Real = (0..n)
+        .filter(|&i| end_of(i) == Some(1.0))
+        .map(|i| -state.f.comp(ax)[i])
+        .sum();
+    let area: Real = lateral.iter().map(|&c| ext[c]).product();
+    let mut lateral_strain = 0.0;
+    for &c in &lateral {
+        let side_mean = |at: Real| {
+            let sel: Vec<usize> = (0..n)
+                .filter(|&i| coord(c, i) == at && (coord(ax, i) - centre[ax]).abs() <= len / 6.0)
+                .collect();
+            sel.iter().map(|&i| state.u.comp(c)[i]).sum::<Real>() / sel.len().max(1) as Real
+        };
+        lateral_strain += (side_mean(ext[c]) - side_mean(0.0)) / ext[c];
+    }
+    lateral_strain /= lateral.len() as Real;
+    let e_measured = force / area / t.strain;
+    Ok(BlockResult {
+        nu_target: t.nu,
+        nu_measured: -lateral_strain / t.strain,
+        e_target,
+        e_measured,
+        e_measured_cell: e_measured,
         q,
         nodes: n,
         springs: body.springs(),
@@ -291,16 +449,22 @@ pub struct BulkModuli {
 
 /// Stress of the centre node of a small box under the affine strain `eps`, from the linearised
 /// law. Exact for the infinite lattice (see the module docs).
+///
+/// # Panics
+/// For random lattices, which have no affine equilibrium: measure them with [`block_test`].
 pub fn bulk_stress(kind: LatticeKind, k: Real, a: Real, q: Real, eps: &Matrix) -> Matrix {
     // 7 nodes across: the centre node, its neighbours and their neighbours all have full stars.
     let lattice = match kind {
         LatticeKind::Cubic => Lattice::cubic_box([7, 7, 7], a),
         LatticeKind::Hex => Lattice::hex_box(7, 7, a, 1.0),
+        LatticeKind::Random2d | LatticeKind::Random3d => {
+            panic!("bulk_stress needs a regular lattice; measure random ones with block_test")
+        }
     }
     .expect("a fixed, valid box");
-    let centre = match kind {
-        LatticeKind::Cubic => lattice.grid_index(3, 3, 3),
-        LatticeKind::Hex => lattice.grid_index(3, 3, 0),
+    let centre = match kind.dim() {
+        3 => lattice.grid_index(3, 3, 3),
+        _ => lattice.grid_index(3, 3, 0),
     };
     let body = Body::uniform(lattice, k, q, 1.0);
     let state = State::new(&body);
@@ -323,12 +487,12 @@ pub fn bulk_moduli(kind: LatticeKind, k: Real, a: Real, q: Real) -> BulkModuli {
     exy[(0, 1)] = 0.5;
     exy[(1, 0)] = 0.5;
     let c44 = bulk_stress(kind, k, a, q, &exy)[(0, 1)];
-    let (youngs, poisson) = match kind {
-        LatticeKind::Cubic => (
+    let (youngs, poisson) = match kind.dim() {
+        3 => (
             (c11 - c12) * (c11 + 2.0 * c12) / (c11 + c12),
             c12 / (c11 + c12),
         ),
-        LatticeKind::Hex => ((c11 * c11 - c12 * c12) / c11, c12 / c11),
+        _ => ((c11 * c11 - c12 * c12) / c11, c12 / c11),
     };
     BulkModuli {
         c11,

@@ -37,7 +37,7 @@
 //! q spreads the tip load over the neighbours), the crack roughens and no steady toughness
 //! exists; the table's last value is used there, and `hooke check` says so.
 
-use hooke_core::material::nu_from_q;
+use hooke_core::material::{nu_from_q, q_from_nu, youngs_from_k};
 use hooke_core::{LatticeKind, Real};
 
 use crate::criterion::{Criterion, SpringState};
@@ -85,10 +85,11 @@ impl CriticalStretch {
 
     /// `s_c` for a fracture energy `g_c` (see the module docs).
     pub fn stretch_for(kind: LatticeKind, k: Real, a: Real, q: Real, h: Real, g_c: Real) -> Real {
+        let (kind, k, q) = regular_equivalent(kind, k, a, q);
         let gamma = lattice_toughness(kind, q);
         match kind {
-            LatticeKind::Cubic => (g_c / (gamma * k)).sqrt(),
             LatticeKind::Hex => (g_c * h / (gamma * k * a)).sqrt(),
+            _ => (g_c / (gamma * k)).sqrt(),
         }
     }
 
@@ -101,10 +102,11 @@ impl CriticalStretch {
         h: Real,
         s_c: Real,
     ) -> Real {
+        let (kind, k, q) = regular_equivalent(kind, k, a, q);
         let gamma = lattice_toughness(kind, q);
         match kind {
-            LatticeKind::Cubic => gamma * k * s_c * s_c,
             LatticeKind::Hex => gamma * k * a * s_c * s_c / h,
+            _ => gamma * k * s_c * s_c,
         }
     }
 }
@@ -112,9 +114,32 @@ impl CriticalStretch {
 /// The uniform-stretch count: `4.5 (1 + 2q)` (cubic) or `1 + 2q` (hex), in the units of
 /// [`lattice_toughness`].
 pub fn nominal_toughness(kind: LatticeKind, q: Real) -> Real {
-    match kind {
-        LatticeKind::Cubic => 4.5 * (1.0 + 2.0 * q),
-        LatticeKind::Hex => 1.0 + 2.0 * q,
+    match kind.dim() {
+        3 => 4.5 * (1.0 + 2.0 * q),
+        _ => 1.0 + 2.0 * q,
+    }
+}
+
+/// The regular lattice of the same dimension, E, nu and spacing as a random lattice (`k` is
+/// kappa there): random lattices take the critical stretch of that lattice. This is an
+/// assumption, not a measurement: the strip experiment has not been run on random lattices
+/// ([`toughness_calibrated`] is false for them). Regular lattices are returned unchanged.
+pub fn regular_equivalent(
+    kind: LatticeKind,
+    k: Real,
+    a: Real,
+    q: Real,
+) -> (LatticeKind, Real, Real) {
+    let regular = match kind {
+        LatticeKind::Random3d => LatticeKind::Cubic,
+        LatticeKind::Random2d => LatticeKind::Hex,
+        _ => return (kind, k, q),
+    };
+    let e = youngs_from_k(kind, k, a, q);
+    let nu = nu_from_q(kind, q);
+    match q_from_nu(regular, nu) {
+        Ok(qr) => (regular, e / youngs_from_k(regular, 1.0, a, qr), qr),
+        Err(_) => (regular, e / youngs_from_k(regular, 1.0, a, q), q),
     }
 }
 
@@ -156,8 +181,10 @@ const HEX_TOUGHNESS: &[(Real, Real)] = &[
 /// The nu values `hooke toughness --table` measures.
 pub fn table_nu(kind: LatticeKind) -> &'static [Real] {
     match kind {
-        LatticeKind::Cubic => &[-0.5, -0.3, -0.1, 0.0, 0.1, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45],
-        LatticeKind::Hex => &[
+        LatticeKind::Cubic | LatticeKind::Random3d => {
+            &[-0.5, -0.3, -0.1, 0.0, 0.1, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45]
+        }
+        LatticeKind::Hex | LatticeKind::Random2d => &[
             -0.9, -0.7, -0.5, -0.3, -0.1, 0.0, 0.1, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5,
         ],
     }
@@ -165,6 +192,9 @@ pub fn table_nu(kind: LatticeKind) -> &'static [Real] {
 
 /// Whether nu lies where the table was measured with a crack that stays on its plane.
 pub fn toughness_calibrated(kind: LatticeKind, q: Real) -> bool {
+    if kind.is_random() {
+        return false;
+    }
     let t = table(kind);
     let nu = nu_from_q(kind, q);
     nu >= t[0].0 - 1e-9 && nu <= t[t.len() - 1].0 + 1e-9
@@ -172,8 +202,8 @@ pub fn toughness_calibrated(kind: LatticeKind, q: Real) -> bool {
 
 fn table(kind: LatticeKind) -> &'static [(Real, Real)] {
     match kind {
-        LatticeKind::Cubic => CUBIC_TOUGHNESS,
-        LatticeKind::Hex => HEX_TOUGHNESS,
+        LatticeKind::Cubic | LatticeKind::Random3d => CUBIC_TOUGHNESS,
+        LatticeKind::Hex | LatticeKind::Random2d => HEX_TOUGHNESS,
     }
 }
 

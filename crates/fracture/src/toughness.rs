@@ -129,6 +129,11 @@ fn strip_lattice(t: &StripTest, periodic_x: bool) -> Result<Lattice, FractureErr
             1.0,
             [periodic_x, false, true],
         ),
+        LatticeKind::Random2d | LatticeKind::Random3d => {
+            return Err(FractureError::Experiment(
+                "the strip experiment runs on the regular lattices (cubic, hex) only".into(),
+            ))
+        }
     };
     lat.map_err(|e| FractureError::Experiment(e.to_string()))
 }
@@ -137,7 +142,7 @@ fn strip_lattice(t: &StripTest, periodic_x: bool) -> Result<Lattice, FractureErr
 fn rows(t: &StripTest) -> (Real, Real) {
     let dy = match t.kind {
         LatticeKind::Hex => (3.0 as Real).sqrt() / 2.0,
-        LatticeKind::Cubic => 1.0,
+        _ => 1.0,
     };
     (
         (t.height as Real / 2.0 - 0.5) * dy,
@@ -148,8 +153,8 @@ fn rows(t: &StripTest) -> (Real, Real) {
 /// Width of the crack front (the thickness, 1, in 2D; the periodic depth in 3D).
 fn width(t: &StripTest) -> Real {
     match t.kind {
-        LatticeKind::Hex => 1.0,
-        LatticeKind::Cubic => t.depth as Real,
+        LatticeKind::Hex | LatticeKind::Random2d => 1.0,
+        _ => t.depth as Real,
     }
 }
 
@@ -245,12 +250,12 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
     let (yc, top) = rows(t);
     let w = width(t);
     let tip0 = t.notch as Real + 0.1;
-    let crack = match t.kind {
-        LatticeKind::Hex => Crack::Segment {
+    let crack = match t.kind.dim() {
+        2 => Crack::Segment {
             a: [-1.0, yc],
             b: [tip0, yc],
         },
-        LatticeKind::Cubic => {
+        _ => {
             let d = t.depth as Real + 1.0;
             Crack::Polygon {
                 vertices: vec![

@@ -1,0 +1,130 @@
+//! Calibration of random lattices: the relation between q and nu, and the Young's modulus
+//! factor, measured on ensembles of random blocks.
+//!
+//! The affine theory of [`crate::random`] gives the regular lattices' relations
+//! (3D `nu = (1 + 10q/3) / (2 (2 + 10q/3))`, 2D `nu_2D = (1 + 4q)/(3 + 4q)`, and
+//! `E = kappa (1 + 2q)/(6 + 10q)` resp. `kappa (1 + 2q)/(3 + 4q)`). A random network departs
+//! from them through the anisotropy of each node's star and through non-affine relaxation.
+//! The tables below hold what the lattices really do, measured with `hooke moduli --lattice
+//! random2d|random3d --table`; between their points the correction is interpolated linearly in
+//! q, and held at the ends.
+
+use crate::error::{Error, Result};
+use crate::lattice::LatticeKind;
+use crate::math::Real;
+
+/// Measured `(q, nu, E / E_affine)` for 3D Poisson-disk lattices: the paper's block
+/// (70a x 15a x 15a), 3 samples per q (`hooke moduli --lattice random3d --table --samples 3`).
+pub const RANDOM3D: &[(Real, Real, Real)] = &[
+    (-0.49, -0.8530, 0.9905),
+    (-0.45, -0.4745, 0.9666),
+    (-0.4, -0.2250, 0.9513),
+    (-0.3, 0.0165, 0.9374),
+    (-0.2, 0.1345, 0.9313),
+    (-0.1, 0.2045, 0.9282),
+    (0.0, 0.2509, 0.9265),
+    (0.25, 0.3188, 0.9250),
+    (0.5, 0.3557, 0.9251),
+    (1.0, 0.3950, 0.9266),
+    (2.0, 0.4285, 0.9305),
+    (4.0, 0.4522, 0.9373),
+    (8.0, 0.4670, 0.9467),
+    (16.0, 0.4757, 0.9574),
+    (40.0, 0.4818, 0.9706),
+];
+/// Measured `(q, nu_2D, E_2D / E_affine)` for 2D Poisson-disk lattices: a 140a x 30a plate, 8
+/// samples per q (`hooke moduli --lattice random2d --table --samples 8 --size 141,31`).
+pub const RANDOM2D: &[(Real, Real, Real)] = &[
+    (-0.49, -0.9142, 0.9937),
+    (-0.45, -0.6361, 0.9739),
+    (-0.4, -0.3885, 0.9571),
+    (-0.3, -0.0723, 0.9370),
+    (-0.2, 0.1216, 0.9258),
+    (-0.1, 0.2528, 0.9190),
+    (0.0, 0.3477, 0.9146),
+    (0.25, 0.4999, 0.9088),
+    (0.5, 0.5902, 0.9065),
+    (1.0, 0.6929, 0.9056),
+    (2.0, 0.7865, 0.9079),
+    (4.0, 0.8565, 0.9139),
+    (8.0, 0.9020, 0.9230),
+    (16.0, 0.9292, 0.9336),
+    (40.0, 0.9483, 0.9469),
+];
+
+fn table(kind: LatticeKind) -> &'static [(Real, Real, Real)] {
+    match kind {
+        LatticeKind::Random3d => RANDOM3D,
+        LatticeKind::Random2d => RANDOM2D,
+        _ => &[],
+    }
+}
+
+/// The affine (isotropic-star) Poisson's ratio for q.
+pub fn nu_affine(kind: LatticeKind, q: Real) -> Real {
+    if kind.dim() == 3 {
+        let t = 10.0 * q / 3.0;
+        (1.0 + t) / (2.0 * (2.0 + t))
+    } else {
+        (1.0 + 4.0 * q) / (3.0 + 4.0 * q)
+    }
+}
+
+/// Linear interpolation of column `col` of the table at q, held at the ends; `None` when there
+/// is no table.
+fn interp(kind: LatticeKind, q: Real, col: usize) -> Option<Real> {
+    let t = table(kind);
+    let get = |r: &(Real, Real, Real)| {
+        if col == 1 {
+            r.1 - nu_affine(kind, r.0)
+        } else {
+            r.2
+        }
+    };
+    let (first, last) = (t.first()?, t.last()?);
+    if q <= first.0 {
+        return Some(get(first));
+    }
+    if q >= last.0 {
+        return Some(get(last));
+    }
+    let i = t.partition_point(|r| r.0 <= q);
+    let (a, b) = (&t[i - 1], &t[i]);
+    let w = (q - a.0) / (b.0 - a.0);
+    Some((1.0 - w) * get(a) + w * get(b))
+}
+
+/// The random lattice's Poisson's ratio for q: the affine value plus the measured correction.
+pub fn nu_of_q(kind: LatticeKind, q: Real) -> Real {
+    nu_affine(kind, q) + interp(kind, q, 1).unwrap_or(0.0)
+}
+
+/// Measured Young's modulus over the affine one at q.
+pub fn youngs_factor(kind: LatticeKind, q: Real) -> Real {
+    interp(kind, q, 2).unwrap_or(1.0)
+}
+
+/// The q whose calibrated Poisson's ratio is `nu` (bisection: `nu_of_q` increases with q).
+pub fn q_for_nu(kind: LatticeKind, nu: Real) -> Result<Real> {
+    let (mut lo, mut hi) = (-0.5 + 1e-9, 1e4);
+    let (nlo, nhi) = (nu_of_q(kind, lo), nu_of_q(kind, hi));
+    if !(nu > nlo && nu < nhi) {
+        return Err(Error::OutOfRange {
+            what: "Poisson's ratio nu",
+            value: nu,
+            why: format!(
+                "the {} lattice reaches {nlo:.3} < nu < {nhi:.3} (q from -1/2 to infinity)",
+                kind.name()
+            ),
+        });
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if nu_of_q(kind, mid) < nu {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Ok(0.5 * (lo + hi))
+}

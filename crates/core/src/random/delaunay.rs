@@ -1,0 +1,528 @@
+//! Delaunay triangulation (2D, `N = 3`) and tetrahedralisation (3D, `N = 4`) by Bowyer-Watson
+//! insertion with exact predicates.
+//!
+//! Why our own: the 2D crates (spade) have no 3D counterpart of the same weight, and the general
+//! d-dimensional crate pulls in a large dependency tree for what is, for our node sets (blue
+//! noise or jittered grids: no duplicate points, minimum distances guaranteed), a short
+//! algorithm. Robustness comes from Shewchuk's adaptive exact predicates (`robust` crate):
+//! every orientation and in-sphere decision is exact, so the triangulation is the exact Delaunay
+//! triangulation of the points and the enclosing super-simplex. Ties (co-spherical points, which
+//! the jittered grid can produce on its flat faces) leave a simplex out of the cavity; the cavity
+//! is then enlarged until every new simplex is positively oriented, which keeps the mesh valid.
+//!
+//! The super-simplex has its vertices about 100 box sizes away. Hull simplices whose circumsphere
+//! reaches that far (very flat ones on the convex hull) are therefore missing from the result;
+//! they are exactly the boundary slivers the lattice builder drops anyway.
+
+use crate::error::{Error, Result};
+use robust::{Coord, Coord3D};
+
+const NONE: u32 = u32::MAX;
+
+/// The simplices of a triangulation of `points`, positively oriented, with their face
+/// neighbours (`nbr[s][i]` shares the facet opposite vertex `i`; `NONE` on the hull).
+#[derive(Clone, Debug)]
+pub struct Mesh<const N: usize> {
+    pub simplices: Vec<[u32; N]>,
+    pub nbr: Vec<[u32; N]>,
+}
+
+/// Orientation of a simplex: positive for a counter-clockwise triangle / positively oriented
+/// tetrahedron (robust's sign conventions), zero when degenerate.
+pub(crate) fn orient<const N: usize>(p: &[[f64; 3]], v: &[u32; N]) -> f64 {
+    let c2 = |i: u32| {
+        let q = p[i as usize];
+        Coord { x: q[0], y: q[1] }
+    };
+    let c3 = |i: u32| {
+        let q = p[i as usize];
+        Coord3D {
+            x: q[0],
+            y: q[1],
+            z: q[2],
+        }
+    };
+    match N {
+        3 => robust::orient2d(c2(v[0]), c2(v[1]), c2(v[2])),
+        4 => robust::orient3d(c3(v[0]), c3(v[1]), c3(v[2]), c3(v[3])),
+        _ => unreachable!("simplices have 3 or 4 vertices"),
+    }
+}
+
+/// Positive when `q` lies strictly inside the circumsphere of the positively oriented simplex.
+fn in_sphere<const N: usize>(p: &[[f64; 3]], v: &[u32; N], q: [f64; 3]) -> f64 {
+    let c2 = |r: [f64; 3]| Coord { x: r[0], y: r[1] };
+    let c3 = |r: [f64; 3]| Coord3D {
+        x: r[0],
+        y: r[1],
+        z: r[2],
+    };
+    let at = |i: u32| p[i as usize];
+    match N {
+        3 => robust::incircle(c2(at(v[0])), c2(at(v[1])), c2(at(v[2])), c2(q)),
+        // robust's insphere is positive inside for orient3d(a, b, c, d) > 0.
+        4 => robust::insphere(
+            c3(at(v[0])),
+            c3(at(v[1])),
+            c3(at(v[2])),
+            c3(at(v[3])),
+            c3(q),
+        ),
+        _ => unreachable!(),
+    }
+}
+
+struct Builder<const N: usize> {
+    pts: Vec<[f64; 3]>,
+    verts: Vec<[u32; N]>,
+    nbr: Vec<[u32; N]>,
+    dead: Vec<bool>,
+    free: Vec<u32>,
+    mark: Vec<u32>,
+    stamp: u32,
+}
+
+/// Triangulate `points` (z = 0 for `N = 3`). Fails only on duplicate points, non-finite
+/// coordinates or fewer points than a simplex needs.
+pub fn triangulate<const N: usize>(points: &[[f64; 3]]) -> Result<Mesh<N>> {
+    let n = points.len();
+    if n < N {
+        return Err(Error::InvalidInput {
+            what: "random lattice",
+            why: format!(
+                "{n} nodes cannot form a simplex: make the shape larger or the spacing smaller"
+            ),
+        });
+    }
+    if points.iter().any(|p| p.iter().any(|c| !c.is_finite())) {
+        return Err(Error::InvalidInput {
+            what: "random lattice",
+            why: "a node coordinate is not finite".into(),
+        });
+    }
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in points {
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    let centre = [
+        0.5 * (lo[0] + hi[0]),
+        0.5 * (lo[1] + hi[1]),
+        0.5 * (lo[2] + hi[2]),
+    ];
+    let size = (0..3)
+        .map(|c| hi[c] - lo[c])
+        .fold(0.0, f64::max)
+        .max(1e-300);
+    let far = 100.0 * size;
+    let mut pts = points.to_vec();
+    let sup: Vec<[f64; 3]> = if N == 3 {
+        (0..3)
+            .map(|k| {
+                let t = std::f64::consts::PI / 2.0 + k as f64 * 2.0 * std::f64::consts::PI / 3.0;
+                [
+                    centre[0] + 2.0 * far * t.cos(),
+                    centre[1] + 2.0 * far * t.sin(),
+                    0.0,
+                ]
+            })
+            .collect()
+    } else {
+        [
+            [1.0, 1.0, 1.0],
+            [1.0, -1.0, -1.0],
+            [-1.0, 1.0, -1.0],
+            [-1.0, -1.0, 1.0],
+        ]
+        .iter()
+        .map(|d| {
+            [
+                centre[0] + 2.0 * far * d[0],
+                centre[1] + 2.0 * far * d[1],
+                centre[2] + 2.0 * far * d[2],
+            ]
+        })
+        .collect()
+    };
+    pts.extend_from_slice(&sup);
+    let mut first = [0u32; N];
+    for (k, v) in first.iter_mut().enumerate() {
+        *v = (n + k) as u32;
+    }
+    if orient(&pts, &first) < 0.0 {
+        first.swap(0, 1);
+    }
+    let mut b = Builder {
+        pts,
+        verts: vec![first],
+        nbr: vec![[NONE; N]],
+        dead: vec![false],
+        free: Vec::new(),
+        mark: vec![0],
+        stamp: 0,
+    };
+    // Insert in Morton order of the quantised coordinates: consecutive points are close, so the
+    // walk from the last new simplex is short.
+    let mut order: Vec<(u64, u32)> = (0..n)
+        .map(|i| {
+            let mut key = 0u64;
+            let mut q = [0u64; 3];
+            for c in 0..3 {
+                let span = (hi[c] - lo[c]).max(1e-300);
+                q[c] = (((points[i][c] - lo[c]) / span) * 2_097_151.0) as u64;
+            }
+            for bit in (0..21).rev() {
+                for c in 0..3 {
+                    key = (key << 1) | ((q[c] >> bit) & 1);
+                }
+            }
+            (key, i as u32)
+        })
+        .collect();
+    order.sort_unstable();
+    let mut last = 0u32;
+    let mut cavity: Vec<u32> = Vec::new();
+    let mut boundary: Vec<(u32, usize)> = Vec::new();
+    let mut created: Vec<u32> = Vec::new();
+    for &(_, i) in &order {
+        last = b.insert(i, last, &mut cavity, &mut boundary, &mut created)?;
+    }
+    // Keep the simplices without a super vertex; neighbours outside that set become hull facets.
+    let mut new_id = vec![NONE; b.verts.len()];
+    let mut simplices = Vec::new();
+    for s in 0..b.verts.len() {
+        if !b.dead[s] && b.verts[s].iter().all(|&v| (v as usize) < n) {
+            new_id[s] = simplices.len() as u32;
+            simplices.push(b.verts[s]);
+        }
+    }
+    let mut nbr = Vec::with_capacity(simplices.len());
+    for s in 0..b.verts.len() {
+        if new_id[s] != NONE {
+            let mut row = [NONE; N];
+            for k in 0..N {
+                let t = b.nbr[s][k];
+                row[k] = if t == NONE { NONE } else { new_id[t as usize] };
+            }
+            nbr.push(row);
+        }
+    }
+    Ok(Mesh { simplices, nbr })
+}
+
+impl<const N: usize> Builder<N> {
+    fn with_vertex(&self, s: u32, k: usize, p: u32) -> [u32; N] {
+        let mut v = self.verts[s as usize];
+        v[k] = p;
+        v
+    }
+
+    /// Visibility walk from `start` to a simplex containing point `p`.
+    fn locate(&self, p: u32, start: u32) -> Result<u32> {
+        let mut cur = start;
+        let mut rot = 0usize;
+        for _ in 0..10_000_000usize {
+            let mut moved = false;
+            for kk in 0..N {
+                // Rotate the first facet tried so the walk cannot cycle on ties.
+                let k = (kk + rot) % N;
+                if orient(&self.pts, &self.with_vertex(cur, k, p)) < 0.0 {
+                    let t = self.nbr[cur as usize][k];
+                    if t == NONE {
+                        break;
+                    }
+                    cur = t;
+                    moved = true;
+                    break;
+                }
+            }
+            rot += 1;
+            if !moved {
+                return Ok(cur);
+            }
+        }
+        Err(Error::InvalidInput {
+            what: "random lattice",
+            why: "point location did not terminate (degenerate node set)".into(),
+        })
+    }
+
+    fn alloc(&mut self, v: [u32; N]) -> u32 {
+        if let Some(s) = self.free.pop() {
+            self.verts[s as usize] = v;
+            self.nbr[s as usize] = [NONE; N];
+            self.dead[s as usize] = false;
+            s
+        } else {
+            self.verts.push(v);
+            self.nbr.push([NONE; N]);
+            self.dead.push(false);
+            self.mark.push(0);
+            (self.verts.len() - 1) as u32
+        }
+    }
+
+    fn insert(
+        &mut self,
+        p: u32,
+        start: u32,
+        cavity: &mut Vec<u32>,
+        boundary: &mut Vec<(u32, usize)>,
+        created: &mut Vec<u32>,
+    ) -> Result<u32> {
+        let q = self.pts[p as usize];
+        let s0 = self.locate(p, start)?;
+        if in_sphere(&self.pts, &self.verts[s0 as usize], q) <= 0.0 {
+            return Err(Error::InvalidInput {
+                what: "random lattice",
+                why: format!("node {p} at {q:?} duplicates another node"),
+            });
+        }
+        self.stamp += 1;
+        let stamp = self.stamp;
+        cavity.clear();
+        cavity.push(s0);
+        self.mark[s0 as usize] = stamp;
+        let mut head = 0;
+        while head < cavity.len() {
+            let s = cavity[head];
+            head += 1;
+            for k in 0..N {
+                let t = self.nbr[s as usize][k];
+                if t != NONE
+                    && self.mark[t as usize] != stamp
+                    && in_sphere(&self.pts, &self.verts[t as usize], q) > 0.0
+                {
+                    self.mark[t as usize] = stamp;
+                    cavity.push(t);
+                }
+            }
+        }
+        // The cavity must be star-shaped from p: every boundary facet seen strictly from the
+        // inside. Ties can break that; grow the cavity across such a facet until it holds.
+        loop {
+            boundary.clear();
+            let mut grow = None;
+            for &s in cavity.iter() {
+                for k in 0..N {
+                    let t = self.nbr[s as usize][k];
+                    if t == NONE || self.mark[t as usize] != stamp {
+                        if orient(&self.pts, &self.with_vertex(s, k, p)) <= 0.0 {
+                            grow = Some(t);
+                            break;
+                        }
+                        boundary.push((s, k));
+                    }
+                }
+                if grow.is_some() {
+                    break;
+                }
+            }
+            match grow {
+                None => break,
+                Some(NONE) => {
+                    return Err(Error::InvalidInput {
+                        what: "random lattice",
+                        why: format!("node {p} lies outside the enclosing simplex"),
+                    })
+                }
+                Some(t) => {
+                    self.mark[t as usize] = stamp;
+                    cavity.push(t);
+                }
+            }
+        }
+        // New simplices: each boundary facet joined to p (p takes the place of the vertex
+        // opposite the facet, which keeps the orientation).
+        created.clear();
+        let facets: Vec<([u32; N], u32, u32, usize)> = boundary
+            .iter()
+            .map(|&(s, k)| (self.with_vertex(s, k, p), s, self.nbr[s as usize][k], k))
+            .collect();
+        let old: Vec<u32> = cavity.clone();
+        for &s in &old {
+            self.dead[s as usize] = true;
+        }
+        for &(v, s, outer, k) in &facets {
+            let w = self.alloc(v);
+            self.mark[w as usize] = 0;
+            self.nbr[w as usize][k] = outer;
+            if outer != NONE {
+                // Two simplices share at most one facet, so `s` appears once in the outer row.
+                let o = outer as usize;
+                let m = self.nbr[o].iter().position(|&x| x == s).unwrap();
+                self.nbr[o][m] = w;
+            }
+            created.push(w);
+        }
+        for &s in &old {
+            self.mark[s as usize] = 0;
+            self.free.push(s);
+        }
+        // Facets through p between new simplices: match them by the vertices other than p.
+        let mut open: Vec<([u32; 2], u32, usize)> = Vec::with_capacity(created.len() * (N - 1));
+        for &w in created.iter() {
+            let v = self.verts[w as usize];
+            let kp = v.iter().position(|&x| x == p).unwrap();
+            for j in 0..N {
+                if j == kp {
+                    continue;
+                }
+                let mut key = [NONE; 2];
+                let mut m = 0;
+                for c in 0..N {
+                    if c != kp && c != j {
+                        key[m] = v[c];
+                        m += 1;
+                    }
+                }
+                if key[1] != NONE && key[0] > key[1] {
+                    key.swap(0, 1);
+                }
+                if let Some(pos) = open.iter().position(|e| e.0 == key) {
+                    let (_, w2, j2) = open.swap_remove(pos);
+                    self.nbr[w as usize][j] = w2;
+                    self.nbr[w2 as usize][j2] = w;
+                } else {
+                    open.push((key, w, j));
+                }
+            }
+        }
+        debug_assert!(open.is_empty(), "unmatched facets around a new node");
+        Ok(created[0])
+    }
+}
+
+/// Signed measure (area or volume) of a simplex.
+pub fn measure<const N: usize>(p: &[[f64; 3]], v: &[u32; N]) -> f64 {
+    match N {
+        3 => 0.5 * orient(p, v),
+        _ => orient(p, v) / 6.0,
+    }
+}
+
+/// Circumradius of a simplex (the radius of its circumscribed circle or sphere).
+pub fn circumradius<const N: usize>(p: &[[f64; 3]], v: &[u32; N]) -> f64 {
+    // Solve 2 (x_k - x_0) . c = |x_k - x_0|^2 for the centre offset c.
+    let x0 = p[v[0] as usize];
+    let d = N - 1;
+    let mut m = [[0.0; 4]; 3];
+    for k in 1..N {
+        let xk = p[v[k] as usize];
+        let e: Vec<f64> = (0..d).map(|c| xk[c] - x0[c]).collect();
+        for c in 0..d {
+            m[k - 1][c] = 2.0 * e[c];
+        }
+        m[k - 1][3] = e.iter().map(|x| x * x).sum();
+    }
+    // Gaussian elimination with partial pivoting on the d x d system.
+    for col in 0..d {
+        let piv = (col..d)
+            .max_by(|&a, &b| m[a][col].abs().total_cmp(&m[b][col].abs()))
+            .unwrap();
+        m.swap(col, piv);
+        let pv = m[col][col];
+        if pv == 0.0 {
+            return f64::INFINITY;
+        }
+        for r in 0..d {
+            if r != col {
+                let f = m[r][col] / pv;
+                for c in 0..4 {
+                    m[r][c] -= f * m[col][c];
+                }
+            }
+        }
+    }
+    (0..d)
+        .map(|c| (m[c][3] / m[c][c]).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::random::rng::Rng;
+
+    fn check_delaunay<const N: usize>(pts: &[[f64; 3]], m: &Mesh<N>) {
+        // Every simplex positive, no point strictly inside any circumsphere (brute force),
+        // neighbours symmetric.
+        for (s, v) in m.simplices.iter().enumerate() {
+            assert!(orient(pts, v) > 0.0);
+            for (i, q) in pts.iter().enumerate() {
+                if !v.contains(&(i as u32)) {
+                    assert!(in_sphere(pts, v, *q) <= 0.0, "point {i} inside simplex {s}");
+                }
+            }
+            for k in 0..N {
+                let t = m.nbr[s][k];
+                if t != NONE {
+                    assert!(m.nbr[t as usize].contains(&(s as u32)));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn random_points_2d_and_3d_are_delaunay_and_fill_the_hull() {
+        let mut rng = Rng::new(5);
+        let p2: Vec<[f64; 3]> = (0..300)
+            .map(|_| [rng.uniform(), rng.uniform(), 0.0])
+            .collect();
+        let m2 = triangulate::<3>(&p2).unwrap();
+        check_delaunay(&p2, &m2);
+        // Euler: a triangulation of n points with h on the hull has 2n - 2 - h triangles (all hull
+        // triangles present up to the flattest ones, see the module docs).
+        assert!(m2.simplices.len() > 2 * 300 - 2 - 60);
+        let p3: Vec<[f64; 3]> = (0..300)
+            .map(|_| [rng.uniform(), rng.uniform(), rng.uniform()])
+            .collect();
+        let m3 = triangulate::<4>(&p3).unwrap();
+        check_delaunay(&p3, &m3);
+        let vol: f64 = m3.simplices.iter().map(|v| measure(&p3, v)).sum();
+        // The hull of 300 uniform points in the unit cube holds about 0.8 of it.
+        assert!(vol > 0.75 && vol < 1.0, "{vol}");
+    }
+
+    #[test]
+    fn a_grid_with_cospherical_points_is_triangulated_validly() {
+        // The worst case for ties: an unperturbed cubic grid (every cube co-spherical).
+        let mut p = Vec::new();
+        for k in 0..5 {
+            for j in 0..5 {
+                for i in 0..5 {
+                    p.push([i as f64, j as f64, k as f64]);
+                }
+            }
+        }
+        let m = triangulate::<4>(&p).unwrap();
+        for v in &m.simplices {
+            assert!(orient(&p, v) > 0.0);
+        }
+        let vol: f64 = m.simplices.iter().map(|v| measure(&p, v)).sum();
+        assert!((vol - 64.0).abs() < 1e-9, "{vol}");
+        let dup = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ];
+        assert!(triangulate::<3>(&dup).is_err());
+    }
+
+    #[test]
+    fn circumradius_of_known_simplices() {
+        let p = [
+            [0.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [0.0, 2.0, 0.0],
+            [0.0, 0.0, 2.0],
+        ];
+        assert!((circumradius(&p, &[0, 1, 2]) - 2f64.sqrt()).abs() < 1e-12);
+        assert!((circumradius(&p, &[0, 1, 2, 3]) - 3f64.sqrt()).abs() < 1e-12);
+    }
+}
