@@ -134,6 +134,7 @@ fn pulse_speed(kind: LatticeKind, nu: Real, axis: usize, c_guess: Real) -> Real 
     let lattice = match kind {
         LatticeKind::Cubic => Lattice::cubic_box_periodic([nx, 4, 4], 1.0, [false, true, true]),
         LatticeKind::Hex => Lattice::hex_box_periodic(nx, 4, 1.0, 1.0, [false, true]),
+        _ => unreachable!("periodic pulses run on the regular lattices"),
     }
     .unwrap();
     let body = Body::uniform(lattice, 1.0, q_from_nu(kind, nu).unwrap(), 1.0);
@@ -180,6 +181,7 @@ fn pulses_travel_at_the_continuum_wave_speeds() {
             let (lambda, rho) = match kind {
                 LatticeKind::Cubic => (mu * (1.0 + 10.0 * q / 3.0), 1.0),
                 LatticeKind::Hex => (mu * (1.0 + 4.0 * q), 1.0 / (3f64.sqrt() / 2.0)),
+                _ => unreachable!(),
             };
             let c_l = ((lambda + 2.0 * mu) / rho).sqrt();
             let c_t = (mu / rho).sqrt();

@@ -13,15 +13,36 @@ fn bar(kind: LatticeKind, nu: Real, n: [usize; 3]) -> Body {
     let lattice = match kind {
         LatticeKind::Cubic => Lattice::cubic_box(n, 1.0),
         LatticeKind::Hex => Lattice::hex_box(n[0], n[1], 1.0, 1.0),
+        LatticeKind::Random3d | LatticeKind::Random2d => {
+            let hi = n.map(|v| v.saturating_sub(1) as Real);
+            let spec = hooke_core::random::RandomSpec::default();
+            Lattice::random(kind.dim(), [0.0; 3], hi, 1.0, 1.0, spec, &|_| true)
+        }
     }
     .unwrap();
+    if let Some(c) = lattice.cells.clone() {
+        // Random lattice: kappa = 1, springs from their volumes, masses from the node cells.
+        let k = c
+            .spring
+            .iter()
+            .zip(&lattice.bonds.rest)
+            .map(|(v, l)| v / (l * l))
+            .collect();
+        let q = q_from_nu(kind, nu).unwrap();
+        return Body {
+            lattice,
+            k,
+            q,
+            mass: c.node,
+        };
+    }
     Body::uniform(lattice, 1.0, q_from_nu(kind, nu).unwrap(), 1.0)
 }
 
 /// A crack plane (3D) or line (2D) across the whole section at x = `x`.
 fn full_cut(kind: LatticeKind, x: Real) -> Crack {
-    match kind {
-        LatticeKind::Cubic => Crack::Polygon {
+    match kind.dim() {
+        3 => Crack::Polygon {
             vertices: vec![
                 [x, -1.0, -1.0],
                 [x, 100.0, -1.0],
@@ -29,7 +50,7 @@ fn full_cut(kind: LatticeKind, x: Real) -> Crack {
                 [x, -1.0, 100.0],
             ],
         },
-        LatticeKind::Hex => Crack::Segment {
+        _ => Crack::Segment {
             a: [x, -1.0],
             b: [x, 100.0],
         },
@@ -45,6 +66,8 @@ fn precrack_through_the_section_decouples_the_halves() {
         (LatticeKind::Cubic, 0.45),
         (LatticeKind::Hex, -0.5),
         (LatticeKind::Hex, 0.9),
+        (LatticeKind::Random3d, -0.8),
+        (LatticeKind::Random2d, 0.9),
     ] {
         let body = bar(kind, nu, [12, 6, 6]);
         let mut state = State::new(&body);
@@ -83,7 +106,12 @@ fn precrack_through_the_section_decouples_the_halves() {
 /// momentum is conserved to round-off through every breaking event.
 #[test]
 fn momentum_is_conserved_through_breaking() {
-    for (kind, nu) in [(LatticeKind::Cubic, 0.3), (LatticeKind::Hex, 0.6)] {
+    for (kind, nu) in [
+        (LatticeKind::Cubic, 0.3),
+        (LatticeKind::Hex, 0.6),
+        (LatticeKind::Random3d, 0.3),
+        (LatticeKind::Random2d, 0.6),
+    ] {
         let body = bar(kind, nu, [16, 6, 6]);
         let mut state = State::new(&body);
         let mut rng = Rng::new(8);
@@ -123,9 +151,9 @@ fn momentum_is_conserved_through_breaking() {
 }
 
 fn pulled_bar(kind: LatticeKind, nu: Real, speed: Real) -> (Body, Loading) {
-    let n = match kind {
-        LatticeKind::Cubic => [20, 6, 6],
-        LatticeKind::Hex => [30, 10, 1],
+    let n = match kind.dim() {
+        3 => [20, 6, 6],
+        _ => [30, 10, 1],
     };
     let body = bar(kind, nu, n);
     let xmax = body.lattice.pos.x.iter().cloned().fold(0.0, Real::max);
@@ -185,6 +213,8 @@ fn progressive_breaking_is_stable_and_balances_energy() {
         (LatticeKind::Cubic, 0.49),
         (LatticeKind::Hex, -0.9),
         (LatticeKind::Hex, 0.95),
+        (LatticeKind::Random3d, 0.45),
+        (LatticeKind::Random2d, -0.9),
     ] {
         for energy_criterion in [false, true] {
             let run = |safety: Real| {

@@ -149,7 +149,7 @@ fn random_lattices_fill_their_box_and_repeat_with_their_seed() {
             let area: Real = c
                 .surface
                 .iter()
-                .map(|s| (s[0].abs() + s[1].abs() + s[2].abs()))
+                .map(|s| s[0].abs() + s[1].abs() + s[2].abs())
                 .sum();
             let net: [Real; 3] = [0, 1, 2].map(|k| c.surface.iter().map(|s| s[k]).sum::<Real>());
             let expect = if l.dim() == 3 {
