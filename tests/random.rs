@@ -218,3 +218,40 @@ fn random_lattice_respects_holes_and_notches() {
         }
     }
 }
+
+/// Slow verification at the paper's block size (70a x 15a x 15a), 4 samples per nu, for both
+/// samplers. The calibration tables were measured with the Poisson sampler; the jittered grid
+/// (amplitude 0.6) reuses them, and this run states how far it lands.
+/// `cargo test --release -p hooke-tests --test random -- --ignored --nocapture` (about 3 min).
+#[test]
+#[ignore]
+fn random3d_paper_block_over_nu_and_samplers() {
+    for sampler in [Sampler::Poisson, Sampler::Jitter { amplitude: 0.6 }] {
+        for nu in [-0.9, -0.5, 0.0, 0.25, 0.45] {
+            let mut nus = Vec::new();
+            let mut es = Vec::new();
+            let mut e_t = 0.0;
+            for s in 0..4 {
+                let mut t = BlockTest::paper(LatticeKind::Random3d, nu);
+                t.random = RandomSpec {
+                    sampler,
+                    seed: 100 + s,
+                };
+                let r = block_test(&t).unwrap();
+                nus.push(r.nu_measured);
+                es.push(r.e_measured);
+                e_t = r.e_target;
+            }
+            let (nu_m, nu_sd) = mean_sd(&nus);
+            let (e_m, e_sd) = mean_sd(&es);
+            println!(
+                "{sampler:?} nu {nu:+.2}: nu {nu_m:.4} (sd {nu_sd:.4}), E/E_target {:.4} (sd {:.4})",
+                e_m / e_t,
+                e_sd / e_t
+            );
+            if sampler == Sampler::Poisson {
+                assert!((nu_m - nu).abs() <= 0.02 && (e_m / e_t - 1.0).abs() <= 0.05);
+            }
+        }
+    }
+}

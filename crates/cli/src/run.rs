@@ -207,7 +207,19 @@ pub fn check(args: CheckArgs) -> Result<()> {
         "  springs      {s} ({} removed by pre-cracks)",
         sim.precracked
     );
-    println!("  k, q         {:e} N/m, {:.6}", sim.k, sim.q);
+    if sim.body.lattice.kind.is_random() {
+        let unit = if sim.body.lattice.dim() == 3 {
+            "Pa"
+        } else {
+            "N/m"
+        };
+        println!(
+            "  kappa, q     {:e} {unit} (k_s = kappa V_s / L_s^2), {:.6}",
+            sim.k, sim.q
+        );
+    } else {
+        println!("  k, q         {:e} N/m, {:.6}", sim.k, sim.q);
+    }
     println!(
         "  fracture     {}",
         sim.fracture
@@ -215,7 +227,14 @@ pub fn check(args: CheckArgs) -> Result<()> {
             .map_or("off".to_string(), |f| format!("{:?}", f.criterion()))
     );
     let kind = sim.body.lattice.kind;
-    if sim.fracture.is_some() && !hooke_fracture::stretch::toughness_calibrated(kind, sim.q) {
+    if sim.fracture.is_some() && kind.is_random() {
+        println!(
+            "  note         the lattice toughness of random lattices is not measured: G_c sets \
+             the critical stretch of the regular lattice with the same E, nu and spacing, so \
+             the crack's G is matched only roughly"
+        );
+    } else if sim.fracture.is_some() && !hooke_fracture::stretch::toughness_calibrated(kind, sim.q)
+    {
         println!(
             "  note         nu = {:.3} lies outside the range where the lattice toughness was \
              measured (hooke toughness): cracks leave their plane there and G_c is matched \
