@@ -36,6 +36,108 @@ fn moduli_json_has_the_contract_keys() {
     assert!((v["nu_measured"].as_f64().unwrap() - 0.3).abs() < 0.05);
 }
 
+/// Random lattices: the cubic test's keys with nu_measured and E_measured the ensemble means,
+/// plus nu_spread and E_spread; bad random arguments exit 2.
+#[test]
+fn moduli_random_json_reports_means_and_spreads() {
+    let o = hooke(&[
+        "moduli",
+        "--lattice",
+        "random3d",
+        "--nu",
+        "0.2",
+        "--size",
+        "21,7,7",
+        "--samples",
+        "3",
+        "--seed",
+        "5",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for key in [
+        "nu_target",
+        "nu_measured",
+        "E_target",
+        "E_measured",
+        "q",
+        "nodes",
+        "springs",
+        "iterations",
+        "residual",
+        "nu_spread",
+        "E_spread",
+        "samples",
+        "seed",
+    ] {
+        assert!(v.get(key).is_some(), "missing key {key} in {v}");
+    }
+    let nus: Vec<f64> = v["nu_samples"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert_eq!(nus.len(), 3);
+    let mean = nus.iter().sum::<f64>() / 3.0;
+    assert!((v["nu_measured"].as_f64().unwrap() - mean).abs() < 1e-12);
+    assert!(v["nu_spread"].as_f64().unwrap() > 0.0);
+    assert!((mean - 0.2).abs() < 0.05, "{mean}");
+    for (args, msg) in [
+        (
+            &[
+                "moduli",
+                "--lattice",
+                "random2d",
+                "--nu",
+                "0.2",
+                "--axis",
+                "z",
+            ][..],
+            "2D",
+        ),
+        (
+            &[
+                "moduli",
+                "--lattice",
+                "random3d",
+                "--nu",
+                "0.2",
+                "--samples",
+                "0",
+            ][..],
+            "at least one sample",
+        ),
+        (
+            &["moduli", "--nu", "0.2", "--samples", "3"][..],
+            "not random",
+        ),
+        (
+            &["moduli", "--lattice", "random3d", "--nu", "0.499"][..],
+            "nu <",
+        ),
+        (
+            &[
+                "moduli",
+                "--lattice",
+                "random3d",
+                "--nu",
+                "0.2",
+                "--sampler",
+                "jitter",
+                "--jitter",
+                "1.5",
+            ][..],
+            "--jitter",
+        ),
+    ] {
+        let o = hooke(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(msg), "{args:?}: {}", stderr(&o));
+    }
+}
+
 #[test]
 fn moduli_hex_runs_and_prints_a_table() {
     let o = hooke(&[
