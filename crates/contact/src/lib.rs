@@ -1,13 +1,23 @@
 //! # hooke-contact
 //!
-//! The one crate that depends on parry. Today it holds [`mesh`]: closed triangle meshes (STL,
-//! OBJ) read, validated and used as body shapes through parry's point containment, so random
-//! and regular lattices can fill any shape a CAD tool exports. Contact between lattices and rigid
-//! bodies, and between fragments, will live here too.
+//! The one crate that depends on parry. It holds
 //!
-//! parry 0.26 and later speaks glam (`DVec3`); the conversion from our `[f64; 3]` happens at
-//! this crate's boundary and nowhere else.
+//! * [`rigid`]: rigid bodies (parry shapes in 2D and 3D: ball, cuboid, cylinder, capsule,
+//!   half-space, convex polygon, triangle mesh) that move kinematically or dynamically;
+//! * [`contact`]: penalty contact of lattice nodes with those bodies (optional Coulomb
+//!   friction, reactions recorded over time) and between nodes that no intact spring joins
+//!   (crack faces, fragments), plugged into the integrator as a
+//!   [`hooke_core::dynamics::Interaction`];
+//! * [`mesh`]: closed triangle meshes (STL, OBJ) read, validated and used as body shapes through
+//!   parry's point containment.
+//!
+//! parry 0.26 and later speaks glam (`DVec2`, `DVec3`); the conversion from our `[f64; 3]`
+//! happens at this crate's boundary and nowhere else.
 
+pub mod contact;
 pub mod mesh;
+pub mod rigid;
 
+pub use contact::{Contact, ContactOptions, Record};
 pub use mesh::{MeshError, MeshShape};
+pub use rigid::{Geometry, Motion, RigidBody};

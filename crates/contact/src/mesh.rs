@@ -224,6 +224,11 @@ impl MeshShape {
         self.volume
     }
 
+    /// The parry mesh (oriented, with pseudo-normals), for rigid bodies.
+    pub fn trimesh(&self) -> &TriMesh {
+        &self.mesh
+    }
+
     /// Number of triangles.
     pub fn triangles(&self) -> usize {
         self.triangles

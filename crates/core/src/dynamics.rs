@@ -106,6 +106,22 @@ struct PrescribedDof {
     motion: usize,
 }
 
+/// Forces from outside the lattice that depend on where its nodes are: contact with rigid
+/// bodies, contact between fragments (`hooke-contact`).
+///
+/// They are evaluated at the positions of the step's start, like the internal forces, and
+/// applied as an extra kick, like external loads, so the leapfrog stays symplectic for
+/// conservative interactions and their work enters the ledger as external work. Whatever the
+/// interaction moves itself (rigid bodies) it advances here by one step, with the reactions of
+/// the same forces, so the total momentum is conserved to round-off.
+pub trait Interaction {
+    /// Push `(node, force)` for the nodes it acts on (each node once) into `out`, which the
+    /// caller has cleared: forces at time `state.time` from the displacements `state.u`; the
+    /// half-step velocities `state.v` are `v(t - dt/2)`. Must not allocate in steady state and
+    /// must give the same result for any thread count.
+    fn forces(&mut self, body: &Body, state: &State, dt: Real, out: &mut Vec<(u32, [Real; 3])>);
+}
+
 /// The explicit integrator for one body.
 #[derive(Debug)]
 pub struct Integrator {
@@ -129,6 +145,9 @@ pub struct Integrator {
     f_before: Vec<[Real; 3]>,
     v_kernel: Vec<[Real; 3]>,
     partials: Vec<crate::kernel::SweepSums>,
+    /// Scratch for interaction forces and the velocities of their nodes before the sweep.
+    contact: Vec<(u32, [Real; 3])>,
+    v_contact: Vec<[Real; 3]>,
 }
 
 impl Integrator {
@@ -268,6 +287,8 @@ impl Integrator {
             f_before: Vec::with_capacity(sparse),
             v_kernel: Vec::with_capacity(sparse),
             partials: vec![Default::default(); crate::kernel::partials_len(body.nodes())],
+            contact: Vec::new(),
+            v_contact: Vec::new(),
         }
     }
 
@@ -367,8 +388,28 @@ impl Integrator {
 
     /// One step.
     pub fn step(&mut self, body: &Body, state: &mut State) {
+        self.step_with(body, state, None);
+    }
+
+    /// One step with an interaction (contact) acting on the nodes.
+    pub fn step_with(
+        &mut self,
+        body: &Body,
+        state: &mut State,
+        mut interaction: Option<&mut dyn Interaction>,
+    ) {
         let dt = self.dt;
         let t = state.time;
+        self.contact.clear();
+        self.v_contact.clear();
+        if let Some(it) = interaction.as_deref_mut() {
+            it.forces(body, state, dt, &mut self.contact);
+            for &(i, _) in &self.contact {
+                let i = i as usize;
+                self.v_contact
+                    .push([state.v.x[i], state.v.y[i], state.v.z[i]]);
+            }
+        }
         self.kernel.pools(body, state);
         // Sparse bookkeeping before the sweep overwrites v: the half-step velocity and the
         // internal force at u(t) of every loaded or prescribed node.
@@ -438,6 +479,26 @@ impl Integrator {
                     self.ledger.dissipated +=
                         self.damping * m * (mid * mid - mid_kernel * mid_kernel) * dt;
                 }
+            }
+        }
+        // Interaction forces: an extra kick like the loads; work booked with the node's
+        // velocities before and after the whole step. Damping and body-force work were booked by
+        // the sweep with its own velocity; the contact kick changes that velocity, so rebook
+        // their share as for the loads.
+        for (k, &(i, f)) in self.contact.iter().enumerate() {
+            let i = i as usize;
+            let m = body.mass[i];
+            let v_sweep = [state.v.x[i], state.v.y[i], state.v.z[i]];
+            for c in 0..3 {
+                let dv = f[c] * dt * self.inv_mass[i] * grow;
+                state.v.comp_mut(c)[i] += dv;
+                self.u_next.comp_mut(c)[i] += dt * dv;
+                let (v0, v1) = (self.v_contact[k][c], state.v.comp(c)[i]);
+                self.ledger.external_work += f[c] * 0.5 * (v0 + v1) * dt;
+                let (mid_kernel, mid) = (0.5 * (v0 + v_sweep[c]), 0.5 * (v0 + v1));
+                self.ledger.body_work += m * g[c] * (mid - mid_kernel) * dt;
+                self.ledger.dissipated +=
+                    self.damping * m * (mid * mid - mid_kernel * mid_kernel) * dt;
             }
         }
         // Prescribed motion overrides its DOFs; the reaction's work is booked.

@@ -1,0 +1,456 @@
+//! Penalty contact between lattice nodes and rigid bodies, and between lattice nodes that are
+//! not joined by an intact spring (crack faces, fragments).
+//!
+//! # Rigid bodies
+//!
+//! Every node carries a contact radius `r` (default `a/2`, the half-spacing its cell reaches).
+//! With `d` the signed distance from the node to the body's surface and `n` the outward normal,
+//! the gap is `g = d - r`; when `g < 0` the node feels `F = k_i (-g) n` and the body the
+//! opposite. The potential `1/2 k_i g^2` makes the frictionless contact conservative.
+//!
+//! The stiffness comes from the time step: `k_i = c m_i / dt^2` (`c` = `stiffness_factor`,
+//! default 0.1). A node in contact then oscillates at `omega dt = sqrt(c) = 0.32`, well inside
+//! leapfrog's limit of 2 even on top of the lattice's own stiffness (whose step already has a
+//! safety factor), so contact never makes a stable run unstable; and `m/dt^2` is about five
+//! spring stiffnesses of the lattice (`lambda_max <= 12 (1 + 2q) k/m` in `design/MODEL.md`), so
+//! `c = 0.1` makes a contact about half a spring stiff. The penetration under a force `F` is
+//! `F / k_i`; `ContactOptions::max_penetration` states the bound the tests check.
+//!
+//! Coulomb friction (coefficient `mu` per body) acts against the tangential velocity of the node
+//! relative to the body, `|F_t| = min(mu |F_n|, m_i |v_t| / dt)`: it never reverses the sliding
+//! direction within a step (the regularised Coulomb law of explicit codes).
+//!
+//! # Fragments
+//!
+//! Two nodes not joined by an intact spring repel when closer than
+//! `d_ij = min(d_f, |X_i - X_j|)` (reference positions: nodes never start in contact) with
+//! `F = k_ij (d_ij - r) e`, `k_ij = c 2 m_i m_j / ((m_i + m_j) dt^2)`, the short-range force of
+//! peridynamics codes. `d_f` defaults to 0.9 of the shortest spring, so a spring that breaks in
+//! tension leaves its two nodes outside the search range. Candidate pairs come from a cell list
+//! with a skin (Verlet list), rebuilt only when the nodes or bodies have moved more than the skin
+//! since the last build; an intact lattice has no candidate pair, so the cost of a run without
+//! fragments is one pass over the displacements per step.
+//!
+//! Forces are gathered per node in a fixed order, so results are bit-identical for any thread
+//! count.
+
+use hooke_core::dynamics::Interaction;
+use hooke_core::{Body, Coords, Real, State};
+use rayon::prelude::*;
+
+use crate::rigid::RigidBody;
+
+/// Settings of the contact model.
+#[derive(Clone, Debug)]
+pub struct ContactOptions {
+    /// `c` in `k = c m / dt^2`.
+    pub stiffness_factor: Real,
+    /// Contact radius of a node (m).
+    pub radius: Real,
+    /// Fragment contact distance `d_f` (m); `None` turns fragment contact off.
+    pub fragment_distance: Option<Real>,
+}
+
+impl ContactOptions {
+    /// Defaults for a body: `c = 0.1`, radius `a/2`, fragment contact at 0.9 of the shortest
+    /// spring.
+    pub fn for_body(body: &Body) -> Self {
+        let shortest = body
+            .lattice
+            .bonds
+            .rest
+            .iter()
+            .cloned()
+            .fold(Real::INFINITY, Real::min);
+        ContactOptions {
+            stiffness_factor: 0.1,
+            radius: 0.5 * body.lattice.spacing,
+            fragment_distance: Some(0.9 * shortest.min(body.lattice.spacing)),
+        }
+    }
+}
+
+/// One step of a body's history.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Record {
+    pub time: Real,
+    pub body: usize,
+    /// Force of the lattice on the body (N).
+    pub reaction: [Real; 3],
+    pub position: [Real; 3],
+    pub velocity: [Real; 3],
+}
+
+/// Contact of one lattice with rigid bodies and with itself.
+pub struct Contact {
+    pub bodies: Vec<RigidBody>,
+    pub opts: ContactOptions,
+    dim: usize,
+    skin: Real,
+    /// Nodes near each body at the last build.
+    candidates: Vec<Vec<u32>>,
+    /// Fragment candidate pairs: CSR over nodes.
+    frag_offsets: Vec<u32>,
+    frag_nbr: Vec<u32>,
+    frag_nodes: Vec<u32>,
+    frag_force: Vec<[Real; 3]>,
+    u_build: Coords,
+    x_build: Vec<[Real; 3]>,
+    built: bool,
+    /// Per-node accumulator and the nodes it touched this step.
+    acc: Vec<[Real; 3]>,
+    touched: Vec<u32>,
+    mark: Vec<bool>,
+    /// Contact potential energy at the last evaluation (J).
+    pub potential: Real,
+    /// Number of candidate-list builds so far.
+    pub rebuilds: usize,
+    /// Deepest penetration past the contact radius seen so far (m).
+    pub max_penetration: Real,
+    pub history: Vec<Record>,
+    /// Record every `record_every` steps (1: every step).
+    pub record_every: u64,
+    steps: u64,
+}
+
+impl Contact {
+    pub fn new(body: &Body, bodies: Vec<RigidBody>, opts: ContactOptions) -> Self {
+        let n = body.nodes();
+        let shortest = body
+            .lattice
+            .bonds
+            .rest
+            .iter()
+            .cloned()
+            .fold(Real::INFINITY, Real::min)
+            .min(body.lattice.spacing);
+        let nb = bodies.len();
+        Contact {
+            bodies,
+            dim: body.lattice.dim(),
+            // Broken springs stay out of range: d_f + skin < shortest spring.
+            skin: (0.05 * shortest).max(0.1 * opts.radius.min(shortest)),
+            opts,
+            candidates: vec![Vec::new(); nb],
+            frag_offsets: vec![0; n + 1],
+            frag_nbr: Vec::new(),
+            frag_nodes: Vec::new(),
+            frag_force: Vec::new(),
+            u_build: Coords::zeros(n),
+            x_build: vec![[0.0; 3]; nb],
+            built: false,
+            acc: vec![[0.0; 3]; n],
+            touched: Vec::new(),
+            mark: vec![false; n],
+            potential: 0.0,
+            rebuilds: 0,
+            max_penetration: 0.0,
+            history: Vec::new(),
+            record_every: 1,
+            steps: 0,
+        }
+    }
+
+    /// Force a rebuild of the candidate lists at the next step (e.g. after springs broke).
+    pub fn invalidate(&mut self) {
+        self.built = false;
+    }
+
+    /// Total momentum of the dynamic bodies (kg m/s).
+    pub fn momentum(&self) -> [Real; 3] {
+        let mut p = [0.0; 3];
+        for b in &self.bodies {
+            let m = b.momentum();
+            for c in 0..3 {
+                p[c] += m[c];
+            }
+        }
+        p
+    }
+
+    /// Kinetic energy of the dynamic bodies (J, half-step velocities).
+    pub fn kinetic(&self) -> Real {
+        self.bodies.iter().map(|b| b.kinetic()).sum()
+    }
+
+    fn position(body: &Body, u: &Coords, i: usize) -> [Real; 3] {
+        let p = &body.lattice.pos;
+        [p.x[i] + u.x[i], p.y[i] + u.y[i], p.z[i] + u.z[i]]
+    }
+
+    /// Whether the lists built at the last rebuild still hold every pair that can be in range.
+    fn lists_valid(&self, body: &Body, u: &Coords) -> bool {
+        if !self.built {
+            return false;
+        }
+        let moved = (0..body.nodes())
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|i| {
+                let d = [
+                    u.x[i] - self.u_build.x[i],
+                    u.y[i] - self.u_build.y[i],
+                    u.z[i] - self.u_build.z[i],
+                ];
+                d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+            })
+            .reduce(|| 0.0, Real::max)
+            .sqrt();
+        let body_moved = self
+            .bodies
+            .iter()
+            .zip(&self.x_build)
+            .map(|(b, x)| {
+                let d = [0, 1, 2].map(|c| b.position[c] - x[c]);
+                (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+            })
+            .fold(0.0, Real::max);
+        // Two nodes approach by at most twice the largest move; a node and a body by the sum.
+        2.0 * moved < self.skin && moved + body_moved < self.skin
+    }
+
+    fn rebuild(&mut self, body: &Body, state: &State) {
+        self.rebuilds += 1;
+        self.built = true;
+        let n = body.nodes();
+        self.u_build.clone_from(&state.u);
+        for (k, b) in self.bodies.iter().enumerate() {
+            self.x_build[k] = b.position;
+        }
+        let reach = self.opts.radius + self.skin;
+        for (k, b) in self.bodies.iter().enumerate() {
+            let (lo, hi) = b.geometry.bounds(b.position);
+            let list = &mut self.candidates[k];
+            list.clear();
+            for i in 0..n {
+                let x = Self::position(body, &state.u, i);
+                if (0..self.dim).all(|c| x[c] >= lo[c] - reach && x[c] <= hi[c] + reach) {
+                    list.push(i as u32);
+                }
+            }
+        }
+        self.frag_nbr.clear();
+        self.frag_nodes.clear();
+        self.frag_offsets.iter_mut().for_each(|o| *o = 0);
+        let Some(df) = self.opts.fragment_distance else {
+            return;
+        };
+        // Cell list: cells of side df + skin, nodes sorted by cell.
+        let h = df + self.skin;
+        let x: Vec<[Real; 3]> = (0..n).map(|i| Self::position(body, &state.u, i)).collect();
+        let mut lo = [Real::INFINITY; 3];
+        for p in &x {
+            for c in 0..3 {
+                lo[c] = lo[c].min(p[c]);
+            }
+        }
+        let cell = |p: &[Real; 3]| [0, 1, 2].map(|c| ((p[c] - lo[c]) / h).floor() as i64);
+        let mut order: Vec<([i64; 3], u32)> = (0..n).map(|i| (cell(&x[i]), i as u32)).collect();
+        order.sort_unstable();
+        let bonds = &body.lattice.bonds;
+        let bonded = |i: usize, j: u32| -> bool {
+            let r = bonds.row(i);
+            match bonds.nbr[r.clone()].binary_search(&j) {
+                Ok(e) => state.alive[bonds.bond[r.start + e] as usize],
+                Err(_) => false,
+            }
+        };
+        let pos = &body.lattice.pos;
+        let mut rows: Vec<Vec<u32>> = vec![Vec::new(); 0];
+        let mut owners: Vec<u32> = Vec::new();
+        for i in 0..n {
+            let ci = cell(&x[i]);
+            let mut row: Vec<u32> = Vec::new();
+            for dz in -1..=1i64 {
+                for dy in -1..=1i64 {
+                    for dx in -1..=1i64 {
+                        let key = [ci[0] + dx, ci[1] + dy, ci[2] + dz];
+                        let start = order.partition_point(|e| e.0 < key);
+                        for &(k, j) in &order[start..] {
+                            if k != key {
+                                break;
+                            }
+                            if j as usize == i {
+                                continue;
+                            }
+                            let jj = j as usize;
+                            let d2: Real = (0..3).map(|c| (x[i][c] - x[jj][c]).powi(2)).sum();
+                            if d2 >= h * h {
+                                continue;
+                            }
+                            let r0 = ((pos.x[i] - pos.x[jj]).powi(2)
+                                + (pos.y[i] - pos.y[jj]).powi(2)
+                                + (pos.z[i] - pos.z[jj]).powi(2))
+                            .sqrt();
+                            if r0 < 1e-12 * h || bonded(i, j) {
+                                continue;
+                            }
+                            row.push(j);
+                        }
+                    }
+                }
+            }
+            if !row.is_empty() {
+                row.sort_unstable();
+                owners.push(i as u32);
+                rows.push(row);
+            }
+        }
+        for (o, row) in owners.iter().zip(&rows) {
+            self.frag_offsets[*o as usize + 1] = row.len() as u32;
+        }
+        for i in 0..n {
+            self.frag_offsets[i + 1] += self.frag_offsets[i];
+        }
+        for row in &rows {
+            self.frag_nbr.extend_from_slice(row);
+        }
+        self.frag_nodes = owners;
+        self.frag_force.resize(self.frag_nodes.len(), [0.0; 3]);
+    }
+
+    fn stiffness(&self, m: Real, dt: Real) -> Real {
+        self.opts.stiffness_factor * m / (dt * dt)
+    }
+}
+
+impl Interaction for Contact {
+    fn forces(&mut self, body: &Body, state: &State, dt: Real, out: &mut Vec<(u32, [Real; 3])>) {
+        if !self.lists_valid(body, &state.u) {
+            self.rebuild(body, state);
+        }
+        let t = state.time;
+        let dim = self.dim;
+        for &i in &self.touched {
+            self.acc[i as usize] = [0.0; 3];
+            self.mark[i as usize] = false;
+        }
+        self.touched.clear();
+        let mut potential = 0.0;
+        // Rigid bodies, in body order; each body's reaction summed in node order.
+        for k in 0..self.bodies.len() {
+            let mut reaction = [0.0; 3];
+            let (friction, xb, vb) = {
+                let b = &self.bodies[k];
+                (b.friction, b.position, b.velocity)
+            };
+            for idx in 0..self.candidates[k].len() {
+                let i = self.candidates[k][idx] as usize;
+                let x = Self::position(body, &state.u, i);
+                let Some((d, nrm)) = self.bodies[k].geometry.signed_distance(xb, x) else {
+                    continue;
+                };
+                let gap = d - self.opts.radius;
+                if gap >= 0.0 {
+                    continue;
+                }
+                self.max_penetration = self.max_penetration.max(-gap);
+                let m = body.mass[i];
+                let kc = self.stiffness(m, dt);
+                potential += 0.5 * kc * gap * gap;
+                let fn_mag = -kc * gap;
+                let mut f = [0.0; 3];
+                for c in 0..dim {
+                    f[c] = fn_mag * nrm[c];
+                }
+                if friction > 0.0 {
+                    let vi = [state.v.x[i], state.v.y[i], state.v.z[i]];
+                    let rel = [0, 1, 2].map(|c| vi[c] - vb[c]);
+                    let vn: Real = (0..3).map(|c| rel[c] * nrm[c]).sum();
+                    let vt = [0, 1, 2].map(|c| rel[c] - vn * nrm[c]);
+                    let speed = vt.iter().map(|v| v * v).sum::<Real>().sqrt();
+                    if speed > 0.0 {
+                        let ft = (friction * fn_mag).min(m * speed / dt);
+                        for c in 0..dim {
+                            f[c] -= ft * vt[c] / speed;
+                        }
+                    }
+                }
+                for c in 0..dim {
+                    self.acc[i][c] += f[c];
+                    reaction[c] -= f[c];
+                }
+                if !self.mark[i] {
+                    self.mark[i] = true;
+                    self.touched.push(i as u32);
+                }
+            }
+            self.bodies[k].advance(reaction, t, dt, dim);
+        }
+        // Fragments: gathered per node (each pair seen from both ends, forces exactly opposite).
+        if !self.frag_nodes.is_empty() {
+            let c_pen = self.opts.stiffness_factor;
+            let df = self.opts.fragment_distance.unwrap_or(0.0);
+            let (offs, nbr, nodes) = (&self.frag_offsets, &self.frag_nbr, &self.frag_nodes);
+            let pos = &body.lattice.pos;
+            let u = &state.u;
+            let mass = &body.mass;
+            let energy: Real = self
+                .frag_force
+                .par_iter_mut()
+                .zip(nodes.par_iter())
+                .with_min_len(256)
+                .map(|(f, &i)| {
+                    let i = i as usize;
+                    let xi = [pos.x[i] + u.x[i], pos.y[i] + u.y[i], pos.z[i] + u.z[i]];
+                    *f = [0.0; 3];
+                    let mut e = 0.0;
+                    for &j in &nbr[offs[i] as usize..offs[i + 1] as usize] {
+                        let j = j as usize;
+                        let xj = [pos.x[j] + u.x[j], pos.y[j] + u.y[j], pos.z[j] + u.z[j]];
+                        let d = [xi[0] - xj[0], xi[1] - xj[1], xi[2] - xj[2]];
+                        let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                        let r0 = ((pos.x[i] - pos.x[j]).powi(2)
+                            + (pos.y[i] - pos.y[j]).powi(2)
+                            + (pos.z[i] - pos.z[j]).powi(2))
+                        .sqrt();
+                        let dij = df.min(r0);
+                        if r >= dij || r == 0.0 {
+                            continue;
+                        }
+                        let (mi, mj) = (mass[i], mass[j]);
+                        let k = c_pen * 2.0 * mi * mj / ((mi + mj) * dt * dt);
+                        let s = k * (dij - r) / r;
+                        for c in 0..3 {
+                            f[c] += s * d[c];
+                        }
+                        e += 0.25 * k * (dij - r) * (dij - r); // half of each pair's energy
+                    }
+                    e
+                })
+                .sum();
+            potential += energy;
+            for (idx, &i) in self.frag_nodes.iter().enumerate() {
+                let i = i as usize;
+                let f = self.frag_force[idx];
+                if f == [0.0; 3] {
+                    continue;
+                }
+                for c in 0..dim {
+                    self.acc[i][c] += f[c];
+                }
+                if !self.mark[i] {
+                    self.mark[i] = true;
+                    self.touched.push(i as u32);
+                }
+            }
+        }
+        self.potential = potential;
+        self.touched.sort_unstable();
+        for &i in &self.touched {
+            out.push((i, self.acc[i as usize]));
+        }
+        if self.steps % self.record_every.max(1) == 0 {
+            for (k, b) in self.bodies.iter().enumerate() {
+                self.history.push(Record {
+                    time: t,
+                    body: k,
+                    reaction: b.reaction,
+                    position: b.position,
+                    velocity: b.velocity,
+                });
+            }
+        }
+        self.steps += 1;
+    }
+}
