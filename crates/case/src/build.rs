@@ -3,7 +3,7 @@
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use hooke_contact::MeshShape;
+use hooke_contact::{Contact, ContactOptions, Geometry, MeshShape, RigidBody};
 use hooke_core::dynamics::{IntegratorOptions, TimeStep};
 use hooke_core::loading::{Loading, Motion, Prescribed, TimeFunction};
 use hooke_core::material::{self, Elastic, PlaneModel};
@@ -46,6 +46,8 @@ pub struct Simulation {
     pub q: Real,
     /// Springs removed by pre-cracks.
     pub precracked: usize,
+    /// Contact with rigid bodies and between fragments (`[[rigid]]`, `[contact]`).
+    pub contact: Option<Contact>,
 }
 
 struct Ctx<'a> {
@@ -1041,6 +1043,7 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
         Some(e) => ctx.positive(e, "output.checkpoint_every", "s")?,
         None => end_time / 4.0,
     };
+    let contact = contact(&ctx, &raw, &body, dim, h)?;
     let quasi_static = match &s.kind {
         None => None,
         Some(k) => match k.get_ref().as_str() {
@@ -1125,5 +1128,282 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
         k,
         q,
         precracked,
+        contact,
     })
+}
+
+/// Rigid bodies and contact settings; `None` when the case has neither.
+fn contact(
+    ctx: &Ctx,
+    raw: &RawCase,
+    body: &Body,
+    dim: usize,
+    h: Real,
+) -> Result<Option<Contact>, CaseError> {
+    if raw.rigid.is_empty() && raw.contact.is_none() {
+        return Ok(None);
+    }
+    let mut opts = ContactOptions::for_body(body);
+    let shortest = body
+        .lattice
+        .bonds
+        .rest
+        .iter()
+        .cloned()
+        .fold(Real::INFINITY, Real::min);
+    if let Some(c) = &raw.contact {
+        let c = c.get_ref();
+        if let Some(v) = &c.stiffness_factor {
+            let x = *v.get_ref();
+            if !(x > 0.0 && x <= 1.0) {
+                return Err(ctx.err(
+                    v.span(),
+                    "contact.stiffness_factor",
+                    format!("{x}: give 0 < c <= 1 (k = c m / dt^2; the default 0.1 keeps the step stable)"),
+                ));
+            }
+            opts.stiffness_factor = x;
+        }
+        if let Some(v) = &c.radius {
+            opts.radius = ctx.positive(v, "contact.radius", "m")?;
+        }
+        if c.fragments == Some(false) {
+            opts.fragment_distance = None;
+        }
+        if let Some(v) = &c.fragment_distance {
+            let d = ctx.positive(v, "contact.fragment_distance", "m")?;
+            if d >= 0.95 * shortest {
+                return Err(ctx.err(
+                    v.span(),
+                    "contact.fragment_distance",
+                    format!("{d:e} m: keep it below 0.95 x the shortest spring ({shortest:e} m), or springs that break would start in contact"),
+                ));
+            }
+            if c.fragments == Some(false) {
+                return Err(ctx.err(
+                    v.span(),
+                    "contact.fragment_distance",
+                    "fragments = false turns fragment contact off; remove one of the two",
+                ));
+            }
+            opts.fragment_distance = Some(d);
+        }
+    }
+    let mut bodies = Vec::new();
+    for (k, r) in raw.rigid.iter().enumerate() {
+        bodies.push(rigid(ctx, r, k, dim, h)?);
+    }
+    Ok(Some(Contact::new(body, bodies, opts)))
+}
+
+fn rigid(
+    ctx: &Ctx,
+    r: &Spanned<RawRigid>,
+    k: usize,
+    dim: usize,
+    h: Real,
+) -> Result<RigidBody, CaseError> {
+    let key = format!("rigid[{k}]");
+    let raw = r.get_ref();
+    let sh = raw.shape.get_ref();
+    let given = [
+        sh.sphere.is_some(),
+        sh.circle.is_some(),
+        sh.bbox.is_some(),
+        sh.cylinder.is_some(),
+        sh.capsule.is_some(),
+        sh.halfspace.is_some(),
+        sh.polygon.is_some(),
+        sh.mesh.is_some(),
+    ]
+    .iter()
+    .filter(|&&b| b)
+    .count();
+    if given != 1 {
+        return Err(ctx.err(
+            raw.shape.span(),
+            format!("{key}.shape"),
+            "give exactly one of sphere (circle), box, cylinder, capsule, halfspace, polygon (2D) or mesh (3D)",
+        ));
+    }
+    let span = raw.shape.span();
+    let skey = format!("{key}.shape");
+    let axis_vec = |a: &Spanned<String>, akey: &str| -> Result<usize, CaseError> {
+        axis_index(ctx, a, akey, dim)
+    };
+    let radius = |b: &RawRadius| ctx.positive(&b.radius, &format!("{skey}.radius"), "m");
+    let geometry = if let Some(b) = sh.sphere.as_ref().or(sh.circle.as_ref()) {
+        Geometry::ball(dim, radius(b)?)
+    } else if let Some(b) = &sh.bbox {
+        let v = ctx.point(&b.size, &format!("{skey}.box.size"), dim)?;
+        if (0..dim).any(|c| v[c] <= 0.0) {
+            return Err(ctx.err(
+                b.size.span(),
+                format!("{skey}.box.size"),
+                "give the positive edge lengths (m)",
+            ));
+        }
+        Geometry::cuboid(dim, [v.x, v.y, v.z])
+    } else if let Some(c) = &sh.cylinder {
+        if dim == 2 {
+            return Err(ctx.err(span, skey, "a cylinder is 3D; use box or capsule in 2D"));
+        }
+        let rad = ctx.positive(&c.radius, &format!("{skey}.cylinder.radius"), "m")?;
+        let len = ctx.positive(&c.length, &format!("{skey}.cylinder.length"), "m")?;
+        Geometry::cylinder(
+            rad,
+            len,
+            axis_vec(&c.axis, &format!("{skey}.cylinder.axis"))?,
+        )
+    } else if let Some(c) = &sh.capsule {
+        let rad = ctx.positive(&c.radius, &format!("{skey}.capsule.radius"), "m")?;
+        let len = ctx.positive(&c.length, &format!("{skey}.capsule.length"), "m")?;
+        Geometry::capsule(
+            dim,
+            rad,
+            len,
+            axis_vec(&c.axis, &format!("{skey}.capsule.axis"))?,
+        )
+    } else if let Some(hs) = &sh.halfspace {
+        Geometry::halfspace(
+            dim,
+            unit(ctx, &hs.normal, &format!("{skey}.halfspace.normal"), dim)?,
+        )
+    } else if let Some(p) = &sh.polygon {
+        let pts = p.points.get_ref();
+        let pkey = format!("{skey}.polygon.points");
+        if dim == 3 {
+            return Err(ctx.err(
+                p.points.span(),
+                pkey,
+                "a polygon body is 2D; use box, cylinder, capsule or mesh in 3D",
+            ));
+        }
+        if pts.len() < 3
+            || pts
+                .iter()
+                .any(|q| q.len() != 2 || !q.iter().all(|v| v.is_finite()))
+        {
+            return Err(ctx.err(
+                p.points.span(),
+                pkey,
+                "a convex polygon is three or more points [x, y] (m, relative to the position)",
+            ));
+        }
+        let v: Vec<[Real; 2]> = pts.iter().map(|q| [q[0], q[1]]).collect();
+        Geometry::convex_polygon(&v).map_err(|e| ctx.err(p.points.span(), pkey, e))?
+    } else {
+        let m = sh.mesh.as_ref().expect("one shape is given");
+        if dim == 2 {
+            return Err(ctx.err(
+                m.file.span(),
+                format!("{skey}.mesh"),
+                "a mesh body is 3D; use a convex polygon in 2D",
+            ));
+        }
+        let scale = match &m.scale {
+            Some(v) => ctx.positive(v, &format!("{skey}.mesh.scale"), "(m per file unit)")?,
+            None => 1.0,
+        };
+        let base = ctx.file.parent().unwrap_or(Path::new("."));
+        let mesh = MeshShape::load(&base.join(m.file.get_ref()), scale)
+            .map_err(|e| ctx.err(m.file.span(), format!("{skey}.mesh.file"), e.to_string()))?;
+        Geometry::mesh(&mesh)
+    };
+    let unbounded = geometry.is_unbounded();
+    let position = ctx.point(&raw.position, &format!("{key}.position"), dim)?;
+    let velocity = match &raw.velocity {
+        Some(v) => ctx.point(v, &format!("{key}.velocity"), dim)?,
+        None => Vector::zeros(),
+    };
+    let kinematic = match raw.motion.as_ref().map(|m| (m.get_ref().as_str(), m.span())) {
+        None | Some(("dynamic", _)) => false,
+        Some(("kinematic", _)) => true,
+        Some((other, sp)) => {
+            return Err(ctx.err(sp, format!("{key}.motion"), format!("unknown motion \"{other}\"; use \"dynamic\" (moved by contact) or \"kinematic\" (prescribed velocity)")))
+        }
+    };
+    let motion = if kinematic {
+        if let Some(m) = raw.mass.as_ref().or(raw.density.as_ref()) {
+            return Err(ctx.err(
+                m.span(),
+                format!("{key}.mass"),
+                "a kinematic body moves as prescribed: remove mass and density",
+            ));
+        }
+        hooke_contact::Motion::Kinematic([
+            TimeFunction::Constant(velocity.x),
+            TimeFunction::Constant(velocity.y),
+            TimeFunction::Constant(velocity.z),
+        ])
+    } else {
+        if unbounded {
+            return Err(ctx.err(
+                span,
+                format!("{key}.motion"),
+                "a half-space has no finite mass: make it motion = \"kinematic\"",
+            ));
+        }
+        let mass = match (&raw.mass, &raw.density) {
+            (Some(m), None) => ctx.positive(m, &format!("{key}.mass"), "kg")?,
+            (None, Some(d)) => {
+                geometry.mass(ctx.positive(d, &format!("{key}.density"), "kg/m^3")?, h)
+            }
+            (Some(m), Some(_)) => {
+                return Err(ctx.err(
+                    m.span(),
+                    format!("{key}.mass"),
+                    "give mass or density, not both",
+                ))
+            }
+            (None, None) => {
+                return Err(ctx.err(
+                    r.span(),
+                    format!("{key}.mass"),
+                    "a dynamic body needs its mass (kg) or density (kg/m^3)",
+                ))
+            }
+        };
+        hooke_contact::Motion::Dynamic { mass }
+    };
+    let friction = match &raw.friction {
+        None => 0.0,
+        Some(f) => {
+            let x = *f.get_ref();
+            if !(x.is_finite() && x >= 0.0) {
+                return Err(ctx.err(
+                    f.span(),
+                    format!("{key}.friction"),
+                    format!("{x}: give a Coulomb coefficient >= 0"),
+                ));
+            }
+            x
+        }
+    };
+    Ok(RigidBody {
+        name: raw.name.clone().unwrap_or_else(|| format!("rigid{k}")),
+        geometry,
+        motion,
+        position: [
+            position.x,
+            position.y,
+            if dim == 3 { position.z } else { 0.0 },
+        ],
+        velocity: [
+            velocity.x,
+            velocity.y,
+            if dim == 3 { velocity.z } else { 0.0 },
+        ],
+        friction,
+        reaction: [0.0; 3],
+    })
+}
+
+fn unit(ctx: &Ctx, v: &Spanned<Vec<Real>>, key: &str, dim: usize) -> Result<[Real; 3], CaseError> {
+    let p = ctx.point(v, key, dim)?;
+    let n = p.norm();
+    if !(n > 0.0) {
+        return Err(ctx.err(v.span(), key, "give a non-zero normal vector"));
+    }
+    Ok([p.x / n, p.y / n, p.z / n])
 }

@@ -22,6 +22,86 @@ pub struct RawCase {
     pub solver: RawSolver,
     #[serde(default)]
     pub output: RawOutput,
+    /// Contact settings (penalty stiffness, node radius, fragment contact).
+    pub contact: Option<Spanned<RawContact>>,
+    /// Rigid bodies: impactors, platens, supports.
+    #[serde(default)]
+    pub rigid: Vec<Spanned<RawRigid>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawContact {
+    pub stiffness_factor: Option<Spanned<Real>>,
+    pub radius: Option<Spanned<Real>>,
+    pub fragments: Option<bool>,
+    pub fragment_distance: Option<Spanned<Real>>,
+}
+
+/// A rigid body: exactly one shape, placed at `position`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawRigid {
+    pub name: Option<String>,
+    pub shape: Spanned<RawRigidShape>,
+    pub position: Spanned<Vec<Real>>,
+    #[serde(default)]
+    pub velocity: Option<Spanned<Vec<Real>>>,
+    /// "dynamic" (default) or "kinematic".
+    pub motion: Option<Spanned<String>>,
+    pub mass: Option<Spanned<Real>>,
+    pub density: Option<Spanned<Real>>,
+    pub friction: Option<Spanned<Real>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawRigidShape {
+    pub sphere: Option<RawRadius>,
+    pub circle: Option<RawRadius>,
+    /// Full edge lengths.
+    #[serde(rename = "box")]
+    pub bbox: Option<RawSize>,
+    pub cylinder: Option<RawAxial>,
+    pub capsule: Option<RawAxial>,
+    pub halfspace: Option<RawHalfspace>,
+    /// 2D: a convex polygon, vertices relative to the position.
+    pub polygon: Option<RawPoints>,
+    /// 3D: a closed triangle mesh, vertices relative to the position.
+    pub mesh: Option<RawMesh>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawRadius {
+    pub radius: Spanned<Real>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawSize {
+    pub size: Spanned<Vec<Real>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawAxial {
+    pub radius: Spanned<Real>,
+    pub length: Spanned<Real>,
+    pub axis: Spanned<String>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawHalfspace {
+    /// Outward normal of the solid half-space.
+    pub normal: Spanned<Vec<Real>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawPoints {
+    pub points: Spanned<Vec<Vec<Real>>>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -63,6 +63,10 @@ pub struct BenchArgs {
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
+    /// Also time the same steps with contact switched on (fragment contact, no rigid body: the
+    /// cost an intact run pays) and report the ratio as `contact_overhead`.
+    #[arg(long)]
+    pub contact: bool,
 }
 
 #[derive(Debug, serde::Serialize)]
@@ -80,6 +84,10 @@ struct BenchJson {
     node_updates_per_s: f64,
     peak_memory_bytes: Option<u64>,
     setup_seconds: f64,
+    /// With --contact: step time with contact over step time without (medians of alternating
+    /// windows).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    contact_overhead: Option<f64>,
 }
 
 /// Peak resident memory of this process (Linux), in bytes.
@@ -146,6 +154,35 @@ pub fn run(args: BenchArgs) -> Result<()> {
     }
     let seconds = start.elapsed().as_secs_f64();
     it.check(&body, &state)?;
+    let contact_overhead = if args.contact {
+        // Alternate windows with and without contact on the same body and take the median of
+        // each: this machine's speed drifts by more than the figure we want.
+        let mut contact = hooke_contact::Contact::new(
+            &body,
+            Vec::new(),
+            hooke_contact::ContactOptions::for_body(&body),
+        );
+        let (mut with, mut without) = (Vec::new(), Vec::new());
+        for _ in 0..args.repeats.max(1) {
+            let t0 = Instant::now();
+            for _ in 0..args.steps {
+                it.step(&body, &mut state);
+            }
+            without.push(t0.elapsed().as_secs_f64());
+            let t0 = Instant::now();
+            for _ in 0..args.steps {
+                it.step_with(&body, &mut state, Some(&mut contact));
+            }
+            with.push(t0.elapsed().as_secs_f64());
+        }
+        let median = |v: &mut Vec<f64>| {
+            v.sort_by(|a, b| a.total_cmp(b));
+            v[v.len() / 2]
+        };
+        Some(median(&mut with) / median(&mut without))
+    } else {
+        None
+    };
     let springs = body.springs();
     let out = BenchJson {
         law: match args.law {
@@ -164,6 +201,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         node_updates_per_s: body.nodes() as f64 * args.steps as f64 / seconds,
         peak_memory_bytes: peak_memory(),
         setup_seconds,
+        contact_overhead,
     };
     if args.json {
         println!("{}", serde_json::to_string(&out)?);
@@ -182,6 +220,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
             out.seconds_per_step * 1e3,
             out.peak_memory_bytes.map_or("unknown".into(), |b| format!("{:.2} GiB", b as f64 / (1u64 << 30) as f64)),
         );
+        if let Some(r) = out.contact_overhead {
+            println!("  with contact switched on (no fragments yet): {r:.3} x the step time");
+        }
     }
     Ok(())
 }

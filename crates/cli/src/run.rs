@@ -9,7 +9,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::Args;
 use hooke_case::Simulation;
-use hooke_core::dynamics::Integrator;
+use hooke_core::dynamics::{Integrator, Interaction};
 use hooke_core::Real;
 use hooke_io::checkpoint::digest;
 use hooke_io::{Checkpoint, FrameExtras, VtkSeries};
@@ -226,6 +226,26 @@ pub fn check(args: CheckArgs) -> Result<()> {
             .as_ref()
             .map_or("off".to_string(), |f| format!("{:?}", f.criterion()))
     );
+    if let Some(c) = &sim.contact {
+        println!(
+            "  contact      penalty k = {} m/dt^2 per node, node radius {:e} m, fragments {}",
+            c.opts.stiffness_factor,
+            c.opts.radius,
+            c.opts
+                .fragment_distance
+                .map_or("off".to_string(), |d| format!("below {d:e} m"))
+        );
+        for b in &c.bodies {
+            let motion = match &b.motion {
+                hooke_contact::Motion::Dynamic { mass } => format!("dynamic, {mass:.4e} kg"),
+                hooke_contact::Motion::Kinematic(_) => "kinematic".to_string(),
+            };
+            println!(
+                "  rigid        {}: {:?}, {motion}, at {:?} m, velocity {:?} m/s, friction {}",
+                b.name, b.geometry, b.position, b.velocity, b.friction
+            );
+        }
+    }
     let kind = sim.body.lattice.kind;
     if sim.fracture.is_some() && kind.is_random() {
         println!(
@@ -298,6 +318,20 @@ pub fn run(args: RunArgs) -> Result<()> {
     if sim.hdf5 {
         return Err(InputError(format!("{}: output.format asks for \"hdf5\", but this hooke was built without HDF5; install the library (tools/install-hdf5.sh) and build with --features hdf5", args.case.display())).into());
     }
+    if sim.contact.is_some() && sim.quasi_static.is_some() {
+        return Err(InputError(format!(
+            "{}: contact ([[rigid]], [contact]) runs with the explicit solver; remove solver.type = \"quasi-static\"",
+            args.case.display()
+        ))
+        .into());
+    }
+    if sim.contact.is_some() && args.resume.is_some() {
+        return Err(InputError(
+            "--resume: checkpoints do not hold rigid bodies yet; a case with contact restarts from its case file"
+                .into(),
+        )
+        .into());
+    }
     if let Some(steps) = sim.quasi_static {
         if args.resume.is_some() {
             return Err(InputError(
@@ -340,6 +374,16 @@ pub fn run(args: RunArgs) -> Result<()> {
         let _ = ctrlc::set_handler(move || stop.store(true, Ordering::SeqCst));
     }
     let energy_path = out.join(format!("{name}_energy.csv"));
+    let contact_path = out.join(format!("{name}_contact.csv"));
+    if let Some(c) = &sim.contact {
+        if !c.bodies.is_empty() {
+            std::fs::write(
+                &contact_path,
+                "time,body,name,reaction_x,reaction_y,reaction_z,x,y,z,vx,vy,vz\n",
+            )
+            .with_context(|| format!("writing {}", contact_path.display()))?;
+        }
+    }
     if args.resume.is_none() {
         std::fs::write(&energy_path, "time,kinetic,strain_direct,strain_dispersive,external_work,boundary_work,body_work,dissipated,released,balance_error\n").with_context(|| format!("writing {}", energy_path.display()))?;
     }
@@ -401,7 +445,10 @@ pub fn run(args: RunArgs) -> Result<()> {
         + sim.checkpoint_every;
     let mut last_report = Instant::now();
     while sim.state.time < sim.end_time - 0.5 * it.dt {
-        it.step(body, &mut sim.state);
+        match sim.contact.as_mut() {
+            Some(c) => it.step_with(body, &mut sim.state, Some(c as &mut dyn Interaction)),
+            None => it.step(body, &mut sim.state),
+        }
         if let Some(fr) = sim.fracture.as_mut() {
             fr.check(body, &mut sim.state, &mut it);
         }
@@ -412,6 +459,9 @@ pub fn run(args: RunArgs) -> Result<()> {
         if sim.state.time >= next_frame - 0.5 * it.dt || done {
             it.check(body, &sim.state)?;
             write_frame(&it, &mut sim.state, sim.fracture.as_ref(), &mut output)?;
+            if let Some(c) = sim.contact.as_mut() {
+                flush_contact(c, &contact_path)?;
+            }
             next_frame += sim.output_every;
         }
         if sim.state.time >= next_ckpt - 0.5 * it.dt || done {
@@ -461,6 +511,26 @@ pub fn run(args: RunArgs) -> Result<()> {
         wall,
         (sim.state.step - step_start) as f64 / wall.max(1e-9)
     );
+    if let Some(c) = sim.contact.as_mut() {
+        flush_contact(c, &contact_path)?;
+    }
+    if let Some(c) = &sim.contact {
+        for b in &c.bodies {
+            println!(
+                "  rigid {}: at {:?} m, velocity {:?} m/s",
+                b.name, b.position, b.velocity
+            );
+        }
+        println!(
+            "  contact: {} list builds, deepest penetration {:.3e} m ({:.3} of the contact radius)",
+            c.rebuilds,
+            c.max_penetration,
+            c.max_penetration / c.opts.radius
+        );
+        if !c.bodies.is_empty() {
+            println!("  reactions over time: {}", contact_path.display());
+        }
+    }
     println!("  springs broken {}, energy: kinetic {:.4e} J, strain {:.4e} J, released {:.4e} J, balance error {:.2e}", sim.fracture.as_ref().map_or(0, |f| f.broken_total), b.kinetic, b.strain.total(), b.ledger.released, b.relative_error);
     if let Some(series) = &output.vtk {
         println!(
@@ -535,6 +605,16 @@ fn quasi_static(
         .map(|&(i, c, _)| sim.state.u.comp(c)[i])
         .collect();
     let energy_path = out.join(format!("{name}_energy.csv"));
+    let contact_path = out.join(format!("{name}_contact.csv"));
+    if let Some(c) = &sim.contact {
+        if !c.bodies.is_empty() {
+            std::fs::write(
+                &contact_path,
+                "time,body,name,reaction_x,reaction_y,reaction_z,x,y,z,vx,vy,vz\n",
+            )
+            .with_context(|| format!("writing {}", contact_path.display()))?;
+        }
+    }
     std::fs::write(&energy_path, "time,kinetic,strain_direct,strain_dispersive,external_work,boundary_work,body_work,dissipated,released,balance_error\n").with_context(|| format!("writing {}", energy_path.display()))?;
     let zero = Coords::zeros(n);
     let regions = sim.regions.clone();
@@ -708,5 +788,40 @@ fn quasi_static(
         );
     }
     println!("  energy history {}", energy_path.display());
+    Ok(())
+}
+
+/// Append the contact history recorded since the last call to the CSV (one line per body and
+/// step) and forget it.
+fn flush_contact(c: &mut hooke_contact::Contact, path: &Path) -> Result<()> {
+    if c.bodies.is_empty() || c.history.is_empty() {
+        c.history.clear();
+        return Ok(());
+    }
+    let mut text = String::new();
+    for r in &c.history {
+        let name = &c.bodies[r.body].name;
+        text.push_str(&format!(
+            "{:e},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e}\n",
+            r.time,
+            r.body,
+            name,
+            r.reaction[0],
+            r.reaction[1],
+            r.reaction[2],
+            r.position[0],
+            r.position[1],
+            r.position[2],
+            r.velocity[0],
+            r.velocity[1],
+            r.velocity[2]
+        ));
+    }
+    c.history.clear();
+    let mut f = std::fs::OpenOptions::new()
+        .append(true)
+        .open(path)
+        .with_context(|| format!("appending to {}", path.display()))?;
+    f.write_all(text.as_bytes())?;
     Ok(())
 }

@@ -25,11 +25,12 @@
 //! Two nodes not joined by an intact spring repel when closer than
 //! `d_ij = min(d_f, |X_i - X_j|)` (reference positions: nodes never start in contact) with
 //! `F = k_ij (d_ij - r) e`, `k_ij = c 2 m_i m_j / ((m_i + m_j) dt^2)`, the short-range force of
-//! peridynamics codes. `d_f` defaults to 0.9 of the shortest spring, so a spring that breaks in
+//! peridynamics codes. `d_f` defaults to 0.8 of the shortest spring, so a spring that breaks in
 //! tension leaves its two nodes outside the search range. Candidate pairs come from a cell list
 //! with a skin (Verlet list), rebuilt only when the nodes or bodies have moved more than the skin
-//! since the last build; an intact lattice has no candidate pair, so the cost of a run without
-//! fragments is one pass over the displacements per step.
+//! since the last build. Only pairs with a damaged end (a node that lost a spring) are searched:
+//! an intact lattice has none, so the cost of a run without fragments is one pass over the
+//! displacements per step.
 //!
 //! Forces are gathered per node in a fixed order, so results are bit-identical for any thread
 //! count.
@@ -41,7 +42,7 @@ use rayon::prelude::*;
 use crate::rigid::RigidBody;
 
 /// Settings of the contact model.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct ContactOptions {
     /// `c` in `k = c m / dt^2`.
     pub stiffness_factor: Real,
@@ -52,7 +53,7 @@ pub struct ContactOptions {
 }
 
 impl ContactOptions {
-    /// Defaults for a body: `c = 0.1`, radius `a/2`, fragment contact at 0.9 of the shortest
+    /// Defaults for a body: `c = 0.1`, radius `a/2`, fragment contact at 0.8 of the shortest
     /// spring.
     pub fn for_body(body: &Body) -> Self {
         let shortest = body
@@ -65,7 +66,7 @@ impl ContactOptions {
         ContactOptions {
             stiffness_factor: 0.1,
             radius: 0.5 * body.lattice.spacing,
-            fragment_distance: Some(0.9 * shortest.min(body.lattice.spacing)),
+            fragment_distance: Some(0.8 * shortest.min(body.lattice.spacing)),
         }
     }
 }
@@ -82,6 +83,7 @@ pub struct Record {
 }
 
 /// Contact of one lattice with rigid bodies and with itself.
+#[derive(Debug)]
 pub struct Contact {
     pub bodies: Vec<RigidBody>,
     pub opts: ContactOptions,
@@ -128,8 +130,11 @@ impl Contact {
         Contact {
             bodies,
             dim: body.lattice.dim(),
-            // Broken springs stay out of range: d_f + skin < shortest spring.
-            skin: (0.05 * shortest).max(0.1 * opts.radius.min(shortest)),
+            // Broken springs stay out of range: d_f + skin < shortest spring (d_f <= 0.8 of it by
+            // default; a user value is held below 0.95 of it and the skin shrinks to fit).
+            skin: (0.15 * shortest)
+                .min(0.95 * shortest - opts.fragment_distance.unwrap_or(0.0))
+                .max(0.01 * shortest),
             opts,
             candidates: vec![Vec::new(); nb],
             frag_offsets: vec![0; n + 1],
@@ -235,19 +240,33 @@ impl Contact {
         let Some(df) = self.opts.fragment_distance else {
             return;
         };
+        // Only pairs with a damaged end (a node that lost a spring) can be crack faces or
+        // fragments: an intact lattice has none and skips the search.
+        let bonds = &body.lattice.bonds;
+        let damaged: Vec<u32> = (0..n as u32)
+            .filter(|&i| {
+                bonds
+                    .row(i as usize)
+                    .any(|e| !state.alive[bonds.bond[e] as usize])
+            })
+            .collect();
+        if damaged.is_empty() {
+            self.frag_force.clear();
+            return;
+        }
         // Cell list: cells of side df + skin, nodes sorted by cell.
         let h = df + self.skin;
-        let x: Vec<[Real; 3]> = (0..n).map(|i| Self::position(body, &state.u, i)).collect();
+        let x = |i: usize| Self::position(body, &state.u, i);
         let mut lo = [Real::INFINITY; 3];
-        for p in &x {
+        for i in 0..n {
+            let p = x(i);
             for c in 0..3 {
                 lo[c] = lo[c].min(p[c]);
             }
         }
         let cell = |p: &[Real; 3]| [0, 1, 2].map(|c| ((p[c] - lo[c]) / h).floor() as i64);
-        let mut order: Vec<([i64; 3], u32)> = (0..n).map(|i| (cell(&x[i]), i as u32)).collect();
+        let mut order: Vec<([i64; 3], u32)> = (0..n).map(|i| (cell(&x(i)), i as u32)).collect();
         order.sort_unstable();
-        let bonds = &body.lattice.bonds;
         let bonded = |i: usize, j: u32| -> bool {
             let r = bonds.row(i);
             match bonds.nbr[r.clone()].binary_search(&j) {
@@ -256,11 +275,12 @@ impl Contact {
             }
         };
         let pos = &body.lattice.pos;
-        let mut rows: Vec<Vec<u32>> = vec![Vec::new(); 0];
-        let mut owners: Vec<u32> = Vec::new();
-        for i in 0..n {
-            let ci = cell(&x[i]);
-            let mut row: Vec<u32> = Vec::new();
+        // Pairs (i, j) from every damaged i, then both directions, sorted: a CSR by node.
+        let mut pairs: Vec<(u32, u32)> = Vec::new();
+        for &i in &damaged {
+            let i = i as usize;
+            let xi = x(i);
+            let ci = cell(&xi);
             for dz in -1..=1i64 {
                 for dy in -1..=1i64 {
                     for dx in -1..=1i64 {
@@ -270,11 +290,12 @@ impl Contact {
                             if k != key {
                                 break;
                             }
-                            if j as usize == i {
+                            let jj = j as usize;
+                            if jj == i {
                                 continue;
                             }
-                            let jj = j as usize;
-                            let d2: Real = (0..3).map(|c| (x[i][c] - x[jj][c]).powi(2)).sum();
+                            let xj = x(jj);
+                            let d2: Real = (0..3).map(|c| (xi[c] - xj[c]).powi(2)).sum();
                             if d2 >= h * h {
                                 continue;
                             }
@@ -285,27 +306,26 @@ impl Contact {
                             if r0 < 1e-12 * h || bonded(i, j) {
                                 continue;
                             }
-                            row.push(j);
+                            pairs.push((i as u32, j));
+                            pairs.push((j, i as u32));
                         }
                     }
                 }
             }
-            if !row.is_empty() {
-                row.sort_unstable();
-                owners.push(i as u32);
-                rows.push(row);
-            }
         }
-        for (o, row) in owners.iter().zip(&rows) {
-            self.frag_offsets[*o as usize + 1] = row.len() as u32;
+        pairs.sort_unstable();
+        pairs.dedup();
+        for &(i, _) in &pairs {
+            self.frag_offsets[i as usize + 1] += 1;
         }
         for i in 0..n {
             self.frag_offsets[i + 1] += self.frag_offsets[i];
         }
-        for row in &rows {
-            self.frag_nbr.extend_from_slice(row);
-        }
-        self.frag_nodes = owners;
+        self.frag_nbr.extend(pairs.iter().map(|p| p.1));
+        self.frag_nodes.extend(
+            (0..n as u32)
+                .filter(|&i| self.frag_offsets[i as usize + 1] > self.frag_offsets[i as usize]),
+        );
         self.frag_force.resize(self.frag_nodes.len(), [0.0; 3]);
     }
 

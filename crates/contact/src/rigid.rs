@@ -27,6 +27,127 @@ impl std::fmt::Debug for Geometry {
 }
 
 impl Geometry {
+    /// A ball (3D) or a disk (2D) of radius `r`.
+    pub fn ball(dim: usize, r: f64) -> Self {
+        if dim == 2 {
+            Geometry::D2(parry2d_f64::shape::SharedShape::ball(r))
+        } else {
+            Geometry::D3(
+                parry3d_f64::shape::SharedShape::ball(r),
+                parry3d_f64::math::Rotation::IDENTITY,
+            )
+        }
+    }
+
+    /// A box with these edge lengths (2 or 3 used), centred on the reference point.
+    pub fn cuboid(dim: usize, size: [f64; 3]) -> Self {
+        if dim == 2 {
+            Geometry::D2(parry2d_f64::shape::SharedShape::cuboid(
+                0.5 * size[0],
+                0.5 * size[1],
+            ))
+        } else {
+            Geometry::D3(
+                parry3d_f64::shape::SharedShape::cuboid(
+                    0.5 * size[0],
+                    0.5 * size[1],
+                    0.5 * size[2],
+                ),
+                parry3d_f64::math::Rotation::IDENTITY,
+            )
+        }
+    }
+
+    /// A 3D circular cylinder along coordinate `axis` (0, 1, 2), centred.
+    pub fn cylinder(radius: f64, length: f64, axis: usize) -> Self {
+        use parry3d_f64::math::Rotation;
+        // parry's cylinder lies along y; turn it onto the axis asked for.
+        let rot = match axis {
+            0 => Rotation::from_rotation_z(-std::f64::consts::FRAC_PI_2),
+            1 => Rotation::IDENTITY,
+            _ => Rotation::from_rotation_x(std::f64::consts::FRAC_PI_2),
+        };
+        Geometry::D3(
+            parry3d_f64::shape::SharedShape::cylinder(0.5 * length, radius),
+            rot,
+        )
+    }
+
+    /// A capsule: the segment of `length` along `axis`, centred, swept by a ball of `radius`.
+    pub fn capsule(dim: usize, radius: f64, length: f64, axis: usize) -> Self {
+        let mut e = [0.0; 3];
+        e[axis] = 0.5 * length;
+        if dim == 2 {
+            use parry2d_f64::math::Vector as V2;
+            Geometry::D2(parry2d_f64::shape::SharedShape::capsule(
+                V2::new(-e[0], -e[1]),
+                V2::new(e[0], e[1]),
+                radius,
+            ))
+        } else {
+            use parry3d_f64::math::Vector as V3;
+            Geometry::D3(
+                parry3d_f64::shape::SharedShape::capsule(
+                    V3::new(-e[0], -e[1], -e[2]),
+                    V3::new(e[0], e[1], e[2]),
+                    radius,
+                ),
+                parry3d_f64::math::Rotation::IDENTITY,
+            )
+        }
+    }
+
+    /// The solid half-space behind the plane through the reference point with outward unit
+    /// normal `n`.
+    pub fn halfspace(dim: usize, n: [f64; 3]) -> Self {
+        if dim == 2 {
+            Geometry::D2(parry2d_f64::shape::SharedShape::halfspace(
+                parry2d_f64::math::Vector::new(n[0], n[1]),
+            ))
+        } else {
+            Geometry::D3(
+                parry3d_f64::shape::SharedShape::halfspace(parry3d_f64::math::Vector::new(
+                    n[0], n[1], n[2],
+                )),
+                parry3d_f64::math::Rotation::IDENTITY,
+            )
+        }
+    }
+
+    /// A convex polygon (2D) from its vertices; `Err` with the reason when they span no area or
+    /// are not convex.
+    pub fn convex_polygon(points: &[[f64; 2]]) -> Result<Self, String> {
+        use parry2d_f64::math::Vector as V2;
+        let v: Vec<V2> = points.iter().map(|q| V2::new(q[0], q[1])).collect();
+        let hull = parry2d_f64::shape::SharedShape::convex_hull(&v)
+            .ok_or_else(|| "the points span no area".to_string())?;
+        let n = hull.as_convex_polygon().map_or(0, |c| c.points().len());
+        if n != v.len() {
+            return Err(format!(
+                "the polygon is not convex ({n} of its {} points are on its hull): split it into \
+                 convex bodies",
+                v.len()
+            ));
+        }
+        Ok(Geometry::D2(hull))
+    }
+
+    /// A closed triangle mesh (3D).
+    pub fn mesh(m: &crate::MeshShape) -> Self {
+        Geometry::D3(
+            parry3d_f64::shape::SharedShape::new(m.trimesh().clone()),
+            parry3d_f64::math::Rotation::IDENTITY,
+        )
+    }
+
+    /// True for shapes without a finite volume (half-spaces).
+    pub fn is_unbounded(&self) -> bool {
+        match self {
+            Geometry::D2(s) => s.as_halfspace().is_some(),
+            Geometry::D3(s, _) => s.as_halfspace().is_some(),
+        }
+    }
+
     /// Signed distance of `p` from the surface of the shape placed at `x` (negative inside) and
     /// the outward normal at the nearest surface point. `None` when `p` lies exactly on the
     /// surface (no normal; no force either).
