@@ -1191,7 +1191,64 @@ fn contact(
     }
     let mut bodies = Vec::new();
     for (k, r) in raw.rigid.iter().enumerate() {
-        bodies.push(rigid(ctx, r, k, dim, h)?);
+        let mut rb = rigid(ctx, r, k, dim, h)?;
+        let reach = opts.radius;
+        // Nearest gap between the body and a node's contact range (m), with the node.
+        let nearest = |rb: &RigidBody, limit: Real| -> Option<(usize, Real)> {
+            let (lo, hi) = rb.geometry.bounds(rb.position);
+            let mut worst: Option<(usize, Real)> = None;
+            for i in 0..body.nodes() {
+                let p = body.lattice.pos.get(i);
+                let x = [p.x, p.y, p.z];
+                if (0..dim).any(|c| x[c] < lo[c] - limit || x[c] > hi[c] + limit) {
+                    continue;
+                }
+                if let Some((d, _)) = rb.geometry.signed_distance(rb.position, x) {
+                    let gap = d - reach;
+                    if worst.is_none_or(|w| gap < w.1) {
+                        worst = Some((i, gap));
+                    }
+                }
+            }
+            worst
+        };
+        if let Some(g) = &r.get_ref().start_gap {
+            let want = ctx.positive(g, &format!("rigid[{k}].start_gap"), "m")?;
+            let v = rb.velocity;
+            let speed = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            if speed == 0.0 {
+                return Err(ctx.err(g.span(), format!("rigid[{k}].start_gap"), "the body is moved along its velocity, which is zero: give a velocity or place it by position"));
+            }
+            let dir = v.map(|c| c / speed);
+            // Move along the velocity until the nearest gap is `want` (a few passes: exact for
+            // flat faces, converging for curved ones).
+            let size = body.lattice.spacing * (body.nodes() as Real).powf(1.0 / dim as Real) * 10.0;
+            for _ in 0..20 {
+                let Some((_, gap)) = nearest(&rb, size) else {
+                    break;
+                };
+                if (gap - want).abs() <= 1e-6 * want {
+                    break;
+                }
+                for c in 0..dim {
+                    rb.position[c] += (gap - want) * dir[c];
+                }
+            }
+        }
+        // A body that starts inside the contact range of a node would hit it with the full
+        // penalty force at the first step: a shock that is never what was meant.
+        if let Some((i, gap)) = nearest(&rb, reach).filter(|w| w.1 < 0.0) {
+            let p = body.lattice.pos.get(i);
+            return Err(ctx.err(
+                r.get_ref().position.span(),
+                format!("rigid[{k}].position"),
+                format!(
+                    "the body starts {:.3e} m inside the contact range of node {i} at [{:e}, {:e}, {:e}] m (node contact radius {:e} m): move it at least that far away",
+                    -gap, p.x, p.y, p.z, reach
+                ),
+            ));
+        }
+        bodies.push(rb);
     }
     Ok(Some(Contact::new(body, bodies, opts)))
 }

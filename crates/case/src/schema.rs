@@ -52,6 +52,9 @@ pub struct RawRigid {
     pub mass: Option<Spanned<Real>>,
     pub density: Option<Spanned<Real>>,
     pub friction: Option<Spanned<Real>>,
+    /// Move the body along its velocity until the nearest node is this far outside contact
+    /// range (m): places impactors and platens independently of the resolution.
+    pub start_gap: Option<Spanned<Real>>,
 }
 
 #[derive(Debug, Deserialize)]
