@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
 """Crack angle(s) from a hooke run, for the Kalthoff-Winkler test.
 
-    python3 tools/crack_angle.py OUTDIR --tip X,Y [--tip X,Y ...] [--radius R] [--threshold 0.2]
+    python3 tools/crack_angle.py OUTDIR --tip X,Y [--tip X,Y ...] [--radius R] [--threshold 0.2] [--ahead]
 
 For each notch tip, the nodes that became damaged during the run (damage >= threshold in the
 last frame, not in the first) within R of the tip (default: a fifth of the body's size) are
 fitted with a line through the tip (principal direction of their offsets). The angle is
 measured from the notch direction (+x, the notches run along x into the plate), positive
 towards +y. Prints one angle per tip; Kalthoff and Winkler observed about 70 degrees.
+With --ahead only the nodes ahead of the tip (x beyond it) count: in the Kalthoff-Winkler test
+the damage behind the tips is the crushed impact zone, not the crack.
 """
 import argparse
 import math
@@ -23,6 +25,7 @@ def main():
     ap.add_argument("--tip", action="append", required=True)
     ap.add_argument("--radius", type=float)
     ap.add_argument("--threshold", type=float, default=0.2)
+    ap.add_argument("--ahead", action="store_true")
     a = ap.parse_args()
     fs = frames(a.outdir)
     m0, m1 = read(fs[0][1]), read(fs[-1][1])
@@ -32,7 +35,10 @@ def main():
     radius = a.radius or size / 5.0
     for tip_s in a.tip:
         tip = np.array([float(v) for v in tip_s.split(",")] + [0.0])[:3]
-        pts = ref[new & (np.linalg.norm(ref - tip, axis=1) <= radius)]
+        near = new & (np.linalg.norm(ref - tip, axis=1) <= radius)
+        if a.ahead:
+            near &= ref[:, 0] > tip[0]
+        pts = ref[near]
         if len(pts) < 3:
             print(f"crack_angle: tip {tip_s}: no crack grew (fewer than 3 new damaged nodes within {radius:.3e} m)")
             continue

@@ -286,3 +286,51 @@ fn kinematic_platen_pushes_and_records_its_reaction() {
     assert_eq!(contact.history.len(), 4000);
     assert!(contact.max_penetration < 0.1 * A);
 }
+
+/// Fragment contact is bit-identical for 1 and 2 threads: the cut halves of
+/// `fragments_do_not_interpenetrate`, in contact for most of the run.
+#[test]
+fn fragment_contact_is_bit_identical_for_one_and_two_threads() {
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let body = steel_block([12, 6, 6]);
+            let mut state = State::new(&body);
+            let left = |i: usize| body.lattice.pos.x[i] < 5.5 * A;
+            for b in 0..body.springs() {
+                let [i, j] = body.lattice.bonds.ends[b];
+                if left(i as usize) != left(j as usize) {
+                    state.kill_bond(&body, b);
+                }
+            }
+            for i in 0..body.nodes() {
+                state.v.x[i] = if left(i) { 20.0 } else { -20.0 };
+            }
+            let mut it = Integrator::new(
+                &body,
+                &mut state,
+                Loading::default(),
+                &IntegratorOptions::default(),
+            )
+            .unwrap();
+            let mut contact = Contact::new(&body, Vec::new(), ContactOptions::for_body(&body));
+            for _ in 0..800 {
+                it.step_with(&body, &mut state, Some(&mut contact));
+            }
+            (state.u.clone(), contact.rebuilds)
+        })
+    };
+    let (u1, b1) = run(1);
+    let (u2, b2) = run(2);
+    assert_eq!(b1, b2);
+    for c in 0..3 {
+        assert!(u1
+            .comp(c)
+            .iter()
+            .zip(u2.comp(c))
+            .all(|(a, b)| a.to_bits() == b.to_bits()));
+    }
+}
