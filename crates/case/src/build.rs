@@ -701,7 +701,7 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
     // The lattice's stiffness constant: k of every spring of a regular lattice, kappa (per
     // volume) of a random one.
     let k = if kind.is_random() {
-        material::constants_for(kind, a, &elastic, h, plane)
+        material::constants_for_lattice(&body.lattice, &elastic, plane)
             .map_err(|e| ctx.err(m.poisson.span(), "material.poisson", e.to_string()))?
             .k
     } else {

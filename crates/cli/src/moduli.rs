@@ -337,10 +337,12 @@ fn random_table(args: &ModuliArgs) -> Result<()> {
     let qs = [
         -0.49, -0.45, -0.4, -0.3, -0.2, -0.1, 0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 40.0,
     ];
-    let name = if kind.dim() == 3 {
-        "RANDOM3D"
-    } else {
-        "RANDOM2D"
+    let jitter = matches!(args.sampler, SamplerArg::Jitter);
+    let name = match (kind.dim(), jitter) {
+        (3, false) => "RANDOM3D",
+        (_, false) => "RANDOM2D",
+        (3, true) => "JITTER3D",
+        (_, true) => "JITTER2D",
     };
     let mut rows = Vec::new();
     for &q in &qs {
@@ -348,7 +350,7 @@ fn random_table(args: &ModuliArgs) -> Result<()> {
         let mut t = test_for(args, nu_aff.min(0.49))?;
         t.q = Some(q);
         let m = ensemble(&t, args.samples)?;
-        let e_affine = m.e_target / calibration::youngs_factor(kind, q);
+        let e_affine = m.e_target / calibration::youngs_factor_for(kind, t.random.sampler, q);
         let ratio = m.e_measured / e_affine;
         eprintln!(
             "q {q:>6}: nu {:.4} (affine {nu_aff:.4}, spread {:.4}), E/E_affine {ratio:.4} (spread {:.4}), {:.1} s",

@@ -247,6 +247,16 @@ pub fn check(args: CheckArgs) -> Result<()> {
         }
     }
     let kind = sim.body.lattice.kind;
+    if let Some(c) = &sim.body.lattice.cells {
+        if !hooke_core::random::calibration::calibrated(kind, c.sampler) {
+            println!(
+                "  note         the {:?} sampler is calibrated only at amplitude {}: E and nu \
+                 are met only roughly (measure them with hooke moduli --sampler jitter)",
+                c.sampler,
+                hooke_core::random::calibration::JITTER_CALIBRATED
+            );
+        }
+    }
     if sim.fracture.is_some() && kind.is_random() {
         println!(
             "  note         the lattice toughness of random lattices is not measured: G_c sets \

@@ -22,8 +22,7 @@ impl Body {
     /// A body of one material. For 2D lattices the plate thickness is the lattice's and `plane`
     /// says how the plate stands for the 3D material.
     pub fn new(lattice: Lattice, m: &Elastic, plane: PlaneModel) -> Result<Self> {
-        let c =
-            material::constants_for(lattice.kind, lattice.spacing, m, lattice.thickness, plane)?;
+        let c = material::constants_for_lattice(&lattice, m, plane)?;
         if let Some(cells) = &lattice.cells {
             // Random lattice: c.k is kappa; each spring gets kappa V_s / L_s^2 (per thickness in
             // 2D), each node the mass of its cell (`crate::random`).

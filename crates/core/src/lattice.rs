@@ -197,6 +197,8 @@ pub struct Cells {
     /// edge lengths times its thickness): a third (3D) or a half (2D) of each boundary facet
     /// around it. Zero inside. Tractions are spread over faces with it.
     pub surface: Vec<[Real; 3]>,
+    /// How the nodes were scattered: the calibration depends on it.
+    pub sampler: crate::random::Sampler,
 }
 
 /// A lattice filled into a region: reference geometry and spring topology.
@@ -514,6 +516,7 @@ impl Lattice {
             node: (0..n).filter(|&i| kept[i]).map(|i| c.node[i]).collect(),
             spring: kept_bonds.iter().map(|&b| c.spring[b]).collect(),
             surface: (0..n).filter(|&i| kept[i]).map(|i| c.surface[i]).collect(),
+            sampler: c.sampler,
         });
         Ok(Lattice {
             pos,

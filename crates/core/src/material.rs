@@ -159,6 +159,27 @@ pub fn constants_for(
     }
 }
 
+/// Spring constants for a lattice: as [`constants_for`], and for random lattices with the
+/// calibration of the sampler that scattered their nodes (`k` is then kappa).
+pub fn constants_for_lattice(
+    lattice: &crate::lattice::Lattice,
+    m: &Elastic,
+    plane: PlaneModel,
+) -> Result<SpringConstants> {
+    let Some(cells) = &lattice.cells else {
+        return constants_for(lattice.kind, lattice.spacing, m, lattice.thickness, plane);
+    };
+    check_elastic(m)?;
+    let (e, nu) = if lattice.dim() == 2 {
+        check_positive("plate thickness h", lattice.thickness)?;
+        plate_moduli(m, lattice.thickness, plane)
+    } else {
+        (m.youngs, m.poisson)
+    };
+    check_lattice_nu(lattice.kind, nu)?;
+    calibration::constants(lattice.kind, cells.sampler, e, nu)
+}
+
 /// Refuse a material the model cannot represent, with the reason and the fix.
 pub fn check_elastic(m: &Elastic) -> Result<()> {
     check_positive("Young's modulus E (Pa)", m.youngs)?;

@@ -29,7 +29,7 @@ use crate::lattice::{Lattice, LatticeKind};
 use crate::law;
 use crate::material::{nu_from_q, q_from_nu, youngs_from_k};
 use crate::math::{Coords, Matrix, Real, Vector};
-use crate::random::RandomSpec;
+use crate::random::{calibration, RandomSpec};
 use crate::state::State;
 use crate::statics::{self, Constraints, StaticOptions, StaticReport};
 use crate::tangent::Tangent;
@@ -288,9 +288,10 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
         });
     }
     let a = t.spacing;
+    let sampler = t.random.sampler;
     let q = match t.q {
         Some(q) => q,
-        None => q_from_nu(t.kind, t.nu)?,
+        None => calibration::q_for_nu_for(t.kind, sampler, t.nu)?,
     };
     let ax = t.axis;
     // Lateral axes in order, the long side along the load axis.
@@ -301,7 +302,7 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
         ext[c] = (t.size[m + 1].max(2) - 1) as Real * a;
     }
     let lattice = Lattice::random(dim, [0.0; 3], ext, a, 1.0, t.random, &|_| true)?;
-    let e_target = youngs_from_k(t.kind, t.stiffness, a, q);
+    let e_target = calibration::youngs_for(t.kind, sampler, t.stiffness, q);
     // k_s = kappa V_s / L_s^2 (`crate::random`), kappa = t.stiffness; unit node masses.
     let cells = lattice
         .cells

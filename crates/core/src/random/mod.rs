@@ -207,6 +207,7 @@ impl Lattice {
                 node,
                 spring,
                 surface,
+                sampler: spec.sampler,
             }),
         })
     }
