@@ -126,7 +126,10 @@ impl Lattice {
         } else {
             (lo, hi)
         };
-        let pts = sample::sample_box(dim, lo, hi, a, spec.sampler, spec.seed, inside);
+        let mut pts = sample::sample_box(dim, lo, hi, a, spec.sampler, spec.seed, inside);
+        // Number the nodes along a Morton curve: neighbours in space are near in memory, which
+        // the CSR kernel's gathers need (sampling order scatters them: 2.5x slower steps).
+        morton_sort(&mut pts, lo, hi);
         let (kind, thickness) = if dim == 2 {
             (LatticeKind::Random2d, h)
         } else {
@@ -211,6 +214,24 @@ impl Lattice {
             }),
         })
     }
+}
+
+/// Sort points by the Morton (Z-order) key of their coordinates quantised in the box.
+fn morton_sort(pts: &mut [[Real; 3]], lo: [Real; 3], hi: [Real; 3]) {
+    let key = |p: &[Real; 3]| {
+        let mut k = 0u64;
+        let q: [u64; 3] = [0, 1, 2].map(|c| {
+            let span = (hi[c] - lo[c]).max(1e-300);
+            (((p[c] - lo[c]) / span).clamp(0.0, 1.0) * 2_097_151.0) as u64
+        });
+        for bit in (0..21).rev() {
+            for qc in q {
+                k = (k << 1) | ((qc >> bit) & 1);
+            }
+        }
+        k
+    };
+    pts.sort_by_cached_key(key);
 }
 
 /// Triangulate and drop simplices outside the shape. Returns the kept simplices' vertices
