@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Crack angle(s) from a hooke run, for the Kalthoff-Winkler test.
 
-    python3 tools/crack_angle.py OUTDIR --tip X,Y [--tip X,Y ...] [--radius R] [--threshold 0.2] [--ahead]
+    python3 tools/crack_angle.py OUTDIR --tip X,Y[,SIDE] [--tip ...] [--radius R] [--threshold 0.2] [--ahead]
 
 For each notch tip, the nodes that became damaged during the run (damage >= threshold in the
 last frame, not in the first) within R of the tip (default: a fifth of the body's size) are
@@ -9,7 +9,9 @@ fitted with a line through the tip (principal direction of their offsets). The a
 measured from the notch direction (+x, the notches run along x into the plate), positive
 towards +y. Prints one angle per tip; Kalthoff and Winkler observed about 70 degrees.
 With --ahead only the nodes ahead of the tip (x beyond it) count: in the Kalthoff-Winkler test
-the damage behind the tips is the crushed impact zone, not the crack.
+the damage behind the tips is the crushed impact zone, not the crack. SIDE (+1 or -1) keeps only
+the nodes above (+1) or below (-1) the tip: the side a Kalthoff-Winkler crack runs to, away
+from the impact zone between the notches.
 """
 import argparse
 import math
@@ -34,8 +36,12 @@ def main():
     size = float(np.max(np.ptp(ref, axis=0)))
     radius = a.radius or size / 5.0
     for tip_s in a.tip:
-        tip = np.array([float(v) for v in tip_s.split(",")] + [0.0])[:3]
+        parts = [float(v) for v in tip_s.split(",")]
+        side = parts[2] if len(parts) > 2 else 0.0
+        tip = np.array(parts[:2] + [0.0])
         near = new & (np.linalg.norm(ref - tip, axis=1) <= radius)
+        if side != 0.0:
+            near &= (ref[:, 1] - tip[1]) * side > 0
         if a.ahead:
             near &= ref[:, 0] > tip[0]
         pts = ref[near]
