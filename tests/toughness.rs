@@ -199,3 +199,183 @@ fn dynamic_mode_one_crack_runs_straight_below_the_rayleigh_speed() {
         assert!(v > 0.0 && v < 1.0, "nu = {nu}: tip speed {v:.3} c_R");
     }
 }
+
+/// A dynamic mode-I crack in a strip of the 2D random lattice (blue noise, unit mean spacing),
+/// grips opened smoothly to `G = over x G_c` and held. Returns (growth, broken springs whose
+/// midpoint lies within `band` of the crack line, beyond it, fastest tip speed over 10 spacings
+/// / c_R, slope of the crack path).
+fn dynamic_strip_random(
+    nu: Real,
+    over: Real,
+    ramp: Real,
+    damping: Real,
+    seed: u64,
+) -> (Real, usize, usize, Real, Real) {
+    use hooke_core::random::{calibration, RandomSpec, Sampler};
+    let kind = LatticeKind::Random2d;
+    let (len, top) = (220.0, 35.0);
+    let spec = RandomSpec {
+        sampler: Sampler::Poisson,
+        seed,
+    };
+    let lattice = Lattice::random(2, [0.0; 3], [len, top, 0.0], 1.0, 1.0, spec, &|_| true).unwrap();
+    let q = calibration::q_for_nu(kind, nu).unwrap();
+    let cells = lattice.cells.clone().unwrap();
+    let k = cells
+        .spring
+        .iter()
+        .zip(&lattice.bonds.rest)
+        .map(|(v, l)| v / (l * l))
+        .collect();
+    let body = Body {
+        lattice,
+        k,
+        q,
+        mass: cells.node.clone(),
+    };
+    let yc = 0.5 * top;
+    let notch = 40.0;
+    let g_c = 1e-6;
+    let mut state = State::new(&body);
+    let crit = CriticalStretch::from_fracture_energy(kind, 1.0, 1.0, q, 1.0, g_c).unwrap();
+    let mut fr = Fracture::new(&body, Box::new(crit));
+    fr.precrack(
+        &body,
+        &mut state,
+        &[Crack::Segment {
+            a: [-1.0, yc],
+            b: [notch, yc],
+        }],
+    )
+    .unwrap();
+    // Uniaxial strain far ahead: G = 1/2 C11 eps^2 H, C11 = E/(1 - nu^2) in the plane.
+    let e = calibration::youngs_for(kind, Sampler::Poisson, 1.0, q);
+    let c11 = e / (1.0 - nu * nu);
+    let mu = e / (2.0 * (1.0 + nu));
+    let eps = (2.0 * over * g_c / (c11 * top)).sqrt();
+    let pos = &body.lattice.pos;
+    let rows_where = |sel: &dyn Fn(Real) -> bool| -> Vec<u32> {
+        (0..body.nodes() as u32)
+            .filter(|&i| sel(pos.y[i as usize]))
+            .collect()
+    };
+    let (lower, upper) = (rows_where(&|y| y == 0.0), rows_where(&|y| y == top));
+    let mut prescribed = Vec::new();
+    for (nodes, sign) in [(lower.clone(), -1.0), (upper.clone(), 1.0)] {
+        prescribed.push(Prescribed {
+            nodes: nodes.clone(),
+            axis: 0,
+            motion: Motion::Fixed,
+        });
+        prescribed.push(Prescribed {
+            nodes,
+            axis: 1,
+            motion: Motion::Displacement(TimeFunction::SmoothRamp {
+                t0: 0.0,
+                t1: ramp,
+                from: 0.0,
+                to: sign * 0.5 * eps * top,
+            }),
+        });
+    }
+    let mut keep: Vec<u32> = lower.iter().chain(&upper).copied().collect();
+    keep.extend((0..body.nodes() as u32).filter(|&i| pos.x[i as usize] > len - 30.0));
+    fr.set_no_fail(&keep);
+    let loading = Loading {
+        prescribed,
+        ..Default::default()
+    };
+    let opts = IntegratorOptions {
+        time_step: TimeStep::Auto { safety: 0.8 },
+        damage_proof: true,
+        damping,
+        ..Default::default()
+    };
+    let mut it = Integrator::new(&body, &mut state, loading, &opts).unwrap();
+    let bonds = &body.lattice.bonds;
+    let band = 2.0;
+    let mut was_alive = state.alive.clone();
+    let (mut on, mut off) = (0usize, 0usize);
+    let mut tip = notch;
+    let mut history: Vec<(Real, Real)> = Vec::new();
+    let mut path: Vec<(Real, Real)> = Vec::new();
+    while state.time < ramp + 1500.0 && tip < len - 40.0 {
+        it.step(&body, &mut state);
+        if fr.check(&body, &mut state, &mut it).broken > 0 {
+            for b in 0..bonds.len() {
+                if was_alive[b] && !state.alive[b] {
+                    let [i, j] = bonds.ends[b].map(|v| v as usize);
+                    let (xm, ym) = (0.5 * (pos.x[i] + pos.x[j]), 0.5 * (pos.y[i] + pos.y[j]));
+                    if (ym - yc).abs() <= band {
+                        on += 1;
+                        path.push((xm, ym));
+                        if xm > tip {
+                            tip = xm;
+                            history.push((state.time, tip));
+                        }
+                    } else {
+                        off += 1;
+                    }
+                }
+            }
+            was_alive.copy_from_slice(&state.alive);
+        }
+    }
+    it.check(&body, &state).unwrap();
+    let c_r = rayleigh(mu.sqrt(), c11.sqrt());
+    let mut vmax: Real = 0.0;
+    for (k, &(t0, x0)) in history.iter().enumerate() {
+        if let Some(&(t1, x1)) = history[k..].iter().find(|h| h.1 >= x0 + 10.0) {
+            vmax = vmax.max((x1 - x0) / (t1 - t0));
+        }
+    }
+    // Least-squares slope of the crack path y(x).
+    let n = path.len().max(1) as Real;
+    let (mx, my) = (
+        path.iter().map(|p| p.0).sum::<Real>() / n,
+        path.iter().map(|p| p.1).sum::<Real>() / n,
+    );
+    let sxy: Real = path.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let sxx: Real = path
+        .iter()
+        .map(|p| (p.0 - mx).powi(2))
+        .sum::<Real>()
+        .max(1e-300);
+    (tip - notch, on, off, vmax / c_r, sxy / sxx)
+}
+
+/// The dynamic mode-I requirement on the random lattice, where no lattice row guides or traps
+/// the crack: grips opened smoothly to `OVER` x G_c (environment variable, default 2.3),
+/// damping 0.05 as in the hexagonal test. Wanted: at least 60 spacings of growth, at most 5 % of
+/// the broken springs more than 2 spacings off the crack line, a path slope below 0.05, tip
+/// speed below c_R. **Open, and failing:** G_c of random lattices is mapped through the
+/// hexagonal lattice and is not measured; the real toughness is about twice the mapped one (at
+/// 1.2 the crack does not start, at 2.0 it arrests after 34 spacings). At 2.3 (nu = 0) the crack
+/// crosses the strip with a path slope of -0.017 at up to 0.83 c_R, but 157 of 294 broken
+/// springs lie more than 2 spacings off its line (micro-branches). Needs the strip experiment on
+/// random lattices. `OVER=2.3 cargo test --release -p hooke-tests --test toughness -- --ignored`.
+#[test]
+#[ignore = "open: random-lattice toughness not measured; the running crack micro-branches"]
+fn dynamic_mode_one_crack_on_a_random_lattice_runs_straight_below_the_rayleigh_speed() {
+    for nu in [0.0, 0.25, 0.45] {
+        let over: Real = std::env::var("OVER")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(2.3);
+        let (growth, on, off, v, slope) = dynamic_strip_random(nu, over, 400.0, 0.05, 1);
+        eprintln!(
+            "random2d nu = {nu}: growth {growth:.1}, {on} springs within 2 a of the line, {off} beyond, slope {slope:+.4}, fastest {v:.3} c_R"
+        );
+        assert!(
+            growth >= 60.0,
+            "nu = {nu}: the crack grew {growth:.1} spacings"
+        );
+        assert!(
+            off * 20 <= on + off,
+            "nu = {nu}: {off} of {} springs off the line",
+            on + off
+        );
+        assert!(slope.abs() < 0.05, "nu = {nu}: path slope {slope}");
+        assert!(v > 0.0 && v < 1.0, "nu = {nu}: tip speed {v:.3} c_R");
+    }
+}
