@@ -447,6 +447,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         write_frame(&it, &mut sim.state, sim.fracture.as_ref(), &mut output)?;
     }
     let interactive = std::io::stderr().is_terminal();
+    let bar = progress_bar(interactive, BAR_LEN);
     let start = Instant::now();
     let (t_start, step_start) = (sim.state.time, sim.state.step);
     let mut next_frame =
@@ -479,34 +480,31 @@ pub fn run(args: RunArgs) -> Result<()> {
             next_ckpt += sim.checkpoint_every;
         }
         if stop.load(Ordering::SeqCst) {
+            bar.abandon();
             write_frame(&it, &mut sim.state, sim.fracture.as_ref(), &mut output)?;
             save(&it, &sim.state, sim.fracture.as_ref())?;
             return Err(Interrupted(format!("interrupted at step {} (t = {:e} s); the last frame and a checkpoint are written: continue with\n  hooke run {} --resume {}{}", sim.state.step, sim.state.time, args.case.display(), ckpt_path.display(), if args.out.is_some() { format!(" --out {}", out.display()) } else { String::new() })).into());
         }
-        if interactive && last_report.elapsed().as_secs_f64() > 1.0 {
+        if interactive && last_report.elapsed().as_secs_f64() > 0.5 {
             last_report = Instant::now();
             let frac = (sim.state.time - t_start) / (sim.end_time - t_start);
             let wall = start.elapsed().as_secs_f64();
             let rate = (sim.state.step - step_start) as f64 / wall;
-            let eta = wall * (1.0 - frac) / frac.max(1e-9);
             let broken = sim.fracture.as_ref().map_or(0, |f| f.broken_total);
-            // Once a second at most: one extra force evaluation, on terminals only.
+            // Twice a second at most: one extra force evaluation, on terminals only.
             let b = it.energy(body, &mut sim.state);
-            eprint!(
-                "\r  t = {:.3e} s ({:5.1} %)  {:.0} steps/s  ETA {:.0} s  broken springs {}  energy {:.3e} J (balance {:.1e})   ",
+            bar.set_position((frac * BAR_LEN as f64) as u64);
+            bar.set_message(format!(
+                "t = {:.3e} s  {:.0} steps/s  broken springs {}  energy {:.3e} J (balance {:.1e})",
                 sim.state.time,
-                100.0 * frac,
                 rate,
-                eta,
                 broken,
                 b.kinetic + b.strain.total(),
                 b.relative_error
-            );
+            ));
         }
     }
-    if interactive {
-        eprintln!();
-    }
+    bar.finish_and_clear();
     #[cfg(feature = "hdf5")]
     if let Some(h5) = output.h5.as_mut() {
         h5.finish()?;
@@ -667,6 +665,7 @@ fn quasi_static(
     let mut peak: Real = 0.0;
     let start = Instant::now();
     let interactive = std::io::stderr().is_terminal();
+    let bar = progress_bar(interactive, steps as u64);
     for k in 1..=steps {
         let t = sim.end_time * k as Real / steps as Real;
         let u_prev = sim.state.u.clone();
@@ -759,18 +758,16 @@ fn quasi_static(
             )?;
         }
         if stopping {
+            bar.abandon();
             return Err(Interrupted(format!("interrupted after load step {k} of {steps}; the last frame is written (quasi-static runs restart from the case)")).into());
         }
-        if interactive {
-            eprint!(
-                "\r  load step {k}/{steps}  broken springs {}   ",
-                sim.fracture.as_ref().map_or(0, |f| f.broken_total)
-            );
-        }
+        bar.set_position(k as u64);
+        bar.set_message(format!(
+            "load step {k}/{steps}  broken springs {}",
+            sim.fracture.as_ref().map_or(0, |f| f.broken_total)
+        ));
     }
-    if interactive {
-        eprintln!();
-    }
+    bar.finish_and_clear();
     #[cfg(feature = "hdf5")]
     if let Some(h5) = output.h5.as_mut() {
         h5.finish()?;
@@ -834,4 +831,22 @@ fn flush_contact(c: &mut hooke_contact::Contact, path: &Path) -> Result<()> {
         .with_context(|| format!("appending to {}", path.display()))?;
     f.write_all(text.as_bytes())?;
     Ok(())
+}
+
+/// Resolution of the explicit run's progress bar (it shows simulated time, not steps).
+const BAR_LEN: u64 = 1000;
+
+/// A progress bar on stderr when it is a terminal (ETA from the progress rate, the message
+/// carrying step rate, broken springs and energy); hidden otherwise, so logs stay clean.
+fn progress_bar(interactive: bool, len: u64) -> indicatif::ProgressBar {
+    if !interactive {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(len);
+    let style =
+        indicatif::ProgressStyle::with_template("  [{bar:32}] {percent:>3} %  ETA {eta:>4}  {msg}")
+            .map(|s| s.progress_chars("=> "))
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar());
+    bar.set_style(style);
+    bar
 }
