@@ -460,7 +460,7 @@ impl Interaction for Contact {
         for &i in &self.touched {
             out.push((i, self.acc[i as usize]));
         }
-        if self.steps % self.record_every.max(1) == 0 {
+        if self.steps.is_multiple_of(self.record_every.max(1)) {
             for (k, b) in self.bodies.iter().enumerate() {
                 self.history.push(Record {
                     time: t,

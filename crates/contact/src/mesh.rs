@@ -338,7 +338,10 @@ fn self_intersections(verts: &[[f64; 3]], tris: &[[u32; 3]]) -> Result<(), Strin
     Ok(())
 }
 
-fn parse_obj(path: &Path, bytes: &[u8]) -> Result<(Vec<[f64; 3]>, Vec<[u32; 3]>), MeshError> {
+/// Vertices and triangles as read from a file, before validation.
+type Soup = (Vec<[f64; 3]>, Vec<[u32; 3]>);
+
+fn parse_obj(path: &Path, bytes: &[u8]) -> Result<Soup, MeshError> {
     let text = String::from_utf8_lossy(bytes);
     let err = |line: usize, msg: String| MeshError::Parse {
         path: path.to_path_buf(),
@@ -392,7 +395,7 @@ fn parse_obj(path: &Path, bytes: &[u8]) -> Result<(Vec<[f64; 3]>, Vec<[u32; 3]>)
     Ok((v, t))
 }
 
-fn parse_stl(path: &Path, bytes: &[u8]) -> Result<(Vec<[f64; 3]>, Vec<[u32; 3]>), MeshError> {
+fn parse_stl(path: &Path, bytes: &[u8]) -> Result<Soup, MeshError> {
     let binary_len = |n: usize| 84 + 50 * n;
     let is_binary = bytes.len() >= 84 && {
         let n = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as usize;

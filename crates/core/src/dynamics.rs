@@ -402,7 +402,7 @@ impl Integrator {
         let t = state.time;
         self.contact.clear();
         self.v_contact.clear();
-        if let Some(it) = interaction.as_deref_mut() {
+        if let Some(it) = interaction.as_mut() {
             it.forces(body, state, dt, &mut self.contact);
             for &(i, _) in &self.contact {
                 let i = i as usize;

@@ -223,8 +223,7 @@ impl<const N: usize> Builder<N> {
     /// Visibility walk from `start` to a simplex containing point `p`.
     fn locate(&self, p: u32, start: u32) -> Result<u32> {
         let mut cur = start;
-        let mut rot = 0usize;
-        for _ in 0..10_000_000usize {
+        for rot in 0..10_000_000usize {
             let mut moved = false;
             for kk in 0..N {
                 // Rotate the first facet tried so the walk cannot cycle on ties.
@@ -239,7 +238,6 @@ impl<const N: usize> Builder<N> {
                     break;
                 }
             }
-            rot += 1;
             if !moved {
                 return Ok(cur);
             }
