@@ -200,6 +200,29 @@ fn dynamic_mode_one_crack_runs_straight_below_the_rayleigh_speed() {
     }
 }
 
+/// The random2d calibration holds on node sets it was not measured with: the mean of three
+/// strips (40 spacings high, 20-spacing window) dissipates G_c within 10 % (one strip scatters
+/// by about 8 %).
+#[test]
+fn random2d_crack_dissipates_g_c_on_unseen_node_sets() {
+    let kind = LatticeKind::Random2d;
+    let q = q_from_nu(kind, 0.25).unwrap();
+    let mut t = StripTest::new(kind, q, 40, 20);
+    let mut ratios = Vec::new();
+    for seed in [11, 12, 13] {
+        t.seed = seed;
+        let r = strip_test(&t).unwrap();
+        assert_eq!(
+            r.off_plane, 0,
+            "seed {seed}: springs broke away from the crack"
+        );
+        ratios.push(r.ratio());
+    }
+    let mean = ratios.iter().sum::<Real>() / 3.0;
+    println!("random2d nu = 0.25: G / G_c = {ratios:.3?}, mean {mean:.3}");
+    assert!((mean - 1.0).abs() < 0.10, "mean ratio {mean}");
+}
+
 /// A dynamic mode-I crack in a strip of the 2D random lattice (blue noise, unit mean spacing),
 /// grips opened smoothly to `G = over x G_c` and held. Returns (growth, broken springs whose
 /// midpoint lies within `band` of the crack line, beyond it, fastest tip speed over 10 spacings
@@ -345,23 +368,21 @@ fn dynamic_strip_random(
 }
 
 /// The dynamic mode-I requirement on the random lattice, where no lattice row guides or traps
-/// the crack: grips opened smoothly to `OVER` x G_c (environment variable, default 2.3),
-/// damping 0.05 as in the hexagonal test. Wanted: at least 60 spacings of growth, at most 5 % of
-/// the broken springs more than 2 spacings off the crack line, a path slope below 0.05, tip
-/// speed below c_R. **Open, and failing:** G_c of random lattices is mapped through the
-/// hexagonal lattice and is not measured; the real toughness is about twice the mapped one (at
-/// 1.2 the crack does not start, at 2.0 it arrests after 34 spacings). At 2.3 (nu = 0) the crack
-/// crosses the strip with a path slope of -0.017 at up to 0.83 c_R, but 157 of 294 broken
-/// springs lie more than 2 spacings off its line (micro-branches). Needs the strip experiment on
-/// random lattices. `OVER=2.3 cargo test --release -p hooke-tests --test toughness -- --ignored`.
+/// the crack: grips opened smoothly to `OVER` x G_c (environment variable, default 1.2; G_c
+/// calibrated on random2d strips), damping 0.05 as in the hexagonal test. Wanted: at least 60
+/// spacings of growth, at most 5 % of the broken springs more than 2 spacings off the crack
+/// line, a path slope below 0.05, tip speed below c_R. **Open, and failing:** at 1.2 (nu = 0)
+/// the crack crosses the strip straight (path slope 0.010) at up to 0.85 c_R, but 177 of 302
+/// broken springs lie more than 2 spacings off its line: it micro-branches as it runs fast.
+/// `cargo test --release -p hooke-tests --test toughness -- --ignored --nocapture`.
 #[test]
-#[ignore = "open: random-lattice toughness not measured; the running crack micro-branches"]
+#[ignore = "open: the running random-lattice crack micro-branches"]
 fn dynamic_mode_one_crack_on_a_random_lattice_runs_straight_below_the_rayleigh_speed() {
     for nu in [0.0, 0.25, 0.45] {
         let over: Real = std::env::var("OVER")
             .ok()
             .and_then(|s| s.parse().ok())
-            .unwrap_or(2.3);
+            .unwrap_or(1.2);
         let (growth, on, off, v, slope) = dynamic_strip_random(nu, over, 400.0, 0.05, 1);
         eprintln!(
             "random2d nu = {nu}: growth {growth:.1}, {on} springs within 2 a of the line, {off} beyond, slope {slope:+.4}, fastest {v:.3} c_R"

@@ -257,10 +257,10 @@ pub fn check(args: CheckArgs) -> Result<()> {
             );
         }
     }
-    if sim.fracture.is_some() && kind.is_random() {
+    if sim.fracture.is_some() && kind == hooke_core::LatticeKind::Random3d {
         println!(
-            "  note         the lattice toughness of random lattices is not measured: G_c sets \
-             the critical stretch of the regular lattice with the same E, nu and spacing, so \
+            "  note         the lattice toughness of random3d lattices is not measured: G_c sets \
+             the critical stretch of the cubic lattice with the same E, nu and spacing, so \
              the crack's G is matched only roughly"
         );
     } else if sim.fracture.is_some() && !hooke_fracture::stretch::toughness_calibrated(kind, sim.q)

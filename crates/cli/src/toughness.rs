@@ -50,6 +50,13 @@ pub struct ToughnessArgs {
     /// constant `hooke_fracture::stretch` holds.
     #[arg(long)]
     pub table: bool,
+    /// random2d: seed of the first node set; --samples strips are run (seeds S, S+1, ...) and
+    /// their G averaged.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// random2d: number of strips to average.
+    #[arg(long, default_value_t = 1)]
+    pub samples: usize,
 }
 
 /// The figures of one strip, as printed by `--json`.
@@ -84,11 +91,10 @@ pub struct ToughnessJson {
 
 fn measure(args: &ToughnessArgs, nu: Real) -> Result<ToughnessJson> {
     let kind = LatticeKind::from(args.lattice);
-    if kind.is_random() {
-        return Err(InputError(format!(
-            "--lattice {}: the strip experiment runs on the regular lattices (cubic, hex) only",
-            kind.name()
-        ))
+    if kind == LatticeKind::Random3d {
+        return Err(InputError(
+            "--lattice random3d: the strip experiment runs on cubic, hex and random2d".into(),
+        )
         .into());
     }
     let q = q_from_nu(kind, nu).map_err(|e| InputError(format!("--nu {nu}: {e}")))?;
@@ -100,7 +106,28 @@ fn measure(args: &ToughnessArgs, nu: Real) -> Result<ToughnessJson> {
     t.depth = args.depth;
     t.energy = matches!(args.criterion, CriterionArg::Energy);
     let start = Instant::now();
-    let r: StripResult = strip_test(&t).map_err(|e| anyhow::anyhow!("strip at nu = {nu}: {e}"))?;
+    let samples = if kind.is_random() {
+        args.samples.max(1)
+    } else {
+        1
+    };
+    let mut runs: Vec<StripResult> = Vec::with_capacity(samples);
+    for s in 0..samples {
+        t.seed = args.seed + s as u64;
+        runs.push(
+            strip_test(&t)
+                .map_err(|e| anyhow::anyhow!("strip at nu = {nu}, seed {}: {e}", t.seed))?,
+        );
+    }
+    // Random lattices: the mean over the node sets.
+    let mut r = runs[0].clone();
+    let n = runs.len() as Real;
+    r.g_measured = runs.iter().map(|x| x.g_measured).sum::<Real>() / n;
+    r.gamma = runs.iter().map(|x| x.gamma).sum::<Real>() / n;
+    r.eps_run = runs.iter().map(|x| x.eps_run).sum::<Real>() / n;
+    r.broken = runs.iter().map(|x| x.broken).sum::<usize>() / runs.len();
+    r.off_plane = runs.iter().map(|x| x.off_plane).sum::<usize>() / runs.len();
+    r.solves = runs.iter().map(|x| x.solves).sum();
     Ok(ToughnessJson {
         lattice: kind.name(),
         criterion: if t.energy { "energy" } else { "stretch" },
@@ -172,11 +199,20 @@ pub fn run(args: ToughnessArgs) -> Result<()> {
                 j.seconds
             );
         }
-        rows.push((nu, j.gamma));
+        rows.push((
+            nu,
+            if kind.is_random() {
+                // Random lattices tabulate the factor on the hexagonal mapping.
+                j.ratio * hooke_fracture::stretch::random_toughness_factor(kind, j.nu)
+            } else {
+                j.gamma
+            },
+        ));
     }
     if args.table {
-        let name = match kind.dim() {
-            3 => "CUBIC_TOUGHNESS",
+        let name = match kind {
+            LatticeKind::Cubic => "CUBIC_TOUGHNESS",
+            LatticeKind::Random2d => "RANDOM2D_TOUGHNESS",
             _ => "HEX_TOUGHNESS",
         };
         println!("const {name}: &[(Real, Real)] = &[");
