@@ -85,6 +85,10 @@ fn output_estimate(sim: &Simulation) -> f64 {
 /// The series a run writes.
 struct Output {
     vtk: Option<VtkSeries>,
+    /// The rigid bodies' surfaces (`STEM_rigid.pvd`), for cases with contact bodies.
+    rigid: Option<hooke_io::RigidSeries>,
+    /// Half-size of the patch that draws a half-space (the lattice's extent).
+    patch: Real,
     #[cfg(feature = "hdf5")]
     h5: Option<hooke_io::H5Series>,
 }
@@ -115,6 +119,34 @@ impl Output {
         }
         Ok(())
     }
+
+    /// The rigid bodies at the current time into their series.
+    fn write_rigid(
+        &mut self,
+        t: Real,
+        step: u64,
+        contact: Option<&hooke_contact::Contact>,
+    ) -> Result<()> {
+        let (Some(series), Some(c)) = (self.rigid.as_mut(), contact) else {
+            return Ok(());
+        };
+        let parts: Vec<hooke_io::RigidPart> = c
+            .bodies
+            .iter()
+            .map(|b| {
+                let (points, triangles, lines) = b.geometry.surface(b.position, self.patch);
+                hooke_io::RigidPart {
+                    points,
+                    triangles,
+                    lines,
+                    velocity: b.velocity,
+                    reaction: b.reaction,
+                }
+            })
+            .collect();
+        series.write(t, step, &parts)?;
+        Ok(())
+    }
 }
 
 /// The series a run writes, new or continued.
@@ -126,7 +158,20 @@ fn open_output(
     until: Real,
 ) -> Result<Output> {
     let _ = until;
+    let pos = &sim.body.lattice.pos;
+    let extent = [&pos.x, &pos.y, &pos.z]
+        .iter()
+        .map(|v| {
+            let lo = v.iter().cloned().fold(Real::INFINITY, Real::min);
+            let hi = v.iter().cloned().fold(Real::NEG_INFINITY, Real::max);
+            hi - lo
+        })
+        .fold(0.0, Real::max);
+    let with_bodies = sim.contact.as_ref().is_some_and(|c| !c.bodies.is_empty());
     Ok(Output {
+        rigid: (with_bodies && sim.vtk && !resuming)
+            .then(|| hooke_io::RigidSeries::create(out, name)),
+        patch: 0.6 * extent,
         vtk: if !sim.vtk {
             None
         } else if resuming {
@@ -445,6 +490,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     };
     if args.resume.is_none() {
         write_frame(&it, &mut sim.state, sim.fracture.as_ref(), &mut output)?;
+        output.write_rigid(sim.state.time, sim.state.step, sim.contact.as_ref())?;
     }
     let interactive = std::io::stderr().is_terminal();
     let bar = progress_bar(interactive, BAR_LEN);
@@ -470,6 +516,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         if sim.state.time >= next_frame - 0.5 * it.dt || done {
             it.check(body, &sim.state)?;
             write_frame(&it, &mut sim.state, sim.fracture.as_ref(), &mut output)?;
+            output.write_rigid(sim.state.time, sim.state.step, sim.contact.as_ref())?;
             if let Some(c) = sim.contact.as_mut() {
                 flush_contact(c, &contact_path)?;
             }
@@ -482,6 +529,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         if stop.load(Ordering::SeqCst) {
             bar.abandon();
             write_frame(&it, &mut sim.state, sim.fracture.as_ref(), &mut output)?;
+            output.write_rigid(sim.state.time, sim.state.step, sim.contact.as_ref())?;
             save(&it, &sim.state, sim.fracture.as_ref())?;
             return Err(Interrupted(format!("interrupted at step {} (t = {:e} s); the last frame and a checkpoint are written: continue with\n  hooke run {} --resume {}{}", sim.state.step, sim.state.time, args.case.display(), ckpt_path.display(), if args.out.is_some() { format!(" --out {}", out.display()) } else { String::new() })).into());
         }
@@ -537,6 +585,9 @@ pub fn run(args: RunArgs) -> Result<()> {
         );
         if !c.bodies.is_empty() {
             println!("  reactions over time: {}", contact_path.display());
+        }
+        if let Some(r) = &output.rigid {
+            println!("  rigid bodies: {}", r.pvd_path().display());
         }
     }
     println!("  springs broken {}, energy: kinetic {:.4e} J, strain {:.4e} J, released {:.4e} J, balance error {:.2e}", sim.fracture.as_ref().map_or(0, |f| f.broken_total), b.kinetic, b.strain.total(), b.ledger.released, b.relative_error);

@@ -53,6 +53,15 @@ fn every_shipped_case_checks_and_runs_at_reduced_resolution() {
         ] {
             assert!(out.join(&f).exists(), "{c}: no {f}");
         }
+        // Cases with rigid bodies also write their history and their surfaces.
+        if std::fs::read_to_string(&case)
+            .unwrap()
+            .contains("[[rigid]]")
+        {
+            for f in [format!("{stem}_contact.csv"), format!("{stem}_rigid.pvd")] {
+                assert!(out.join(&f).exists(), "{c}: no {f}");
+            }
+        }
         std::fs::remove_dir_all(&out).ok();
     }
     assert!(n >= 4, "expected the four shipped cases, found {n}");

@@ -71,14 +71,16 @@ impl ContactOptions {
     }
 }
 
-/// One step of a body's history.
+/// One step of a body's history, all at `time`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Record {
     pub time: Real,
     pub body: usize,
     /// Force of the lattice on the body (N).
     pub reaction: [Real; 3],
+    /// Position of the body's reference point (m).
     pub position: [Real; 3],
+    /// Full-step velocity: the mean of the half-step velocities around `time` (m/s).
     pub velocity: [Real; 3],
 }
 
@@ -395,7 +397,20 @@ impl Interaction for Contact {
                     self.touched.push(i as u32);
                 }
             }
+            let (x0, v0) = (self.bodies[k].position, self.bodies[k].velocity);
             self.bodies[k].advance(reaction, t, dt, dim);
+            if self.steps.is_multiple_of(self.record_every.max(1)) {
+                // At time t: the reaction, the position and the full-step velocity (the mean of
+                // the half steps around t), the pair a load-displacement curve needs.
+                let v1 = self.bodies[k].velocity;
+                self.history.push(Record {
+                    time: t,
+                    body: k,
+                    reaction,
+                    position: x0,
+                    velocity: [0, 1, 2].map(|c| 0.5 * (v0[c] + v1[c])),
+                });
+            }
         }
         // Fragments: gathered per node (each pair seen from both ends, forces exactly opposite).
         if !self.frag_nodes.is_empty() {
@@ -459,17 +474,6 @@ impl Interaction for Contact {
         self.touched.sort_unstable();
         for &i in &self.touched {
             out.push((i, self.acc[i as usize]));
-        }
-        if self.steps.is_multiple_of(self.record_every.max(1)) {
-            for (k, b) in self.bodies.iter().enumerate() {
-                self.history.push(Record {
-                    time: t,
-                    body: k,
-                    reaction: b.reaction,
-                    position: b.position,
-                    velocity: b.velocity,
-                });
-            }
         }
         self.steps += 1;
     }

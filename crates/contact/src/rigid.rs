@@ -140,6 +140,78 @@ impl Geometry {
         )
     }
 
+    /// A surface to draw the shape placed at `x` with: triangles in 3D, a closed polyline in 2D
+    /// (points, triangles, line segments). Half-spaces are drawn as a patch of half-size `size`
+    /// around their plane point; round shapes are faceted.
+    #[allow(clippy::type_complexity)]
+    pub fn surface(&self, x: [f64; 3], size: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>, Vec<[u32; 2]>) {
+        match self {
+            Geometry::D3(s, rot) => {
+                use parry3d_f64::math::Vector as V3;
+                let (pts, tris): (Vec<V3>, Vec<[u32; 3]>) = if let Some(b) = s.as_ball() {
+                    b.to_trimesh(24, 12)
+                } else if let Some(c) = s.as_cuboid() {
+                    c.to_trimesh()
+                } else if let Some(c) = s.as_cylinder() {
+                    c.to_trimesh(32)
+                } else if let Some(c) = s.as_capsule() {
+                    c.to_trimesh(24, 12)
+                } else if let Some(m) = s.as_trimesh() {
+                    (m.vertices().to_vec(), m.indices().to_vec())
+                } else if let Some(h) = s.as_halfspace() {
+                    let n = h.normal;
+                    let t1 = if n.x.abs() < 0.9 {
+                        n.cross(V3::new(1.0, 0.0, 0.0)).normalize()
+                    } else {
+                        n.cross(V3::new(0.0, 1.0, 0.0)).normalize()
+                    };
+                    let t2 = n.cross(t1);
+                    let c = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
+                    (
+                        c.iter().map(|&(a, b)| (t1 * a + t2 * b) * size).collect(),
+                        vec![[0, 1, 2], [0, 2, 3]],
+                    )
+                } else {
+                    (Vec::new(), Vec::new())
+                };
+                let pose = parry3d_f64::math::Pose::from_parts(V3::new(x[0], x[1], x[2]), *rot);
+                let pts = pts
+                    .iter()
+                    .map(|&p| {
+                        let q = pose.transform_point(p);
+                        [q.x, q.y, q.z]
+                    })
+                    .collect();
+                (pts, tris, Vec::new())
+            }
+            Geometry::D2(s) => {
+                use parry2d_f64::math::Vector as V2;
+                let pts: Vec<V2> = if let Some(b) = s.as_ball() {
+                    b.to_polyline(48)
+                } else if let Some(c) = s.as_cuboid() {
+                    c.to_polyline()
+                } else if let Some(c) = s.as_capsule() {
+                    c.to_polyline(24)
+                } else if let Some(p) = s.as_convex_polygon() {
+                    p.points().to_vec()
+                } else if let Some(h) = s.as_halfspace() {
+                    let t = V2::new(-h.normal.y, h.normal.x);
+                    vec![t * (-size), t * size]
+                } else {
+                    Vec::new()
+                };
+                let n = pts.len() as u32;
+                let closed = s.as_halfspace().is_none();
+                let lines = (0..n)
+                    .filter(|&k| closed || k + 1 < n)
+                    .map(|k| [k, (k + 1) % n])
+                    .collect();
+                let pts = pts.iter().map(|p| [p.x + x[0], p.y + x[1], 0.0]).collect();
+                (pts, Vec::new(), lines)
+            }
+        }
+    }
+
     /// True for shapes without a finite volume (half-spaces).
     pub fn is_unbounded(&self) -> bool {
         match self {

@@ -20,4 +20,4 @@ pub use checkpoint::Checkpoint;
 pub use error::IoError;
 #[cfg(feature = "hdf5")]
 pub use h5::H5Series;
-pub use vtk::{FrameExtras, VtkSeries};
+pub use vtk::{FrameExtras, RigidPart, RigidSeries, VtkSeries};

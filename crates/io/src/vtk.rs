@@ -143,16 +143,122 @@ impl VtkSeries {
     }
 
     fn write_pvd(&self) -> Result<(), IoError> {
-        let path = self.pvd_path();
-        let mut text = String::from("<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n");
-        for (t, f) in &self.frames {
-            // 17 significant digits: the time reads back exactly.
-            text.push_str(&format!(
-                "    <DataSet timestep=\"{t:.17e}\" group=\"\" part=\"0\" file=\"{f}\"/>\n"
-            ));
+        write_pvd(&self.pvd_path(), &self.frames)
+    }
+}
+
+/// Write a `.pvd` collection listing `frames` (time, file).
+fn write_pvd(path: &Path, frames: &[(Real, String)]) -> Result<(), IoError> {
+    let mut text = String::from("<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n");
+    for (t, f) in frames {
+        // 17 significant digits: the time reads back exactly.
+        text.push_str(&format!(
+            "    <DataSet timestep=\"{t:.17e}\" group=\"\" part=\"0\" file=\"{f}\"/>\n"
+        ));
+    }
+    text.push_str("  </Collection>\n</VTKFile>\n");
+    write_atomic(path, |w| w.write_all(text.as_bytes()).map_err(io(path)))
+}
+
+/// The surface of one rigid body at one instant: triangles (3D) or line segments (2D), with its
+/// velocity and the force the lattice exerts on it.
+#[derive(Clone, Debug, Default)]
+pub struct RigidPart {
+    pub points: Vec<[Real; 3]>,
+    pub triangles: Vec<[u32; 3]>,
+    pub lines: Vec<[u32; 2]>,
+    pub velocity: [Real; 3],
+    pub reaction: [Real; 3],
+}
+
+/// The rigid bodies of a run as their own VTK series (`STEM_rigid.pvd`, one `.vtu` per frame),
+/// to be shown next to the lattice in ParaView.
+pub struct RigidSeries {
+    dir: PathBuf,
+    stem: String,
+    frames: Vec<(Real, String)>,
+}
+
+impl RigidSeries {
+    /// A new series in `dir` (which the lattice series has created).
+    pub fn create(dir: &Path, stem: &str) -> Self {
+        RigidSeries {
+            dir: dir.to_path_buf(),
+            stem: format!("{stem}_rigid"),
+            frames: Vec::new(),
         }
-        text.push_str("  </Collection>\n</VTKFile>\n");
-        write_atomic(&path, |w| w.write_all(text.as_bytes()).map_err(io(&path)))
+    }
+
+    /// Path of the `.pvd` collection.
+    pub fn pvd_path(&self) -> PathBuf {
+        self.dir.join(format!("{}.pvd", self.stem))
+    }
+
+    /// Write the bodies at time `t` (frame number `step`) and update the collection. Point
+    /// data: `velocity` and `reaction` of each point's body; cell data: `body` (its index).
+    pub fn write(&mut self, t: Real, step: u64, parts: &[RigidPart]) -> Result<PathBuf, IoError> {
+        let name = format!("{}_{:06}.vtu", self.stem, step);
+        let path = self.dir.join(&name);
+        let mut points: Vec<Real> = Vec::new();
+        let (mut connectivity, mut offsets, mut types) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut vel, mut reac, mut body) = (Vec::new(), Vec::new(), Vec::new());
+        for (k, p) in parts.iter().enumerate() {
+            let base = (points.len() / 3) as u64;
+            for q in &p.points {
+                points.extend(q);
+                vel.extend(p.velocity);
+                reac.extend(p.reaction);
+            }
+            for tri in &p.triangles {
+                connectivity.extend(tri.iter().map(|&i| base + i as u64));
+                offsets.push(connectivity.len() as u64);
+                types.push(CellType::Triangle);
+                body.push(k as Real);
+            }
+            for l in &p.lines {
+                connectivity.extend(l.iter().map(|&i| base + i as u64));
+                offsets.push(connectivity.len() as u64);
+                types.push(CellType::Line);
+                body.push(k as Real);
+            }
+        }
+        let vec3 = |name: &str, data: Vec<Real>| {
+            Attribute::DataArray(DataArray {
+                name: name.into(),
+                elem: ElementType::Vectors,
+                data: data.into(),
+            })
+        };
+        let vtk = Vtk {
+            version: Version::new_xml(1, 0),
+            title: format!("hooke rigid bodies, t = {t:e} s"),
+            byte_order: ByteOrder::LittleEndian,
+            file_path: None,
+            data: DataSet::inline(UnstructuredGridPiece {
+                points: points.into(),
+                cells: Cells {
+                    cell_verts: VertexNumbers::XML {
+                        connectivity,
+                        offsets,
+                    },
+                    types,
+                },
+                data: Attributes {
+                    point: vec![vec3("velocity", vel), vec3("reaction", reac)],
+                    cell: vec![scalars("body", body)],
+                },
+            }),
+        };
+        write_atomic(&path, |w| {
+            vtk.write_xml(w).map_err(|e| IoError::Vtk {
+                path: path.clone(),
+                msg: e.to_string(),
+            })
+        })?;
+        self.frames.retain(|(_, f)| f != &name);
+        self.frames.push((t, name));
+        write_pvd(&self.pvd_path(), &self.frames)?;
+        Ok(path)
     }
 }
 
