@@ -20,21 +20,9 @@ fn bar(kind: LatticeKind, nu: Real, n: [usize; 3]) -> Body {
         }
     }
     .unwrap();
-    if let Some(c) = lattice.cells.clone() {
+    if lattice.cells.is_some() {
         // Random lattice: kappa = 1, springs from their volumes, masses from the node cells.
-        let k = c
-            .spring
-            .iter()
-            .zip(&lattice.bonds.rest)
-            .map(|(v, l)| v / (l * l))
-            .collect();
-        let q = q_from_nu(kind, nu).unwrap();
-        return Body {
-            lattice,
-            k,
-            q,
-            mass: c.node,
-        };
+        return Body::from_cells(lattice, 1.0, q_from_nu(kind, nu).unwrap(), 1.0);
     }
     Body::uniform(lattice, 1.0, q_from_nu(kind, nu).unwrap(), 1.0)
 }

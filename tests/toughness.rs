@@ -243,19 +243,7 @@ fn dynamic_strip_random(
     };
     let lattice = Lattice::random(2, [0.0; 3], [len, top, 0.0], 1.0, 1.0, spec, &|_| true).unwrap();
     let q = calibration::q_for_nu(kind, nu).unwrap();
-    let cells = lattice.cells.clone().unwrap();
-    let k = cells
-        .spring
-        .iter()
-        .zip(&lattice.bonds.rest)
-        .map(|(v, l)| v / (l * l))
-        .collect();
-    let body = Body {
-        lattice,
-        k,
-        q,
-        mass: cells.node.clone(),
-    };
+    let body = Body::from_cells(lattice, 1.0, q, 1.0);
     let yc = 0.5 * top;
     let notch = 40.0;
     let g_c = 1e-6;

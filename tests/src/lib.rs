@@ -54,25 +54,12 @@ pub fn small_body(kind: LatticeKind, q: Real, n: usize) -> Body {
         }
     }
     .unwrap();
-    match lattice.cells.clone() {
+    if lattice.cells.is_some() {
         // Random lattices: the stiffness of each spring from its volume (kappa = 1), so the
         // springs differ as in a real run.
-        Some(c) => {
-            let k = c
-                .spring
-                .iter()
-                .zip(&lattice.bonds.rest)
-                .map(|(v, l)| v / (l * l))
-                .collect();
-            let mass = c.node.clone();
-            Body {
-                lattice,
-                k,
-                q,
-                mass,
-            }
-        }
-        None => Body::uniform(lattice, 1.0, q, 1.0),
+        Body::from_cells(lattice, 1.0, q, 1.0)
+    } else {
+        Body::uniform(lattice, 1.0, q, 1.0)
     }
 }
 

@@ -23,30 +23,38 @@ impl Body {
     /// says how the plate stands for the 3D material.
     pub fn new(lattice: Lattice, m: &Elastic, plane: PlaneModel) -> Result<Self> {
         let c = material::constants_for_lattice(&lattice, m, plane)?;
-        if let Some(cells) = &lattice.cells {
-            // Random lattice: c.k is kappa; each spring gets kappa V_s / L_s^2 (per thickness in
-            // 2D), each node the mass of its cell (`crate::random`).
-            let per = if lattice.dim() == 2 {
-                lattice.thickness
-            } else {
-                1.0
-            };
-            let k = cells
-                .spring
-                .iter()
-                .zip(&lattice.bonds.rest)
-                .map(|(&v, &l)| c.k * v / (per * l * l))
-                .collect();
-            let mass = cells.node.iter().map(|&v| m.density * v).collect();
-            return Ok(Body {
-                lattice,
-                k,
-                q: c.q,
-                mass,
-            });
+        // On a random lattice c.k is kappa, which `from_cells` spreads over the springs.
+        Ok(Self::from_cells(lattice, c.k, c.q, m.density))
+    }
+
+    /// A body whose springs and nodes follow the lattice's cells: on a random lattice
+    /// (`crate::random`) each spring gets `kappa V_s / L_s^2` (its volume over the plate
+    /// thickness in 2D, i.e. its area) and each node `density` times its cell volume; on a
+    /// regular lattice every spring gets `kappa` (the stiffness k) and every node `density`
+    /// times the cell volume.
+    pub fn from_cells(lattice: Lattice, kappa: Real, q: Real, density: Real) -> Self {
+        let Some(cells) = &lattice.cells else {
+            let mass = density * lattice.cell_volume;
+            return Self::uniform(lattice, kappa, q, mass);
+        };
+        let per = if lattice.dim() == 2 {
+            lattice.thickness
+        } else {
+            1.0
+        };
+        let k = cells
+            .spring
+            .iter()
+            .zip(&lattice.bonds.rest)
+            .map(|(&v, &l)| kappa * v / (per * l * l))
+            .collect();
+        let mass = cells.node.iter().map(|&v| density * v).collect();
+        Body {
+            lattice,
+            k,
+            q,
+            mass,
         }
-        let mass = m.density * lattice.cell_volume;
-        Ok(Self::uniform(lattice, c.k, c.q, mass))
     }
 
     /// A body with the same stiffness `k` on every spring and the same mass on every node (lattice

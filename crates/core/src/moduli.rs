@@ -303,24 +303,8 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
     }
     let lattice = Lattice::random(dim, [0.0; 3], ext, a, 1.0, t.random, &|_| true)?;
     let e_target = calibration::youngs_for(t.kind, sampler, t.stiffness, q);
-    // k_s = kappa V_s / L_s^2 (`crate::random`), kappa = t.stiffness; unit node masses.
-    let cells = lattice
-        .cells
-        .clone()
-        .expect("random lattices carry their cells");
-    let k = cells
-        .spring
-        .iter()
-        .zip(&lattice.bonds.rest)
-        .map(|(&v, &l)| t.stiffness * v / (l * l))
-        .collect();
-    let n = lattice.len();
-    let body = Body {
-        lattice,
-        k,
-        q,
-        mass: vec![1.0; n],
-    };
+    // k_s = kappa V_s / L_s^2 with kappa = t.stiffness (statics: the masses play no part).
+    let body = Body::from_cells(lattice, t.stiffness, q, 1.0);
     body.validate()?;
     let lat = &body.lattice;
     let pos = &lat.pos;

@@ -158,22 +158,10 @@ fn strip_lattice(t: &StripTest, periodic_x: bool) -> Result<Lattice, FractureErr
 /// The strip's body in lattice units: `k = 1` on regular lattices; on random ones
 /// `k_s = V_s / L_s^2` (kappa = 1, see `hooke_core::random`).
 fn strip_body(lat: Lattice, q: Real) -> Body {
-    match lat.cells.clone() {
-        Some(c) => {
-            let k = c
-                .spring
-                .iter()
-                .zip(&lat.bonds.rest)
-                .map(|(v, l)| v / (l * l))
-                .collect();
-            Body {
-                lattice: lat,
-                k,
-                q,
-                mass: c.node,
-            }
-        }
-        None => Body::uniform(lat, 1.0, q, 1.0),
+    if lat.cells.is_some() {
+        Body::from_cells(lat, 1.0, q, 1.0)
+    } else {
+        Body::uniform(lat, 1.0, q, 1.0)
     }
 }
 

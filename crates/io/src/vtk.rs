@@ -130,12 +130,7 @@ impl VtkSeries {
         let name = format!("{}_{:06}.vtu", self.stem, state.step);
         let path = self.dir.join(&name);
         let vtk = frame_vtk(body, state, extras, self.springs);
-        write_atomic(&path, |w| {
-            vtk.write_xml(w).map_err(|e| IoError::Vtk {
-                path: path.clone(),
-                msg: e.to_string(),
-            })
-        })?;
+        write_vtu(&path, vtk)?;
         self.frames.retain(|(_, f)| f != &name);
         self.frames.push((state.time, name));
         self.write_pvd()?;
@@ -145,6 +140,16 @@ impl VtkSeries {
     fn write_pvd(&self) -> Result<(), IoError> {
         write_pvd(&self.pvd_path(), &self.frames)
     }
+}
+
+/// Write one `.vtu` file atomically.
+fn write_vtu(path: &Path, vtk: Vtk) -> Result<(), IoError> {
+    write_atomic(path, |w| {
+        vtk.write_xml(w).map_err(|e| IoError::Vtk {
+            path: path.to_path_buf(),
+            msg: e.to_string(),
+        })
+    })
 }
 
 /// Write a `.pvd` collection listing `frames` (time, file).
@@ -249,12 +254,7 @@ impl RigidSeries {
                 },
             }),
         };
-        write_atomic(&path, |w| {
-            vtk.write_xml(w).map_err(|e| IoError::Vtk {
-                path: path.clone(),
-                msg: e.to_string(),
-            })
-        })?;
+        write_vtu(&path, vtk)?;
         self.frames.retain(|(_, f)| f != &name);
         self.frames.push((t, name));
         write_pvd(&self.pvd_path(), &self.frames)?;

@@ -167,20 +167,7 @@ pub fn triangulate<const N: usize>(points: &[[f64; 3]]) -> Result<Mesh<N>> {
     // Insert in Morton order of the quantised coordinates: consecutive points are close, so the
     // walk from the last new simplex is short.
     let mut order: Vec<(u64, u32)> = (0..n)
-        .map(|i| {
-            let mut key = 0u64;
-            let mut q = [0u64; 3];
-            for c in 0..3 {
-                let span = (hi[c] - lo[c]).max(1e-300);
-                q[c] = (((points[i][c] - lo[c]) / span) * 2_097_151.0) as u64;
-            }
-            for bit in (0..21).rev() {
-                for c in 0..3 {
-                    key = (key << 1) | ((q[c] >> bit) & 1);
-                }
-            }
-            (key, i as u32)
-        })
+        .map(|i| (morton_key(&points[i], lo, hi), i as u32))
         .collect();
     order.sort_unstable();
     let mut last = 0u32;
@@ -392,6 +379,22 @@ impl<const N: usize> Builder<N> {
         debug_assert!(open.is_empty(), "unmatched facets around a new node");
         Ok(created[0])
     }
+}
+
+/// Morton (Z-order) key of `p`, its coordinates quantised to 21 bits in the box `[lo, hi]`:
+/// points close in space get close keys.
+pub(crate) fn morton_key(p: &[f64; 3], lo: [f64; 3], hi: [f64; 3]) -> u64 {
+    let q: [u64; 3] = [0, 1, 2].map(|c| {
+        let span = (hi[c] - lo[c]).max(1e-300);
+        (((p[c] - lo[c]) / span).clamp(0.0, 1.0) * 2_097_151.0) as u64
+    });
+    let mut key = 0u64;
+    for bit in (0..21).rev() {
+        for qc in q {
+            key = (key << 1) | ((qc >> bit) & 1);
+        }
+    }
+    key
 }
 
 /// Signed measure (area or volume) of a simplex.

@@ -218,20 +218,7 @@ impl Lattice {
 
 /// Sort points by the Morton (Z-order) key of their coordinates quantised in the box.
 fn morton_sort(pts: &mut [[Real; 3]], lo: [Real; 3], hi: [Real; 3]) {
-    let key = |p: &[Real; 3]| {
-        let mut k = 0u64;
-        let q: [u64; 3] = [0, 1, 2].map(|c| {
-            let span = (hi[c] - lo[c]).max(1e-300);
-            (((p[c] - lo[c]) / span).clamp(0.0, 1.0) * 2_097_151.0) as u64
-        });
-        for bit in (0..21).rev() {
-            for qc in q {
-                k = (k << 1) | ((qc >> bit) & 1);
-            }
-        }
-        k
-    };
-    pts.sort_by_cached_key(key);
+    pts.sort_by_cached_key(|p| delaunay::morton_key(p, lo, hi));
 }
 
 /// Triangulate and drop simplices outside the shape. Returns the kept simplices' vertices
