@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Crack angle(s) from a hooke run, for the Kalthoff-Winkler test.
 
-    python3 tools/crack_angle.py OUTDIR --tip X,Y[,SIDE] [--tip ...] [--radius R] [--threshold 0.2] [--ahead]
+    python3 tools/crack_angle.py OUTDIR --tip X,Y[,SIDE] [--tip ...] [--radius R] [--threshold 0.2] [--ahead] [--time T]
 
 For each notch tip, the nodes that became damaged during the run (damage >= threshold in the
 last frame, not in the first) within R of the tip (default: a fifth of the body's size) are
@@ -11,7 +11,10 @@ towards +y. Prints one angle per tip; Kalthoff and Winkler observed about 70 deg
 With --ahead only the nodes ahead of the tip (x beyond it) count: in the Kalthoff-Winkler test
 the damage behind the tips is the crushed impact zone, not the crack. SIDE (+1 or -1) keeps only
 the nodes above (+1) or below (-1) the tip: the side a Kalthoff-Winkler crack runs to, away
-from the impact zone between the notches.
+from the impact zone between the notches. With --time T the frame at T (the last one at or
+before it) is measured instead of the last: the Kalthoff-Winkler angle is the direction in which
+the cracks leave the tips, before they branch and before the waves reflected from the back edge
+open cracks of their own.
 """
 import argparse
 import math
@@ -28,9 +31,16 @@ def main():
     ap.add_argument("--radius", type=float)
     ap.add_argument("--threshold", type=float, default=0.2)
     ap.add_argument("--ahead", action="store_true")
+    ap.add_argument("--time", type=float)
     a = ap.parse_args()
     fs = frames(a.outdir)
-    m0, m1 = read(fs[0][1]), read(fs[-1][1])
+    last = fs[-1]
+    if a.time is not None:
+        before = [f for f in fs if f[0] <= a.time * (1 + 1e-9)]
+        if not before:
+            raise SystemExit(f"crack_angle: no frame at or before t = {a.time:e} s (the first is at {fs[0][0]:e} s)")
+        last = before[-1]
+    m0, m1 = read(fs[0][1]), read(last[1])
     ref = np.asarray(m1.points) - np.asarray(m1.point_data["displacement"])
     new = (np.asarray(m1.point_data["damage"]) >= a.threshold) & (np.asarray(m0.point_data["damage"]) < a.threshold)
     size = float(np.max(np.ptp(ref, axis=0)))

@@ -22,7 +22,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
-def synthetic(outdir):
+def synthetic(outdir, branch=False):
     n = 81
     xs, ys = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n))
     pts = np.column_stack([xs.ravel(), ys.ravel(), np.zeros(n * n)])
@@ -33,8 +33,13 @@ def synthetic(outdir):
     along = rel @ [math.cos(a), math.sin(a)]
     across = np.abs(rel @ [-math.sin(a), math.cos(a)])
     crack = (along > 0) & (along <= 0.3) & (across < 0.6 * h)
+    # A later frame (with branch=True) adds a branch along the notch line: --time must see past it.
+    flat = (rel[:, 0] > 0) & (rel[:, 0] <= 0.3) & (np.abs(rel[:, 1]) < 0.6 * h)
+    states = [(0.0, notch), (1e-5, notch | crack)]
+    if branch:
+        states.append((2e-5, notch | crack | flat))
     files = []
-    for k, (t, dmg) in enumerate([(0.0, notch), (1e-5, notch | crack)]):
+    for k, (t, dmg) in enumerate(states):
         name = f"run_{k:06}.vtu"
         m = meshio.Mesh(pts, [("vertex", np.arange(n * n).reshape(-1, 1))],
                         point_data={"damage": dmg.astype(float), "displacement": np.zeros((n * n, 3))})
@@ -71,6 +76,16 @@ def main():
         check(code == 0 and os.path.getsize(os.path.join(d, "png", "damage_000001.png")) > 1000, f"render_damage: {out.strip()[-300:]}")
         code, out = run(os.path.join(HERE, "energy_plot.py"), d)
         check(code == 0 and os.path.getsize(os.path.join(d, "energy.png")) > 1000, f"energy_plot: {out.strip()}")
+    with tempfile.TemporaryDirectory() as d:
+        synthetic(d, branch=True)
+        code, out = run(os.path.join(HERE, "crack_angle.py"), d, "--tip", "0.5,0.5", "--radius", "0.4", "--time", "1.5e-5")
+        angle = float(out.split("tip 0.5,0.5: ")[1].split(" degrees")[0]) if "degrees" in out else float("nan")
+        check(code == 0 and abs(angle - 70.0) < 2.0, f"crack_angle --time: {out.strip()}")
+        code, out = run(os.path.join(HERE, "crack_angle.py"), d, "--tip", "0.5,0.5", "--radius", "0.4")
+        angle = float(out.split("tip 0.5,0.5: ")[1].split(" degrees")[0]) if "degrees" in out else float("nan")
+        check(code == 0 and abs(angle - 70.0) > 10.0, f"crack_angle sees the later branch without --time: {out.strip()}")
+        code, out = run(os.path.join(HERE, "crack_angle.py"), d, "--tip", "0.5,0.5", "--time", "-1")
+        check(code != 0 and "no frame" in out, f"crack_angle --time before the first frame: {out.strip()}")
     return check.finish()
 
 
