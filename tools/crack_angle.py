@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Crack angle(s) from a hooke run, for the Kalthoff-Winkler test.
 
-    python3 tools/crack_angle.py OUTDIR --tip X,Y[,SIDE] [--tip ...] [--radius R] [--threshold 0.2] [--ahead] [--time T]
+    python3 tools/crack_angle.py OUTDIR --tip X,Y[,SIDE] [--tip ...] [--radius R] [--threshold 0.2] [--ahead] [--time T] [--from R0]
 
 For each notch tip, the nodes that became damaged during the run (damage >= threshold in the
 last frame, not in the first) within R of the tip (default: a fifth of the body's size) are
@@ -14,7 +14,10 @@ the nodes above (+1) or below (-1) the tip: the side a Kalthoff-Winkler crack ru
 from the impact zone between the notches. With --time T the frame at T (the last one at or
 before it) is measured instead of the last: the Kalthoff-Winkler angle is the direction in which
 the cracks leave the tips, before they branch and before the waves reflected from the back edge
-open cracks of their own.
+open cracks of their own. With --from R0 only the damaged nodes at least R0 from the tip count,
+and the line is fitted through their centroid instead of through the tip: the direction of the
+crack path away from the tip, where a crack that first runs a little along the notch line and
+then turns would otherwise be averaged with that first part.
 """
 import argparse
 import math
@@ -32,6 +35,7 @@ def main():
     ap.add_argument("--threshold", type=float, default=0.2)
     ap.add_argument("--ahead", action="store_true")
     ap.add_argument("--time", type=float)
+    ap.add_argument("--from", dest="r0", type=float, default=0.0)
     a = ap.parse_args()
     fs = frames(a.outdir)
     last = fs[-1]
@@ -49,7 +53,8 @@ def main():
         parts = [float(v) for v in tip_s.split(",")]
         side = parts[2] if len(parts) > 2 else 0.0
         tip = np.array(parts[:2] + [0.0])
-        near = new & (np.linalg.norm(ref - tip, axis=1) <= radius)
+        dist = np.linalg.norm(ref - tip, axis=1)
+        near = new & (dist <= radius) & (dist >= a.r0)
         if side != 0.0:
             near &= (ref[:, 1] - tip[1]) * side > 0
         if a.ahead:
@@ -59,8 +64,10 @@ def main():
             print(f"crack_angle: tip {tip_s}: no crack grew (fewer than 3 new damaged nodes within {radius:.3e} m)")
             continue
         off = pts - tip
-        # Direction: principal axis of the offsets, oriented away from the tip.
-        u, s, vt = np.linalg.svd(off[:, :2], full_matrices=False)
+        # Direction: principal axis of the offsets (from the tip, or from their centroid with
+        # --from), oriented away from the tip.
+        centre = off.mean(axis=0) if a.r0 > 0 else np.zeros(3)
+        u, s, vt = np.linalg.svd(off[:, :2] - centre[:2], full_matrices=False)
         d = vt[0]
         if np.dot(off[:, :2].mean(axis=0), d) < 0:
             d = -d

@@ -22,7 +22,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
-def synthetic(outdir, branch=False):
+def synthetic(outdir, branch=False, kink=False):
     n = 81
     xs, ys = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n))
     pts = np.column_stack([xs.ravel(), ys.ravel(), np.zeros(n * n)])
@@ -33,6 +33,14 @@ def synthetic(outdir, branch=False):
     along = rel @ [math.cos(a), math.sin(a)]
     across = np.abs(rel @ [-math.sin(a), math.cos(a)])
     crack = (along > 0) & (along <= 0.3) & (across < 0.6 * h)
+    if kink:
+        # The crack first runs 0.05 along the notch line, then turns to 70 degrees.
+        k0 = np.array([0.55, 0.5])
+        rel_k = pts[:, :2] - k0
+        along_k = rel_k @ [math.cos(a), math.sin(a)]
+        across_k = np.abs(rel_k @ [-math.sin(a), math.cos(a)])
+        first = (rel[:, 0] > 0) & (rel[:, 0] <= 0.05) & (np.abs(rel[:, 1]) < 0.6 * h)
+        crack = first | ((along_k > 0) & (along_k <= 0.3) & (across_k < 0.6 * h))
     # A later frame (with branch=True) adds a branch along the notch line: --time must see past it.
     flat = (rel[:, 0] > 0) & (rel[:, 0] <= 0.3) & (np.abs(rel[:, 1]) < 0.6 * h)
     states = [(0.0, notch), (1e-5, notch | crack)]
@@ -86,6 +94,14 @@ def main():
         check(code == 0 and abs(angle - 70.0) > 10.0, f"crack_angle sees the later branch without --time: {out.strip()}")
         code, out = run(os.path.join(HERE, "crack_angle.py"), d, "--tip", "0.5,0.5", "--time", "-1")
         check(code != 0 and "no frame" in out, f"crack_angle --time before the first frame: {out.strip()}")
+    with tempfile.TemporaryDirectory() as d:
+        synthetic(d, kink=True)
+        code, out = run(os.path.join(HERE, "crack_angle.py"), d, "--tip", "0.5,0.5", "--radius", "0.4", "--from", "0.12")
+        angle = float(out.split("tip 0.5,0.5: ")[1].split(" degrees")[0]) if "degrees" in out else float("nan")
+        check(code == 0 and abs(angle - 70.0) < 2.0, f"crack_angle --from past a first straight stretch: {out.strip()}")
+        code, out = run(os.path.join(HERE, "crack_angle.py"), d, "--tip", "0.5,0.5", "--radius", "0.4")
+        angle = float(out.split("tip 0.5,0.5: ")[1].split(" degrees")[0]) if "degrees" in out else float("nan")
+        check(code == 0 and angle < 65.0, f"crack_angle through the tip averages the straight stretch in: {out.strip()}")
     return check.finish()
 
 
