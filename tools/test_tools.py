@@ -84,6 +84,10 @@ def main():
         check(code == 0 and os.path.getsize(os.path.join(d, "png", "damage_000001.png")) > 1000, f"render_damage: {out.strip()[-300:]}")
         code, out = run(os.path.join(HERE, "energy_plot.py"), d)
         check(code == 0 and os.path.getsize(os.path.join(d, "energy.png")) > 1000, f"energy_plot: {out.strip()}")
+        code, out = run(os.path.join(HERE, "crack_map.py"), d, "--times", "0,1e-5")
+        check(code == 0 and os.path.getsize(os.path.join(d, "crack_map.png")) > 1000, f"crack_map: {out.strip()}")
+        code, out = run(os.path.join(HERE, "crack_map.py"), d, "--times", "-1")
+        check(code != 0 and "no frame" in out, f"crack_map before the first frame: {out.strip()}")
     with tempfile.TemporaryDirectory() as d:
         synthetic(d, branch=True)
         code, out = run(os.path.join(HERE, "crack_angle.py"), d, "--tip", "0.5,0.5", "--radius", "0.4", "--time", "1.5e-5")
