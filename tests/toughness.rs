@@ -173,30 +173,31 @@ fn dynamic_strip(nu: Real, over: Real, ramp: Real, damping: Real) -> (Real, usiz
     (tip - notch, on, off, vmax / c_r)
 }
 
-/// The dynamic mode-I crack on the regular hexagonal lattice: grips opened smoothly to 1.2 G_c
-/// over 400 time units and held, mass-proportional damping 0.05. Wanted as in the random-lattice
-/// test; **fails, and is kept as the record of why mode-I cases use a random lattice**: the
-/// crack leaves its row after a few spacings (nu = 0: 112 springs on the line, 270 off it;
-/// nu = 0.45: 8 on, 377 off) and runs along the lattice's 60-degree directions, undamped too.
-/// The lattice-trapping factor of 3 to 7 makes a crack start overdriven, and the six-fold
-/// lattice offers it easy paths off the line. `cargo test --release -p hooke-tests --test
-/// toughness -- --ignored --nocapture`.
+/// The dynamic mode-I crack on the regular hexagonal lattice, a record of why the mode-I and
+/// Kalthoff-Winkler cases use a random lattice: grips opened smoothly to 1.2 G_c over 400 time
+/// units and held, mass-proportional damping 0.05, as in the random-lattice test. The crack does
+/// not stay on its row: it leaves it after a few spacings and runs along the lattice's 60-degree
+/// directions, so more springs break off the line than on it (nu = 0 / 0.25 / 0.45: 112 / 65 / 8
+/// on, 270 / 233 / 377 off). The
+/// lattice-trapping factor of 3 to 7 makes the crack start overdriven, and the six-fold lattice
+/// offers it easy paths off the line. Should a change make the hexagonal crack run straight,
+/// this test fails and the cases and the README should say so. `cargo test --release -p
+/// hooke-tests --test toughness -- --ignored --nocapture`.
 #[test]
-#[ignore = "fails by design of the regular lattice: dynamic cracks leave their row (see the fracture issue)"]
-fn dynamic_mode_one_crack_runs_straight_below_the_rayleigh_speed() {
+#[ignore = "slow-ish record of a lattice limitation (about 30 s)"]
+fn dynamic_crack_on_the_regular_hexagonal_lattice_leaves_its_row() {
     for nu in [0.0, 0.25, 0.45] {
         let (growth, on, off, v) = dynamic_strip(nu, 1.2, 400.0, 0.05);
         eprintln!("hex nu = {nu}: growth {growth:.1}, {on} springs on the line, {off} off it, fastest {v:.3} c_R");
         assert!(
-            growth >= 60.0,
-            "nu = {nu}: the crack grew {growth:.1} spacings"
-        );
-        assert!(
-            off * 20 <= on + off,
-            "nu = {nu}: {off} of {} springs off the line",
+            on + off >= 100,
+            "nu = {nu}: only {} springs broke",
             on + off
         );
-        assert!(v > 0.0 && v < 1.0, "nu = {nu}: tip speed {v:.3} c_R");
+        assert!(
+            off > on,
+            "nu = {nu}: the crack stayed on its row ({on} on, {off} off): update the cases and the README"
+        );
     }
 }
 
