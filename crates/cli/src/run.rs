@@ -239,6 +239,34 @@ pub fn check(args: CheckArgs) -> Result<()> {
         it2.step(&sim.body, &mut probe);
     }
     let per_step = t0.elapsed().as_secs_f64() / trial as f64;
+    // One output frame and a checkpoint into a scratch folder, so that the peak measured below
+    // includes what writing them costs (both are assembled in memory before they are written).
+    let scratch = std::env::temp_dir().join(format!("hooke-check-{}", std::process::id()));
+    std::fs::create_dir_all(&scratch).with_context(|| format!("creating {}", scratch.display()))?;
+    let written = open_output(&sim, &scratch, "probe", false, 0.0)
+        .and_then(|mut o| {
+            let zero = hooke_core::Coords::zeros(n);
+            o.write(
+                &sim.body,
+                &probe,
+                &zero,
+                sim.fracture.as_ref(),
+                &sim.regions,
+            )
+        })
+        .and_then(|_| {
+            Checkpoint {
+                digest: 0,
+                state: probe.clone(),
+                integrator: it2.checkpoint(),
+                broken: 0,
+                released: 0.0,
+            }
+            .save(&scratch.join("probe.ckpt"))?;
+            Ok(())
+        });
+    let _ = std::fs::remove_dir_all(&scratch);
+    written?;
     let bytes = 168 * n + 41 * s;
     println!("{}: valid", args.case.display());
     println!(
@@ -322,8 +350,14 @@ pub fn check(args: CheckArgs) -> Result<()> {
         it.dt, it.stable.dt_critical, steps, sim.end_time
     );
     println!(
-        "  memory       about {:.1} MiB",
-        bytes as f64 / (1 << 20) as f64
+        "  memory       about {:.1} MiB for the state; peak {} while checking (set-up, a few \
+         steps, one output frame and a checkpoint; a run's own peak, printed at its end, lies within \
+         about a third of it)",
+        bytes as f64 / (1 << 20) as f64,
+        crate::bench::peak_memory().map_or("unknown".to_string(), |b| format!(
+            "{:.0} MiB",
+            b as f64 / (1 << 20) as f64
+        ))
     );
     println!(
         "  time         {:.3} ms per step, about {:.1} s in all",
@@ -607,6 +641,9 @@ pub fn run(args: RunArgs) -> Result<()> {
         energy_path.display(),
         ckpt_path.display()
     );
+    if let Some(b) = crate::bench::peak_memory() {
+        println!("  peak memory {:.0} MiB", b as f64 / (1 << 20) as f64);
+    }
     Ok(())
 }
 

@@ -349,3 +349,41 @@ fn run_energy(case: &std::path::Path, scale: &str, out: &std::path::Path) -> (St
         .collect();
     (csv, last)
 }
+
+/// `hooke check` measures the memory a run needs: it builds the case, takes a few steps and
+/// writes one frame and one checkpoint into a scratch folder, which it removes, and prints the
+/// peak; `hooke run` prints its own peak at the end.
+#[test]
+fn check_measures_the_peak_memory_and_cleans_up() {
+    let case = cases_dir().join("mode1_plate.toml");
+    let child = Command::new(env!("CARGO_BIN_EXE_hooke"))
+        .args(["check", case.to_str().unwrap(), "--scale", "0.25"])
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let scratch = std::env::temp_dir().join(format!("hooke-check-{}", child.id()));
+    let o = child.wait_with_output().unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{text}");
+    assert!(!scratch.exists(), "{} left behind", scratch.display());
+    let line = text.lines().find(|l| l.contains("memory")).unwrap();
+    let peak: f64 = line
+        .split("peak ")
+        .nth(1)
+        .and_then(|r| r.split(" MiB").next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no peak in {line}"));
+    assert!(peak > 1.0 && peak < 4096.0, "{line}");
+    let out = tmp("peak");
+    let o = hooke(&[
+        "run",
+        case.to_str().unwrap(),
+        "--scale",
+        "0.25",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success() && text.contains("peak memory"), "{text}");
+    std::fs::remove_dir_all(&out).ok();
+}
