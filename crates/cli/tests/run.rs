@@ -72,16 +72,8 @@ fn every_shipped_case_checks_and_runs_at_reduced_resolution() {
 fn an_existing_run_is_never_overwritten_silently() {
     let out = tmp("twice");
     let case = cases_dir().join("mode1_plate.toml");
-    let args = [
-        "run",
-        case.to_str().unwrap(),
-        "--scale",
-        "0.25",
-        "--out",
-        out.to_str().unwrap(),
-    ];
-    assert!(hooke(&args).status.success());
-    let o = hooke(&args);
+    assert!(run_scaled(&case, "0.25", &out).status.success());
+    let o = run_scaled(&case, "0.25", &out);
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("already holds a run"));
     std::fs::remove_dir_all(&out).ok();
@@ -329,14 +321,7 @@ fn quasi_static_crack_growth_books_the_energy_it_dissipates() {
 
 /// Run CASE at `scale` into `out`: its energy history and the history's last row.
 fn run_energy(case: &std::path::Path, scale: &str, out: &std::path::Path) -> (String, Vec<f64>) {
-    let o = hooke(&[
-        "run",
-        case.to_str().unwrap(),
-        "--scale",
-        scale,
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = run_scaled(case, scale, out);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stem = case.file_stem().unwrap().to_str().unwrap();
     let csv = std::fs::read_to_string(out.join(format!("{stem}_energy.csv"))).unwrap();
@@ -375,15 +360,20 @@ fn check_measures_the_peak_memory_and_cleans_up() {
         .unwrap_or_else(|| panic!("no peak in {line}"));
     assert!(peak > 1.0 && peak < 4096.0, "{line}");
     let out = tmp("peak");
-    let o = hooke(&[
-        "run",
-        case.to_str().unwrap(),
-        "--scale",
-        "0.25",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = run_scaled(&case, "0.25", &out);
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success() && text.contains("peak memory"), "{text}");
     std::fs::remove_dir_all(&out).ok();
+}
+
+/// `hooke run CASE --scale SCALE --out OUT`.
+fn run_scaled(case: &std::path::Path, scale: &str, out: &std::path::Path) -> Output {
+    hooke(&[
+        "run",
+        case.to_str().unwrap(),
+        "--scale",
+        scale,
+        "--out",
+        out.to_str().unwrap(),
+    ])
 }
