@@ -396,8 +396,8 @@ fn dynamic_strip_random(nu: Real, over: Real, height: Real, seed: u64) -> Dynami
 /// held, nu_2D = 0, 0.22 (glass) and 0.25, two node sets each. Wanted: the crack crosses the
 /// strip (at least 130 spacings of growth); it is open and traction-free behind its tip (the
 /// halves have moved apart by more than 0.8 of the grips' opening); it is straight (path slope
-/// below 0.05 and every broken spring within 8 spacings of the line, while the grips are 17.5
-/// away); its tip stays below c_R. Measured (the test prints them): growth 140, band 5.0-7.7
+/// below 0.05 and every broken spring within 10 spacings of the line, while the grips are 17.5
+/// away: a branch would run to them); its tip stays below c_R. Measured (the test prints them): growth 140, band 5.0-7.7
 /// spacings, opening 0.90-0.94, tip 0.82-0.87 c_R, slope below 0.026. The crack is rough on the
 /// lattice scale and micro-branches (about half the broken springs lie more than 2 spacings
 /// off the line) at these speeds, as brittle cracks do above about 0.4 c_R, but no branch
@@ -416,7 +416,7 @@ fn dynamic_mode_one_crack_on_a_random_lattice_runs_straight_below_the_rayleigh_s
                 "nu = {nu}, seed {seed}: the crack is not open behind its tip: {c:?}"
             );
             assert!(
-                c.slope.abs() < 0.05 && c.band <= 8.0,
+                c.slope.abs() < 0.05 && c.band <= 10.0,
                 "nu = {nu}, seed {seed}: not straight: {c:?}"
             );
             assert!(
@@ -430,7 +430,8 @@ fn dynamic_mode_one_crack_on_a_random_lattice_runs_straight_below_the_rayleigh_s
 /// The damage band of the running crack is set by the lattice, not the specimen: in a strip
 /// twice as high (70 spacings, grips opened to 1.3 G_c: at 1.1-1.2 the crack in the taller strip
 /// can arrest on a tough spot of the disorder) the broken springs lie no further from the line
-/// than in the 35-spacing strip (8 spacings; measured 4.4-6.6). In physical units the band
+/// than in the 35-spacing strip (at most 8 spacings, where the 35-spacing strips reached 7.7;
+/// measured 4.4-6.6). In physical units the band
 /// therefore shrinks with the spacing and the crack converges to a line. Measured tip speeds
 /// 0.63-0.70 c_R. About 10 s.
 #[test]

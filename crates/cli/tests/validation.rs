@@ -141,14 +141,15 @@ fn glass_plate_branches_below_the_rayleigh_speed() {
 /// The mode-I plate at full resolution (`cases/mode1_plate.toml`: glass, random lattice, edges
 /// pulled apart): one crack leaves the notch tip and runs straight across the plate, its tip
 /// slower than the Rayleigh wave (about 3.1 km/s for this glass). Straight: until it reaches
-/// the far edge, every newly damaged node lies within 4 mm (8 spacings) of the notch line, in a
+/// the far edge, every newly damaged node lies within 5 mm (10 spacings) of the notch line, in a
 /// 30 mm high plate, and the mean line of the damage drifts by less than 1.5 mm. One crack:
 /// at the end, from x = 20 to 50 mm, the mean vertical displacement 5-7 mm above the notch line
 /// minus that 5-7 mm below is more than 0.8 of the loaded edges' opening, which a
 /// traction-free cut gives (an uncut, uniformly strained plate gives 12/30 = 0.4). Measured:
 /// the crack crosses 45 mm in about 16 us (2.4 km/s on average, up to 3.0 km/s over three
 /// frames, 0.97 of the 3.1 km/s used here, 0.95 of the exact plane-stress c_R of 3.17 km/s),
-/// band 3.3 mm, drift 0.01 mm, opening 0.92.
+/// band 3.3 mm, drift 0.01 mm, opening 0.92. Other node sets (seed = 2, 3): band 4.2 and 2.3
+/// mm, tip speed up to 3.0 and 2.8 km/s.
 #[test]
 #[ignore = "full resolution: about 10 s"]
 fn mode_one_plate_grows_one_straight_crack_below_the_rayleigh_speed() {
@@ -232,7 +233,7 @@ fn mode_one_plate_grows_one_straight_crack_below_the_rayleigh_speed() {
         "the crack did not cross the plate"
     );
     assert!(opening > 0.8, "the plate is not cut: opening {opening}");
-    assert!(band < 4e-3, "damage {band} m off the notch line");
+    assert!(band < 5e-3, "damage {band} m off the notch line");
     assert!(drift < 1.5e-3, "the crack drifts by {drift} m");
     assert!(speed > 0.0 && speed < c_r, "tip speed {speed} m/s");
     std::fs::remove_dir_all(&out).ok();
