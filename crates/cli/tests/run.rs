@@ -287,9 +287,11 @@ fn quasi_static_run_balances_work_and_strain_energy() {
 /// quarter of its resolution): the crack crosses the plate in a few load steps, and the energy
 /// balance still closes, because the energy each re-equilibration after a break loses (what a
 /// running crack radiates) is booked as `dissipated`. Work in = strain energy + released +
-/// dissipated within 1e-4 of the work (measured 1.4e-7), and released + dissipated, the whole
-/// cost of the crack, is G_c times the crack area within 20 % (measured 0.90; 1.00 at half
-/// resolution).
+/// dissipated within 1e-4 of the work (measured 1.4e-7). Released + dissipated, the crack's
+/// whole cost, cannot be less than G_c times the crack area (Griffith), and is more when the
+/// crack runs unstably (the energy stored beyond G_c when it starts is lost in the run): wanted
+/// at least 0.8 G_c A, the lattice toughness's scatter on a coarse lattice (measured 0.90 here;
+/// 1.00 at half and 1.40 at full resolution).
 #[test]
 fn quasi_static_crack_growth_books_the_energy_it_dissipates() {
     let dir = tmp("qs-crack");
@@ -315,7 +317,7 @@ fn quasi_static_crack_growth_books_the_energy_it_dissipates() {
     eprintln!("work {work:.4e} J, strain {strain:.4e}, released {released:.4e}, dissipated {dissipated:.4e}, balance {error:.2e}, crack cost / (G_c A) {cost:.3}");
     assert!(error.abs() < 1e-4, "balance error {error}");
     assert!(dissipated > 0.0, "nothing dissipated: {dissipated}");
-    assert!((cost - 1.0).abs() < 0.2, "crack cost {cost} G_c A");
+    assert!(cost > 0.8, "crack cost {cost} G_c A");
     std::fs::remove_dir_all(&dir).ok();
 }
 
