@@ -11,8 +11,8 @@ towards +y. Prints one angle per tip; Kalthoff and Winkler observed about 70 deg
 With --ahead only the nodes ahead of the tip (x beyond it) count: in the Kalthoff-Winkler test
 the damage behind the tips is the crushed impact zone, not the crack. SIDE (+1 or -1) keeps only
 the nodes above (+1) or below (-1) the tip: the side a Kalthoff-Winkler crack runs to, away
-from the impact zone between the notches. With --time T the frame at T (the last one at or
-before it) is measured instead of the last: the Kalthoff-Winkler angle is the direction in which
+from the impact zone between the notches. With --time T the frame nearest to T is measured
+instead of the last: the Kalthoff-Winkler angle is the direction in which
 the cracks leave the tips, before they branch and before the waves reflected from the back edge
 open cracks of their own. With --from R0 only the damaged nodes at least R0 from the tip count,
 and the line is fitted through their centroid instead of through the tip: the direction of the
@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from hooke_output import frames, read
+from hooke_output import frame_near, frames, read
 
 
 def main():
@@ -38,12 +38,9 @@ def main():
     ap.add_argument("--from", dest="r0", type=float, default=0.0)
     a = ap.parse_args()
     fs = frames(a.outdir)
-    last = fs[-1]
+    last = fs[-1] if a.time is None else frame_near(fs, a.time)
     if a.time is not None:
-        before = [f for f in fs if f[0] <= a.time * (1 + 1e-9)]
-        if not before:
-            raise SystemExit(f"crack_angle: no frame at or before t = {a.time:e} s (the first is at {fs[0][0]:e} s)")
-        last = before[-1]
+        print(f"crack_angle: frame at t = {last[0]:.6e} s")
     m0, m1 = read(fs[0][1]), read(last[1])
     ref = np.asarray(m1.points) - np.asarray(m1.point_data["displacement"])
     new = (np.asarray(m1.point_data["damage"]) >= a.threshold) & (np.asarray(m0.point_data["damage"]) < a.threshold)

@@ -3,7 +3,7 @@
 
     python3 tools/crack_map.py OUTDIR [--times T1,T2,...] [--threshold 0.2] [--out PNG] [--dpi 80]
 
-One panel per time (the last frame at or before it; default: a third, two thirds and the end of
+One panel per time (the frame nearest to it; default: a third, two thirds and the end of
 the run). Intact nodes are drawn faintly, nodes with damage >= threshold coloured by damage, so
 crack paths stay readable at any resolution (a damage colour map over every node hides them
 once there are more nodes than pixels). Axes in mm. Writes OUTDIR/crack_map.png unless --out
@@ -15,7 +15,7 @@ import os
 import matplotlib
 import numpy as np
 
-from hooke_output import frames, read
+from hooke_output import frame_near, frames, read
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -31,12 +31,7 @@ def main():
     a = ap.parse_args()
     fs = frames(a.outdir)
     if a.times:
-        picks = []
-        for t in (float(v) for v in a.times.split(",")):
-            before = [f for f in fs if f[0] <= t * (1 + 1e-9)]
-            if not before:
-                raise SystemExit(f"crack_map: no frame at or before t = {t:e} s (the first is at {fs[0][0]:e} s)")
-            picks.append(before[-1])
+        picks = [frame_near(fs, float(v)) for v in a.times.split(",")]
     else:
         n = len(fs)
         picks = [fs[max(n // 3, 0)], fs[max(2 * n // 3, 0)], fs[-1]]

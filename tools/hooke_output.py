@@ -25,6 +25,13 @@ def frames(outdir):
     return sorted(out)
 
 
+def frame_near(fs, t):
+    """The frame of `fs` (from `frames`) whose time is nearest to `t`: frames are written at the
+    first step at or after each output time, so a frame meant for t may carry a time just past
+    it."""
+    return min(fs, key=lambda f: abs(f[0] - t))
+
+
 def read(path):
     """Points (reference + displacement are both available) and point data of one frame."""
     mesh = pv.read(path)

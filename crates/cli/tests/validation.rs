@@ -245,7 +245,7 @@ fn mode_one_plate_grows_one_straight_crack_below_the_rayleigh_speed() {
 /// (the shear-band mode). The angle is measured by `tools/crack_angle.py` at 30 us, before the
 /// cracks branch, through the tip: wanted between 45 and 90 degrees above the upper notch and
 /// below the lower one (Kalthoff and Winkler: about 70). Measured +52 / -56 degrees (seed 1;
-/// seed 2: +61 / -65). Needs python3 with numpy and meshio (`tools/requirements.txt`).
+/// seed 2: +61 / -64; at half the spacing +62 / -59). Needs python3 with numpy and meshio (`tools/requirements.txt`).
 #[test]
 #[ignore = "full resolution: about 4 minutes"]
 fn kalthoff_winkler_cracks_leave_the_notches_steeply() {
