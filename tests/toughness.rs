@@ -26,30 +26,59 @@ fn dissipated_energy_per_crack_area_matches_g_c() {
     for (kind, h) in [(LatticeKind::Hex, 24), (LatticeKind::Cubic, 24)] {
         for nu in [0.0, 0.25, 0.45] {
             let q = q_from_nu(kind, nu).unwrap();
-            let t = StripTest::new(kind, q, h, 10);
-            let r = strip_test(&t).unwrap();
-            eprintln!(
-                "{kind:?} nu = {nu}: G_measured / G_c = {:.4}, release / G_c = {:.4}, {} broken, \
-                 {} off the plane",
-                r.ratio(),
-                r.g_release / r.g_calibrated,
-                r.broken,
-                r.off_plane
-            );
-            assert!(
-                (r.ratio() - 1.0).abs() < 0.05,
-                "{kind:?} nu = {nu}: dissipated {:.4} G_c",
-                r.ratio()
-            );
+            let r = strip_dissipates_g_c(&StripTest::new(kind, q, h, 10), nu);
             let steady = kind == LatticeKind::Hex || nu < 0.4;
             assert!(
                 !steady || (r.g_release / r.g_calibrated - 1.0).abs() < 0.05,
                 "{kind:?} nu = {nu}: release {:.4} G_c",
                 r.g_release / r.g_calibrated
             );
-            assert!(r.window >= 9.0 && r.off_plane * 10 <= r.broken);
         }
     }
+}
+
+/// The spring-energy criterion, calibrated to the same G_c (`SpringEnergy::from_fracture_energy`
+/// divides its own measured toughness out of w_c): the same strips dissipate G_c within 5 %
+/// (hex nu_2D = -0.5, 0, 0.45; cubic nu = 0, 0.4). Uncalibrated (w_c matched to s_c under
+/// uniform stretch) the energy crack dissipates from 0.10 (hex, nu_2D = -0.9) to 4.3 (cubic,
+/// 0.45) times the stretch criterion's. Cubic nu = 0.45 is outside the energy criterion's
+/// range: the calibration strip's crack roughened there, and this strip gives 0.85 G_c.
+#[test]
+fn energy_criterion_dissipates_g_c() {
+    for (kind, h, nus) in [
+        (LatticeKind::Hex, 24, &[-0.5, 0.0, 0.45][..]),
+        (LatticeKind::Cubic, 24, &[0.0, 0.4][..]),
+    ] {
+        for &nu in nus {
+            let q = q_from_nu(kind, nu).unwrap();
+            let mut t = StripTest::new(kind, q, h, 10);
+            t.energy = true;
+            strip_dissipates_g_c(&t, nu);
+        }
+    }
+}
+
+/// Run a strip, print its figures, and check that its crack dissipated G_c within 5 %, over a
+/// window of at least 9 spacings, with at most a tenth of the broken springs off the plane.
+fn strip_dissipates_g_c(t: &StripTest, nu: Real) -> hooke_fracture::toughness::StripResult {
+    let kind = t.kind;
+    let r = strip_test(t).unwrap();
+    eprintln!(
+        "{kind:?} nu = {nu}, {} criterion: G_measured / G_c = {:.4}, release / G_c = {:.4}, {} \
+         broken, {} off the plane",
+        if t.energy { "energy" } else { "stretch" },
+        r.ratio(),
+        r.g_release / r.g_calibrated,
+        r.broken,
+        r.off_plane
+    );
+    assert!(
+        (r.ratio() - 1.0).abs() < 0.05,
+        "{kind:?} nu = {nu}: dissipated {:.4} G_c",
+        r.ratio()
+    );
+    assert!(r.window >= 9.0 && r.off_plane * 10 <= r.broken);
+    r
 }
 
 /// Rayleigh speed from c_T and c_L: the root in (0, 1) of
@@ -410,7 +439,10 @@ fn dynamic_mode_one_crack_on_a_random_lattice_runs_straight_below_the_rayleigh_s
         for seed in [1, 2] {
             let c = dynamic_strip_random(nu, 1.1, 35.0, seed);
             eprintln!("random2d nu = {nu}, seed {seed}: {c:?}");
-            assert!(c.growth >= 130.0, "nu = {nu}, seed {seed}: {c:?}");
+            assert!(
+                c.growth >= 130.0 && c.broken >= 140,
+                "nu = {nu}, seed {seed}: {c:?}"
+            );
             assert!(
                 c.opening > 0.8,
                 "nu = {nu}, seed {seed}: the crack is not open behind its tip: {c:?}"

@@ -711,7 +711,7 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
     let mut state = State::new(&body);
 
     // Fracture.
-    let criterion = match (&m.fracture_energy, &m.critical_stretch) {
+    let stretch = match (&m.fracture_energy, &m.critical_stretch) {
         (Some(g), None) => Some(
             CriticalStretch::from_fracture_energy(
                 kind,
@@ -740,7 +740,58 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
         }
         (None, None) => None,
     };
-    let mut fracture = criterion.map(|c| Fracture::new(&body, Box::new(c)));
+    // The criterion: the critical stretch itself, or the spring energy calibrated to the same
+    // G_c (regular lattices only: see hooke_fracture::energy).
+    let energy =
+        match &m.criterion {
+            None => false,
+            Some(c) => match c.get_ref().as_str() {
+                "stretch" => false,
+                "energy" if kind.is_random() => return Err(ctx.err(
+                    c.span(),
+                    "material.criterion",
+                    "the energy criterion is calibrated on the hex and cubic lattices (a random \
+                     lattice's springs differ in stiffness); use \"stretch\" here",
+                )),
+                "energy" => true,
+                other => {
+                    return Err(ctx.err(
+                        c.span(),
+                        "material.criterion",
+                        format!("unknown criterion \"{other}\"; use \"stretch\" or \"energy\""),
+                    ))
+                }
+            },
+        };
+    if let (Some(c), None) = (&m.criterion, &stretch) {
+        return Err(ctx.err(
+            c.span(),
+            "material.criterion",
+            "a criterion needs fracture_energy or critical_stretch; give one, or remove criterion",
+        ));
+    }
+    let criterion: Option<Box<dyn hooke_fracture::Criterion>> = match stretch {
+        Some(c) if energy => {
+            let e = match &m.fracture_energy {
+                Some(g) => hooke_fracture::SpringEnergy::from_fracture_energy(
+                    kind,
+                    k,
+                    a,
+                    q,
+                    h,
+                    *g.get_ref(),
+                ),
+                None => hooke_fracture::SpringEnergy::matching(c.s_c, k, q, a),
+            };
+            let span = m.criterion.as_ref().map_or(0..0, |c| c.span());
+            Some(Box::new(e.map_err(|e| {
+                ctx.err(span, "material.criterion", e.to_string())
+            })?))
+        }
+        Some(c) => Some(Box::new(c)),
+        None => None,
+    };
+    let mut fracture = criterion.map(|c| Fracture::new(&body, c));
     let mut precracked = 0;
     for (n, c) in raw.precrack.iter().enumerate() {
         let key = format!("precrack[{n}]");

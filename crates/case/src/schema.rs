@@ -130,6 +130,8 @@ pub struct RawMaterial {
     pub density: Spanned<Real>,
     pub fracture_energy: Option<Spanned<Real>>,
     pub critical_stretch: Option<Spanned<Real>>,
+    /// `"stretch"` (default) or `"energy"`.
+    pub criterion: Option<Spanned<String>>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -201,7 +201,10 @@ pub fn run(args: ToughnessArgs) -> Result<()> {
         }
         rows.push((
             nu,
-            if kind.is_random() {
+            if j.criterion == "energy" {
+                // The energy criterion tabulates its toughness over the stretch calibration.
+                j.ratio * hooke_fracture::energy::energy_toughness_factor(kind, j.nu)
+            } else if kind.is_random() {
                 // Random lattices tabulate the factor on the hexagonal mapping.
                 j.ratio * hooke_fracture::stretch::random_toughness_factor(kind, j.nu)
             } else {
@@ -210,9 +213,12 @@ pub fn run(args: ToughnessArgs) -> Result<()> {
         ));
     }
     if args.table {
-        let name = match kind {
-            LatticeKind::Cubic => "CUBIC_TOUGHNESS",
-            LatticeKind::Random2d => "RANDOM2D_TOUGHNESS",
+        let energy = matches!(args.criterion, CriterionArg::Energy);
+        let name = match (kind, energy) {
+            (LatticeKind::Cubic, true) => "CUBIC_ENERGY_FACTOR",
+            (_, true) => "HEX_ENERGY_FACTOR",
+            (LatticeKind::Cubic, false) => "CUBIC_TOUGHNESS",
+            (LatticeKind::Random2d, false) => "RANDOM2D_TOUGHNESS",
             _ => "HEX_TOUGHNESS",
         };
         println!("const {name}: &[(Real, Real)] = &[");

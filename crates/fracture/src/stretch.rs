@@ -164,10 +164,14 @@ const RANDOM2D_TOUGHNESS: &[(Real, Real)] = &[
 /// F for a random lattice at its nu (1 for regular lattices, and for random3d, whose strip
 /// experiment is not run), interpolated linearly in nu and held at the ends.
 pub fn random_toughness_factor(kind: LatticeKind, nu: Real) -> Real {
-    let t: &[(Real, Real)] = match kind {
-        LatticeKind::Random2d => RANDOM2D_TOUGHNESS,
-        _ => return 1.0,
-    };
+    match kind {
+        LatticeKind::Random2d => interpolate(RANDOM2D_TOUGHNESS, nu),
+        _ => 1.0,
+    }
+}
+
+/// A measured table `(nu, value)` at `nu`: linear between its rows, held at its end values.
+pub(crate) fn interpolate(t: &[(Real, Real)], nu: Real) -> Real {
     let (Some(first), Some(last)) = (t.first(), t.last()) else {
         return 1.0;
     };
@@ -254,18 +258,7 @@ fn table(kind: LatticeKind) -> &'static [(Real, Real)] {
 /// The lattice toughness coefficient `Gamma` at the material's q: the measured table,
 /// interpolated linearly in nu and held at its end values outside it.
 pub fn lattice_toughness(kind: LatticeKind, q: Real) -> Real {
-    let t = table(kind);
-    let nu = nu_from_q(kind, q);
-    if nu <= t[0].0 {
-        return t[0].1;
-    }
-    for w in t.windows(2) {
-        let ((x0, y0), (x1, y1)) = (w[0], w[1]);
-        if nu <= x1 {
-            return y0 + (y1 - y0) * (nu - x0) / (x1 - x0);
-        }
-    }
-    t[t.len() - 1].1
+    interpolate(table(kind), nu_from_q(kind, q))
 }
 
 impl Criterion for CriticalStretch {
