@@ -240,12 +240,13 @@ fn mode_one_plate_grows_one_straight_crack_below_the_rayleigh_speed() {
 }
 
 /// The Kalthoff-Winkler test at full resolution (`cases/kalthoff_winkler.toml`: random lattice
-/// at 0.25 mm, plane stress, a rigid projectile at 32 m/s): a crack leaves each notch tip
-/// steeply towards the back of the plate, away from the impact zone, not along the notch line
-/// (the shear-band mode). The angle is measured by `tools/crack_angle.py` at 30 us, before the
-/// cracks branch, through the tip: wanted between 45 and 90 degrees above the upper notch and
-/// below the lower one (Kalthoff and Winkler: about 70). Measured +52 / -56 degrees (seed 1;
-/// seed 2: +61 / -64; at half the spacing +62 / -59). Needs python3 with numpy and meshio (`tools/requirements.txt`).
+/// at 0.25 mm, plane stress, 1.5 mm wide notches, a rigid projectile at 32 m/s): a crack leaves
+/// each notch end steeply towards the back of the plate, away from the impact zone, not along
+/// the notch line (the shear-band mode). The angle is measured by `tools/crack_angle.py` at
+/// 30 us, before the cracks branch, from the notch end's outer corner: wanted between 55 and 85
+/// degrees above the upper notch and below the lower one (Kalthoff and Winkler: about 70).
+/// Measured +64 / -66 degrees (seed 1; seed 2: +67 / -70). Needs python3 with numpy and meshio
+/// (`tools/requirements.txt`).
 #[test]
 #[ignore = "full resolution: about 4 minutes"]
 fn kalthoff_winkler_cracks_leave_the_notches_steeply() {
@@ -256,9 +257,9 @@ fn kalthoff_winkler_cracks_leave_the_notches_steeply() {
         .arg(&out)
         .args([
             "--tip",
-            "50e-3,124.6e-3,1",
+            "50e-3,125.75e-3,1",
             "--tip",
-            "50e-3,75.4e-3,-1",
+            "50e-3,74.25e-3,-1",
             "--ahead",
             "--time",
             "30e-6",
@@ -280,7 +281,7 @@ fn kalthoff_winkler_cracks_leave_the_notches_steeply() {
     eprintln!("Kalthoff-Winkler crack angles at 30 us: {angles:?} degrees");
     assert_eq!(angles.len(), 2, "{text}");
     assert!(
-        (45.0..=90.0).contains(&angles[0]) && (-90.0..=-45.0).contains(&angles[1]),
+        (55.0..=85.0).contains(&angles[0]) && (-85.0..=-55.0).contains(&angles[1]),
         "crack angles {angles:?}"
     );
     std::fs::remove_dir_all(&out).ok();
