@@ -379,3 +379,30 @@ fn run_scaled(case: &std::path::Path, scale: &str, out: &std::path::Path) -> Out
         out.to_str().unwrap(),
     ])
 }
+
+/// `hooke check` shows the energy criterion and says when nu lies outside the range where its
+/// G_c calibration holds (cubic nu = 0.45), and stays quiet inside it (nu = 0.3).
+#[test]
+fn check_notes_the_energy_criterion_outside_its_range() {
+    let dir = tmp("energy-note");
+    std::fs::create_dir_all(&dir).unwrap();
+    let base = std::fs::read_to_string(cases_dir().join("compression_block.toml")).unwrap();
+    for (nu, noted) in [("0.45", true), ("0.3", false)] {
+        let text = base.replace(
+            "poisson = 0.45",
+            &format!("poisson = {nu}\nfracture_energy = 100.0\ncriterion = \"energy\""),
+        );
+        assert_ne!(text, base, "the case's poisson line changed");
+        let case = dir.join(format!("energy{nu}.toml"));
+        std::fs::write(&case, text).unwrap();
+        let o = hooke(&["check", case.to_str().unwrap(), "--scale", "0.5"]);
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success() && out.contains("SpringEnergy"), "{out}");
+        assert_eq!(
+            out.contains("energy criterion's G_c calibration holds"),
+            noted,
+            "nu = {nu}: {out}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
