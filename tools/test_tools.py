@@ -22,7 +22,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
-def synthetic(outdir, branch=False, kink=False):
+def synthetic(outdir, branch=False, kink=False, edge=False):
     n = 81
     xs, ys = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n))
     pts = np.column_stack([xs.ravel(), ys.ravel(), np.zeros(n * n)])
@@ -45,7 +45,8 @@ def synthetic(outdir, branch=False, kink=False):
     flat = (rel[:, 0] > 0) & (rel[:, 0] <= 0.3) & (np.abs(rel[:, 1]) < 0.6 * h)
     states = [(0.0, notch), (1e-5, notch | crack)]
     if branch:
-        states.append((2e-5, notch | crack | flat))
+        far = (pts[:, 0] > 1.0 - 0.6 * h) & (np.abs(pts[:, 1] - 0.2) < 0.6 * h) if edge else np.zeros(n * n, bool)
+        states.append((2e-5, notch | crack | flat | far))
     files = []
     for k, (t, dmg) in enumerate(states):
         name = f"run_{k:06}.vtu"
@@ -63,6 +64,14 @@ def synthetic(outdir, branch=False, kink=False):
         f.write("0,0,0,0,0,0,0,0,0,0\n1e-5,1,2,0.5,0,4,0,0,0.5,0\n")
 
 
+def largest(out):
+    """The largest speed crack_tip.py printed (m/s), or nan."""
+    try:
+        return float(out.split("largest speed ")[1].split(" ")[0])
+    except (IndexError, ValueError):
+        return float("nan")
+
+
 def run(*args):
     r = subprocess.run([sys.executable, *args], capture_output=True, text=True)
     return r.returncode, r.stdout + r.stderr
@@ -77,6 +86,7 @@ def main():
         angle = float(out.split("tip 0.5,0.5: ")[1].split(" degrees")[0]) if "degrees" in out else float("nan")
         check(code == 0 and abs(angle - 70.0) < 2.0, f"crack_angle: {out.strip()}")
         code, out = run(os.path.join(HERE, "crack_tip.py"), d, "--origin", "0.5,0.5")
+        check(code == 0 and abs(largest(out) - 3e4) < 2e3, f"crack_tip largest speed: {out.strip()}")
         rows = np.loadtxt(os.path.join(d, "crack_tip.csv"), delimiter=",", skiprows=1)
         check(code == 0 and abs(rows[-1, 4] - 0.3) < 0.02, f"crack_tip growth: {out.strip()}")
         check(abs(rows[-1, 5] - 0.3 / 1e-5) < 0.02 / 1e-5, f"crack_tip speed: {rows[-1, 5]}")
@@ -96,6 +106,12 @@ def main():
         check(code == 0 and abs(angle - 70.0) > 10.0, f"crack_angle sees the later branch without --time: {out.strip()}")
         code, out = run(os.path.join(HERE, "crack_angle.py"), d, "--tip", "0.5,0.5", "--radius", "0.4", "--time", "1.1e-5")
         check(code == 0 and "t = 1.000000e-05 s" in out, f"crack_angle --time picks the nearest frame: {out.strip()}")
+    with tempfile.TemporaryDirectory() as d:
+        # A later frame adds damage at the far boundary (the last ligament failing): not a tip.
+        synthetic(d, branch=True, edge=True)
+        code, out = run(os.path.join(HERE, "crack_tip.py"), d, "--origin", "0.5,0.5")
+        check(code == 0 and abs(largest(out) - 3e4) < 2e3 and "reached the boundary" in out,
+              f"crack_tip stops at the boundary: {out.strip()}")
     with tempfile.TemporaryDirectory() as d:
         synthetic(d, kink=True)
         code, out = run(os.path.join(HERE, "crack_angle.py"), d, "--tip", "0.5,0.5", "--radius", "0.4", "--from", "0.12")

@@ -6,6 +6,15 @@ use std::process::ExitCode;
 use clap::Parser;
 
 fn main() -> ExitCode {
+    // `hooke check case.toml | head` closes our stdout early. Rust ignores SIGPIPE, so the next
+    // println! would panic with a backtrace; the Unix convention (and what users of `head` and
+    // `grep -q` expect) is to stop quietly, which the default action of SIGPIPE does. Anything a
+    // run writes to its output folder is written before the summary it prints.
+    #[cfg(unix)]
+    // SAFETY: setting a signal's disposition to its default before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = match hooke_cli::Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {

@@ -406,3 +406,34 @@ fn check_notes_the_energy_criterion_outside_its_range() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Output piped into a reader that stops early (`hooke check case | head -1`) ends the process
+/// quietly, as other Unix tools do, instead of a panic with a backtrace.
+#[cfg(unix)]
+#[test]
+fn a_closed_stdout_stops_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    let case = cases_dir().join("mode1_plate.toml");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_hooke"))
+        .args(["check", case.to_str().unwrap(), "--scale", "0.25"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Close the reading end before the first line is written.
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(
+        o.status.success() || o.status.signal() == Some(libc_sigpipe()),
+        "{:?}: {err}",
+        o.status
+    );
+}
+
+/// SIGPIPE's number on Linux and the BSDs.
+#[cfg(unix)]
+fn libc_sigpipe() -> i32 {
+    13
+}
