@@ -319,7 +319,13 @@ fn killed_run_leaves_readable_output() {
             .stderr(std::process::Stdio::null())
             .spawn()
             .unwrap();
-        std::thread::sleep(std::time::Duration::from_millis(400 + 170 * round));
+        // Wait until the first checkpoint exists (on a loaded machine the child's set-up can
+        // take longer than the kill delay), then kill at an arbitrary moment after it.
+        let start = std::time::Instant::now();
+        while !dir.join("run.ckpt").exists() && start.elapsed().as_secs() < 60 {
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100 + 170 * round));
         child.kill().unwrap(); // SIGKILL on Unix
         child.wait().unwrap();
         let pvd = std::fs::read_to_string(dir.join("run.pvd"))
