@@ -117,10 +117,21 @@ fn interrupted_run_resumes_to_the_same_result() {
     let dir = tmp("resume");
     std::fs::create_dir_all(&dir).unwrap();
     let case = dir.join("long.toml");
-    let text = std::fs::read_to_string(cases_dir().join("mode1_plate.toml"))
+    // Ten times the case's duration, few frames: the interrupt arrives mid-run.
+    let text: String = std::fs::read_to_string(cases_dir().join("mode1_plate.toml"))
         .unwrap()
-        .replace("end_time = 40e-6", "end_time = 600e-6")
-        .replace("every = 2e-6", "every = 100e-6");
+        .lines()
+        .map(|l| {
+            if l.starts_with("end_time =") {
+                "end_time = 600e-6\n".to_string()
+            } else if l.starts_with("every =") {
+                "every = 100e-6\n".to_string()
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    assert!(text.contains("end_time = 600e-6") && text.contains("every = 100e-6"));
     std::fs::write(&case, text).unwrap();
     let c = case.to_str().unwrap();
     let (a, b) = (dir.join("a"), dir.join("b"));

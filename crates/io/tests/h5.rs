@@ -100,7 +100,17 @@ fn killed_run_leaves_readable_hdf5_frames() {
             .stderr(std::process::Stdio::null())
             .spawn()
             .unwrap();
-        std::thread::sleep(std::time::Duration::from_millis(300 + 130 * round));
+        // Wait until the description lists more than ten data items (on a loaded machine the
+        // child's set-up can outlast a fixed delay), then kill at an arbitrary moment after.
+        let start = std::time::Instant::now();
+        while std::fs::read_to_string(dir.join("run.xdmf"))
+            .map_or(0, |x| x.matches("Precision=\"8\">").count())
+            <= 10
+            && start.elapsed().as_secs() < 60
+        {
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100 + 130 * round));
         child.kill().unwrap();
         child.wait().unwrap();
         let x = std::fs::read_to_string(dir.join("run.xdmf"))
