@@ -123,39 +123,7 @@ fn dynamic_strip(nu: Real, over: Real, ramp: Real, damping: Real) -> (Real, usiz
     // Far ahead the strip is in uniaxial strain: G = 1/2 C11 eps^2 H.
     let m = bulk_moduli(kind, 1.0, 1.0, q);
     let eps = (2.0 * over * g_c / (m.c11 * top)).sqrt();
-    let rows_where = |sel: &dyn Fn(Real) -> bool| -> Vec<u32> {
-        (0..body.nodes() as u32)
-            .filter(|&i| sel(body.lattice.pos.y[i as usize]))
-            .collect()
-    };
-    let (lower, upper) = (rows_where(&|y| y < 1e-9), rows_where(&|y| y > top - 1e-9));
-    let mut prescribed = Vec::new();
-    for (nodes, sign) in [(lower.clone(), -1.0), (upper.clone(), 1.0)] {
-        prescribed.push(Prescribed {
-            nodes: nodes.clone(),
-            axis: 0,
-            motion: Motion::Fixed,
-        });
-        prescribed.push(Prescribed {
-            nodes,
-            axis: 1,
-            motion: Motion::Displacement(TimeFunction::SmoothRamp {
-                t0: 0.0,
-                t1: ramp,
-                from: 0.0,
-                to: sign * 0.5 * eps * top,
-            }),
-        });
-    }
-    let mut keep: Vec<u32> = lower.iter().chain(&upper).copied().collect();
-    keep.extend(
-        (0..body.nodes() as u32).filter(|&i| body.lattice.pos.x[i as usize] > nx as Real - 30.0),
-    );
-    fr.set_no_fail(&keep);
-    let loading = Loading {
-        prescribed,
-        ..Default::default()
-    };
+    let loading = strip_grips(&body, &mut fr, top, nx as Real - 30.0, eps * top, ramp);
     let opts = IntegratorOptions {
         time_step: TimeStep::Auto { safety: 0.8 },
         damage_proof: true,
@@ -200,6 +168,51 @@ fn dynamic_strip(nu: Real, over: Real, ramp: Real, damping: Real) -> (Real, usiz
         }
     }
     (tip - notch, on, off, vmax / c_r)
+}
+
+/// The grips of a dynamic strip: the bottom (y = 0) and top (y = `top`) node rows are held in x
+/// and opened apart in y by `opening` with a smooth ramp over `ramp`; they and everything beyond
+/// `far_x` never break (the crack must not start at the far end).
+fn strip_grips(
+    body: &Body,
+    fr: &mut Fracture,
+    top: Real,
+    far_x: Real,
+    opening: Real,
+    ramp: Real,
+) -> Loading {
+    let pos = &body.lattice.pos;
+    let rows_where = |sel: &dyn Fn(Real) -> bool| -> Vec<u32> {
+        (0..body.nodes() as u32)
+            .filter(|&i| sel(pos.y[i as usize]))
+            .collect()
+    };
+    let (lower, upper) = (rows_where(&|y| y < 1e-9), rows_where(&|y| y > top - 1e-9));
+    let mut prescribed = Vec::new();
+    for (nodes, sign) in [(lower.clone(), -1.0), (upper.clone(), 1.0)] {
+        prescribed.push(Prescribed {
+            nodes: nodes.clone(),
+            axis: 0,
+            motion: Motion::Fixed,
+        });
+        prescribed.push(Prescribed {
+            nodes,
+            axis: 1,
+            motion: Motion::Displacement(TimeFunction::SmoothRamp {
+                t0: 0.0,
+                t1: ramp,
+                from: 0.0,
+                to: sign * 0.5 * opening,
+            }),
+        });
+    }
+    let mut keep: Vec<u32> = lower.iter().chain(&upper).copied().collect();
+    keep.extend((0..body.nodes() as u32).filter(|&i| pos.x[i as usize] > far_x));
+    fr.set_no_fail(&keep);
+    Loading {
+        prescribed,
+        ..Default::default()
+    }
 }
 
 /// The dynamic mode-I crack on the regular hexagonal lattice, a record of why the mode-I and
@@ -306,37 +319,7 @@ fn dynamic_strip_random(nu: Real, over: Real, height: Real, seed: u64) -> Dynami
     let mu = e / (2.0 * (1.0 + nu));
     let eps = (2.0 * over * g_c / (c11 * top)).sqrt();
     let pos = &body.lattice.pos;
-    let rows_where = |sel: &dyn Fn(Real) -> bool| -> Vec<u32> {
-        (0..body.nodes() as u32)
-            .filter(|&i| sel(pos.y[i as usize]))
-            .collect()
-    };
-    let (lower, upper) = (rows_where(&|y| y == 0.0), rows_where(&|y| y == top));
-    let mut prescribed = Vec::new();
-    for (nodes, sign) in [(lower.clone(), -1.0), (upper.clone(), 1.0)] {
-        prescribed.push(Prescribed {
-            nodes: nodes.clone(),
-            axis: 0,
-            motion: Motion::Fixed,
-        });
-        prescribed.push(Prescribed {
-            nodes,
-            axis: 1,
-            motion: Motion::Displacement(TimeFunction::SmoothRamp {
-                t0: 0.0,
-                t1: ramp,
-                from: 0.0,
-                to: sign * 0.5 * eps * top,
-            }),
-        });
-    }
-    let mut keep: Vec<u32> = lower.iter().chain(&upper).copied().collect();
-    keep.extend((0..body.nodes() as u32).filter(|&i| pos.x[i as usize] > len - 30.0));
-    fr.set_no_fail(&keep);
-    let loading = Loading {
-        prescribed,
-        ..Default::default()
-    };
+    let loading = strip_grips(&body, &mut fr, top, len - 30.0, eps * top, ramp);
     let opts = IntegratorOptions {
         time_step: TimeStep::Auto { safety: 0.8 },
         damage_proof: true,
