@@ -474,20 +474,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         // A second handler cannot be installed in one process; tests call run() once per process.
         let _ = ctrlc::set_handler(move || stop.store(true, Ordering::SeqCst));
     }
-    let energy_path = out.join(format!("{name}_energy.csv"));
-    let contact_path = out.join(format!("{name}_contact.csv"));
-    if let Some(c) = &sim.contact {
-        if !c.bodies.is_empty() {
-            std::fs::write(
-                &contact_path,
-                "time,body,name,reaction_x,reaction_y,reaction_z,x,y,z,vx,vy,vz\n",
-            )
-            .with_context(|| format!("writing {}", contact_path.display()))?;
-        }
-    }
-    if args.resume.is_none() {
-        std::fs::write(&energy_path, "time,kinetic,strain_direct,strain_dispersive,external_work,boundary_work,body_work,dissipated,released,balance_error\n").with_context(|| format!("writing {}", energy_path.display()))?;
-    }
+    let (energy_path, contact_path) = start_histories(&sim, &out, &name, args.resume.is_none())?;
     let body = &sim.body;
     let regions = sim.regions.clone();
     let write_frame = |it: &Integrator,
@@ -712,18 +699,8 @@ fn quasi_static(
         .iter()
         .map(|&(i, c, _)| sim.state.u.comp(c)[i])
         .collect();
-    let energy_path = out.join(format!("{name}_energy.csv"));
-    let contact_path = out.join(format!("{name}_contact.csv"));
-    if let Some(c) = &sim.contact {
-        if !c.bodies.is_empty() {
-            std::fs::write(
-                &contact_path,
-                "time,body,name,reaction_x,reaction_y,reaction_z,x,y,z,vx,vy,vz\n",
-            )
-            .with_context(|| format!("writing {}", contact_path.display()))?;
-        }
-    }
-    std::fs::write(&energy_path, "time,kinetic,strain_direct,strain_dispersive,external_work,boundary_work,body_work,dissipated,released,balance_error\n").with_context(|| format!("writing {}", energy_path.display()))?;
+    // Quasi-static runs have no contact (refused before), so no contact history.
+    let (energy_path, _) = start_histories(&sim, out, name, true)?;
     let zero = Coords::zeros(n);
     let regions = sim.regions.clone();
     let (mut w_ext, mut w_bc, mut dissipated) = (0.0, 0.0, 0.0);
@@ -936,6 +913,30 @@ fn quasi_static(
     }
     println!("  energy history {}", energy_path.display());
     Ok(())
+}
+
+/// The run's history files, `NAME_energy.csv` and `NAME_contact.csv`; a fresh run (not a
+/// resumed one) starts them with their headers (the contact history only with rigid bodies).
+fn start_histories(
+    sim: &Simulation,
+    out: &Path,
+    name: &str,
+    fresh: bool,
+) -> Result<(PathBuf, PathBuf)> {
+    let energy_path = out.join(format!("{name}_energy.csv"));
+    let contact_path = out.join(format!("{name}_contact.csv"));
+    if !fresh {
+        return Ok((energy_path, contact_path));
+    }
+    if sim.contact.as_ref().is_some_and(|c| !c.bodies.is_empty()) {
+        std::fs::write(
+            &contact_path,
+            "time,body,name,reaction_x,reaction_y,reaction_z,x,y,z,vx,vy,vz\n",
+        )
+        .with_context(|| format!("writing {}", contact_path.display()))?;
+    }
+    std::fs::write(&energy_path, "time,kinetic,strain_direct,strain_dispersive,external_work,boundary_work,body_work,dissipated,released,balance_error\n").with_context(|| format!("writing {}", energy_path.display()))?;
+    Ok((energy_path, contact_path))
 }
 
 /// Append the contact history recorded since the last call to the CSV (one line per body and
