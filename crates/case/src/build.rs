@@ -15,40 +15,7 @@ use toml::Spanned;
 use crate::error::{line_col, CaseError};
 use crate::schema::*;
 
-/// A case, built and ready to run.
-#[derive(Debug)]
-pub struct Simulation {
-    pub body: Body,
-    /// Initial state: pre-cracks applied, initial velocity set.
-    pub state: State,
-    pub loading: Loading,
-    pub fracture: Option<Fracture>,
-    pub options: IntegratorOptions,
-    /// Simulated time to reach (s).
-    pub end_time: Real,
-    /// Time between output frames (s).
-    pub output_every: Real,
-    /// Time between checkpoints (s).
-    pub checkpoint_every: Real,
-    /// Write intact springs as line cells.
-    pub springs: bool,
-    /// Region id of every node: 1 + the index of the last `[[boundary]]` whose region holds it,
-    /// 0 for none (written as the `region` point field).
-    pub regions: Vec<u32>,
-    /// Quasi-static solve in this many load steps (None: explicit dynamics).
-    pub quasi_static: Option<usize>,
-    /// Write the VTK series.
-    pub vtk: bool,
-    /// Write the HDF5 + XDMF series.
-    pub hdf5: bool,
-    /// Spring stiffness k (N/m) and dispersion ratio q of the material.
-    pub k: Real,
-    pub q: Real,
-    /// Springs removed by pre-cracks.
-    pub precracked: usize,
-    /// Contact with rigid bodies and between fragments (`[[rigid]]`, `[contact]`).
-    pub contact: Option<Contact>,
-}
+pub use hooke_sim::Simulation;
 
 struct Ctx<'a> {
     file: &'a Path,
@@ -418,6 +385,21 @@ pub fn load(path: &Path, scale: Real) -> Result<Simulation, CaseError> {
         message: format!("cannot read the case file: {e}"),
     })?;
     load_str(path, &text, scale)
+}
+
+/// As [`load_str`], with `--set` overrides applied to the text first; an error in an
+/// overridden value names the override.
+pub fn load_str_with(
+    path: &Path,
+    text: &str,
+    scale: Real,
+    overrides: &[crate::Override],
+) -> Result<Simulation, CaseError> {
+    if overrides.is_empty() {
+        return load_str(path, text, scale);
+    }
+    let edited = crate::overrides::apply(path, text, overrides)?;
+    load_str(path, &edited.text, scale).map_err(|e| edited.map_error(e))
 }
 
 /// As [`load`], from text (`path` only names the file in messages).
@@ -940,9 +922,14 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
     };
     let mut loading = Loading::default();
     let mut regions = vec![0u32; body.nodes()];
+    let mut boundaries = Vec::new();
     for (n, b) in raw.boundary.iter().enumerate() {
         let key = format!("boundary[{n}]");
         let nodes = select(&b.region, &format!("{key}.region"))?;
+        boundaries.push(hooke_sim::Boundary {
+            name: key.clone(),
+            nodes: nodes.clone(),
+        });
         for &i in &nodes {
             regions[i as usize] = n as u32 + 1;
         }
@@ -1094,6 +1081,10 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
         Some(e) => ctx.positive(e, "output.checkpoint_every", "s")?,
         None => end_time / 4.0,
     };
+    let reactions_every = match &o.reactions_every {
+        Some(e) => Some(ctx.positive(e, "output.reactions_every", "s")?),
+        None => None,
+    };
     let contact = contact(&ctx, &raw, &body, dim, h)?;
     let quasi_static = match &s.kind {
         None => None,
@@ -1171,8 +1162,10 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
         end_time,
         output_every,
         checkpoint_every,
+        reactions_every,
         springs: o.springs,
         regions,
+        boundaries,
         quasi_static,
         vtk,
         hdf5,

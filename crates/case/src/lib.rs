@@ -9,6 +9,8 @@ pub mod error;
 pub mod schema;
 
 mod build;
+mod overrides;
 
-pub use build::{load, load_str, Simulation};
+pub use build::{load, load_str, load_str_with, Simulation};
 pub use error::CaseError;
+pub use overrides::{parse_overrides, physics_text, Override};

@@ -298,6 +298,8 @@ pub struct RawSolver {
 pub struct RawOutput {
     pub every: Option<Spanned<Real>>,
     pub checkpoint_every: Option<Spanned<Real>>,
+    /// Time between reaction records (s); default: at frames.
+    pub reactions_every: Option<Spanned<Real>>,
     #[serde(default)]
     pub springs: bool,
     /// Output formats: `"vtk"` (default) and/or `"hdf5"`.

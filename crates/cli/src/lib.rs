@@ -59,6 +59,13 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
         if cause.is::<InputError>() {
             return 2;
         }
+        if let Some(e) = cause.downcast_ref::<hooke_sim::Error>() {
+            return match e {
+                hooke_sim::Error::Interrupted { .. } => 130,
+                e if e.is_input() => 2,
+                _ => 1,
+            };
+        }
         if let Some(core) = cause.downcast_ref::<hooke_core::Error>() {
             return if core.is_input_error() { 2 } else { 1 };
         }

@@ -643,6 +643,41 @@ impl Integrator {
         p
     }
 
+    /// The force each node receives from outside the lattice at `state.time` (N), for output:
+    /// the support reaction on every prescribed DOF, `m a - f_int - f_ext - m g + c m v` (the
+    /// force that makes the DOF follow its motion, as booked in the ledger), plus the external
+    /// loads. `state.f` must hold the internal forces at `state.u` and `v` the full-step
+    /// velocity, as after [`Integrator::full_velocity`]. Summed over a boundary region it is the
+    /// force that region exerts on the body (a load-displacement curve's load).
+    pub fn boundary_forces(&self, body: &Body, state: &State, v: &Coords) -> Coords {
+        let t = state.time;
+        let g = self.loading.body_acceleration;
+        let mut out = Coords::zeros(body.nodes());
+        for &(i, li) in &self.loaded {
+            let l = &self.loading.loads[li];
+            let f = l.force * l.scale.value(t);
+            out.set(i, out.get(i) + f);
+        }
+        let h = self.dt;
+        for d in &self.dofs {
+            let (i, c) = (d.node, d.axis);
+            let accel = match &self.motions[d.motion] {
+                Motion::Fixed => 0.0,
+                Motion::Velocity(f) => (f.value(t + 0.5 * h) - f.value(t - 0.5 * h)) / h,
+                Motion::Displacement(f) => {
+                    (f.value(t + h) - 2.0 * f.value(t) + f.value(t - h)) / (h * h)
+                }
+            };
+            let m = body.mass[i];
+            let vc = v.comp(c)[i];
+            // Loads on this DOF are already in `out`: the support adds what is missing.
+            let reaction = m * accel - state.f.comp(c)[i] - self.load_on(i, c, t) - m * g[c]
+                + self.damping * m * vc;
+            out.comp_mut(c)[i] += reaction;
+        }
+        out
+    }
+
     /// The energy balance now.
     ///
     /// The ledger books each step's work over `[t - dt/2, t + dt/2]` (the midpoint form that

@@ -188,37 +188,42 @@ pub fn update_forces(body: &Body, state: &mut State) {
     compute_forces(body, &state.u, &state.alive, &state.pool, &mut state.f);
 }
 
+/// `sum_{i < n} f(i)` in parallel, in an order that does not depend on the thread count or on
+/// rayon's work stealing: fixed chunks of [`crate::kernel::CHUNK`] terms, each summed in index
+/// order, then the chunks' sums in chunk order. (rayon's own `sum` splits adaptively, so its
+/// rounding changed from run to run.) For output and measurements, not the hot path.
+pub fn ordered_sum(n: usize, f: impl Fn(usize) -> Real + Sync) -> Real {
+    let chunk = crate::kernel::CHUNK;
+    let partial: Vec<Real> = (0..n.div_ceil(chunk))
+        .into_par_iter()
+        .map(|c| (c * chunk..((c + 1) * chunk).min(n)).map(&f).sum())
+        .collect();
+    partial.iter().sum()
+}
+
 /// Strain energy `U` of displacements `u` (computed from scratch; not on the hot path).
 pub fn energy(body: &Body, u: &Coords, alive: &[bool], norm: &[Real]) -> Energy {
     let bonds = &body.lattice.bonds;
-    let direct: Real = (0..bonds.len())
-        .into_par_iter()
-        .with_min_len(MIN_NODES_PER_TASK)
-        .map(|b| {
-            if !alive[b] {
-                return 0.0;
-            }
-            let [i, j] = bonds.ends[b];
-            let dl = spring_geometry(&body.lattice, u, i as usize, j as usize, bonds.rest[b]).dl;
-            0.5 * body.k[b] * dl * dl
-        })
-        .sum();
-    let dispersive: Real = if body.q == 0.0 {
+    let direct = ordered_sum(bonds.len(), |b| {
+        if !alive[b] {
+            return 0.0;
+        }
+        let [i, j] = bonds.ends[b];
+        let dl = spring_geometry(&body.lattice, u, i as usize, j as usize, bonds.rest[b]).dl;
+        0.5 * body.k[b] * dl * dl
+    });
+    let dispersive = if body.q == 0.0 {
         0.0
     } else {
-        (0..body.nodes())
-            .into_par_iter()
-            .with_min_len(MIN_NODES_PER_TASK)
-            .map(|n| {
-                let s = norm[n];
-                if s > 0.0 {
-                    let pi = node_pool(body, u, alive, n);
-                    0.5 * body.q * pi * pi / s
-                } else {
-                    0.0
-                }
-            })
-            .sum()
+        ordered_sum(body.nodes(), |n| {
+            let s = norm[n];
+            if s > 0.0 {
+                let pi = node_pool(body, u, alive, n);
+                0.5 * body.q * pi * pi / s
+            } else {
+                0.0
+            }
+        })
     };
     Energy { direct, dispersive }
 }

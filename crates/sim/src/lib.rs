@@ -1,0 +1,28 @@
+//! # hooke-sim
+//!
+//! hooke as a library: a [`Simulation`] (a body, its state, loading, fracture, contact and what
+//! the run writes), and the drivers that run it, explicit dynamics ([`Run`]: step by step or to
+//! the end) and quasi-static load steps ([`run`] dispatches to whichever the simulation is).
+//! The command line, the Python package and MPI runs all drive a simulation through this crate.
+//!
+//! A run writes through [`Sink`]s (VTK and HDF5 frames, the energy, reaction and contact
+//! histories, the rigid bodies' surfaces), keeps `run.json` (provenance: version, commit,
+//! command, case, resolved constants, threads, start and end, status), writes checkpoints to
+//! continue bit for bit, and reports to an [`Observer`] (progress, interruption).
+//!
+//! Simulations come from case files (`hooke_case::load`).
+
+mod error;
+mod observer;
+pub mod output;
+mod provenance;
+mod quasi_static;
+mod run;
+mod simulation;
+
+pub use error::{Error, Result};
+pub use observer::{Observer, Progress, Silent, StopFlag};
+pub use output::{EnergyRow, Frame, RegionReaction, Sink};
+pub use provenance::{utc_now, GIT_COMMIT};
+pub use run::{free_space, run, seconds, write_probe, Run, RunOptions, Summary};
+pub use simulation::{Boundary, Schedule, Simulation};

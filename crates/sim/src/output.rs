@@ -1,0 +1,323 @@
+//! What a run writes, behind one trait: every output is a [`Sink`] that receives each frame.
+//!
+//! The drivers assemble a [`Frame`] (state, full-step velocity, damage, the energy ledger, the
+//! reactions of every boundary region) only at output times, so nothing derived is computed on
+//! the hot path, and hand it to each sink in turn. The shipped sinks are the VTK series, the
+//! HDF5 + XDMF series (feature `hdf5`), the rigid bodies' surfaces, the energy history
+//! (`NAME_energy.csv`), the reaction history (`NAME_reactions.csv`) and the contact history
+//! (`NAME_contact.csv`). Callers add their own (an in-memory recorder, a plot) with
+//! [`crate::Run::add_sink`].
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use hooke_contact::Contact;
+use hooke_core::{Body, Coords, Real, State};
+use hooke_io::{FrameExtras, VtkSeries};
+
+use crate::error::{Error, Result};
+
+/// One row of the energy ledger (J), as written to `NAME_energy.csv`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct EnergyRow {
+    pub time: Real,
+    pub kinetic: Real,
+    pub strain_direct: Real,
+    pub strain_dispersive: Real,
+    pub external_work: Real,
+    pub boundary_work: Real,
+    pub body_work: Real,
+    pub dissipated: Real,
+    pub released: Real,
+    /// Explicit runs: the integrator's balance error (J); quasi-static runs: strain + released +
+    /// dissipated - work (J).
+    pub balance_error: Real,
+}
+
+/// The force a boundary region exerts on the body and how far it moved.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct RegionReaction {
+    /// `boundary[k]` of the case, or the name given to the builder.
+    pub name: String,
+    /// Sum over the region's nodes of the support reactions on prescribed DOFs and the loads
+    /// applied there (N; in 2D per plate of the case's thickness).
+    pub force: [Real; 3],
+    /// Mean displacement of the region's nodes (m).
+    pub displacement: [Real; 3],
+}
+
+/// Everything a sink may write at one output time.
+pub struct Frame<'a> {
+    pub body: &'a Body,
+    pub state: &'a State,
+    /// Full-step velocity `v(t)` (the state holds half-step velocities).
+    pub velocity: &'a Coords,
+    pub damage: Option<&'a [Real]>,
+    /// Region id per node (`region` point field).
+    pub regions: &'a [u32],
+    pub energy: EnergyRow,
+    pub reactions: &'a [RegionReaction],
+    pub contact: Option<&'a Contact>,
+}
+
+/// An output of a run.
+pub trait Sink {
+    /// Write one frame.
+    fn frame(&mut self, frame: &Frame) -> Result<()>;
+    /// Reactions between frames (`output.reactions_every`); most sinks ignore them.
+    fn reactions(&mut self, _time: Real, _reactions: &[RegionReaction]) -> Result<()> {
+        Ok(())
+    }
+    /// The run completed: make the output final (HDF5 merges its frame files here).
+    fn finish(&mut self) -> Result<()> {
+        Ok(())
+    }
+    /// What this sink wrote, for the run's summary (a path and a short description).
+    fn describe(&self) -> Option<(String, PathBuf)> {
+        None
+    }
+}
+
+fn append(path: &Path, text: &str) -> Result<()> {
+    let mut f = std::fs::OpenOptions::new()
+        .append(true)
+        .open(path)
+        .map_err(Error::file(format!("appending to {}", path.display())))?;
+    f.write_all(text.as_bytes())
+        .map_err(Error::file(format!("appending to {}", path.display())))
+}
+
+fn create(path: &Path, text: &str) -> Result<()> {
+    std::fs::write(path, text).map_err(Error::file(format!("writing {}", path.display())))
+}
+
+/// The VTK series: `NAME.pvd` and one `.vtu` per frame.
+pub struct VtkSink(pub VtkSeries);
+
+impl Sink for VtkSink {
+    fn frame(&mut self, f: &Frame) -> Result<()> {
+        self.0.write(
+            f.body,
+            f.state,
+            FrameExtras {
+                velocity: Some(f.velocity),
+                damage: f.damage,
+                region: Some(f.regions),
+            },
+        )?;
+        Ok(())
+    }
+    fn describe(&self) -> Option<(String, PathBuf)> {
+        Some((
+            format!("{} frames", self.0.frames().len()),
+            self.0.pvd_path(),
+        ))
+    }
+}
+
+/// The HDF5 + XDMF series (one file per frame during the run, merged at its end).
+#[cfg(feature = "hdf5")]
+pub struct H5Sink(pub hooke_io::H5Series);
+
+#[cfg(feature = "hdf5")]
+impl Sink for H5Sink {
+    fn frame(&mut self, f: &Frame) -> Result<()> {
+        self.0.write(
+            f.body,
+            f.state,
+            FrameExtras {
+                velocity: Some(f.velocity),
+                damage: f.damage,
+                region: Some(f.regions),
+            },
+        )?;
+        Ok(())
+    }
+    fn finish(&mut self) -> Result<()> {
+        self.0.finish()?;
+        Ok(())
+    }
+    fn describe(&self) -> Option<(String, PathBuf)> {
+        Some(("XDMF series".into(), self.0.xdmf_path().to_path_buf()))
+    }
+}
+
+/// The rigid bodies' surfaces as a VTK series of their own (`NAME_rigid.pvd`).
+pub struct RigidSink {
+    pub series: hooke_io::RigidSeries,
+    /// Half-size of the patch that draws a half-space (the lattice's extent).
+    pub patch: Real,
+}
+
+impl Sink for RigidSink {
+    fn frame(&mut self, f: &Frame) -> Result<()> {
+        let Some(c) = f.contact else {
+            return Ok(());
+        };
+        let parts: Vec<hooke_io::RigidPart> = c
+            .bodies
+            .iter()
+            .map(|b| {
+                let (points, triangles, lines) = b.geometry.surface(b.position, self.patch);
+                hooke_io::RigidPart {
+                    points,
+                    triangles,
+                    lines,
+                    velocity: b.velocity,
+                    reaction: b.reaction,
+                }
+            })
+            .collect();
+        self.series.write(f.state.time, f.state.step, &parts)?;
+        Ok(())
+    }
+    fn describe(&self) -> Option<(String, PathBuf)> {
+        Some(("rigid bodies".into(), self.series.pvd_path()))
+    }
+}
+
+/// `NAME_energy.csv`: the energy ledger at every frame.
+pub struct EnergyHistory {
+    pub path: PathBuf,
+}
+
+impl EnergyHistory {
+    pub const HEADER: &'static str = "time,kinetic,strain_direct,strain_dispersive,external_work,boundary_work,body_work,dissipated,released,balance_error\n";
+
+    /// Open the history; a fresh run writes its header.
+    pub fn open(dir: &Path, name: &str, fresh: bool) -> Result<Self> {
+        let path = dir.join(format!("{name}_energy.csv"));
+        if fresh {
+            create(&path, Self::HEADER)?;
+        }
+        Ok(Self { path })
+    }
+}
+
+impl Sink for EnergyHistory {
+    fn frame(&mut self, f: &Frame) -> Result<()> {
+        let e = &f.energy;
+        append(
+            &self.path,
+            &format!(
+                "{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e}\n",
+                e.time,
+                e.kinetic,
+                e.strain_direct,
+                e.strain_dispersive,
+                e.external_work,
+                e.boundary_work,
+                e.body_work,
+                e.dissipated,
+                e.released,
+                e.balance_error
+            ),
+        )
+    }
+    fn describe(&self) -> Option<(String, PathBuf)> {
+        Some(("energy history".into(), self.path.clone()))
+    }
+}
+
+/// `NAME_reactions.csv`: per boundary region, the force it exerts on the body and its mean
+/// displacement, one line per region and output time (a load-displacement curve per region).
+pub struct ReactionHistory {
+    pub path: PathBuf,
+    /// Time of the last line written: frames and the finer reaction schedule may coincide.
+    last: Option<Real>,
+}
+
+impl ReactionHistory {
+    pub const HEADER: &'static str = "# hooke reactions: force of each boundary region on the body (N; 2D: for the plate's thickness) and the region's mean displacement (m), time in s\ntime,region,name,force_x,force_y,force_z,displacement_x,displacement_y,displacement_z\n";
+
+    pub fn open(dir: &Path, name: &str, fresh: bool) -> Result<Self> {
+        let path = dir.join(format!("{name}_reactions.csv"));
+        if fresh {
+            create(&path, Self::HEADER)?;
+        }
+        Ok(Self { path, last: None })
+    }
+
+    fn write(&mut self, time: Real, reactions: &[RegionReaction]) -> Result<()> {
+        if reactions.is_empty() || self.last == Some(time) {
+            return Ok(());
+        }
+        self.last = Some(time);
+        let mut text = String::new();
+        for (k, r) in reactions.iter().enumerate() {
+            text.push_str(&format!(
+                "{:e},{},{},{:e},{:e},{:e},{:e},{:e},{:e}\n",
+                time,
+                k,
+                r.name,
+                r.force[0],
+                r.force[1],
+                r.force[2],
+                r.displacement[0],
+                r.displacement[1],
+                r.displacement[2]
+            ));
+        }
+        append(&self.path, &text)
+    }
+}
+
+impl Sink for ReactionHistory {
+    fn frame(&mut self, f: &Frame) -> Result<()> {
+        self.write(f.state.time, f.reactions)
+    }
+    fn reactions(&mut self, time: Real, reactions: &[RegionReaction]) -> Result<()> {
+        self.write(time, reactions)
+    }
+    fn describe(&self) -> Option<(String, PathBuf)> {
+        Some(("reactions".into(), self.path.clone()))
+    }
+}
+
+/// `NAME_contact.csv`: every rigid body's reaction, position and velocity, as recorded by the
+/// contact each step, flushed at frames.
+pub struct ContactHistory {
+    pub path: PathBuf,
+}
+
+impl ContactHistory {
+    pub const HEADER: &'static str =
+        "time,body,name,reaction_x,reaction_y,reaction_z,x,y,z,vx,vy,vz\n";
+
+    pub fn open(dir: &Path, name: &str, fresh: bool) -> Result<Self> {
+        let path = dir.join(format!("{name}_contact.csv"));
+        if fresh {
+            create(&path, Self::HEADER)?;
+        }
+        Ok(Self { path })
+    }
+
+    /// Append what the contact recorded since the last call and forget it.
+    pub fn flush(&self, c: &mut Contact) -> Result<()> {
+        if c.bodies.is_empty() || c.history.is_empty() {
+            c.history.clear();
+            return Ok(());
+        }
+        let mut text = String::new();
+        for r in &c.history {
+            let name = &c.bodies[r.body].name;
+            text.push_str(&format!(
+                "{:e},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e}\n",
+                r.time,
+                r.body,
+                name,
+                r.reaction[0],
+                r.reaction[1],
+                r.reaction[2],
+                r.position[0],
+                r.position[1],
+                r.position[2],
+                r.velocity[0],
+                r.velocity[1],
+                r.velocity[2]
+            ));
+        }
+        c.history.clear();
+        append(&self.path, &text)
+    }
+}

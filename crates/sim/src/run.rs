@@ -1,0 +1,644 @@
+//! Running a simulation: the output folder, the explicit driver with its schedule (frames,
+//! checkpoints, reactions, progress, interruption), and the dispatch to the quasi-static driver.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use hooke_core::dynamics::{Integrator, Interaction};
+use hooke_core::{Coords, Real};
+use hooke_io::{Checkpoint, VtkSeries};
+
+use crate::error::{Error, Result};
+use crate::observer::{Observer, Progress};
+use crate::output::{
+    ContactHistory, EnergyHistory, EnergyRow, Frame, ReactionHistory, RegionReaction, RigidSink,
+    Sink, VtkSink,
+};
+use crate::provenance::Provenance;
+use crate::Simulation;
+
+/// Where and how a run writes.
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    /// The output folder (created if needed). An earlier run there is never overwritten.
+    pub out: PathBuf,
+    /// File stem of everything written (`NAME.pvd`, `NAME_energy.csv`, ...).
+    pub name: String,
+    /// Continue from this checkpoint of the same case (explicit runs).
+    pub resume: Option<PathBuf>,
+    /// A digest of the case's physics: a checkpoint of another case is refused.
+    pub digest: u64,
+    /// Written to `run.json`: the command line and the case text (may be empty).
+    pub command: Vec<String>,
+    pub case_text: String,
+    /// The case's physics as `key = value` lines (what the digest covers), kept in `run.json`
+    /// so that a resume with other physics can name the key that differs.
+    pub physics: String,
+}
+
+impl RunOptions {
+    pub fn new(out: impl Into<PathBuf>, name: impl Into<String>) -> Self {
+        RunOptions {
+            out: out.into(),
+            name: name.into(),
+            ..Default::default()
+        }
+    }
+
+    /// The checkpoint the run writes.
+    pub fn checkpoint_path(&self) -> PathBuf {
+        self.out.join(format!("{}.ckpt", self.name))
+    }
+}
+
+/// How a run ended, for printing.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Summary {
+    /// Steps taken by this process (load steps for quasi-static runs) and the time reached.
+    pub steps: u64,
+    pub time: Real,
+    pub wall_seconds: f64,
+    pub quasi_static: bool,
+    pub broken_springs: usize,
+    /// The last row of the energy history.
+    pub energy: EnergyRow,
+    /// Explicit runs: relative balance error; quasi-static: |error| / work.
+    pub balance: Real,
+    /// Rigid bodies at the end: name, position, velocity.
+    pub rigid: Vec<(String, [Real; 3], [Real; 3])>,
+    /// Contact: candidate-list builds and the deepest penetration over the node radius.
+    pub contact: Option<(usize, Real, Real)>,
+    /// What was written: description and path.
+    pub outputs: Vec<(String, PathBuf)>,
+    pub reactions: Vec<RegionReaction>,
+}
+
+/// Free bytes on the file system that holds `dir` (or its nearest existing ancestor).
+pub fn free_space(dir: &Path) -> Option<u64> {
+    let mut p = dir;
+    while !p.exists() {
+        p = p.parent()?;
+    }
+    let c = std::ffi::CString::new(p.as_os_str().as_encoded_bytes()).ok()?;
+    let mut s = std::mem::MaybeUninit::<libc::statvfs>::uninit();
+    // SAFETY: `c` is a valid NUL-terminated path and `s` points to writable memory of the right
+    // type; statvfs only writes through it and reports failure by its return value.
+    let r = unsafe { libc::statvfs(c.as_ptr(), s.as_mut_ptr()) };
+    if r != 0 {
+        return None;
+    }
+    // SAFETY: statvfs succeeded, so it filled the struct.
+    let s = unsafe { s.assume_init() };
+    Some(s.f_bavail as u64 * s.f_frsize as u64)
+}
+
+/// Checks before anything is written: no earlier run in the folder (unless resuming), room on
+/// the disk, a build that has the formats asked for, no contact in quasi-static runs.
+fn preflight(sim: &Simulation, opts: &RunOptions) -> Result<()> {
+    let out = &opts.out;
+    let name = &opts.name;
+    let ckpt = opts.checkpoint_path();
+    if opts.resume.is_none()
+        && [
+            out.join(format!("{name}.pvd")),
+            out.join(format!("{name}.xdmf")),
+            ckpt.clone(),
+        ]
+        .iter()
+        .any(|p| p.exists())
+    {
+        return Err(Error::Input(format!(
+            "{} already holds a run; choose another --out, remove it, or continue it with --resume {}",
+            out.display(),
+            ckpt.display()
+        )));
+    }
+    let need = sim.output_estimate();
+    if let Some(free) = free_space(out) {
+        if need > free as f64 {
+            return Err(Error::Input(format!(
+                "the run would write about {:.1} MB but only {:.1} MB are free under {}; write fewer frames (output.every), use --out on a larger disk, or a coarser --scale",
+                need / 1e6,
+                free as f64 / 1e6,
+                out.display()
+            )));
+        }
+    }
+    if sim.hdf5 && !cfg!(feature = "hdf5") {
+        return Err(Error::Input("output.format asks for \"hdf5\", but this hooke was built without HDF5; install the library (tools/install-hdf5.sh) and build with --features hdf5".into()));
+    }
+    if sim.contact.is_some() && sim.quasi_static.is_some() {
+        return Err(Error::Input(
+            "contact ([[rigid]], [contact]) runs with the explicit solver; remove solver.type = \"quasi-static\""
+                .into(),
+        ));
+    }
+    if opts.resume.is_some() && sim.quasi_static.is_some() {
+        return Err(Error::Input(
+            "--resume continues explicit runs; a quasi-static run restarts from its case".into(),
+        ));
+    }
+    if sim.contact.is_some() && opts.resume.is_some() {
+        return Err(Error::Input(
+            "--resume: checkpoints do not hold rigid bodies yet; a case with contact restarts from its case file"
+                .into(),
+        ));
+    }
+    Ok(())
+}
+
+/// The first key whose value differs between the physics recorded in `out/run.json` and
+/// `physics`.
+fn changed_physics(out: &Path, physics: &str) -> Option<String> {
+    let text = std::fs::read_to_string(out.join("run.json")).ok()?;
+    let doc: serde_json::Value = serde_json::from_str(&text).ok()?;
+    let then = doc["physics"].as_str()?;
+    crate::provenance::physics_difference(then, physics)
+}
+
+/// The field and history sinks of a run, new or continued.
+pub(crate) fn open_sinks(
+    sim: &Simulation,
+    out: &Path,
+    name: &str,
+    resuming: bool,
+    until: Real,
+) -> Result<Vec<Box<dyn Sink>>> {
+    let mut sinks: Vec<Box<dyn Sink>> = Vec::new();
+    let input = |e: hooke_io::IoError| Error::Input(e.to_string());
+    if sim.vtk {
+        let series = if resuming {
+            VtkSeries::reopen(out, name, sim.springs, until).map_err(input)?
+        } else {
+            VtkSeries::create(out, name, sim.springs).map_err(input)?
+        };
+        sinks.push(Box::new(VtkSink(series)));
+    }
+    #[cfg(feature = "hdf5")]
+    if sim.hdf5 {
+        let series = if resuming {
+            hooke_io::H5Series::reopen(out, name, &sim.body, until).map_err(input)?
+        } else {
+            hooke_io::H5Series::create(out, name, &sim.body).map_err(input)?
+        };
+        sinks.push(Box::new(crate::output::H5Sink(series)));
+    }
+    std::fs::create_dir_all(out).map_err(Error::file(format!("creating {}", out.display())))?;
+    sinks.push(Box::new(EnergyHistory::open(out, name, !resuming)?));
+    if !sim.boundaries.is_empty() {
+        sinks.push(Box::new(ReactionHistory::open(out, name, !resuming)?));
+    }
+    if sim.has_rigid_bodies() && sim.vtk && !resuming {
+        sinks.push(Box::new(RigidSink {
+            series: hooke_io::RigidSeries::create(out, name),
+            patch: 0.6 * sim.extent(),
+        }));
+    }
+    Ok(sinks)
+}
+
+/// Sum per boundary region of the nodes' boundary forces, and the regions' mean displacement.
+pub(crate) fn region_reactions(sim: &Simulation, forces: &Coords) -> Vec<RegionReaction> {
+    let u = &sim.state.u;
+    sim.boundaries
+        .iter()
+        .map(|b| {
+            let mut force = [0.0; 3];
+            let mut displacement = [0.0; 3];
+            for &i in &b.nodes {
+                let i = i as usize;
+                for c in 0..3 {
+                    force[c] += forces.comp(c)[i];
+                    displacement[c] += u.comp(c)[i];
+                }
+            }
+            let n = b.nodes.len().max(1) as Real;
+            RegionReaction {
+                name: b.name.clone(),
+                force,
+                displacement: displacement.map(|d| d / n),
+            }
+        })
+        .collect()
+}
+
+/// A run of an explicit simulation, stepped by the caller or to its end.
+///
+/// ```no_run
+/// # fn main() -> Result<(), hooke_sim::Error> {
+/// # let sim: hooke_sim::Simulation = unimplemented!();
+/// let mut run = hooke_sim::Run::start(sim, hooke_sim::RunOptions::new("out", "plate"))?;
+/// run.advance(20e-6, &mut hooke_sim::Silent)?; // to t = 20 us, writing on schedule
+/// println!("{} springs broken", run.simulation().broken().0);
+/// let summary = run.finish(&mut hooke_sim::Silent)?;
+/// # Ok(()) }
+/// ```
+pub struct Run {
+    sim: Simulation,
+    it: Integrator,
+    opts: RunOptions,
+    sinks: Vec<Box<dyn Sink>>,
+    contact_history: Option<ContactHistory>,
+    next_frame: Real,
+    next_ckpt: Real,
+    next_reactions: Option<Real>,
+    started: Instant,
+    t_start: Real,
+    step_start: u64,
+    last_report: Instant,
+    provenance: Option<Provenance>,
+}
+
+impl Run {
+    /// Check the folder, open the outputs, prepare the integrator (or load the checkpoint to
+    /// resume from) and write the first frame. Quasi-static simulations run through [`run`].
+    pub fn start(mut sim: Simulation, opts: RunOptions) -> Result<Run> {
+        if sim.quasi_static.is_some() {
+            return Err(Error::Input(
+                "a quasi-static simulation runs to its end through hooke_sim::run".into(),
+            ));
+        }
+        preflight(&sim, &opts)?;
+        let it = match &opts.resume {
+            None => Integrator::new(&sim.body, &mut sim.state, sim.loading.clone(), &sim.options)
+                .map_err(|e| Error::Input(e.to_string()))?,
+            Some(path) => {
+                let ck = Checkpoint::load(path, &sim.body, opts.digest).map_err(|e| {
+                    let mut msg = e.to_string();
+                    if let hooke_io::IoError::DigestMismatch { .. } = e {
+                        if let Some(key) = changed_physics(&opts.out, &opts.physics) {
+                            msg = format!("{msg}; the physics changed at {key} (a resumed run may change solver.end_time and [output] only)");
+                        }
+                    }
+                    Error::Input(msg)
+                })?;
+                sim.state = ck.state.clone();
+                if let Some(fr) = sim.fracture.as_mut() {
+                    fr.broken_total = ck.broken as usize;
+                    fr.released_total = ck.released;
+                }
+                Integrator::resume(
+                    &sim.body,
+                    &sim.state,
+                    sim.loading.clone(),
+                    &sim.options,
+                    &ck.integrator,
+                )?
+            }
+        };
+        let resuming = opts.resume.is_some();
+        let until = sim.state.time;
+        let sinks = open_sinks(&sim, &opts.out, &opts.name, resuming, until)?;
+        let contact_history = if sim.has_rigid_bodies() {
+            Some(ContactHistory::open(&opts.out, &opts.name, !resuming)?)
+        } else {
+            None
+        };
+        let provenance = Provenance::start(&sim, &opts, Some(&it))?;
+        let t = sim.state.time;
+        let next_frame = (t / sim.output_every).floor() * sim.output_every + sim.output_every;
+        let next_ckpt =
+            (t / sim.checkpoint_every).floor() * sim.checkpoint_every + sim.checkpoint_every;
+        let next_reactions = sim.reactions_every.map(|e| (t / e).floor() * e + e);
+        let mut run = Run {
+            t_start: t,
+            step_start: sim.state.step,
+            sim,
+            it,
+            opts,
+            sinks,
+            contact_history,
+            next_frame,
+            next_ckpt,
+            next_reactions,
+            started: Instant::now(),
+            last_report: Instant::now(),
+            provenance: Some(provenance),
+        };
+        if !resuming {
+            run.write_frame()?;
+        }
+        Ok(run)
+    }
+
+    /// The simulation as it stands (state, fracture, contact).
+    pub fn simulation(&self) -> &Simulation {
+        &self.sim
+    }
+
+    /// The integrator (time step, stable step, kernel, energy ledger).
+    pub fn integrator(&self) -> &Integrator {
+        &self.it
+    }
+
+    /// Add an output; it receives every frame from the next one on.
+    pub fn add_sink(&mut self, sink: Box<dyn Sink>) {
+        self.sinks.push(sink);
+    }
+
+    /// Whether the simulation has reached its end time.
+    pub fn done(&self) -> bool {
+        self.sim.state.time >= self.sim.end_time - 0.5 * self.it.dt
+    }
+
+    /// The energy balance now (one force evaluation).
+    pub fn energy(&mut self) -> hooke_core::dynamics::EnergyBalance {
+        self.it.energy(&self.sim.body, &mut self.sim.state)
+    }
+
+    /// The reactions of the boundary regions now (one force evaluation).
+    pub fn reactions(&mut self) -> Vec<RegionReaction> {
+        let v = self.it.full_velocity(&self.sim.body, &mut self.sim.state);
+        let f = self.it.boundary_forces(&self.sim.body, &self.sim.state, &v);
+        region_reactions(&self.sim, &f)
+    }
+
+    /// One step: forces, contact, breaking, then whatever the schedule wants written.
+    pub fn step(&mut self, obs: &mut dyn Observer) -> Result<()> {
+        let sim = &mut self.sim;
+        let body = &sim.body;
+        match sim.contact.as_mut() {
+            Some(c) => self
+                .it
+                .step_with(body, &mut sim.state, Some(c as &mut dyn Interaction)),
+            None => self.it.step(body, &mut sim.state),
+        }
+        if let Some(fr) = sim.fracture.as_mut() {
+            fr.check(body, &mut sim.state, &mut self.it);
+        }
+        if sim.state.step % 64 == 0 {
+            self.it.check(body, &sim.state)?;
+        }
+        let half = 0.5 * self.it.dt;
+        let done = sim.state.time >= sim.end_time - half;
+        let time = sim.state.time;
+        let reactions_due = self.next_reactions.is_some_and(|n| time >= n - half);
+        if reactions_due {
+            let every = self.sim.reactions_every.unwrap_or(Real::INFINITY);
+            self.next_reactions = self.next_reactions.map(|n| n + every);
+        }
+        if time >= self.next_frame - half || done {
+            self.it.check(&self.sim.body, &self.sim.state)?;
+            self.write_frame()?;
+            self.next_frame += self.sim.output_every;
+        } else if reactions_due {
+            let r = self.reactions();
+            for s in &mut self.sinks {
+                s.reactions(time, &r)?;
+            }
+        }
+        if time >= self.next_ckpt - half || done {
+            self.save()?;
+            self.next_ckpt += self.sim.checkpoint_every;
+        }
+        if obs.interrupted() {
+            self.write_frame()?;
+            self.save()?;
+            let e = Error::Interrupted {
+                step: self.sim.state.step,
+                time: self.sim.state.time,
+                checkpoint: Some(self.opts.checkpoint_path()),
+                load_steps: None,
+            };
+            if let Some(p) = self.provenance.as_mut() {
+                p.end(&e.to_string(), &self.opts.out);
+            }
+            return Err(e);
+        }
+        if let Some(every) = obs.progress_interval() {
+            if self.last_report.elapsed() >= every {
+                self.last_report = Instant::now();
+                let p = self.progress();
+                obs.progress(&p);
+            }
+        }
+        Ok(())
+    }
+
+    fn progress(&mut self) -> Progress {
+        let sim = &self.sim;
+        let frac =
+            ((sim.state.time - self.t_start) / (sim.end_time - self.t_start)).clamp(0.0, 1.0);
+        let wall = self.started.elapsed().as_secs_f64();
+        let rate = (sim.state.step - self.step_start) as f64 / wall.max(1e-9);
+        let broken = sim.broken().0;
+        let b = self.it.energy(&self.sim.body, &mut self.sim.state);
+        Progress {
+            time: self.sim.state.time,
+            end_time: self.sim.end_time,
+            fraction: frac,
+            step: self.sim.state.step,
+            steps_per_second: rate,
+            eta_seconds: (frac > 0.0).then(|| wall * (1.0 - frac) / frac),
+            broken_springs: broken,
+            energy: b.kinetic + b.strain.total(),
+            balance: b.relative_error,
+            load_step: None,
+        }
+    }
+
+    /// Step until `time` (s) or the end time, whichever comes first.
+    pub fn advance(&mut self, time: Real, obs: &mut dyn Observer) -> Result<()> {
+        let r = self.advance_inner(time, obs);
+        if let Err(e) = &r {
+            if !matches!(e, Error::Interrupted { .. }) {
+                if let Some(p) = self.provenance.as_mut() {
+                    p.end(&format!("failed: {e}"), &self.opts.out);
+                }
+            }
+        }
+        r
+    }
+
+    fn advance_inner(&mut self, time: Real, obs: &mut dyn Observer) -> Result<()> {
+        let until = time.min(self.sim.end_time);
+        while !self.done() && self.sim.state.time < until - 0.5 * self.it.dt {
+            self.step(obs)?;
+        }
+        Ok(())
+    }
+
+    /// Take `n` steps (fewer if the end time comes first).
+    pub fn steps(&mut self, n: u64, obs: &mut dyn Observer) -> Result<()> {
+        for _ in 0..n {
+            if self.done() {
+                break;
+            }
+            self.step(obs)?;
+        }
+        Ok(())
+    }
+
+    /// Run to the end time, make the outputs final and say how it went.
+    pub fn finish(mut self, obs: &mut dyn Observer) -> Result<Summary> {
+        self.advance(Real::INFINITY, obs)?;
+        for s in &mut self.sinks {
+            s.finish()?;
+        }
+        let b = self.it.energy(&self.sim.body, &mut self.sim.state);
+        let wall = self.started.elapsed().as_secs_f64();
+        let sim = &mut self.sim;
+        if let (Some(c), Some(h)) = (sim.contact.as_mut(), &self.contact_history) {
+            h.flush(c)?;
+        }
+        let mut outputs: Vec<(String, PathBuf)> =
+            self.sinks.iter().filter_map(|s| s.describe()).collect();
+        if let Some(h) = &self.contact_history {
+            outputs.push(("contact history".into(), h.path.clone()));
+        }
+        outputs.push(("checkpoint".into(), self.opts.checkpoint_path()));
+        let l = b.ledger;
+        let energy = EnergyRow {
+            time: sim.state.time,
+            kinetic: b.kinetic,
+            strain_direct: b.strain.direct,
+            strain_dispersive: b.strain.dispersive,
+            external_work: l.external_work,
+            boundary_work: l.boundary_work,
+            body_work: l.body_work,
+            dissipated: l.dissipated,
+            released: l.released,
+            balance_error: b.error,
+        };
+        let reactions = {
+            let v = self.it.full_velocity(&self.sim.body, &mut self.sim.state);
+            let f = self.it.boundary_forces(&self.sim.body, &self.sim.state, &v);
+            region_reactions(&self.sim, &f)
+        };
+        let sim = &self.sim;
+        let summary = Summary {
+            steps: sim.state.step - self.step_start,
+            time: sim.state.time,
+            wall_seconds: wall,
+            quasi_static: false,
+            broken_springs: sim.broken().0,
+            energy,
+            balance: b.relative_error,
+            rigid: sim.contact.as_ref().map_or(Vec::new(), |c| {
+                c.bodies
+                    .iter()
+                    .map(|b| (b.name.clone(), b.position, b.velocity))
+                    .collect()
+            }),
+            contact: sim.contact.as_ref().map(|c| {
+                (
+                    c.rebuilds,
+                    c.max_penetration,
+                    c.max_penetration / c.opts.radius,
+                )
+            }),
+            outputs,
+            reactions,
+        };
+        if let Some(p) = self.provenance.as_mut() {
+            p.end("completed", &self.opts.out);
+        }
+        Ok(summary)
+    }
+
+    /// One frame into every sink, the contact history flushed.
+    fn write_frame(&mut self) -> Result<()> {
+        let body = &self.sim.body;
+        let v = self.it.full_velocity(body, &mut self.sim.state);
+        let forces = self.it.boundary_forces(body, &self.sim.state, &v);
+        let reactions = region_reactions(&self.sim, &forces);
+        let b = self.it.energy(body, &mut self.sim.state);
+        let sim = &self.sim;
+        let damage = sim.fracture.as_ref().map(|f| f.damage(body, &sim.state));
+        let l = b.ledger;
+        let frame = Frame {
+            body,
+            state: &sim.state,
+            velocity: &v,
+            damage: damage.as_deref(),
+            regions: &sim.regions,
+            energy: EnergyRow {
+                time: sim.state.time,
+                kinetic: b.kinetic,
+                strain_direct: b.strain.direct,
+                strain_dispersive: b.strain.dispersive,
+                external_work: l.external_work,
+                boundary_work: l.boundary_work,
+                body_work: l.body_work,
+                dissipated: l.dissipated,
+                released: l.released,
+                balance_error: b.error,
+            },
+            reactions: &reactions,
+            contact: sim.contact.as_ref(),
+        };
+        for s in &mut self.sinks {
+            s.frame(&frame)?;
+        }
+        if let (Some(c), Some(h)) = (self.sim.contact.as_mut(), &self.contact_history) {
+            h.flush(c)?;
+        }
+        Ok(())
+    }
+
+    fn save(&self) -> Result<()> {
+        let (broken, released) = self.sim.broken();
+        Checkpoint {
+            digest: self.opts.digest,
+            state: self.sim.state.clone(),
+            integrator: self.it.checkpoint(),
+            broken: broken as u64,
+            released,
+        }
+        .save(&self.opts.checkpoint_path())?;
+        Ok(())
+    }
+}
+
+/// Run a simulation to its end: explicit dynamics or quasi-static load steps, whichever it is.
+pub fn run(sim: Simulation, opts: RunOptions, obs: &mut dyn Observer) -> Result<Summary> {
+    match sim.quasi_static {
+        Some(steps) => {
+            preflight(&sim, &opts)?;
+            crate::quasi_static::run(sim, steps, &opts, obs)
+        }
+        None => Run::start(sim, opts)?.finish(obs),
+    }
+}
+
+/// Wall-clock interval helper for observers: `secs` seconds.
+pub fn seconds(secs: f64) -> Duration {
+    Duration::from_secs_f64(secs.max(0.0))
+}
+
+/// Write one frame of `state` and a checkpoint into `dir`, as a run would (what `hooke check`
+/// does to measure the memory a run needs).
+pub fn write_probe(
+    sim: &Simulation,
+    state: &hooke_core::State,
+    it: &Integrator,
+    dir: &Path,
+) -> Result<()> {
+    let mut sinks = open_sinks(sim, dir, "probe", false, 0.0)?;
+    let n = sim.body.nodes();
+    let zero = Coords::zeros(n);
+    let damage = sim.fracture.as_ref().map(|f| f.damage(&sim.body, state));
+    let reactions = region_reactions(sim, &zero);
+    let frame = Frame {
+        body: &sim.body,
+        state,
+        velocity: &zero,
+        damage: damage.as_deref(),
+        regions: &sim.regions,
+        energy: EnergyRow::default(),
+        reactions: &reactions,
+        contact: sim.contact.as_ref(),
+    };
+    for s in &mut sinks {
+        s.frame(&frame)?;
+    }
+    Checkpoint {
+        digest: 0,
+        state: state.clone(),
+        integrator: it.checkpoint(),
+        broken: 0,
+        released: 0.0,
+    }
+    .save(&dir.join("probe.ckpt"))?;
+    Ok(())
+}

@@ -1,0 +1,128 @@
+//! A simulation ready to run: the body, its state and loading, fracture, contact and the
+//! schedule of what the run writes.
+
+use hooke_contact::Contact;
+use hooke_core::dynamics::IntegratorOptions;
+use hooke_core::loading::Loading;
+use hooke_core::{Body, Real, State};
+use hooke_fracture::Fracture;
+
+/// A named set of nodes whose reaction and mean displacement the run records
+/// (`NAME_reactions.csv`): every boundary condition's region.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Boundary {
+    pub name: String,
+    pub nodes: Vec<u32>,
+}
+
+/// What a run writes and when.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Schedule {
+    /// Simulated time to reach (s).
+    pub end_time: Real,
+    /// Time between output frames (s).
+    pub output_every: Real,
+    /// Time between checkpoints (s).
+    pub checkpoint_every: Real,
+    /// Time between reaction records (s); `None`: at frames only. Each record costs about one
+    /// force evaluation.
+    pub reactions_every: Option<Real>,
+    /// Write intact springs as line cells.
+    pub springs: bool,
+    /// Write the VTK series.
+    pub vtk: bool,
+    /// Write the HDF5 + XDMF series.
+    pub hdf5: bool,
+}
+
+/// A simulation, built and ready to run (by [`crate::Run`] or [`crate::run`]).
+///
+/// Built from a case file by `hooke_case::load`, or in code by [`crate::Builder`].
+#[derive(Debug)]
+pub struct Simulation {
+    pub body: Body,
+    /// Initial state: pre-cracks applied, initial velocity set.
+    pub state: State,
+    pub loading: Loading,
+    pub fracture: Option<Fracture>,
+    pub options: IntegratorOptions,
+    /// Simulated time to reach (s).
+    pub end_time: Real,
+    /// Time between output frames (s).
+    pub output_every: Real,
+    /// Time between checkpoints (s).
+    pub checkpoint_every: Real,
+    /// Time between reaction records (s); `None`: at frames only.
+    pub reactions_every: Option<Real>,
+    /// Write intact springs as line cells.
+    pub springs: bool,
+    /// Region id of every node: 1 + the index of the last boundary whose region holds it, 0 for
+    /// none (written as the `region` point field).
+    pub regions: Vec<u32>,
+    /// The boundary regions, in order, for the reaction history.
+    pub boundaries: Vec<Boundary>,
+    /// Quasi-static solve in this many load steps (None: explicit dynamics).
+    pub quasi_static: Option<usize>,
+    /// Write the VTK series.
+    pub vtk: bool,
+    /// Write the HDF5 + XDMF series.
+    pub hdf5: bool,
+    /// Spring stiffness k (N/m) of a regular lattice or kappa (Pa, N/m in 2D) of a random one,
+    /// and the dispersion ratio q of the material.
+    pub k: Real,
+    pub q: Real,
+    /// Springs removed by pre-cracks.
+    pub precracked: usize,
+    /// Contact with rigid bodies and between fragments.
+    pub contact: Option<Contact>,
+}
+
+impl Simulation {
+    /// Bytes the run will write: frames (VTK base64 and/or HDF5), histories and the checkpoint
+    /// (twice, while it is renamed into place).
+    pub fn output_estimate(&self) -> f64 {
+        let (n, s) = (self.body.nodes() as f64, self.body.springs() as f64);
+        let frames = (self.end_time / self.output_every).ceil() + 2.0;
+        // Per node: coordinates and 19 values of 8 bytes (vectors, scalars, stress, volume), a
+        // u32 region id, a u64 node id and a vertex cell; base64 adds a third.
+        let mut per_frame = 0.0;
+        if self.vtk {
+            per_frame += n * (4.0 / 3.0) * (22.0 * 8.0 + 4.0 + 17.0)
+                + if self.springs {
+                    s * (4.0 / 3.0) * 25.0
+                } else {
+                    0.0
+                };
+        }
+        if self.hdf5 {
+            per_frame += n * 20.0 * 8.0;
+        }
+        frames * (per_frame + 200.0 + 160.0 * self.boundaries.len() as f64)
+            + 2.0 * (48.0 * n + s + 200.0)
+    }
+
+    /// The extent of the body (m): its largest side.
+    pub fn extent(&self) -> Real {
+        let pos = &self.body.lattice.pos;
+        [&pos.x, &pos.y, &pos.z]
+            .iter()
+            .map(|v| {
+                let lo = v.iter().cloned().fold(Real::INFINITY, Real::min);
+                let hi = v.iter().cloned().fold(Real::NEG_INFINITY, Real::max);
+                hi - lo
+            })
+            .fold(0.0, Real::max)
+    }
+
+    /// Whether the case has rigid bodies (their surfaces and history are written).
+    pub fn has_rigid_bodies(&self) -> bool {
+        self.contact.as_ref().is_some_and(|c| !c.bodies.is_empty())
+    }
+
+    /// Springs broken so far and the energy they released (J).
+    pub fn broken(&self) -> (usize, Real) {
+        self.fracture
+            .as_ref()
+            .map_or((0, 0.0), |f| (f.broken_total, f.released_total))
+    }
+}
