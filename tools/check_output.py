@@ -19,7 +19,7 @@ import meshio
 import numpy as np
 import pyvista as pv
 
-FIELDS = ["displacement", "velocity", "damage", "pool_ratio", "strain_energy_density", "stress"]
+FIELDS = ["displacement", "velocity", "damage", "pool_ratio", "strain_energy_density", "stress", "node_volume", "node_id"]
 
 
 def main(outdir):
@@ -43,6 +43,8 @@ def main(outdir):
         nlines = sum(len(c.data) for c in m.cells if c.type == "line")
         check(nlines == f["lines"], f"meshio {f['file']}: {nlines} spring lines, expected {f['lines']}")
         check(m.point_data["stress"].shape == (npts, 9), f"meshio {f['file']}: stress shape {m.point_data['stress'].shape}")
+        check(np.array_equal(m.point_data["node_id"].ravel(), np.arange(npts)), f"meshio {f['file']}: node_id is not 0..n-1")
+        check(bool(np.all(m.point_data["node_volume"] > 0)), f"meshio {f['file']}: node_volume not positive")
 
     # pyvista (VTK's own readers), the whole series through the .pvd
     reader = pv.get_reader(os.path.join(outdir, man["pvd"]))

@@ -19,7 +19,7 @@ import pyvista as pv
 
 from hooke_output import frames
 
-FIELDS = ["displacement", "velocity", "damage", "pool_ratio", "strain_energy_density", "stress"]
+FIELDS = ["displacement", "velocity", "damage", "pool_ratio", "strain_energy_density", "stress", "node_volume", "node_id", "region"]
 
 
 def main(outdir):
@@ -49,6 +49,8 @@ def main(outdir):
                 check(np.array_equal(a, b) and np.array_equal(a, c), f"frame {k}: {name} differs between VTK and HDF5")
             group = sorted(h5["frames"].keys())[k]
             check(np.array_equal(h5["frames"][group]["displacement"][()], m.point_data["displacement"]), f"frame {k}: h5py displacement")
+            # The same geometry convention: each frame's geometry is its current positions.
+            check(np.array_equal(h5["frames"][group]["points"][()], np.asarray(m.points)), f"frame {k}: HDF5 frame points differ from the VTK points")
     return check.finish()
 
 

@@ -12,7 +12,7 @@
 //! default 0.1). A node in contact then oscillates at `omega dt = sqrt(c) = 0.32`, well inside
 //! leapfrog's limit of 2 even on top of the lattice's own stiffness (whose step already has a
 //! safety factor), so contact never makes a stable run unstable; and `m/dt^2` is about five
-//! spring stiffnesses of the lattice (`lambda_max <= 12 (1 + 2q) k/m` in `design/MODEL.md`), so
+//! spring stiffnesses of the lattice (`lambda_max <= 12 (1 + 2q) k/m` in `docs/model.md`), so
 //! `c = 0.1` makes a contact about half a spring stiff. The penetration under a force `F` is
 //! `F / k_i`; `ContactOptions::max_penetration` states the bound the tests check.
 //!

@@ -1,5 +1,5 @@
 //! The dispersive spring law (momentum dispersion, paper Section 3) in its symmetric,
-//! energy-conserving form (`design/MODEL.md`).
+//! energy-conserving form (`docs/model.md`).
 //!
 //! Spring `s` joins nodes `i` and `j`, rest length `L_s`, current length `l_s`, extension
 //! `dL_s = l_s - L_s` (geometrically nonlinear). Over each node's intact springs `t`:
@@ -271,5 +271,5 @@ pub fn node_virial(body: &Body, u: &Coords, tension: &[Real], n: usize) -> Matri
         let l = d.norm();
         s += (0.5 * tension[b] / l) * d * d.transpose();
     }
-    s / body.lattice.cell_volume
+    s / body.lattice.node_volume(n)
 }

@@ -13,7 +13,7 @@
 //!   `E_2D` has units N/m, and the plate's springs carry `k = k_2D`).
 //!
 //! `q = 0` is the plain lattice (eqs. 1-2: nu = 1/4 in 3D, 1/3 in 2D). The stiffness is
-//! positive definite for `q > -1/2` (margin `1 + 2q`, see `design/MODEL.md`), which maps onto
+//! positive definite for `q > -1/2` (margin `1 + 2q`, see `docs/model.md`), which maps onto
 //! nu in (-1, 1/2) in 3D and nu_2D in (-1, 1) in 2D. We keep a margin: nu >= -0.99.
 //!
 //! A 2D lattice is a plate of thickness `h` of a 3D material. In plane stress (the default, a

@@ -14,7 +14,7 @@
 //! * `nu = -(dW/W) / eps`, dW the change of distance between the two outer node rows of the middle
 //!   cross-section (averaged over the rows in y and z in 3D) and W that distance.
 //!
-//! Free faces bias the measured nu by roughly `a/W` (`design/MODEL.md`).
+//! Free faces bias the measured nu by roughly `a/W` (`docs/model.md`).
 //!
 //! **Bulk test.** In a perfect lattice a uniform strain is an exact equilibrium (both lattices
 //! are Bravais lattices: every node is a centre of symmetry, so there is no internal

@@ -63,7 +63,7 @@ impl State {
 
     /// Remove spring `b`: it stops carrying direct and dispersed force, leaves its two nodes'
     /// pools, and both nodes' normalisers `S_n` are recomputed over their remaining springs
-    /// (`design/MODEL.md`, bond removal). Returns false if it was already broken.
+    /// (`docs/model.md`, bond removal). Returns false if it was already broken.
     pub fn kill_bond(&mut self, body: &Body, b: usize) -> bool {
         if !self.alive[b] {
             return false;

@@ -11,7 +11,7 @@
 //! ```
 //!
 //! and `K v = -delta f`. The first term is the material stiffness (positive semidefinite for
-//! q > -1/2 on any damaged graph, `design/MODEL.md`); the second is the geometric stiffness of
+//! q > -1/2 on any damaged graph, `docs/model.md`); the second is the geometric stiffness of
 //! the current tensions. Applying `K` is the same two gathers as a force evaluation.
 
 use rayon::prelude::*;

@@ -4,7 +4,7 @@
 //! dispersed force and leaves both of its nodes' pools, whose normalisers `S_n` are recomputed
 //! ([`hooke_core::State::kill_bond`]); with that, a body cut in two has exactly zero coupling
 //! between its halves, and the stiffness stays positive semidefinite for any pattern of broken
-//! springs (`design/MODEL.md`).
+//! springs (`docs/model.md`).
 //!
 //! * [`Criterion`]: when a spring fails; [`CriticalStretch`] (with the calibration from the
 //!   fracture energy G_c, derived in [`stretch`]) and [`SpringEnergy`], each in its own file.

@@ -12,7 +12,7 @@ pub struct Derived {
     /// Strain energy density (J/m^3): half of each intact spring's direct energy plus the node's
     /// dispersive energy, over the node's volume. Summed times the volume it gives U exactly.
     pub energy_density: Vec<Real>,
-    /// Virial stress `1/(2V) sum_t T_t l_t e_t e_t` (Pa), row-major 3x3.
+    /// Virial stress `1/(2V_n) sum_t T_t l_t e_t e_t` (Pa), row-major 3x3, V_n the node's volume.
     pub stress: Vec<[Real; 9]>,
 }
 
@@ -24,7 +24,6 @@ pub fn derived(body: &Body, state: &State) -> Derived {
     let bonds = &body.lattice.bonds;
     let lat = &body.lattice;
     let t = law::spring_tensions(body, &state.u, &state.alive, &pool);
-    let v = lat.cell_volume;
     let mut energy_density = vec![0.0; n];
     let mut stress = vec![[0.0; 9]; n];
     for i in 0..n {
@@ -44,7 +43,8 @@ pub fn derived(body: &Body, state: &State) -> Derived {
         } else {
             0.0
         };
-        energy_density[i] = (direct + disp) / v;
+        // Each node's own volume (on random lattices they differ): summed times it, U exactly.
+        energy_density[i] = (direct + disp) / lat.node_volume(i);
         let s: Matrix = law::node_virial(body, &state.u, &t, i);
         for r in 0..3 {
             for c in 0..3 {

@@ -2,11 +2,13 @@
 //! `tools/install-hdf5.sh`).
 //!
 //! When a run completes, one `.h5` file holds the reference mesh (`/mesh/points`,
-//! `/mesh/vertices`) and one group per frame (`/frames/STEP/displacement`, `velocity`, `damage`,
-//! `pool_ratio`, `strain_energy_density`, `stress`), chunked and deflate-compressed. An `.xdmf` file describes
+//! `/mesh/vertices`) and one group per frame (`/frames/STEP/points` (current positions),
+//! `displacement`, `velocity`, `damage`, `pool_ratio`, `strain_energy_density`, `stress`,
+//! `node_volume`, `node_id`, `region`), chunked and deflate-compressed. An `.xdmf` file describes
 //! the time series in the layout meshio's `TimeSeriesReader` and ParaView's XDMF3 reader read: a
 //! uniform grid with the mesh, and a temporal collection whose grids include it and carry the
-//! frame's point data; warp by `displacement` to see the deformed body.
+//! frame's point data. Each frame's geometry is its current positions, as in the VTK frames
+//! (the same convention in both formats).
 //!
 //! HDF5 files are not crash-safe when appended in place, so during a run each frame goes to its
 //! own small file (`STEM.frames/STEP.h5`, written under a temporary name and renamed), and the
@@ -32,6 +34,7 @@ pub struct H5Series {
     /// (time, frame name, file that holds the frame).
     frames: Vec<(Real, String, String)>,
     has_damage: bool,
+    has_region: bool,
 }
 
 fn h5err(path: &Path) -> impl FnOnce(hdf5_metno::Error) -> IoError + '_ {
@@ -42,14 +45,18 @@ fn h5err(path: &Path) -> impl FnOnce(hdf5_metno::Error) -> IoError + '_ {
 }
 
 /// The fields of a frame, in the order they are written.
-const FIELDS: [(&str, &str, usize); 6] = [
+const FIELDS: [(&str, &str, usize); 7] = [
     ("displacement", "Vector", 3),
     ("velocity", "Vector", 3),
     ("damage", "Scalar", 1),
     ("pool_ratio", "Scalar", 1),
     ("strain_energy_density", "Scalar", 1),
     ("stress", "Tensor", 9),
+    ("node_volume", "Scalar", 1),
 ];
+
+/// Integer fields of a frame (written as 64-bit integers).
+const INT_FIELDS: [&str; 2] = ["node_id", "region"];
 
 /// Create an HDF5 file through a temporary name, fill it, and rename it into place.
 fn atomic_h5(
@@ -81,6 +88,7 @@ impl H5Series {
             n: body.nodes(),
             frames: Vec::new(),
             has_damage: false,
+            has_region: false,
         };
         let mesh = s.dir.join(s.mesh_file());
         atomic_h5(&mesh, |f| write_mesh(f, body, &mesh))?;
@@ -124,6 +132,7 @@ impl H5Series {
             }
         }
         s.has_damage = text.contains("Name=\"damage\"");
+        s.has_region = text.contains("Name=\"region\"");
         Ok(s)
     }
 
@@ -167,8 +176,19 @@ impl H5Series {
             }
             write(&g, "pool_ratio", &d.pool, 1, &path)?;
             write(&g, "strain_energy_density", &d.energy_density, 1, &path)?;
-            write(&g, "stress", &stress, 9, &path)
+            write(&g, "stress", &stress, 9, &path)?;
+            // Current positions, the frame's geometry (as the VTK frames' points).
+            write(&g, "points", &vec3(&state.positions(body)), 3, &path)?;
+            let volume: Vec<Real> = (0..n).map(|i| body.lattice.node_volume(i)).collect();
+            write(&g, "node_volume", &volume, 1, &path)?;
+            write_ints(&g, "node_id", &(0..n as i64).collect::<Vec<_>>(), &path)?;
+            if let Some(r) = extras.region {
+                let r: Vec<i64> = r.iter().map(|&v| v as i64).collect();
+                write_ints(&g, "region", &r, &path)?;
+            }
+            Ok(())
         })?;
+        self.has_region |= extras.region.is_some();
         self.has_damage |= has_damage;
         self.frames.retain(|(_, f, _)| f != &name);
         self.frames.push((state.time, name, file));
@@ -210,10 +230,16 @@ impl H5Series {
                 let src_path = dir.join(file);
                 let src = hdf5_metno::File::open(&src_path).map_err(h5err(&src_path))?;
                 let fg = frames.create_group(name).map_err(h5err(&target))?;
-                for (field, _, cols) in FIELDS {
+                for (field, _, cols) in FIELDS.into_iter().chain([("points", "", 3)]) {
                     if let Ok(ds) = src.dataset(&format!("frames/{name}/{field}")) {
                         let data: Vec<Real> = ds.read_raw().map_err(h5err(&src_path))?;
                         write(&fg, field, &data, cols, &target)?;
+                    }
+                }
+                for field in INT_FIELDS {
+                    if let Ok(ds) = src.dataset(&format!("frames/{name}/{field}")) {
+                        let data: Vec<i64> = ds.read_raw().map_err(h5err(&src_path))?;
+                        write_ints(&fg, field, &data, &target)?;
                     }
                 }
             }
@@ -253,7 +279,18 @@ impl H5Series {
             x.push_str(&format!(
                 "      <Grid Name=\"step_{name}\" GridType=\"Uniform\">\n"
             ));
-            x.push_str("        <xi:include xpointer=\"xpointer(//Grid[@Name=&quot;mesh&quot;]/*[self::Topology or self::Geometry])\"/>\n");
+            // The mesh's topology, the frame's own geometry (current positions, as in the VTK
+            // frames; meshio's TimeSeriesReader reads the mesh grid's reference positions).
+            x.push_str("        <xi:include xpointer=\"xpointer(//Grid[@Name=&quot;mesh&quot;]/*[self::Topology])\"/>\n");
+            x.push_str(&format!(
+                "        <Geometry GeometryType=\"XYZ\">{}</Geometry>\n",
+                item(
+                    file,
+                    &format!("/frames/{name}/points"),
+                    &format!("{n} 3"),
+                    "Float"
+                )
+            ));
             x.push_str(&format!("        <Time Value=\"{t:.17e}\"/>\n"));
             for (field, kind, c) in FIELDS {
                 if field == "damage" && !self.has_damage {
@@ -267,6 +304,15 @@ impl H5Series {
                 x.push_str(&format!(
                     "        <Attribute Name=\"{field}\" AttributeType=\"{kind}\" Center=\"Node\">{}</Attribute>\n",
                     item(file, &format!("/frames/{name}/{field}"), &dims, "Float")
+                ));
+            }
+            for field in INT_FIELDS {
+                if field == "region" && !self.has_region {
+                    continue;
+                }
+                x.push_str(&format!(
+                    "        <Attribute Name=\"{field}\" AttributeType=\"Scalar\" Center=\"Node\">{}</Attribute>\n",
+                    item(file, &format!("/frames/{name}/{field}"), &format!("{n}"), "Int")
                 ));
             }
             x.push_str("      </Grid>\n");
@@ -318,5 +364,17 @@ fn write(
             .create(name)
     }
     .map_err(h5err(path))?;
+    ds.write_raw(data).map_err(h5err(path))
+}
+
+/// A chunked, deflate-compressed column of 64-bit integers.
+fn write_ints(g: &hdf5_metno::Group, name: &str, data: &[i64], path: &Path) -> Result<(), IoError> {
+    let ds = g
+        .new_dataset::<i64>()
+        .shape(data.len())
+        .chunk(data.len().clamp(1, 1 << 16))
+        .deflate(4)
+        .create(name)
+        .map_err(h5err(path))?;
     ds.write_raw(data).map_err(h5err(path))
 }

@@ -321,6 +321,18 @@ pub fn frame_vtk(body: &Body, state: &State, extras: FrameExtras, springs: bool)
         elem: ElementType::Tensors,
         data: stress.into(),
     }));
+    point.push(scalars(
+        "node_volume",
+        (0..n).map(|i| body.lattice.node_volume(i)).collect(),
+    ));
+    point.push(Attribute::DataArray(DataArray {
+        name: "node_id".into(),
+        elem: ElementType::Scalars {
+            num_comp: 1,
+            lookup_table: None,
+        },
+        data: (0..n as u64).collect::<Vec<u64>>().into(),
+    }));
     if let Some(r) = extras.region {
         point.push(Attribute::DataArray(DataArray {
             name: "region".into(),

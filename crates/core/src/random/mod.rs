@@ -30,7 +30,7 @@
 //! back `k` for every spring (each edge gets `2 (sqrt(3)/4 a^2)/3`), so the formulas below match
 //! the regular ones.
 //!
-//! # Dispersion on a random lattice (`design/MODEL.md` applies unchanged)
+//! # Dispersion on a random lattice (`docs/model.md` applies unchanged)
 //!
 //! A node's pool under uniform strain is `Pi_n = A_n : eps` with `A_n = sum_t k_t L_t^2 n_t n_t`
 //! and `S_n = tr A_n`. If every star were isotropic (`A_n = S_n/d I`) the dispersive energy

@@ -1,0 +1,102 @@
+//! Derived fields against the quantities they stand for.
+
+use hooke_core::material::{Elastic, PlaneModel};
+use hooke_core::random::RandomSpec;
+use hooke_core::{law, Body, Lattice, State};
+use hooke_io::fields::derived;
+
+/// A random body under a non-uniform deformation, with some springs broken.
+fn deformed(dim: usize) -> (Body, State) {
+    let hi = if dim == 3 {
+        [6e-3, 4e-3, 3e-3]
+    } else {
+        [8e-3, 5e-3, 0.0]
+    };
+    let lattice = Lattice::random(
+        dim,
+        [0.0; 3],
+        hi,
+        1e-3,
+        if dim == 2 { 2e-3 } else { 1.0 },
+        RandomSpec::default(),
+        &|_| true,
+    )
+    .unwrap();
+    let m = Elastic {
+        youngs: 70e9,
+        poisson: 0.3,
+        density: 2500.0,
+    };
+    let body = Body::new(lattice, &m, PlaneModel::Stress).unwrap();
+    let mut state = State::new(&body);
+    let pos = &body.lattice.pos;
+    for i in 0..body.nodes() {
+        let (x, y, z) = (pos.x[i], pos.y[i], pos.z[i]);
+        state.u.x[i] = 1e-6 * (x * 1e3).sin() + 2e-7 * y * 1e3;
+        state.u.y[i] = 3e-7 * (x * y * 1e6).cos();
+        if dim == 3 {
+            state.u.z[i] = 1e-7 * z * 1e3;
+        }
+    }
+    for b in (0..body.springs()).step_by(7) {
+        state.kill_bond(&body, b);
+    }
+    (body, state)
+}
+
+/// On random lattices each node stands for its own volume: the strain energy density times the
+/// node's volume, summed, is the strain energy (1e-9 relative). With the mean cell volume it was
+/// off by the scatter of the node volumes.
+#[test]
+fn strain_energy_density_integrates_to_the_strain_energy_on_random_lattices() {
+    for dim in [2, 3] {
+        let (body, state) = deformed(dim);
+        assert!(body.lattice.cells.is_some());
+        let d = derived(&body, &state);
+        let sum: f64 = (0..body.nodes())
+            .map(|i| d.energy_density[i] * body.lattice.node_volume(i))
+            .sum();
+        let u = law::energy(&body, &state.u, &state.alive, &state.norm).total();
+        let rel = ((sum - u) / u).abs();
+        eprintln!("random{dim}d: sum(w V_n) = {sum:.12e} J, U = {u:.12e} J, relative {rel:.1e}");
+        assert!(rel < 1e-9, "dim {dim}: {sum} vs {u} ({rel:.1e})");
+        // The volumes really differ, so the mean volume would not do.
+        let v: Vec<f64> = (0..body.nodes())
+            .map(|i| body.lattice.node_volume(i))
+            .collect();
+        let (lo, hi) = v
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
+        assert!(hi > 1.5 * lo, "node volumes {lo:e}..{hi:e}");
+    }
+}
+
+/// The frame carries each node's volume and id.
+#[test]
+fn frames_carry_node_volume_and_id() {
+    let (body, state) = deformed(2);
+    let vtk = hooke_io::vtk::frame_vtk(&body, &state, Default::default(), false);
+    let vtkio::model::DataSet::UnstructuredGrid { pieces, .. } = &vtk.data else {
+        panic!("not an unstructured grid");
+    };
+    let vtkio::model::Piece::Inline(piece) = &pieces[0] else {
+        panic!("not inline");
+    };
+    let get = |name: &str| {
+        piece
+            .data
+            .point
+            .iter()
+            .find_map(|a| match a {
+                vtkio::model::Attribute::DataArray(d) if d.name == name => Some(d.data.clone()),
+                _ => None,
+            })
+            .unwrap_or_else(|| panic!("no {name}"))
+    };
+    let vol: Vec<f64> = get("node_volume").cast_into().unwrap();
+    let ids: Vec<u64> = get("node_id").cast_into().unwrap();
+    for i in 0..body.nodes() {
+        assert_eq!(vol[i], body.lattice.node_volume(i));
+        assert_eq!(ids[i], i as u64);
+    }
+}
