@@ -8,8 +8,9 @@ use hooke_core::dynamics::{IntegratorOptions, TimeStep};
 use hooke_core::loading::{Loading, Motion, Prescribed, TimeFunction};
 use hooke_core::material::{self, Elastic, PlaneModel};
 use hooke_core::random::{RandomSpec, Sampler};
-use hooke_core::{Body, Lattice, LatticeKind, Real, State, Vector};
+use hooke_core::{Body, LatticeKind, Real, State, Vector};
 use hooke_fracture::{Crack, CriticalStretch, Fracture};
+use hooke_sim::geometry::{fill_lattice, traction_loads, Face, Region, Shape, Solid};
 use toml::Spanned;
 
 use crate::error::{line_col, CaseError};
@@ -93,108 +94,6 @@ fn axis_index(ctx: &Ctx, a: &Spanned<String>, key: &str, dim: usize) -> Result<u
                 }
             ),
         )),
-    }
-}
-
-/// A primitive of the geometry.
-enum Shape {
-    Box {
-        lo: Vector,
-        hi: Vector,
-    },
-    Ball {
-        c: Vector,
-        r: Real,
-    },
-    Cylinder {
-        c: Vector,
-        axis: usize,
-        r: Real,
-        half: Real,
-    },
-    Polygon {
-        pts: Vec<(Real, Real)>,
-        z: Option<(Real, Real)>,
-    },
-    Mesh(Box<MeshShape>),
-}
-
-impl Shape {
-    fn bounds(&self) -> (Vector, Vector) {
-        match self {
-            Shape::Box { lo, hi } => (*lo, *hi),
-            Shape::Ball { c, r } => (c - Vector::repeat(*r), c + Vector::repeat(*r)),
-            Shape::Cylinder { c, axis, r, half } => {
-                let mut d = Vector::repeat(*r);
-                d[*axis] = *half;
-                (c - d, c + d)
-            }
-            Shape::Polygon { pts, z } => {
-                let (z0, z1) = z.unwrap_or((0.0, 0.0));
-                let x0 = pts.iter().map(|p| p.0).fold(Real::INFINITY, Real::min);
-                let x1 = pts.iter().map(|p| p.0).fold(Real::NEG_INFINITY, Real::max);
-                let y0 = pts.iter().map(|p| p.1).fold(Real::INFINITY, Real::min);
-                let y1 = pts.iter().map(|p| p.1).fold(Real::NEG_INFINITY, Real::max);
-                (Vector::new(x0, y0, z0), Vector::new(x1, y1, z1))
-            }
-            Shape::Mesh(m) => {
-                let (lo, hi) = m.bounds();
-                (Vector::from(lo), Vector::from(hi))
-            }
-        }
-    }
-
-    /// `p` inside, with the surface moved out by `tol` (negative: in).
-    fn contains(&self, p: Vector, tol: Real, dim: usize) -> bool {
-        match self {
-            // The mesh's own inside test; `tol` (1e-9 a) is below its resolution.
-            Shape::Mesh(m) => m.contains([p.x, p.y, p.z]),
-            Shape::Box { lo, hi } => (0..dim).all(|c| p[c] >= lo[c] - tol && p[c] <= hi[c] + tol),
-            Shape::Ball { c, r } => {
-                let mut d = p - c;
-                if dim == 2 {
-                    d.z = 0.0;
-                }
-                d.norm() <= r + tol
-            }
-            Shape::Cylinder { c, axis, r, half } => {
-                let mut d = p - c;
-                let along = d[*axis];
-                d[*axis] = 0.0;
-                if dim == 2 {
-                    d.z = 0.0;
-                }
-                along.abs() <= half + tol && d.norm() <= r + tol
-            }
-            Shape::Polygon { pts, z } => {
-                if let (Some((z0, z1)), 3) = (z, dim) {
-                    if p.z < z0 - tol || p.z > z1 + tol {
-                        return false;
-                    }
-                }
-                // Crossing-number test; points within tol of an edge count as on the edge.
-                let mut inside = false;
-                let mut near = false;
-                for k in 0..pts.len() {
-                    let (a, b) = (pts[k], pts[(k + 1) % pts.len()]);
-                    if (a.1 > p.y) != (b.1 > p.y)
-                        && p.x < a.0 + (p.y - a.1) * (b.0 - a.0) / (b.1 - a.1)
-                    {
-                        inside = !inside;
-                    }
-                    let (ex, ey) = (b.0 - a.0, b.1 - a.1);
-                    let len2 = ex * ex + ey * ey;
-                    let t = (((p.x - a.0) * ex + (p.y - a.1) * ey) / len2).clamp(0.0, 1.0);
-                    let (dx, dy) = (p.x - a.0 - t * ex, p.y - a.1 - t * ey);
-                    near |= (dx * dx + dy * dy).sqrt() <= tol.abs();
-                }
-                if tol >= 0.0 {
-                    inside || near
-                } else {
-                    inside && !near
-                }
-            }
-        }
     }
 }
 
@@ -297,7 +196,7 @@ fn shape(ctx: &Ctx, sh: &Spanned<RawShape>, key: &str, dim: usize) -> Result<Sha
         let path = base.join(m.file.get_ref());
         let mesh = MeshShape::load(&path, scale)
             .map_err(|e| ctx.err(m.file.span(), format!("{key}.mesh.file"), e.to_string()))?;
-        return Ok(Shape::Mesh(Box::new(mesh)));
+        return Ok(Shape::Mesh(std::sync::Arc::new(mesh)));
     }
     if let Some(b) = &s.bbox {
         let (lo, hi) = (
@@ -552,113 +451,33 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
     for (k, sh) in geo.subtract.iter().enumerate() {
         subs.push(shape(&ctx, sh, &format!("geometry.subtract[{k}]"), dim)?);
     }
-    let (lo, hi, geo_span) = match (&geo.bbox, adds.is_empty()) {
-        (Some(g), true) => (
+    let bbox = match &geo.bbox {
+        Some(g) => Some((
             ctx.point(&g.min, "geometry.box.min", dim)?,
             ctx.point(&g.max, "geometry.box.max", dim)?,
-            g.max.span(),
-        ),
-        (None, false) => {
-            let mut lo = Vector::repeat(Real::INFINITY);
-            let mut hi = Vector::repeat(Real::NEG_INFINITY);
-            for sh in &adds {
-                let (l, h) = sh.bounds();
-                lo = lo.inf(&l);
-                hi = hi.sup(&h);
-            }
-            if dim == 2 {
-                lo.z = 0.0;
-                hi.z = 0.0;
-            }
-            (lo, hi, geo.add[0].span())
-        }
-        (Some(g), false) => {
-            return Err(ctx.err(
-                g.min.span(),
-                "geometry",
-                "give the body as geometry.box or as [[geometry.add]] shapes, not both",
-            ))
-        }
-        (None, true) => {
-            return Err(ctx.err(
-                0..0,
-                "geometry",
-                "give the body: box = { min = [...], max = [...] }, or [[geometry.add]] shapes",
-            ))
-        }
+        )),
+        None => None,
     };
-    let size = hi - lo;
-    if (0..dim).any(|c| size[c] <= 0.0) {
-        return Err(ctx.err(
-            geo_span.clone(),
-            "geometry.box",
-            "the box is empty: every max coordinate must exceed its min",
-        ));
-    }
-    // Counted in floating point first: a mistyped spacing must give an error, not an overflow.
-    let countf = |len: Real, pitch: Real| (len / pitch + 1e-9).floor() + 1.0;
-    let count = |len: Real, pitch: Real| countf(len, pitch) as usize;
-    let total = match kind {
-        LatticeKind::Cubic => countf(size.x, a) * countf(size.y, a) * countf(size.z, a),
-        LatticeKind::Hex => countf(size.x, a) * countf(size.y, a * 3f64.sqrt() / 2.0),
-        LatticeKind::Random2d => countf(size.x, a) * countf(size.y, a),
-        LatticeKind::Random3d => countf(size.x, a) * countf(size.y, a) * countf(size.z, a),
+    // Where geometry errors point: the box's max, the first shape, or (both given) the box's min.
+    let geo_span = match (&geo.bbox, geo.add.first()) {
+        (Some(g), None) => g.max.span(),
+        (None, Some(sh)) => sh.span(),
+        (Some(g), Some(_)) => g.min.span(),
+        (None, None) => 0..0,
     };
-    // About 600 bytes per node at peak: 4e7 nodes is what this 24 GiB class of machine holds.
-    const MAX_NODES: Real = 4e7;
-    if !(total <= MAX_NODES) {
-        return Err(ctx.err(l.spacing.span(), "lattice.spacing", format!("{total:.3e} nodes would not fit in memory (at most {MAX_NODES:e}); use a larger spacing or --scale below 1")));
-    }
-    let mut lattice = match kind {
-        LatticeKind::Cubic => {
-            let n = [count(size.x, a), count(size.y, a), count(size.z, a)];
-            if n.iter().any(|&v| v < 2) {
-                return Err(ctx.err(geo_span.clone(), "geometry", format!("the box holds {n:?} nodes at spacing {a:e} m; make it larger or the spacing smaller")));
-            }
-            Lattice::cubic_box(n, a)
-        }
-        LatticeKind::Hex => {
-            let (nx, rows) = (count(size.x, a), count(size.y, a * 3f64.sqrt() / 2.0));
-            if nx < 2 || rows < 2 {
-                return Err(ctx.err(geo_span.clone(), "geometry", format!("the box holds {nx} x {rows} nodes at spacing {a:e} m; make it larger or the spacing smaller")));
-            }
-            Lattice::hex_box(nx, rows, a, h)
-        }
-        LatticeKind::Random2d | LatticeKind::Random3d => {
-            // Sampled in place: nodes inside the body only, simplices bridging a hole or a notch
-            // dropped (`hooke_core::random`).
-            let tol = 1e-9 * a;
-            let inside = |p: [Real; 3]| {
-                let p = Vector::new(p[0], p[1], p[2]);
-                (adds.is_empty() || adds.iter().any(|s| s.contains(p, tol, dim)))
-                    && !subs.iter().any(|s| s.contains(p, -tol, dim))
-            };
-            Lattice::random(dim, lo.into(), hi.into(), a, h, random, &inside)
-        }
-    }
-    .map_err(|e| ctx.err(geo_span.clone(), "geometry", e.to_string()))?;
-    for i in 0..lattice.len() {
-        if kind.is_random() {
-            break; // already in place
-        }
-        lattice.pos.x[i] += lo.x;
-        lattice.pos.y[i] += lo.y;
-        if dim == 3 {
-            lattice.pos.z[i] += lo.z;
-        }
-    }
-    if !kind.is_random() && (!adds.is_empty() || !subs.is_empty()) {
-        // A node counts as inside within 1e-9 a of a surface, so that faces placed exactly on a
-        // node plane keep their nodes.
-        let tol = 1e-9 * a;
-        let inside = |p: Vector| {
-            (adds.is_empty() || adds.iter().any(|s| s.contains(p, tol, dim)))
-                && !subs.iter().any(|s| s.contains(p, -tol, dim))
+    let geometry = Solid {
+        bbox,
+        add: adds,
+        subtract: subs,
+    };
+    let lattice = fill_lattice(kind, a, h, random, &geometry).map_err(|e| {
+        let span = if e.key == "lattice.spacing" {
+            l.spacing.span()
+        } else {
+            geo_span.clone()
         };
-        lattice = lattice
-            .retain(inside)
-            .map_err(|e| ctx.err(geo_span.clone(), "geometry", e.to_string()))?;
-    }
+        ctx.err(span, e.key, e.message)
+    })?;
 
     // Material.
     let m = &raw.material;
@@ -831,36 +650,26 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
     // Regions.
     let select = |r: &Spanned<RawRegion>, key: &str| -> Result<Vec<u32>, CaseError> {
         let reg = r.get_ref();
-        let nodes: Vec<u32> = match (&reg.bbox, &reg.plane, &reg.face) {
+        let region = match (&reg.bbox, &reg.plane, &reg.face) {
             (None, None, Some(f)) => {
                 let s = f.get_ref().as_str();
-                let (axis, high) = match s {
-                    "x-" => (0, false),
-                    "x+" => (0, true),
-                    "y-" => (1, false),
-                    "y+" => (1, true),
-                    "z-" if dim == 3 => (2, false),
-                    "z+" if dim == 3 => (2, true),
-                    _ => return Err(ctx.err(f.span(), format!("{key}.face"), format!("unknown face \"{s}\"; use \"x-\", \"x+\", \"y-\", \"y+\"{}", if dim == 3 { ", \"z-\" or \"z+\"" } else { " (2D)" }))),
-                };
-                let c = body.lattice.pos.comp(axis);
-                let ext = if high { c.iter().cloned().fold(Real::NEG_INFINITY, Real::max) } else { c.iter().cloned().fold(Real::INFINITY, Real::min) };
-                // A hex lattice's odd rows are shifted by a/2: its x faces are zigzag.
-                let tol = if kind == LatticeKind::Hex && axis == 0 { 0.51 * a } else { 1e-6 * a };
-                (0..body.nodes() as u32).filter(|&i| (c[i as usize] - ext).abs() <= tol).collect()
+                Region::Face(Face::parse(s, dim).ok_or_else(|| ctx.err(f.span(), format!("{key}.face"), format!("unknown face \"{s}\"; use \"x-\", \"x+\", \"y-\", \"y+\"{}", if dim == 3 { ", \"z-\" or \"z+\"" } else { " (2D)" })))?)
             }
-            (Some(b), None, None) => {
-                let (lo, hi) = (ctx.point(&b.min, &format!("{key}.box.min"), dim)?, ctx.point(&b.max, &format!("{key}.box.max"), dim)?);
-                (0..body.nodes() as u32).filter(|&i| { let p = body.lattice.pos.get(i as usize); (0..dim).all(|c| p[c] >= lo[c] && p[c] <= hi[c]) }).collect()
-            }
-            (None, Some(p), None) => {
-                let c = axis_index(&ctx, &p.axis, &format!("{key}.plane.axis"), dim)?;
-                let tol = match &p.tolerance { Some(t) => ctx.positive(t, &format!("{key}.plane.tolerance"), "m")?, None => 0.5 * a };
-                let at = *p.at.get_ref();
-                (0..body.nodes() as u32).filter(|&i| (body.lattice.pos.comp(c)[i as usize] - at).abs() <= tol).collect()
-            }
+            (Some(b), None, None) => Region::Box {
+                lo: ctx.point(&b.min, &format!("{key}.box.min"), dim)?,
+                hi: ctx.point(&b.max, &format!("{key}.box.max"), dim)?,
+            },
+            (None, Some(p), None) => Region::Plane {
+                axis: axis_index(&ctx, &p.axis, &format!("{key}.plane.axis"), dim)?,
+                at: *p.at.get_ref(),
+                tolerance: match &p.tolerance {
+                    Some(t) => Some(ctx.positive(t, &format!("{key}.plane.tolerance"), "m")?),
+                    None => None,
+                },
+            },
             _ => return Err(ctx.err(r.span(), key, "give exactly one of box = { min = [...], max = [...] }, plane = { axis = \"x\", at = 0.0 } or face = \"x+\"")),
         };
+        let nodes = region.select(&body);
         if nodes.is_empty() {
             return Err(ctx.err(
                 r.span(),
@@ -962,13 +771,6 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
             let k2 = format!("{key}.traction[{j}]");
             let t = ctx.point(&tr.value, &format!("{k2}.value"), dim)?;
             let normal = axis_index(&ctx, &tr.normal, &format!("{k2}.normal"), dim)?;
-            // A node's share of the face: its volume over the lattice pitch along the normal
-            // (a^2 for a cubic face; a h along a hex row, (sqrt(3)/2) a h across).
-            let pitch = match (kind, normal) {
-                (LatticeKind::Hex, 1) => a * 3f64.sqrt() / 2.0,
-                _ => a,
-            };
-            let cell_area = body.lattice.cell_volume / pitch;
             let scale_fn = match &tr.ramp {
                 None => TimeFunction::Constant(1.0),
                 Some(r) => {
@@ -990,26 +792,9 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
                     }
                 }
             };
-            match &body.lattice.cells {
-                // Random lattice: each node carries its own share of the boundary facets.
-                Some(cells) => {
-                    for &i in &nodes {
-                        let area = cells.surface[i as usize][normal].abs();
-                        if area > 0.0 {
-                            loading.loads.push(hooke_core::loading::Load {
-                                nodes: vec![i],
-                                force: t * area,
-                                scale: scale_fn.clone(),
-                            });
-                        }
-                    }
-                }
-                None => loading.loads.push(hooke_core::loading::Load {
-                    nodes: nodes.clone(),
-                    force: t * cell_area,
-                    scale: scale_fn,
-                }),
-            }
+            loading
+                .loads
+                .extend(traction_loads(&body, &nodes, t, normal, scale_fn));
         }
         if b.no_fail {
             if let Some(fr) = fracture.as_mut() {

@@ -10,9 +10,11 @@
 //! command, case, resolved constants, threads, start and end, status), writes checkpoints to
 //! continue bit for bit, and reports to an [`Observer`] (progress, interruption).
 //!
-//! Simulations come from case files (`hooke_case::load`).
+//! Simulations come from case files (`hooke_case::load`) or from code through [`Builder`].
 
+mod builder;
 mod error;
+pub mod geometry;
 mod observer;
 pub mod output;
 mod provenance;
@@ -20,7 +22,9 @@ mod quasi_static;
 mod run;
 mod simulation;
 
+pub use builder::{Bc, BreakRule, BuildError, Builder};
 pub use error::{Error, Result};
+pub use geometry::{fill_lattice, Face, Region, Shape, Solid};
 pub use observer::{Observer, Progress, Silent, StopFlag};
 pub use output::{EnergyRow, Frame, RegionReaction, Sink};
 pub use provenance::{utc_now, GIT_COMMIT};

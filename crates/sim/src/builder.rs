@@ -1,0 +1,569 @@
+//! Simulations built in code, like a lab protocol: a lattice filled into a shape, a material,
+//! pre-cracks, boundary conditions on regions, the solver and what to write.
+//!
+//! ```
+//! use hooke_sim::{Bc, Builder, Region, Solid};
+//! use hooke_core::loading::TimeFunction;
+//! use hooke_core::LatticeKind;
+//!
+//! // A 20 mm x 10 mm glass plate, pulled apart at its top and bottom edges.
+//! let sim = Builder::new(LatticeKind::Random2d, 1e-3)
+//!     .thickness(1e-3)
+//!     .solid(Solid::cuboid([0.0, 0.0, 0.0], [20e-3, 10e-3, 0.0]))
+//!     .material(70e9, 0.22, 2500.0)
+//!     .fracture_energy(3.8)
+//!     .boundary(Bc::on(Region::Face(hooke_sim::Face { axis: 1, high: true }))
+//!         .velocity(1, TimeFunction::Constant(0.05)))
+//!     .boundary(Bc::on(Region::Face(hooke_sim::Face { axis: 1, high: false })).fixed(1))
+//!     .end_time(2e-6)
+//!     .build()?;
+//! assert!(sim.body.nodes() > 100);
+//! assert_eq!(sim.boundaries.len(), 2);
+//! # Ok::<(), hooke_sim::BuildError>(())
+//! ```
+//!
+//! Bad input gives a [`BuildError`] naming the item (with the keys a case file would use, e.g.
+//! `boundary[1].region`) and the fix, never a panic.
+
+use hooke_contact::{Contact, ContactOptions, RigidBody};
+use hooke_core::dynamics::{IntegratorOptions, TimeStep};
+use hooke_core::loading::{Loading, Motion, Prescribed, TimeFunction};
+use hooke_core::material::{self, Elastic, PlaneModel};
+use hooke_core::random::RandomSpec;
+use hooke_core::{Body, LatticeKind, Real, State, Vector};
+use hooke_fracture::{Crack, Criterion, CriticalStretch, Fracture, SpringEnergy};
+
+use crate::geometry::{fill_lattice, traction_loads, Region, Solid};
+use crate::simulation::{Boundary, Simulation};
+
+/// What is wrong with a simulation being built: the item (a case file's key) and the fix.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{key}: {message}")]
+pub struct BuildError {
+    pub key: String,
+    pub message: String,
+}
+
+impl BuildError {
+    pub fn new(key: impl Into<String>, message: impl Into<String>) -> Self {
+        BuildError {
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+}
+
+/// Boundary conditions on one region.
+#[derive(Clone, Debug)]
+pub struct Bc {
+    pub region: Region,
+    pub fixed: Vec<usize>,
+    /// (axis, motion): prescribed velocity or displacement.
+    pub motions: Vec<(usize, Motion)>,
+    /// (traction in Pa, outward normal axis, time scale).
+    pub tractions: Vec<(Vector, usize, TimeFunction)>,
+    /// Springs with a node here never break (grips, supports).
+    pub no_fail: bool,
+    /// Name in the reaction history (default `boundary[k]`).
+    pub name: Option<String>,
+}
+
+impl Bc {
+    pub fn on(region: Region) -> Bc {
+        Bc {
+            region,
+            fixed: Vec::new(),
+            motions: Vec::new(),
+            tractions: Vec::new(),
+            no_fail: false,
+            name: None,
+        }
+    }
+    /// Hold the region along `axis` (0 x, 1 y, 2 z).
+    pub fn fixed(mut self, axis: usize) -> Bc {
+        self.fixed.push(axis);
+        self
+    }
+    /// Prescribe the velocity along `axis` (m/s).
+    pub fn velocity(mut self, axis: usize, f: TimeFunction) -> Bc {
+        self.motions.push((axis, Motion::Velocity(f)));
+        self
+    }
+    /// Prescribe the displacement along `axis` (m).
+    pub fn displacement(mut self, axis: usize, f: TimeFunction) -> Bc {
+        self.motions.push((axis, Motion::Displacement(f)));
+        self
+    }
+    /// A traction (Pa) on the face whose outward normal is along `normal`.
+    pub fn traction(mut self, t: [Real; 3], normal: usize, scale: TimeFunction) -> Bc {
+        self.tractions.push((Vector::from(t), normal, scale));
+        self
+    }
+    pub fn no_fail(mut self) -> Bc {
+        self.no_fail = true;
+        self
+    }
+    pub fn named(mut self, name: impl Into<String>) -> Bc {
+        self.name = Some(name.into());
+        self
+    }
+}
+
+/// The breaking rule.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BreakRule {
+    /// Critical stretch from G_c (J/m^2) through the measured lattice toughness.
+    FractureEnergy(Real),
+    /// A critical stretch given directly.
+    Stretch(Real),
+    /// The spring-energy criterion calibrated to G_c (regular lattices).
+    SpringEnergy(Real),
+}
+
+/// A simulation under construction. See the module docs.
+#[derive(Clone, Debug)]
+pub struct Builder {
+    kind: LatticeKind,
+    spacing: Real,
+    thickness: Option<Real>,
+    plane: PlaneModel,
+    random: RandomSpec,
+    geometry: Solid,
+    material: Option<Elastic>,
+    breaking: Option<BreakRule>,
+    cracks: Vec<Crack>,
+    bcs: Vec<Bc>,
+    initial: Vec<(Region, [Real; 3])>,
+    gravity: [Real; 3],
+    end_time: Option<Real>,
+    output_every: Option<Real>,
+    checkpoint_every: Option<Real>,
+    reactions_every: Option<Real>,
+    springs: bool,
+    formats: (bool, bool),
+    time_step: TimeStep,
+    damping: Real,
+    quasi_static: Option<usize>,
+    contact: Option<(Option<ContactOptions>, Vec<RigidBody>)>,
+}
+
+impl Builder {
+    /// A lattice of `kind` with (mean) spacing `spacing` (m).
+    pub fn new(kind: LatticeKind, spacing: Real) -> Builder {
+        Builder {
+            kind,
+            spacing,
+            thickness: None,
+            plane: PlaneModel::Stress,
+            random: RandomSpec::default(),
+            geometry: Solid::default(),
+            material: None,
+            breaking: None,
+            cracks: Vec::new(),
+            bcs: Vec::new(),
+            initial: Vec::new(),
+            gravity: [0.0; 3],
+            end_time: None,
+            output_every: None,
+            checkpoint_every: None,
+            reactions_every: None,
+            springs: false,
+            formats: (true, false),
+            time_step: TimeStep::default(),
+            damping: 0.0,
+            quasi_static: None,
+            contact: None,
+        }
+    }
+    /// Plate thickness of a 2D lattice (m).
+    pub fn thickness(mut self, h: Real) -> Self {
+        self.thickness = Some(h);
+        self
+    }
+    /// Plane stress (default) or plane strain, for 2D lattices.
+    pub fn plane(mut self, p: PlaneModel) -> Self {
+        self.plane = p;
+        self
+    }
+    /// How a random lattice scatters its nodes (sampler and seed).
+    pub fn random(mut self, spec: RandomSpec) -> Self {
+        self.random = spec;
+        self
+    }
+    /// The body's shape.
+    pub fn solid(mut self, g: Solid) -> Self {
+        self.geometry = g;
+        self
+    }
+    /// Young's modulus (Pa), Poisson's ratio, density (kg/m^3).
+    pub fn material(mut self, youngs: Real, poisson: Real, density: Real) -> Self {
+        self.material = Some(Elastic {
+            youngs,
+            poisson,
+            density,
+        });
+        self
+    }
+    /// Springs break by the critical stretch that dissipates G_c (J/m^2).
+    pub fn fracture_energy(mut self, g_c: Real) -> Self {
+        self.breaking = Some(BreakRule::FractureEnergy(g_c));
+        self
+    }
+    /// Any breaking rule.
+    pub fn breaking(mut self, rule: BreakRule) -> Self {
+        self.breaking = Some(rule);
+        self
+    }
+    /// Cut the springs a crack crosses before the run.
+    pub fn precrack(mut self, c: Crack) -> Self {
+        self.cracks.push(c);
+        self
+    }
+    pub fn boundary(mut self, bc: Bc) -> Self {
+        self.bcs.push(bc);
+        self
+    }
+    /// Initial velocity (m/s) of the nodes in a region.
+    pub fn initial_velocity(mut self, region: Region, v: [Real; 3]) -> Self {
+        self.initial.push((region, v));
+        self
+    }
+    /// Body acceleration, e.g. gravity (m/s^2).
+    pub fn body_acceleration(mut self, g: [Real; 3]) -> Self {
+        self.gravity = g;
+        self
+    }
+    pub fn end_time(mut self, t: Real) -> Self {
+        self.end_time = Some(t);
+        self
+    }
+    pub fn output_every(mut self, t: Real) -> Self {
+        self.output_every = Some(t);
+        self
+    }
+    pub fn checkpoint_every(mut self, t: Real) -> Self {
+        self.checkpoint_every = Some(t);
+        self
+    }
+    pub fn reactions_every(mut self, t: Real) -> Self {
+        self.reactions_every = Some(t);
+        self
+    }
+    /// Write intact springs as line cells.
+    pub fn springs(mut self, on: bool) -> Self {
+        self.springs = on;
+        self
+    }
+    /// Output formats: VTK and/or HDF5.
+    pub fn formats(mut self, vtk: bool, hdf5: bool) -> Self {
+        self.formats = (vtk, hdf5);
+        self
+    }
+    pub fn time_step(mut self, ts: TimeStep) -> Self {
+        self.time_step = ts;
+        self
+    }
+    /// Mass-proportional damping (1/s).
+    pub fn damping(mut self, c: Real) -> Self {
+        self.damping = c;
+        self
+    }
+    /// Solve quasi-statically in `steps` load steps instead of explicit dynamics.
+    pub fn quasi_static(mut self, steps: usize) -> Self {
+        self.quasi_static = Some(steps);
+        self
+    }
+    /// Rigid bodies and contact (explicit runs); `None`: the lattice's default options.
+    pub fn contact(mut self, opts: Option<ContactOptions>, bodies: Vec<RigidBody>) -> Self {
+        self.contact = Some((opts, bodies));
+        self
+    }
+
+    /// Check everything and build the simulation.
+    pub fn build(self) -> Result<Simulation, BuildError> {
+        let kind = self.kind;
+        let dim = kind.dim();
+        let a = self.spacing;
+        if !(a.is_finite() && a > 0.0) {
+            return Err(BuildError::new(
+                "lattice.spacing",
+                format!("{a}: give a positive spacing in m"),
+            ));
+        }
+        let h = match (self.thickness, dim) {
+            (Some(t), 2) if t.is_finite() && t > 0.0 => t,
+            (Some(t), 2) => {
+                return Err(BuildError::new(
+                    "lattice.thickness",
+                    format!("{t}: give a positive thickness in m"),
+                ))
+            }
+            (None, 2) => {
+                return Err(BuildError::new(
+                    "lattice.thickness",
+                    "a 2D lattice is a plate: give its thickness in m",
+                ))
+            }
+            (Some(_), _) => {
+                return Err(BuildError::new(
+                    "lattice.thickness",
+                    "only 2D lattices have a thickness; remove it",
+                ))
+            }
+            (None, _) => 1.0,
+        };
+        let lattice = fill_lattice(kind, a, h, self.random, &self.geometry)?;
+        let elastic = self.material.ok_or_else(|| {
+            BuildError::new(
+                "material",
+                "give the material: Young's modulus, Poisson's ratio and density",
+            )
+        })?;
+        let mat = |e: hooke_core::Error| {
+            let msg = e.to_string();
+            let key = if msg.contains("Poisson") {
+                "material.poisson"
+            } else if msg.contains("Young") {
+                "material.youngs"
+            } else {
+                "material.density"
+            };
+            BuildError::new(key, msg)
+        };
+        material::check_elastic(&elastic).map_err(mat)?;
+        let body = Body::new(lattice, &elastic, self.plane).map_err(mat)?;
+        let k = if kind.is_random() {
+            material::constants_for_lattice(&body.lattice, &elastic, self.plane)
+                .map_err(mat)?
+                .k
+        } else {
+            body.k[0]
+        };
+        let q = body.q;
+        let mut state = State::new(&body);
+        let fr = |key: &'static str| {
+            move |e: hooke_fracture::FractureError| BuildError::new(key, e.to_string())
+        };
+        let criterion: Option<Box<dyn Criterion>> = match self.breaking {
+            None => None,
+            Some(BreakRule::FractureEnergy(g)) => Some(Box::new(
+                CriticalStretch::from_fracture_energy(kind, k, a, q, h, g)
+                    .map_err(fr("material.fracture_energy"))?,
+            )),
+            Some(BreakRule::Stretch(s)) => Some(Box::new(
+                CriticalStretch::new(s).map_err(fr("material.critical_stretch"))?,
+            )),
+            Some(BreakRule::SpringEnergy(_)) if kind.is_random() => {
+                return Err(BuildError::new("material.criterion", "the energy criterion is calibrated on the hex and cubic lattices (a random lattice's springs differ in stiffness); use the stretch criterion here"))
+            }
+            Some(BreakRule::SpringEnergy(g)) => Some(Box::new(
+                SpringEnergy::from_fracture_energy(kind, k, a, q, h, g)
+                    .map_err(fr("material.criterion"))?,
+            )),
+        };
+        let mut fracture = criterion.map(|c| Fracture::new(&body, c));
+        let mut precracked = 0;
+        for (n, c) in self.cracks.iter().enumerate() {
+            let f = fracture.get_or_insert_with(|| {
+                Fracture::new(
+                    &body,
+                    Box::new(CriticalStretch {
+                        s_c: Real::INFINITY,
+                    }),
+                )
+            });
+            precracked += f
+                .precrack(&body, &mut state, std::slice::from_ref(c))
+                .map_err(|e| {
+                    BuildError::new(
+                        format!("precrack[{n}]"),
+                        e.to_string().replace("pre-crack 0: ", ""),
+                    )
+                })?;
+        }
+        let mut loading = Loading {
+            body_acceleration: Vector::from(self.gravity),
+            ..Default::default()
+        };
+        let mut regions = vec![0u32; body.nodes()];
+        let mut boundaries = Vec::new();
+        let axis_ok = |axis: usize, key: String| {
+            if axis < dim {
+                Ok(())
+            } else {
+                Err(BuildError::new(
+                    key,
+                    format!(
+                        "axis {axis} does not exist in a {dim}D body; use 0 (x), 1 (y){}",
+                        if dim == 3 { " or 2 (z)" } else { "" }
+                    ),
+                ))
+            }
+        };
+        for (n, bc) in self.bcs.iter().enumerate() {
+            let key = format!("boundary[{n}]");
+            let nodes = bc.region.select(&body);
+            if nodes.is_empty() {
+                return Err(BuildError::new(
+                    format!("{key}.region"),
+                    "the region selects no node: check it against the geometry (and --scale)",
+                ));
+            }
+            if bc.fixed.is_empty()
+                && bc.motions.is_empty()
+                && bc.tractions.is_empty()
+                && !bc.no_fail
+            {
+                return Err(BuildError::new(key, "the boundary does nothing: give fixed, velocity, displacement, traction or no_fail"));
+            }
+            boundaries.push(Boundary {
+                name: bc.name.clone().unwrap_or_else(|| key.clone()),
+                nodes: nodes.clone(),
+            });
+            for &i in &nodes {
+                regions[i as usize] = n as u32 + 1;
+            }
+            for &axis in &bc.fixed {
+                axis_ok(axis, format!("{key}.fixed"))?;
+                loading.prescribed.push(Prescribed {
+                    nodes: nodes.clone(),
+                    axis,
+                    motion: Motion::Fixed,
+                });
+            }
+            for (j, (axis, m)) in bc.motions.iter().enumerate() {
+                axis_ok(*axis, format!("{key}.motion[{j}]"))?;
+                if let Motion::Velocity(f) | Motion::Displacement(f) = m {
+                    f.validate().map_err(|e| {
+                        BuildError::new(format!("{key}.motion[{j}]"), e.to_string())
+                    })?;
+                }
+                loading.prescribed.push(Prescribed {
+                    nodes: nodes.clone(),
+                    axis: *axis,
+                    motion: m.clone(),
+                });
+            }
+            for (j, (t, normal, scale)) in bc.tractions.iter().enumerate() {
+                axis_ok(*normal, format!("{key}.traction[{j}].normal"))?;
+                loading
+                    .loads
+                    .extend(traction_loads(&body, &nodes, *t, *normal, scale.clone()));
+            }
+            if bc.no_fail {
+                if let Some(f) = fracture.as_mut() {
+                    f.set_no_fail(&nodes);
+                }
+            }
+        }
+        for (n, (region, v)) in self.initial.iter().enumerate() {
+            let nodes = region.select(&body);
+            if nodes.is_empty() {
+                return Err(BuildError::new(
+                    format!("initial[{n}].region"),
+                    "the region selects no node",
+                ));
+            }
+            for i in nodes {
+                state.v.set(i as usize, Vector::from(*v));
+            }
+        }
+        let end_time = match self.end_time {
+            Some(t) if t.is_finite() && t > 0.0 => t,
+            Some(t) => {
+                return Err(BuildError::new(
+                    "solver.end_time",
+                    format!("{t}: give a positive time in s"),
+                ))
+            }
+            None => {
+                return Err(BuildError::new(
+                    "solver.end_time",
+                    "give the simulated time to reach (s)",
+                ))
+            }
+        };
+        let positive = |v: Option<Real>, key: &str, default: Real| match v {
+            Some(x) if x.is_finite() && x > 0.0 => Ok(x),
+            Some(x) => Err(BuildError::new(
+                key,
+                format!("{x}: give a positive time in s"),
+            )),
+            None => Ok(default),
+        };
+        let output_every = positive(self.output_every, "output.every", end_time / 20.0)?;
+        let checkpoint_every = positive(
+            self.checkpoint_every,
+            "output.checkpoint_every",
+            end_time / 4.0,
+        )?;
+        let reactions_every = match self.reactions_every {
+            Some(x) => Some(positive(Some(x), "output.reactions_every", x)?),
+            None => None,
+        };
+        if !(self.damping.is_finite() && self.damping >= 0.0) {
+            return Err(BuildError::new(
+                "solver.damping",
+                "give zero or a positive coefficient in 1/s",
+            ));
+        }
+        if let Some(s) = self.quasi_static {
+            if !(1..=1_000_000).contains(&s) {
+                return Err(BuildError::new(
+                    "solver.steps",
+                    "give 1 to 1 000 000 load steps",
+                ));
+            }
+        }
+        if !self.formats.0 && !self.formats.1 {
+            return Err(BuildError::new(
+                "output.format",
+                "give at least one format: VTK, HDF5 or both",
+            ));
+        }
+        let contact = match self.contact {
+            None => None,
+            Some(_) if self.quasi_static.is_some() => {
+                return Err(BuildError::new("contact", "contact runs with the explicit solver; remove the quasi-static solver or the contact"))
+            }
+            Some((opts, bodies)) => {
+                // Defaults from the lattice: radius a/2, fragments below 0.8 of the shortest spring.
+                let opts = opts.unwrap_or_else(|| ContactOptions::for_body(&body));
+                if !(opts.stiffness_factor > 0.0 && opts.stiffness_factor <= 1.0) {
+                    return Err(BuildError::new("contact.stiffness_factor", "give 0 < c <= 1 (the default 0.1 keeps the step stable)"));
+                }
+                Some(Contact::new(&body, bodies, opts))
+            }
+        };
+        loading
+            .validate(body.nodes())
+            .map_err(|e| BuildError::new("boundary", e.to_string()))?;
+        let options = IntegratorOptions {
+            time_step: self.time_step,
+            damping: self.damping,
+            damage_proof: fracture.is_some(),
+            ..Default::default()
+        };
+        Ok(Simulation {
+            body,
+            state,
+            loading,
+            fracture,
+            options,
+            end_time,
+            output_every,
+            checkpoint_every,
+            reactions_every,
+            springs: self.springs,
+            regions,
+            boundaries,
+            quasi_static: self.quasi_static,
+            vtk: self.formats.0,
+            hdf5: self.formats.1,
+            k,
+            q,
+            precracked,
+            contact,
+        })
+    }
+}
