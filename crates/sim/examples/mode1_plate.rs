@@ -33,18 +33,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             a: [-1e-3, 15.05e-3],
             b: [15e-3, 15.05e-3],
         })
-        .boundary(
-            Bc::on(grip(29e-3, 1.0))
-                .velocity(1, pull(0.02))
-                .no_fail()
-                .named("top"),
-        )
-        .boundary(
-            Bc::on(grip(-1.0, 1e-3))
-                .velocity(1, pull(-0.02))
-                .no_fail()
-                .named("bottom"),
-        )
+        .boundary(Bc::on(grip(29e-3, 1.0)).velocity(1, pull(0.02)).no_fail())
+        .boundary(Bc::on(grip(-1.0, 1e-3)).velocity(1, pull(-0.02)).no_fail())
         .end_time(60e-6)
         .output_every(1e-6)
         .build()?;
