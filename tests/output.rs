@@ -178,6 +178,7 @@ fn restart_is_bit_identical() {
             integrator: it.checkpoint(),
             broken: fr.broken_total as u64,
             released: fr.released_total,
+            extra: Vec::new(),
         }
         .save(&path)
         .unwrap();
@@ -224,6 +225,7 @@ fn checkpoints_refuse_what_is_not_theirs() {
         integrator: it.checkpoint(),
         broken: 0,
         released: 0.0,
+        extra: Vec::new(),
     }
     .save(&path)
     .unwrap();
@@ -292,6 +294,7 @@ fn child_writer(dir: &Path) -> ! {
             integrator: it.checkpoint(),
             broken: 0,
             released: 0.0,
+            extra: Vec::new(),
         }
         .save(&dir.join("run.ckpt"))
         .unwrap();

@@ -120,6 +120,24 @@ def main():
         code, out = run(os.path.join(HERE, "crack_angle.py"), d, "--tip", "0.5,0.5", "--radius", "0.4")
         angle = float(out.split("tip 0.5,0.5: ")[1].split(" degrees")[0]) if "degrees" in out else float("nan")
         check(code == 0 and angle < 65.0, f"crack_angle through the tip averages the straight stretch in: {out.strip()}")
+    with tempfile.TemporaryDirectory() as d:
+        # A grip pulled along +y with a known peak, and a rigid platen moving along -y.
+        with open(os.path.join(d, "c_reactions.csv"), "w") as f:
+            f.write("# comment\ntime,region,name,force_x,force_y,force_z,displacement_x,displacement_y,displacement_z\n")
+            for k in range(11):
+                u = 1e-5 * k
+                load = 2e3 * min(k, 10 - k)  # peak 1e4 N at k = 5
+                f.write(f"{k},0,grip,0,{load},0,0,{u},0\n{k},1,base,0,{-load},0,0,0,0\n")
+        with open(os.path.join(d, "c_contact.csv"), "w") as f:
+            f.write("time,body,name,reaction_x,reaction_y,reaction_z,x,y,z,vx,vy,vz\n")
+            for k in range(5):
+                f.write(f"{k},0,platen,0,{300.0 * k},0,0,{0.1 - 1e-4 * k},0,0,-1,0\n")
+        code, out = run(os.path.join(HERE, "load_displacement.py"), d)
+        check(code == 0 and "grip: peak 1.0000e+04 N at 0.0500 mm" in out and "base" not in out, f"load_displacement regions: {out.strip()}")
+        check("platen: peak 1.2000e+03 N at 0.4000 mm" in out, f"load_displacement rigid bodies: {out.strip()}")
+        check(os.path.getsize(os.path.join(d, "load_displacement.png")) > 1000, "load_displacement: no picture")
+        code, out = run(os.path.join(HERE, "load_displacement.py"), d, "--region", "nope")
+        check(code != 0 and "there are" in out, f"load_displacement names what exists: {out.strip()}")
     return check.finish()
 
 

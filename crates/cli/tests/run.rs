@@ -448,3 +448,92 @@ fn a_closed_stdout_stops_quietly() {
 fn libc_sigpipe() -> i32 {
     13
 }
+
+/// Files of a run folder whose bytes must not depend on how the run was cut: frames, the rigid
+/// bodies' frames, every history.
+fn run_files(d: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            let n = p.file_name().unwrap().to_string_lossy();
+            n.ends_with(".vtu") || n.ends_with(".csv") || n.ends_with(".pvd")
+        })
+        .map(|p| {
+            (
+                p.file_name().unwrap().to_string_lossy().into_owned(),
+                std::fs::read(&p).unwrap(),
+            )
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+/// A contact case (a steel ball on a glass plate) run to half its end time and then extended
+/// to the end from its checkpoint gives byte for byte the files of one run (frames, rigid-body
+/// frames, energy, reaction and contact histories): checkpoints hold the rigid bodies and the
+/// contact state, and a resume may change `solver.end_time`. A change of physics is refused,
+/// naming the key.
+#[test]
+fn a_contact_run_extended_from_its_checkpoint_is_bit_identical() {
+    let dir = tmp("extend");
+    let case = cases_dir().join("sphere_impact_glass.toml");
+    let c = case.to_str().unwrap();
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    let (a_s, b_s) = (a.to_str().unwrap(), b.to_str().unwrap());
+    let ok = |o: Output| {
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    ok(hooke(&["run", c, "--scale", "0.5", "--out", a_s]));
+    ok(hooke(&[
+        "run",
+        c,
+        "--scale",
+        "0.5",
+        "--out",
+        b_s,
+        "--set",
+        "solver.end_time=10e-6",
+    ]));
+    let ck = b.join("sphere_impact_glass.ckpt");
+    let ck_s = ck.to_str().unwrap();
+    // Other physics: refused, naming the key.
+    let o = hooke(&[
+        "run",
+        c,
+        "--scale",
+        "0.5",
+        "--out",
+        b_s,
+        "--resume",
+        ck_s,
+        "--set",
+        "material.poisson=0.3",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("material.poisson"), "{err}");
+    ok(hooke(&[
+        "run", c, "--scale", "0.5", "--out", b_s, "--resume", ck_s,
+    ]));
+    let (fa, fb) = (run_files(&a), run_files(&b));
+    assert_eq!(
+        fa.iter().map(|f| &f.0).collect::<Vec<_>>(),
+        fb.iter().map(|f| &f.0).collect::<Vec<_>>()
+    );
+    assert!(fa.iter().any(|f| f.0.contains("_rigid_")));
+    for (x, y) in fa.iter().zip(&fb) {
+        assert!(
+            x.1 == y.1,
+            "{} differs between the whole and the extended run",
+            x.0
+        );
+    }
+    let provenance = std::fs::read_to_string(b.join("run.json")).unwrap();
+    assert!(
+        provenance.contains("\"previous\"") && provenance.contains("\"completed\""),
+        "{provenance}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

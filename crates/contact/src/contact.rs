@@ -158,6 +158,51 @@ impl Contact {
         }
     }
 
+    /// What a checkpoint keeps to continue bit for bit: each body's position, half-step velocity
+    /// and last reaction, the step counter (the history's cadence), the list builds and the
+    /// deepest penetration. The candidate lists are not kept: the forces do not depend on when
+    /// they were built (every list holds every pair in range, and forces are summed in node
+    /// order), so a resumed run rebuilds them.
+    pub fn snapshot(&self) -> Vec<Real> {
+        let mut v = vec![self.bodies.len() as Real];
+        for b in &self.bodies {
+            v.extend(b.position);
+            v.extend(b.velocity);
+            v.extend(b.reaction);
+        }
+        v.extend([
+            self.steps as Real,
+            self.rebuilds as Real,
+            self.max_penetration,
+        ]);
+        v
+    }
+
+    /// Restore what [`Contact::snapshot`] kept; refuses a snapshot of another set of bodies.
+    pub fn restore(&mut self, v: &[Real]) -> Result<(), String> {
+        let nb = self.bodies.len();
+        if v.len() != 1 + 9 * nb + 3 || v[0] != nb as Real {
+            return Err(format!(
+                "the checkpoint holds {} values for the rigid bodies and contact, this case has {nb} bodies ({} values)",
+                v.len(),
+                1 + 9 * nb + 3
+            ));
+        }
+        for (k, b) in self.bodies.iter_mut().enumerate() {
+            let s = &v[1 + 9 * k..1 + 9 * (k + 1)];
+            b.position = [s[0], s[1], s[2]];
+            b.velocity = [s[3], s[4], s[5]];
+            b.reaction = [s[6], s[7], s[8]];
+        }
+        let t = &v[1 + 9 * nb..];
+        self.steps = t[0] as u64;
+        self.rebuilds = t[1] as usize;
+        self.max_penetration = t[2];
+        self.built = false;
+        self.history.clear();
+        Ok(())
+    }
+
     /// Force a rebuild of the candidate lists at the next step (e.g. after springs broke).
     pub fn invalidate(&mut self) {
         self.built = false;

@@ -1,6 +1,6 @@
 //! Checkpoints: everything needed to continue a run bit for bit.
 //!
-//! Little-endian binary, version 1:
+//! Little-endian binary, version 2:
 //!
 //! ```text
 //! "HOOKECK1"  u32 version  u64 case digest  u64 nodes  u64 springs  u64 step  f64 time
@@ -8,8 +8,12 @@
 //! f64 initial power  f64 x3 stable step (lambda_max, dt_critical, lambda_bound)
 //! u64 springs broken  f64 energy released
 //! f64 x 3n displacements (x..., y..., z...)  f64 x 3n half-step velocities  u8 x springs alive
+//! u64 extra count k, f64 x k extra values (version 2: what the caller keeps beside the lattice,
+//! e.g. the rigid bodies and contact counters)
 //! u64 FNV-1a checksum of everything before it
 //! ```
+//!
+//! Version 1 files (without the extra values) still load.
 //!
 //! The normalisers `S_n` are not stored: they follow from the intact springs. A checkpoint names
 //! the case it belongs to by a digest, and [`Checkpoint::load`] refuses another case, another
@@ -26,7 +30,7 @@ use crate::error::{io, IoError};
 use crate::vtk::write_atomic;
 
 const MAGIC: &[u8; 8] = b"HOOKECK1";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 
 /// A run's state at one step.
 #[derive(Clone, Debug)]
@@ -37,6 +41,8 @@ pub struct Checkpoint {
     /// Fracture counters: springs broken and energy released so far.
     pub broken: u64,
     pub released: Real,
+    /// State the caller keeps beside the lattice (rigid bodies, contact), restored verbatim.
+    pub extra: Vec<Real>,
 }
 
 fn fnv1a(bytes: &[u8]) -> u64 {
@@ -92,6 +98,10 @@ impl Checkpoint {
             }
         }
         b.extend(s.alive.iter().map(|&a| a as u8));
+        b.extend_from_slice(&(self.extra.len() as u64).to_le_bytes());
+        for v in &self.extra {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
         let sum = fnv1a(&b);
         b.extend_from_slice(&sum.to_le_bytes());
         write_atomic(path, |w| w.write_all(&b).map_err(io(path)))
@@ -121,7 +131,7 @@ impl Checkpoint {
             at: 8,
         };
         let version = u32::from_le_bytes(r.take(4).try_into().unwrap());
-        if version != VERSION {
+        if version != VERSION && version != 1 {
             return Err(bad(format!(
                 "version {version}, this hooke reads version {VERSION}"
             )));
@@ -142,7 +152,17 @@ impl Checkpoint {
                 body.springs()
             )));
         }
-        let expected = 8 + 4 + 8 * 4 + 8 * 12 + 16 + 48 * n + springs;
+        let fixed = 8 + 4 + 8 * 4 + 8 * 12 + 16 + 48 * n + springs;
+        let extra_len = if version >= 2 && body_bytes.len() >= fixed + 8 {
+            u64::from_le_bytes(body_bytes[fixed..fixed + 8].try_into().unwrap()) as usize
+        } else {
+            0
+        };
+        let expected = if version >= 2 {
+            fixed + 8 + 8 * extra_len
+        } else {
+            fixed
+        };
         if body_bytes.len() != expected {
             return Err(bad(format!(
                 "{} bytes where {expected} were expected",
@@ -170,6 +190,12 @@ impl Checkpoint {
         for i in 0..n {
             state.norm[i] = node_norm(body, &state.alive, i);
         }
+        let extra = if version >= 2 {
+            let k = r.u64() as usize;
+            (0..k).map(|_| r.f64()).collect()
+        } else {
+            Vec::new()
+        };
         state.step = step;
         state.time = f[0];
         let integrator = IntegratorCheckpoint {
@@ -195,6 +221,7 @@ impl Checkpoint {
             integrator,
             broken,
             released,
+            extra,
         })
     }
 }

@@ -40,6 +40,30 @@ pub struct VtkSeries {
     frames: Vec<(Real, String)>,
 }
 
+/// The frames (time, file) a `.pvd` collection lists up to time `until`; none if it is missing.
+fn listed_frames(pvd: &Path, until: Real) -> Vec<(Real, String)> {
+    let mut frames = Vec::new();
+    if let Ok(text) = fs::read_to_string(pvd) {
+        for line in text.lines().filter(|l| l.contains("<DataSet")) {
+            let attr = |name: &str| {
+                line.split(&format!("{name}=\""))
+                    .nth(1)
+                    .and_then(|r| r.split('"').next())
+                    .map(str::to_string)
+            };
+            if let (Some(t), Some(f)) = (
+                attr("timestep").and_then(|t| t.parse::<Real>().ok()),
+                attr("file"),
+            ) {
+                if t <= until {
+                    frames.push((t, f));
+                }
+            }
+        }
+    }
+    frames
+}
+
 /// Write `bytes` to `path` through a temporary file in the same directory and a rename.
 pub fn write_atomic(
     path: &Path,
@@ -88,25 +112,7 @@ impl VtkSeries {
     /// to time `until` (a resumed run rewrites what came after its checkpoint).
     pub fn reopen(dir: &Path, stem: &str, springs: bool, until: Real) -> Result<Self, IoError> {
         let mut s = Self::create(dir, stem, springs)?;
-        let pvd = s.pvd_path();
-        if let Ok(text) = fs::read_to_string(&pvd) {
-            for line in text.lines().filter(|l| l.contains("<DataSet")) {
-                let attr = |name: &str| {
-                    line.split(&format!("{name}=\""))
-                        .nth(1)
-                        .and_then(|r| r.split('"').next())
-                        .map(str::to_string)
-                };
-                if let (Some(t), Some(f)) = (
-                    attr("timestep").and_then(|t| t.parse::<Real>().ok()),
-                    attr("file"),
-                ) {
-                    if t <= until {
-                        s.frames.push((t, f));
-                    }
-                }
-            }
-        }
+        s.frames = listed_frames(&s.pvd_path(), until);
         Ok(s)
     }
 
@@ -197,6 +203,13 @@ impl RigidSeries {
     /// Path of the `.pvd` collection.
     pub fn pvd_path(&self) -> PathBuf {
         self.dir.join(format!("{}.pvd", self.stem))
+    }
+
+    /// Continue the series of a previous run, keeping the frames up to time `until`.
+    pub fn reopen(dir: &Path, stem: &str, until: Real) -> Self {
+        let mut s = Self::create(dir, stem);
+        s.frames = listed_frames(&s.pvd_path(), until);
+        s
     }
 
     /// Write the bodies at time `t` (frame number `step`) and update the collection. Point

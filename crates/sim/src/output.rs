@@ -91,6 +91,26 @@ fn create(path: &Path, text: &str) -> Result<()> {
     std::fs::write(path, text).map_err(Error::file(format!("writing {}", path.display())))
 }
 
+/// Start a history: a fresh run (`keep` None) writes its header; a resumed one keeps the header
+/// and the rows whose time (first column) passes `keep`.
+fn start_history(path: &Path, header: &str, keep: Option<&dyn Fn(Real) -> bool>) -> Result<()> {
+    let Some(keep) = keep else {
+        return create(path, header);
+    };
+    let Ok(text) = std::fs::read_to_string(path) else {
+        return create(path, header);
+    };
+    let mut out = String::with_capacity(text.len());
+    for line in text.lines() {
+        let t = line.split(',').next().and_then(|v| v.parse::<Real>().ok());
+        if t.is_none_or(keep) {
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    create(path, &out)
+}
+
 /// The VTK series: `NAME.pvd` and one `.vtu` per frame.
 pub struct VtkSink(pub VtkSeries);
 
@@ -184,12 +204,16 @@ pub struct EnergyHistory {
 impl EnergyHistory {
     pub const HEADER: &'static str = "time,kinetic,strain_direct,strain_dispersive,external_work,boundary_work,body_work,dissipated,released,balance_error\n";
 
-    /// Open the history; a fresh run writes its header.
-    pub fn open(dir: &Path, name: &str, fresh: bool) -> Result<Self> {
+    /// Open the history: a fresh run (`resumed_at` None) writes its header, a resumed one keeps
+    /// the rows up to the time it resumes at.
+    pub fn open(dir: &Path, name: &str, resumed_at: Option<Real>) -> Result<Self> {
         let path = dir.join(format!("{name}_energy.csv"));
-        if fresh {
-            create(&path, Self::HEADER)?;
-        }
+        let keep = resumed_at.map(|u| move |t: Real| t <= u);
+        start_history(
+            &path,
+            Self::HEADER,
+            keep.as_ref().map(|k| k as &dyn Fn(Real) -> bool),
+        )?;
         Ok(Self { path })
     }
 }
@@ -230,12 +254,19 @@ pub struct ReactionHistory {
 impl ReactionHistory {
     pub const HEADER: &'static str = "# hooke reactions: force of each boundary region on the body (N; 2D: for the plate's thickness) and the region's mean displacement (m), time in s\ntime,region,name,force_x,force_y,force_z,displacement_x,displacement_y,displacement_z\n";
 
-    pub fn open(dir: &Path, name: &str, fresh: bool) -> Result<Self> {
+    /// As [`EnergyHistory::open`].
+    pub fn open(dir: &Path, name: &str, resumed_at: Option<Real>) -> Result<Self> {
         let path = dir.join(format!("{name}_reactions.csv"));
-        if fresh {
-            create(&path, Self::HEADER)?;
-        }
-        Ok(Self { path, last: None })
+        let keep = resumed_at.map(|u| move |t: Real| t <= u);
+        start_history(
+            &path,
+            Self::HEADER,
+            keep.as_ref().map(|k| k as &dyn Fn(Real) -> bool),
+        )?;
+        Ok(Self {
+            path,
+            last: resumed_at,
+        })
     }
 
     fn write(&mut self, time: Real, reactions: &[RegionReaction]) -> Result<()> {
@@ -284,11 +315,16 @@ impl ContactHistory {
     pub const HEADER: &'static str =
         "time,body,name,reaction_x,reaction_y,reaction_z,x,y,z,vx,vy,vz\n";
 
-    pub fn open(dir: &Path, name: &str, fresh: bool) -> Result<Self> {
+    /// As [`EnergyHistory::open`]; the rows at the resume time itself are dropped too (the
+    /// step that starts there records them again).
+    pub fn open(dir: &Path, name: &str, resumed_at: Option<Real>) -> Result<Self> {
         let path = dir.join(format!("{name}_contact.csv"));
-        if fresh {
-            create(&path, Self::HEADER)?;
-        }
+        let keep = resumed_at.map(|u| move |t: Real| t < u);
+        start_history(
+            &path,
+            Self::HEADER,
+            keep.as_ref().map(|k| k as &dyn Fn(Real) -> bool),
+        )?;
         Ok(Self { path })
     }
 

@@ -138,12 +138,6 @@ fn preflight(sim: &Simulation, opts: &RunOptions) -> Result<()> {
             "--resume continues explicit runs; a quasi-static run restarts from its case".into(),
         ));
     }
-    if sim.contact.is_some() && opts.resume.is_some() {
-        return Err(Error::Input(
-            "--resume: checkpoints do not hold rigid bodies yet; a case with contact restarts from its case file"
-                .into(),
-        ));
-    }
     Ok(())
 }
 
@@ -184,13 +178,20 @@ pub(crate) fn open_sinks(
         sinks.push(Box::new(crate::output::H5Sink(series)));
     }
     std::fs::create_dir_all(out).map_err(Error::file(format!("creating {}", out.display())))?;
-    sinks.push(Box::new(EnergyHistory::open(out, name, !resuming)?));
+    // A resumed run continues the histories from its checkpoint: rows after it (written before
+    // a crash, or by a run resumed from an earlier checkpoint) are dropped.
+    let keep = resuming.then_some(until);
+    sinks.push(Box::new(EnergyHistory::open(out, name, keep)?));
     if !sim.boundaries.is_empty() {
-        sinks.push(Box::new(ReactionHistory::open(out, name, !resuming)?));
+        sinks.push(Box::new(ReactionHistory::open(out, name, keep)?));
     }
-    if sim.has_rigid_bodies() && sim.vtk && !resuming {
+    if sim.has_rigid_bodies() && sim.vtk {
         sinks.push(Box::new(RigidSink {
-            series: hooke_io::RigidSeries::create(out, name),
+            series: if resuming {
+                hooke_io::RigidSeries::reopen(out, name, until)
+            } else {
+                hooke_io::RigidSeries::create(out, name)
+            },
             patch: 0.6 * sim.extent(),
         }));
     }
@@ -273,6 +274,18 @@ impl Run {
                     Error::Input(msg)
                 })?;
                 sim.state = ck.state.clone();
+                match sim.contact.as_mut() {
+                    Some(c) => c
+                        .restore(&ck.extra)
+                        .map_err(|e| Error::Input(format!("{}: {e}", path.display())))?,
+                    None if !ck.extra.is_empty() => {
+                        return Err(Error::Input(format!(
+                            "{}: the checkpoint holds rigid bodies, this case has none",
+                            path.display()
+                        )))
+                    }
+                    None => {}
+                }
                 if let Some(fr) = sim.fracture.as_mut() {
                     fr.broken_total = ck.broken as usize;
                     fr.released_total = ck.released;
@@ -290,18 +303,25 @@ impl Run {
         let until = sim.state.time;
         let sinks = open_sinks(&sim, &opts.out, &opts.name, resuming, until)?;
         let contact_history = if sim.has_rigid_bodies() {
-            Some(ContactHistory::open(&opts.out, &opts.name, !resuming)?)
+            Some(ContactHistory::open(
+                &opts.out,
+                &opts.name,
+                resuming.then_some(until),
+            )?)
         } else {
             None
         };
         let provenance = Provenance::start(&sim, &opts, Some(&it))?;
-        let t = sim.state.time;
-        let next_frame = (t / sim.output_every).floor() * sim.output_every + sim.output_every;
-        let next_ckpt =
-            (t / sim.checkpoint_every).floor() * sim.checkpoint_every + sim.checkpoint_every;
-        let next_reactions = sim.reactions_every.map(|e| (t / e).floor() * e + e);
+        // The next output times after t. A frame is taken at the first step within half a step
+        // of its time, so one due just after t may already have been taken just before it (a
+        // resumed run): count t + dt/2 as passed.
+        let t = sim.state.time + 0.5 * it.dt;
+        let next = |every: Real| (t / every).floor() * every + every;
+        let next_frame = next(sim.output_every);
+        let next_ckpt = next(sim.checkpoint_every);
+        let next_reactions = sim.reactions_every.map(next);
         let mut run = Run {
-            t_start: t,
+            t_start: sim.state.time,
             step_start: sim.state.step,
             sim,
             it,
@@ -584,6 +604,11 @@ impl Run {
             integrator: self.it.checkpoint(),
             broken: broken as u64,
             released,
+            extra: self
+                .sim
+                .contact
+                .as_ref()
+                .map_or(Vec::new(), |c| c.snapshot()),
         }
         .save(&self.opts.checkpoint_path())?;
         Ok(())
@@ -638,6 +663,7 @@ pub fn write_probe(
         integrator: it.checkpoint(),
         broken: 0,
         released: 0.0,
+        extra: sim.contact.as_ref().map_or(Vec::new(), |c| c.snapshot()),
     }
     .save(&dir.join("probe.ckpt"))?;
     Ok(())
