@@ -8,7 +8,7 @@ use hooke_tests::{dofs, kill_random, random_displacement, small_body, Rng};
 use nalgebra::DMatrix;
 
 fn energy(body: &Body, state: &State, u: &Coords) -> Real {
-    law::energy(body, u, &state.alive, &state.norm).total()
+    law::energy(body, u, &state.alive(), &state.norm()).total()
 }
 
 /// force = -grad U by central differences on a randomly deformed body with 20 % of its springs
@@ -298,7 +298,7 @@ fn forces_are_bit_identical_for_any_thread_count() {
         pool.install(|| {
             let mut s = state.clone();
             law::update_forces(&body, &mut s);
-            let e = law::energy(&body, &s.u, &s.alive, &s.norm);
+            let e = law::energy(&body, &s.u, &s.alive(), &s.norm());
             (s.f, s.pool, e.direct.to_bits(), e.dispersive.to_bits())
         })
     };
@@ -321,11 +321,12 @@ fn kill_bond_updates_normalisers() {
     let mut state = State::new(&body);
     let b = 0;
     let [i, j] = body.lattice.bonds.ends[b].map(|v| v as usize);
-    let (si, sj) = (state.norm[i], state.norm[j]);
+    let (si, sj) = (state.norm()[i], state.norm()[j]);
     let kl2 = body.k[b] * body.lattice.bonds.rest[b].powi(2);
     assert!(state.kill_bond(&body, b));
     assert!(
-        (state.norm[i] - (si - kl2)).abs() < 1e-12 && (state.norm[j] - (sj - kl2)).abs() < 1e-12
+        (state.norm()[i] - (si - kl2)).abs() < 1e-12
+            && (state.norm()[j] - (sj - kl2)).abs() < 1e-12
     );
     assert!(!state.kill_bond(&body, b));
 }

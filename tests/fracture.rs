@@ -296,7 +296,7 @@ fn breaking_is_bit_identical_for_any_thread_count() {
     let (b, nb) = run(2);
     assert!(na > 0 && na == nb);
     assert!(
-        a.u == b.u && a.v == b.v && a.alive == b.alive,
+        a.u == b.u && a.v == b.v && a.alive() == b.alive(),
         "states differ between 1 and 2 threads"
     );
 }
@@ -320,7 +320,7 @@ fn no_fail_regions_hold() {
     for (b, &[i, j]) in body.lattice.bonds.ends.iter().enumerate() {
         let touches = protected.contains(&i) || protected.contains(&j);
         if touches {
-            assert!(state.alive[b], "protected spring {b} broke");
+            assert!(state.alive()[b], "protected spring {b} broke");
         }
     }
     assert!(fr.broken_total > 0);

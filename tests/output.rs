@@ -123,7 +123,8 @@ fn vtk_frames_read_back_exactly() {
         // Energy density integrates to U.
         let w: Real =
             f64s(get("strain_energy_density")).iter().sum::<Real>() * body.lattice.cell_volume;
-        let u_total = hooke_core::law::energy(&body, &state.u, &state.alive, &state.norm).total();
+        let u_total =
+            hooke_core::law::energy(&body, &state.u, &state.alive(), &state.norm()).total();
         assert!((w / u_total - 1.0).abs() < 1e-12, "{w} vs {u_total}");
     }
     let pvd = std::fs::read_to_string(series.pvd_path()).unwrap();
@@ -191,7 +192,7 @@ fn restart_is_bit_identical() {
     fr2.released_total = ck.released;
     run(&body, &mut b, &mut it, &mut fr2, 350);
     assert!(
-        a.u == b.u && a.v == b.v && a.alive == b.alive,
+        a.u == b.u && a.v == b.v && a.alive() == b.alive(),
         "resumed run differs"
     );
     assert_eq!((a.step, a.time.to_bits()), (b.step, b.time.to_bits()));

@@ -136,7 +136,7 @@ fn dynamic_strip(nu: Real, over: Real, ramp: Real, damping: Real) -> (Real, usiz
         let [i, j] = bonds.ends[b].map(|v| v as usize);
         (body.lattice.pos.y[i] - yc) * (body.lattice.pos.y[j] - yc) < 0.0
     };
-    let mut was_alive = state.alive.clone();
+    let mut was_alive = state.alive().to_vec();
     let (mut on, mut off) = (0usize, 0usize);
     let mut tip = notch;
     let mut history: Vec<(Real, Real)> = Vec::new();
@@ -144,7 +144,7 @@ fn dynamic_strip(nu: Real, over: Real, ramp: Real, damping: Real) -> (Real, usiz
         it.step(&body, &mut state);
         if fr.check(&body, &mut state, &mut it).broken > 0 {
             for b in 0..bonds.len() {
-                if was_alive[b] && !state.alive[b] {
+                if was_alive[b] && !state.alive()[b] {
                     if crosses(b) {
                         on += 1;
                         let [i, j] = bonds.ends[b].map(|v| v as usize);
@@ -155,7 +155,7 @@ fn dynamic_strip(nu: Real, over: Real, ramp: Real, damping: Real) -> (Real, usiz
                     }
                 }
             }
-            was_alive.copy_from_slice(&state.alive);
+            was_alive.copy_from_slice(&state.alive());
         }
     }
     it.check(&body, &state).unwrap();
@@ -328,7 +328,7 @@ fn dynamic_strip_random(nu: Real, over: Real, height: Real, seed: u64) -> Dynami
     };
     let mut it = Integrator::new(&body, &mut state, loading, &opts).unwrap();
     let bonds = &body.lattice.bonds;
-    let mut was_alive = state.alive.clone();
+    let mut was_alive = state.alive().to_vec();
     let mut tip = notch;
     let mut history: Vec<(Real, Real)> = Vec::new();
     let mut path: Vec<(Real, Real)> = Vec::new();
@@ -336,7 +336,7 @@ fn dynamic_strip_random(nu: Real, over: Real, height: Real, seed: u64) -> Dynami
         it.step(&body, &mut state);
         if fr.check(&body, &mut state, &mut it).broken > 0 {
             for b in 0..bonds.len() {
-                if was_alive[b] && !state.alive[b] {
+                if was_alive[b] && !state.alive()[b] {
                     let [i, j] = bonds.ends[b].map(|v| v as usize);
                     let (xm, ym) = (0.5 * (pos.x[i] + pos.x[j]), 0.5 * (pos.y[i] + pos.y[j]));
                     path.push((xm, ym));
@@ -346,7 +346,7 @@ fn dynamic_strip_random(nu: Real, over: Real, height: Real, seed: u64) -> Dynami
                     }
                 }
             }
-            was_alive.copy_from_slice(&state.alive);
+            was_alive.copy_from_slice(&state.alive());
         }
     }
     it.check(&body, &state).unwrap();

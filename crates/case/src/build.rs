@@ -4,13 +4,14 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use hooke_contact::{Contact, ContactOptions, Geometry, MeshShape, RigidBody};
-use hooke_core::dynamics::{IntegratorOptions, TimeStep};
-use hooke_core::loading::{Loading, Motion, Prescribed, TimeFunction};
-use hooke_core::material::{self, Elastic, PlaneModel};
+use hooke_core::dynamics::TimeStep;
+use hooke_core::loading::TimeFunction;
+use hooke_core::material::PlaneModel;
 use hooke_core::random::{RandomSpec, Sampler};
-use hooke_core::{Body, LatticeKind, Real, State, Vector};
-use hooke_fracture::{Crack, CriticalStretch, Fracture};
-use hooke_sim::geometry::{fill_lattice, traction_loads, Face, Region, Shape, Solid};
+use hooke_core::{Body, LatticeKind, Real, Vector};
+use hooke_fracture::Crack;
+use hooke_sim::geometry::{Face, Region, Shape, Solid};
+use hooke_sim::{Bc, BreakRule, BuildError, Builder};
 use toml::Spanned;
 
 use crate::error::{line_col, CaseError};
@@ -274,6 +275,31 @@ fn shape(ctx: &Ctx, sh: &Spanned<RawShape>, key: &str, dim: usize) -> Result<Sha
     })
 }
 
+/// Where each key handed to the builder stands in the file, so that the builder's errors (which
+/// name the key) point at the line that set it.
+#[derive(Default)]
+struct Spans(Vec<(String, Range<usize>)>);
+
+impl Spans {
+    fn at(&mut self, key: impl Into<String>, span: Range<usize>) {
+        self.0.push((key.into(), span));
+    }
+
+    /// The builder's error at the key's span, or its nearest enclosing key's.
+    fn error(&self, ctx: &Ctx, e: BuildError) -> CaseError {
+        let mut k = e.key.as_str();
+        loop {
+            if let Some((_, s)) = self.0.iter().rev().find(|(key, _)| key == k) {
+                return ctx.err(s.clone(), e.key, e.message);
+            }
+            match k.rfind(['.', '[']) {
+                Some(i) => k = &k[..i],
+                None => return ctx.err(0..0, e.key, e.message),
+            }
+        }
+    }
+}
+
 /// Read, validate and build the case at `path`, with the lattice spacing divided by `scale`.
 pub fn load(path: &Path, scale: Real) -> Result<Simulation, CaseError> {
     let text = std::fs::read_to_string(path).map_err(|e| CaseError {
@@ -302,6 +328,10 @@ pub fn load_str_with(
 }
 
 /// As [`load`], from text (`path` only names the file in messages).
+///
+/// TOML -> the raw schema ([`parse`]) -> each section validated into the library's
+/// [`Builder`] (`lattice`, `material`, `precracks`, `boundaries`, `schedule`) -> the built
+/// simulation, then the rigid bodies and contact, which need the body.
 pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, CaseError> {
     let file: PathBuf = path.to_path_buf();
     let ctx = Ctx { file: &file, text };
@@ -314,7 +344,407 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
             message: format!("{scale}: give a positive factor (0.25 divides the resolution by 4)"),
         });
     }
-    let raw: RawCase = toml::from_str(text).map_err(|e| {
+    let raw = parse(&ctx)?;
+    let mut spans = Spans::default();
+    let (builder, kind, h) = lattice(&ctx, &raw, scale, &mut spans)?;
+    let builder = material(&ctx, &raw, kind, builder, &mut spans)?;
+    let builder = precracks(&ctx, &raw, kind.dim(), builder, &mut spans)?;
+    let builder = boundaries(&ctx, &raw, kind.dim(), builder, &mut spans)?;
+    let builder = schedule(&ctx, &raw, builder, &mut spans)?;
+    let mut sim = builder.build().map_err(|e| spans.error(&ctx, e))?;
+    sim.contact = contact(&ctx, &raw, &sim.body, kind.dim(), h)?;
+    Ok(sim)
+}
+
+/// `[material]`: the elastic constants and the breaking rule.
+fn material(
+    ctx: &Ctx,
+    raw: &RawCase,
+    kind: LatticeKind,
+    b: Builder,
+    spans: &mut Spans,
+) -> Result<Builder, CaseError> {
+    let m = &raw.material;
+    spans.at("material.youngs", m.youngs.span());
+    spans.at("material.poisson", m.poisson.span());
+    spans.at("material.density", m.density.span());
+    let b = b.material(
+        *m.youngs.get_ref(),
+        *m.poisson.get_ref(),
+        *m.density.get_ref(),
+    );
+    let given = match (&m.fracture_energy, &m.critical_stretch) {
+        (Some(g), None) => {
+            spans.at("material.fracture_energy", g.span());
+            Some((true, ctx.positive(g, "material.fracture_energy", "J/m^2")?))
+        }
+        (None, Some(s)) => {
+            spans.at("material.critical_stretch", s.span());
+            Some((
+                false,
+                ctx.positive(s, "material.critical_stretch", "(dimensionless)")?,
+            ))
+        }
+        (Some(g), Some(_)) => {
+            return Err(ctx.err(
+                g.span(),
+                "material.fracture_energy",
+                "give fracture_energy or critical_stretch, not both",
+            ))
+        }
+        (None, None) => None,
+    };
+    // The criterion: the critical stretch itself, or the spring energy calibrated to the same
+    // G_c (regular lattices only: see hooke_fracture::energy).
+    let energy = match &m.criterion {
+        None => false,
+        Some(c) => {
+            spans.at("material.criterion", c.span());
+            match c.get_ref().as_str() {
+                "stretch" => false,
+                "energy" if kind.is_random() => {
+                    return Err(ctx.err(
+                        c.span(),
+                        "material.criterion",
+                        "the energy criterion is calibrated on the hex and cubic lattices (a \
+                         random lattice's springs differ in stiffness); use \"stretch\" here",
+                    ))
+                }
+                "energy" => true,
+                other => {
+                    return Err(ctx.err(
+                        c.span(),
+                        "material.criterion",
+                        format!("unknown criterion \"{other}\"; use \"stretch\" or \"energy\""),
+                    ))
+                }
+            }
+        }
+    };
+    if let (Some(c), None) = (&m.criterion, &given) {
+        return Err(ctx.err(
+            c.span(),
+            "material.criterion",
+            "a criterion needs fracture_energy or critical_stretch; give one, or remove criterion",
+        ));
+    }
+    Ok(match given {
+        None => b,
+        Some((true, g)) if energy => b.breaking(BreakRule::SpringEnergy(g)),
+        Some((true, g)) => b.breaking(BreakRule::FractureEnergy(g)),
+        Some((false, s)) if energy => b.breaking(BreakRule::SpringEnergyFromStretch(s)),
+        Some((false, s)) => b.breaking(BreakRule::Stretch(s)),
+    })
+}
+
+/// `[[precrack]]`: segments cut 2D bodies, planar polygons 3D ones.
+fn precracks(
+    ctx: &Ctx,
+    raw: &RawCase,
+    dim: usize,
+    mut b: Builder,
+    spans: &mut Spans,
+) -> Result<Builder, CaseError> {
+    for (n, c) in raw.precrack.iter().enumerate() {
+        let key = format!("precrack[{n}]");
+        let crack = match (&c.segment, &c.polygon) {
+            (Some(s), None) => {
+                let p = s.get_ref();
+                if dim != 2 || p.len() != 2 || p.iter().any(|q| q.len() != 2) {
+                    return Err(ctx.err(s.span(), &key, "a segment is two 2D points [[x, y], [x, y]] and cuts 2D (hex) bodies; 3D bodies take a polygon"));
+                }
+                spans.at(&key, s.span());
+                Crack::Segment {
+                    a: [p[0][0], p[0][1]],
+                    b: [p[1][0], p[1][1]],
+                }
+            }
+            (None, Some(s)) => {
+                let p = s.get_ref();
+                if dim != 3 || p.len() < 3 || p.iter().any(|q| q.len() != 3) {
+                    return Err(ctx.err(s.span(), &key, "a polygon is three or more 3D points [[x, y, z], ...] and cuts 3D (cubic) bodies; 2D bodies take a segment"));
+                }
+                spans.at(&key, s.span());
+                Crack::Polygon {
+                    vertices: p.iter().map(|q| [q[0], q[1], q[2]]).collect(),
+                }
+            }
+            _ => {
+                return Err(ctx.err(
+                    0..0,
+                    &key,
+                    "give exactly one of segment = [[x, y], [x, y]] or polygon = [[x, y, z], ...]",
+                ))
+            }
+        };
+        b = b.precrack(crack);
+    }
+    Ok(b)
+}
+
+/// A region of a `[[boundary]]` or an `[[initial]]` condition.
+fn region(ctx: &Ctx, r: &Spanned<RawRegion>, key: &str, dim: usize) -> Result<Region, CaseError> {
+    let reg = r.get_ref();
+    Ok(match (&reg.bbox, &reg.plane, &reg.face) {
+        (None, None, Some(f)) => {
+            let s = f.get_ref().as_str();
+            Region::Face(Face::parse(s, dim).ok_or_else(|| {
+                ctx.err(
+                    f.span(),
+                    format!("{key}.face"),
+                    format!(
+                        "unknown face \"{s}\"; use \"x-\", \"x+\", \"y-\", \"y+\"{}",
+                        if dim == 3 {
+                            ", \"z-\" or \"z+\""
+                        } else {
+                            " (2D)"
+                        }
+                    ),
+                )
+            })?)
+        }
+        (Some(b), None, None) => Region::Box {
+            lo: ctx.point(&b.min, &format!("{key}.box.min"), dim)?,
+            hi: ctx.point(&b.max, &format!("{key}.box.max"), dim)?,
+        },
+        (None, Some(p), None) => Region::Plane {
+            axis: axis_index(ctx, &p.axis, &format!("{key}.plane.axis"), dim)?,
+            at: *p.at.get_ref(),
+            tolerance: match &p.tolerance {
+                Some(t) => Some(ctx.positive(t, &format!("{key}.plane.tolerance"), "m")?),
+                None => None,
+            },
+        },
+        _ => return Err(ctx.err(r.span(), key, "give exactly one of box = { min = [...], max = [...] }, plane = { axis = \"x\", at = 0.0 } or face = \"x+\"")),
+    })
+}
+
+/// A value or table in time: constant, ramped (smoothly or not) from 0, or tabulated.
+fn time_function(ctx: &Ctx, mo: &RawMotion, key: &str) -> Result<TimeFunction, CaseError> {
+    match (&mo.value, &mo.table) {
+        (Some(v), None) => Ok(ramped(ctx, *v.get_ref(), &mo.ramp, mo.smooth, key)?),
+        (None, Some(t)) => {
+            let pts: Option<Vec<(Real, Real)>> = t
+                .get_ref()
+                .iter()
+                .map(|p| (p.len() == 2).then(|| (p[0], p[1])))
+                .collect();
+            let f = TimeFunction::Table(pts.ok_or_else(|| {
+                ctx.err(
+                    t.span(),
+                    format!("{key}.table"),
+                    "each table entry is [time in s, value]",
+                )
+            })?);
+            f.validate()
+                .map_err(|e| ctx.err(t.span(), format!("{key}.table"), e.to_string()))?;
+            Ok(f)
+        }
+        _ => Err(ctx.err(
+            mo.axis.span(),
+            key,
+            "give value = ... (with an optional ramp = seconds) or table = [[t, value], ...]",
+        )),
+    }
+}
+
+/// `to`, reached from 0 over `ramp` seconds (smoothly or linearly), or at once.
+fn ramped(
+    ctx: &Ctx,
+    to: Real,
+    ramp: &Option<Spanned<Real>>,
+    smooth: bool,
+    key: &str,
+) -> Result<TimeFunction, CaseError> {
+    Ok(match ramp {
+        None => TimeFunction::Constant(to),
+        Some(r) => {
+            let t1 = ctx.positive(r, &format!("{key}.ramp"), "s")?;
+            if smooth {
+                TimeFunction::SmoothRamp {
+                    t0: 0.0,
+                    t1,
+                    from: 0.0,
+                    to,
+                }
+            } else {
+                TimeFunction::Ramp {
+                    t0: 0.0,
+                    t1,
+                    from: 0.0,
+                    to,
+                }
+            }
+        }
+    })
+}
+
+/// `[[boundary]]` and `[[initial]]`: conditions on regions.
+fn boundaries(
+    ctx: &Ctx,
+    raw: &RawCase,
+    dim: usize,
+    mut builder: Builder,
+    spans: &mut Spans,
+) -> Result<Builder, CaseError> {
+    for (n, b) in raw.boundary.iter().enumerate() {
+        let key = format!("boundary[{n}]");
+        let mut bc = Bc::on(region(ctx, &b.region, &format!("{key}.region"), dim)?);
+        spans.at(&key, b.region.span());
+        spans.at(format!("{key}.region"), b.region.span());
+        for ax in &b.fixed {
+            bc = bc.fixed(axis_index(ctx, ax, &format!("{key}.fixed"), dim)?);
+        }
+        for (list, name) in [(&b.velocity, "velocity"), (&b.displacement, "displacement")] {
+            for (j, mo) in list.iter().enumerate() {
+                let k2 = format!("{key}.{name}[{j}]");
+                let axis = axis_index(ctx, &mo.axis, &format!("{k2}.axis"), dim)?;
+                let f = time_function(ctx, mo, &k2)?;
+                bc = if name == "velocity" {
+                    bc.velocity(axis, f)
+                } else {
+                    bc.displacement(axis, f)
+                };
+            }
+        }
+        for (j, tr) in b.traction.iter().enumerate() {
+            let k2 = format!("{key}.traction[{j}]");
+            let t = ctx.point(&tr.value, &format!("{k2}.value"), dim)?;
+            let normal = axis_index(ctx, &tr.normal, &format!("{k2}.normal"), dim)?;
+            let scale = ramped(ctx, 1.0, &tr.ramp, tr.smooth, &k2)?;
+            bc = bc.traction([t.x, t.y, t.z], normal, scale);
+        }
+        if b.no_fail {
+            bc = bc.no_fail();
+        }
+        builder = builder.boundary(bc);
+    }
+    for (n, init) in raw.initial.iter().enumerate() {
+        let key = format!("initial[{n}]");
+        let v = ctx.point(&init.velocity, &format!("{key}.velocity"), dim)?;
+        let r = match &init.region {
+            Some(r) => {
+                spans.at(format!("{key}.region"), r.span());
+                region(ctx, r, &format!("{key}.region"), dim)?
+            }
+            None => Region::All,
+        };
+        builder = builder.initial_velocity(r, [v.x, v.y, v.z]);
+    }
+    Ok(builder)
+}
+
+/// `[solver]` and `[output]`: time stepping, damping, quasi-static load steps, what to write.
+fn schedule(ctx: &Ctx, raw: &RawCase, b: Builder, spans: &mut Spans) -> Result<Builder, CaseError> {
+    let s = &raw.solver;
+    let end_time = ctx.positive(&s.end_time, "solver.end_time", "s")?;
+    let time_step = match (&s.dt, &s.safety) {
+        (Some(dt), None) => TimeStep::Fixed {
+            dt: ctx.positive(dt, "solver.dt", "s")?,
+            force: false,
+        },
+        (None, Some(sf)) => {
+            let v = *sf.get_ref();
+            if !(v > 0.0 && v <= 1.0) {
+                return Err(ctx.err(
+                    sf.span(),
+                    "solver.safety",
+                    format!("{v}: give 0 < safety <= 1 (default 0.8)"),
+                ));
+            }
+            TimeStep::Auto { safety: v }
+        }
+        (None, None) => TimeStep::default(),
+        (Some(dt), Some(_)) => {
+            return Err(ctx.err(dt.span(), "solver.dt", "give dt or safety, not both"))
+        }
+    };
+    let damping = match &s.damping {
+        Some(d) if !(d.get_ref().is_finite() && *d.get_ref() >= 0.0) => {
+            return Err(ctx.err(
+                d.span(),
+                "solver.damping",
+                "give zero or a positive coefficient in 1/s",
+            ))
+        }
+        Some(d) => *d.get_ref(),
+        None => 0.0,
+    };
+    let mut b = b.end_time(end_time).time_step(time_step).damping(damping);
+    let o = &raw.output;
+    if let Some(e) = &o.every {
+        b = b.output_every(ctx.positive(e, "output.every", "s")?);
+    }
+    if let Some(e) = &o.checkpoint_every {
+        b = b.checkpoint_every(ctx.positive(e, "output.checkpoint_every", "s")?);
+    }
+    if let Some(e) = &o.reactions_every {
+        b = b.reactions_every(ctx.positive(e, "output.reactions_every", "s")?);
+    }
+    match s.kind.as_ref().map(|k| (k.get_ref().as_str(), k.span())) {
+        None | Some(("explicit", _)) => {
+            if let Some(st) = &s.steps {
+                return Err(ctx.err(
+                    st.span(),
+                    "solver.steps",
+                    "load steps are for type = \"quasi-static\"; explicit runs take end_time",
+                ));
+            }
+        }
+        Some(("quasi-static", _)) => {
+            let n = match &s.steps {
+                Some(st) if *st.get_ref() < 1 || *st.get_ref() > 1_000_000 => {
+                    return Err(ctx.err(
+                        st.span(),
+                        "solver.steps",
+                        "give 1 to 1 000 000 load steps",
+                    ))
+                }
+                Some(st) => *st.get_ref() as usize,
+                None => 20,
+            };
+            b = b.quasi_static(n);
+        }
+        Some((other, span)) => {
+            return Err(ctx.err(
+                span,
+                "solver.type",
+                format!("unknown solver \"{other}\"; use \"explicit\" or \"quasi-static\""),
+            ))
+        }
+    }
+    let (mut vtk, mut hdf5) = (true, false);
+    if let Some(f) = &o.format {
+        spans.at("output.format", f.span());
+        (vtk, hdf5) = (false, false);
+        for name in f.get_ref() {
+            match name.as_str() {
+                "vtk" => vtk = true,
+                "hdf5" => hdf5 = true,
+                other => {
+                    return Err(ctx.err(
+                        f.span(),
+                        "output.format",
+                        format!("unknown format \"{other}\"; use \"vtk\" and/or \"hdf5\""),
+                    ))
+                }
+            }
+        }
+        if !vtk && !hdf5 {
+            return Err(ctx.err(
+                f.span(),
+                "output.format",
+                "give at least one format: [\"vtk\"], [\"hdf5\"] or both",
+            ));
+        }
+    }
+    Ok(b.formats(vtk, hdf5).springs(o.springs))
+}
+
+/// TOML to the raw schema: a syntax error, an unknown or a missing key names the key and the line.
+fn parse(ctx: &Ctx) -> Result<RawCase, CaseError> {
+    let (text, file) = (ctx.text, ctx.file);
+    toml::from_str(text).map_err(|e| {
         let mut span = e.span().unwrap_or(0..0);
         let mut key = String::from("(syntax)");
         // toml reports an unknown key at the start of its table: point at the key itself.
@@ -373,14 +803,23 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
             ""
         };
         CaseError {
-            file: file.clone(),
+            file: file.to_path_buf(),
             line,
             column,
             key,
             message: format!("{msg}{fix}"),
         }
-    })?;
+    })
+}
 
+/// `[lattice]` and `[geometry]`: the kind, spacing (divided by `scale`), plate thickness, plane
+/// model, random sampling and the body's shapes.
+fn lattice(
+    ctx: &Ctx,
+    raw: &RawCase,
+    scale: Real,
+    spans: &mut Spans,
+) -> Result<(Builder, LatticeKind, Real), CaseError> {
     // Lattice.
     let l = &raw.lattice;
     let kind = match l.kind.get_ref().as_str() {
@@ -398,7 +837,7 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
             ))
         }
     };
-    let random = random_spec(&ctx, l, kind)?;
+    let random = random_spec(ctx, l, kind)?;
     let dim = kind.dim();
     let a = ctx.positive(&l.spacing, "lattice.spacing", "m")? / scale;
     let h = match (&l.thickness, kind.dim()) {
@@ -445,11 +884,11 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
     let geo = &raw.geometry;
     let mut adds = Vec::new();
     for (k, sh) in geo.add.iter().enumerate() {
-        adds.push(shape(&ctx, sh, &format!("geometry.add[{k}]"), dim)?);
+        adds.push(shape(ctx, sh, &format!("geometry.add[{k}]"), dim)?);
     }
     let mut subs = Vec::new();
     for (k, sh) in geo.subtract.iter().enumerate() {
-        subs.push(shape(&ctx, sh, &format!("geometry.subtract[{k}]"), dim)?);
+        subs.push(shape(ctx, sh, &format!("geometry.subtract[{k}]"), dim)?);
     }
     let bbox = match &geo.bbox {
         Some(g) => Some((
@@ -470,495 +909,21 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
         add: adds,
         subtract: subs,
     };
-    let lattice = fill_lattice(kind, a, h, random, &geometry).map_err(|e| {
-        let span = if e.key == "lattice.spacing" {
-            l.spacing.span()
-        } else {
-            geo_span.clone()
-        };
-        ctx.err(span, e.key, e.message)
-    })?;
 
-    // Material.
-    let m = &raw.material;
-    let elastic = Elastic {
-        youngs: *m.youngs.get_ref(),
-        poisson: *m.poisson.get_ref(),
-        density: *m.density.get_ref(),
-    };
-    material::check_elastic(&elastic).map_err(|e| {
-        let msg = e.to_string();
-        let (span, key) = if msg.contains("Poisson") {
-            (m.poisson.span(), "material.poisson")
-        } else if msg.contains("Young") {
-            (m.youngs.span(), "material.youngs")
-        } else {
-            (m.density.span(), "material.density")
-        };
-        ctx.err(span, key, msg)
-    })?;
-    let body = Body::new(lattice, &elastic, plane)
-        .map_err(|e| ctx.err(m.poisson.span(), "material.poisson", e.to_string()))?;
-    // The lattice's stiffness constant: k of every spring of a regular lattice, kappa (per
-    // volume) of a random one.
-    let k = if kind.is_random() {
-        material::constants_for_lattice(&body.lattice, &elastic, plane)
-            .map_err(|e| ctx.err(m.poisson.span(), "material.poisson", e.to_string()))?
-            .k
-    } else {
-        body.k[0]
-    };
-    let q = body.q;
-    let mut state = State::new(&body);
-
-    // Fracture.
-    let stretch = match (&m.fracture_energy, &m.critical_stretch) {
-        (Some(g), None) => Some(
-            CriticalStretch::from_fracture_energy(
-                kind,
-                k,
-                a,
-                q,
-                h,
-                ctx.positive(g, "material.fracture_energy", "J/m^2")?,
-            )
-            .map_err(|e| ctx.err(g.span(), "material.fracture_energy", e.to_string()))?,
-        ),
-        (None, Some(s)) => Some(
-            CriticalStretch::new(ctx.positive(
-                s,
-                "material.critical_stretch",
-                "(dimensionless)",
-            )?)
-            .map_err(|e| ctx.err(s.span(), "material.critical_stretch", e.to_string()))?,
-        ),
-        (Some(g), Some(_)) => {
-            return Err(ctx.err(
-                g.span(),
-                "material.fracture_energy",
-                "give fracture_energy or critical_stretch, not both",
-            ))
-        }
-        (None, None) => None,
-    };
-    // The criterion: the critical stretch itself, or the spring energy calibrated to the same
-    // G_c (regular lattices only: see hooke_fracture::energy).
-    let energy =
-        match &m.criterion {
-            None => false,
-            Some(c) => match c.get_ref().as_str() {
-                "stretch" => false,
-                "energy" if kind.is_random() => return Err(ctx.err(
-                    c.span(),
-                    "material.criterion",
-                    "the energy criterion is calibrated on the hex and cubic lattices (a random \
-                     lattice's springs differ in stiffness); use \"stretch\" here",
-                )),
-                "energy" => true,
-                other => {
-                    return Err(ctx.err(
-                        c.span(),
-                        "material.criterion",
-                        format!("unknown criterion \"{other}\"; use \"stretch\" or \"energy\""),
-                    ))
-                }
-            },
-        };
-    if let (Some(c), None) = (&m.criterion, &stretch) {
-        return Err(ctx.err(
-            c.span(),
-            "material.criterion",
-            "a criterion needs fracture_energy or critical_stretch; give one, or remove criterion",
-        ));
+    spans.at("lattice.spacing", l.spacing.span());
+    spans.at(
+        "lattice.thickness",
+        l.thickness.as_ref().map_or(l.kind.span(), |t| t.span()),
+    );
+    spans.at("geometry", geo_span);
+    let mut b = Builder::new(kind, a)
+        .plane(plane)
+        .random(random)
+        .solid(geometry);
+    if dim == 2 {
+        b = b.thickness(h);
     }
-    let criterion: Option<Box<dyn hooke_fracture::Criterion>> = match stretch {
-        Some(c) if energy => {
-            let e = match &m.fracture_energy {
-                Some(g) => hooke_fracture::SpringEnergy::from_fracture_energy(
-                    kind,
-                    k,
-                    a,
-                    q,
-                    h,
-                    *g.get_ref(),
-                ),
-                None => hooke_fracture::SpringEnergy::matching(c.s_c, k, q, a),
-            };
-            let span = m.criterion.as_ref().map_or(0..0, |c| c.span());
-            Some(Box::new(e.map_err(|e| {
-                ctx.err(span, "material.criterion", e.to_string())
-            })?))
-        }
-        Some(c) => Some(Box::new(c)),
-        None => None,
-    };
-    let mut fracture = criterion.map(|c| Fracture::new(&body, c));
-    let mut precracked = 0;
-    for (n, c) in raw.precrack.iter().enumerate() {
-        let key = format!("precrack[{n}]");
-        let (crack, span) = match (&c.segment, &c.polygon) {
-            (Some(s), None) => {
-                let p = s.get_ref();
-                if dim != 2 || p.len() != 2 || p.iter().any(|q| q.len() != 2) {
-                    return Err(ctx.err(s.span(), &key, "a segment is two 2D points [[x, y], [x, y]] and cuts 2D (hex) bodies; 3D bodies take a polygon"));
-                }
-                (
-                    Crack::Segment {
-                        a: [p[0][0], p[0][1]],
-                        b: [p[1][0], p[1][1]],
-                    },
-                    s.span(),
-                )
-            }
-            (None, Some(s)) => {
-                let p = s.get_ref();
-                if dim != 3 || p.len() < 3 || p.iter().any(|q| q.len() != 3) {
-                    return Err(ctx.err(s.span(), &key, "a polygon is three or more 3D points [[x, y, z], ...] and cuts 3D (cubic) bodies; 2D bodies take a segment"));
-                }
-                (
-                    Crack::Polygon {
-                        vertices: p.iter().map(|q| [q[0], q[1], q[2]]).collect(),
-                    },
-                    s.span(),
-                )
-            }
-            _ => {
-                return Err(ctx.err(
-                    0..0,
-                    &key,
-                    "give exactly one of segment = [[x, y], [x, y]] or polygon = [[x, y, z], ...]",
-                ))
-            }
-        };
-        let fr = fracture.get_or_insert_with(|| {
-            Fracture::new(
-                &body,
-                Box::new(CriticalStretch {
-                    s_c: Real::INFINITY,
-                }),
-            )
-        });
-        precracked += fr.precrack(&body, &mut state, &[crack]).map_err(|e| {
-            ctx.err(
-                span.clone(),
-                &key,
-                e.to_string().replace("pre-crack 0: ", ""),
-            )
-        })?;
-    }
-
-    // Regions.
-    let select = |r: &Spanned<RawRegion>, key: &str| -> Result<Vec<u32>, CaseError> {
-        let reg = r.get_ref();
-        let region = match (&reg.bbox, &reg.plane, &reg.face) {
-            (None, None, Some(f)) => {
-                let s = f.get_ref().as_str();
-                Region::Face(Face::parse(s, dim).ok_or_else(|| ctx.err(f.span(), format!("{key}.face"), format!("unknown face \"{s}\"; use \"x-\", \"x+\", \"y-\", \"y+\"{}", if dim == 3 { ", \"z-\" or \"z+\"" } else { " (2D)" })))?)
-            }
-            (Some(b), None, None) => Region::Box {
-                lo: ctx.point(&b.min, &format!("{key}.box.min"), dim)?,
-                hi: ctx.point(&b.max, &format!("{key}.box.max"), dim)?,
-            },
-            (None, Some(p), None) => Region::Plane {
-                axis: axis_index(&ctx, &p.axis, &format!("{key}.plane.axis"), dim)?,
-                at: *p.at.get_ref(),
-                tolerance: match &p.tolerance {
-                    Some(t) => Some(ctx.positive(t, &format!("{key}.plane.tolerance"), "m")?),
-                    None => None,
-                },
-            },
-            _ => return Err(ctx.err(r.span(), key, "give exactly one of box = { min = [...], max = [...] }, plane = { axis = \"x\", at = 0.0 } or face = \"x+\"")),
-        };
-        let nodes = region.select(&body);
-        if nodes.is_empty() {
-            return Err(ctx.err(
-                r.span(),
-                key,
-                "the region selects no node: check it against the geometry (and --scale)",
-            ));
-        }
-        Ok(nodes)
-    };
-    let function = |mo: &RawMotion, key: &str| -> Result<TimeFunction, CaseError> {
-        match (&mo.value, &mo.table) {
-            (Some(v), None) => {
-                let v = *v.get_ref();
-                Ok(match &mo.ramp {
-                    None => TimeFunction::Constant(v),
-                    Some(r) => {
-                        let t1 = ctx.positive(r, &format!("{key}.ramp"), "s")?;
-                        if mo.smooth {
-                            TimeFunction::SmoothRamp {
-                                t0: 0.0,
-                                t1,
-                                from: 0.0,
-                                to: v,
-                            }
-                        } else {
-                            TimeFunction::Ramp {
-                                t0: 0.0,
-                                t1,
-                                from: 0.0,
-                                to: v,
-                            }
-                        }
-                    }
-                })
-            }
-            (None, Some(t)) => {
-                let pts: Option<Vec<(Real, Real)>> = t
-                    .get_ref()
-                    .iter()
-                    .map(|p| (p.len() == 2).then(|| (p[0], p[1])))
-                    .collect();
-                let f = TimeFunction::Table(pts.ok_or_else(|| {
-                    ctx.err(
-                        t.span(),
-                        format!("{key}.table"),
-                        "each table entry is [time in s, value]",
-                    )
-                })?);
-                f.validate()
-                    .map_err(|e| ctx.err(t.span(), format!("{key}.table"), e.to_string()))?;
-                Ok(f)
-            }
-            _ => Err(ctx.err(
-                mo.axis.span(),
-                key,
-                "give value = ... (with an optional ramp = seconds) or table = [[t, value], ...]",
-            )),
-        }
-    };
-    let mut loading = Loading::default();
-    let mut regions = vec![0u32; body.nodes()];
-    let mut boundaries = Vec::new();
-    for (n, b) in raw.boundary.iter().enumerate() {
-        let key = format!("boundary[{n}]");
-        let nodes = select(&b.region, &format!("{key}.region"))?;
-        boundaries.push(hooke_sim::Boundary {
-            name: key.clone(),
-            nodes: nodes.clone(),
-        });
-        for &i in &nodes {
-            regions[i as usize] = n as u32 + 1;
-        }
-        for ax in &b.fixed {
-            let axis = axis_index(&ctx, ax, &format!("{key}.fixed"), dim)?;
-            loading.prescribed.push(Prescribed {
-                nodes: nodes.clone(),
-                axis,
-                motion: Motion::Fixed,
-            });
-        }
-        for (list, name) in [(&b.velocity, "velocity"), (&b.displacement, "displacement")] {
-            for (j, mo) in list.iter().enumerate() {
-                let k2 = format!("{key}.{name}[{j}]");
-                let axis = axis_index(&ctx, &mo.axis, &format!("{k2}.axis"), dim)?;
-                let f = function(mo, &k2)?;
-                let motion = if name == "velocity" {
-                    Motion::Velocity(f)
-                } else {
-                    Motion::Displacement(f)
-                };
-                loading.prescribed.push(Prescribed {
-                    nodes: nodes.clone(),
-                    axis,
-                    motion,
-                });
-            }
-        }
-        for (j, tr) in b.traction.iter().enumerate() {
-            let k2 = format!("{key}.traction[{j}]");
-            let t = ctx.point(&tr.value, &format!("{k2}.value"), dim)?;
-            let normal = axis_index(&ctx, &tr.normal, &format!("{k2}.normal"), dim)?;
-            let scale_fn = match &tr.ramp {
-                None => TimeFunction::Constant(1.0),
-                Some(r) => {
-                    let t1 = ctx.positive(r, &format!("{k2}.ramp"), "s")?;
-                    if tr.smooth {
-                        TimeFunction::SmoothRamp {
-                            t0: 0.0,
-                            t1,
-                            from: 0.0,
-                            to: 1.0,
-                        }
-                    } else {
-                        TimeFunction::Ramp {
-                            t0: 0.0,
-                            t1,
-                            from: 0.0,
-                            to: 1.0,
-                        }
-                    }
-                }
-            };
-            loading
-                .loads
-                .extend(traction_loads(&body, &nodes, t, normal, scale_fn));
-        }
-        if b.no_fail {
-            if let Some(fr) = fracture.as_mut() {
-                fr.set_no_fail(&nodes);
-            }
-        }
-        if b.fixed.is_empty()
-            && b.velocity.is_empty()
-            && b.displacement.is_empty()
-            && b.traction.is_empty()
-            && !b.no_fail
-        {
-            return Err(ctx.err(b.region.span(), &key, "the boundary does nothing: give fixed, velocity, displacement, traction or no_fail = true"));
-        }
-    }
-    for (n, init) in raw.initial.iter().enumerate() {
-        let key = format!("initial[{n}]");
-        let v = ctx.point(&init.velocity, &format!("{key}.velocity"), dim)?;
-        let nodes: Vec<u32> = match &init.region {
-            Some(r) => select(r, &format!("{key}.region"))?,
-            None => (0..body.nodes() as u32).collect(),
-        };
-        for i in nodes {
-            state.v.set(i as usize, v);
-        }
-    }
-
-    // Solver and output.
-    let s = &raw.solver;
-    let end_time = ctx.positive(&s.end_time, "solver.end_time", "s")?;
-    let time_step = match (&s.dt, &s.safety) {
-        (Some(dt), None) => TimeStep::Fixed {
-            dt: ctx.positive(dt, "solver.dt", "s")?,
-            force: false,
-        },
-        (None, Some(sf)) => {
-            let v = *sf.get_ref();
-            if !(v > 0.0 && v <= 1.0) {
-                return Err(ctx.err(
-                    sf.span(),
-                    "solver.safety",
-                    format!("{v}: give 0 < safety <= 1 (default 0.8)"),
-                ));
-            }
-            TimeStep::Auto { safety: v }
-        }
-        (None, None) => TimeStep::default(),
-        (Some(dt), Some(_)) => {
-            return Err(ctx.err(dt.span(), "solver.dt", "give dt or safety, not both"))
-        }
-    };
-    let damping = match &s.damping {
-        Some(d) if !(d.get_ref().is_finite() && *d.get_ref() >= 0.0) => {
-            return Err(ctx.err(
-                d.span(),
-                "solver.damping",
-                "give zero or a positive coefficient in 1/s",
-            ))
-        }
-        Some(d) => *d.get_ref(),
-        None => 0.0,
-    };
-    let o = &raw.output;
-    let output_every = match &o.every {
-        Some(e) => ctx.positive(e, "output.every", "s")?,
-        None => end_time / 20.0,
-    };
-    let checkpoint_every = match &o.checkpoint_every {
-        Some(e) => ctx.positive(e, "output.checkpoint_every", "s")?,
-        None => end_time / 4.0,
-    };
-    let reactions_every = match &o.reactions_every {
-        Some(e) => Some(ctx.positive(e, "output.reactions_every", "s")?),
-        None => None,
-    };
-    let contact = contact(&ctx, &raw, &body, dim, h)?;
-    let quasi_static = match &s.kind {
-        None => None,
-        Some(k) => match k.get_ref().as_str() {
-            "explicit" => None,
-            "quasi-static" => {
-                let n = match &s.steps {
-                    Some(st) if *st.get_ref() < 1 || *st.get_ref() > 1_000_000 => {
-                        return Err(ctx.err(
-                            st.span(),
-                            "solver.steps",
-                            "give 1 to 1 000 000 load steps",
-                        ))
-                    }
-                    Some(st) => *st.get_ref() as usize,
-                    None => 20,
-                };
-                Some(n)
-            }
-            other => {
-                return Err(ctx.err(
-                    k.span(),
-                    "solver.type",
-                    format!("unknown solver \"{other}\"; use \"explicit\" or \"quasi-static\""),
-                ))
-            }
-        },
-    };
-    if let (None, Some(st)) = (&quasi_static, &s.steps) {
-        return Err(ctx.err(
-            st.span(),
-            "solver.steps",
-            "load steps are for type = \"quasi-static\"; explicit runs take end_time",
-        ));
-    }
-    let (mut vtk, mut hdf5) = (true, false);
-    if let Some(f) = &o.format {
-        (vtk, hdf5) = (false, false);
-        for name in f.get_ref() {
-            match name.as_str() {
-                "vtk" => vtk = true,
-                "hdf5" => hdf5 = true,
-                other => {
-                    return Err(ctx.err(
-                        f.span(),
-                        "output.format",
-                        format!("unknown format \"{other}\"; use \"vtk\" and/or \"hdf5\""),
-                    ))
-                }
-            }
-        }
-        if !vtk && !hdf5 {
-            return Err(ctx.err(
-                f.span(),
-                "output.format",
-                "give at least one format: [\"vtk\"], [\"hdf5\"] or both",
-            ));
-        }
-    }
-    let options = IntegratorOptions {
-        time_step,
-        damping,
-        damage_proof: fracture.is_some(),
-        ..Default::default()
-    };
-    loading
-        .validate(body.nodes())
-        .map_err(|e| ctx.err(0..0, "boundary", e.to_string()))?;
-    Ok(Simulation {
-        body,
-        state,
-        loading,
-        fracture,
-        options,
-        end_time,
-        output_every,
-        checkpoint_every,
-        reactions_every,
-        springs: o.springs,
-        regions,
-        boundaries,
-        quasi_static,
-        vtk,
-        hdf5,
-        k,
-        q,
-        precracked,
-        contact,
-    })
+    Ok((b, kind, h))
 }
 
 /// Rigid bodies and contact settings; `None` when the case has neither.

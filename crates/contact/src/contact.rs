@@ -294,7 +294,7 @@ impl Contact {
             .filter(|&i| {
                 bonds
                     .row(i as usize)
-                    .any(|e| !state.alive[bonds.bond[e] as usize])
+                    .any(|e| !state.alive()[bonds.bond[e] as usize])
             })
             .collect();
         if damaged.is_empty() {
@@ -317,7 +317,7 @@ impl Contact {
         let bonded = |i: usize, j: u32| -> bool {
             let r = bonds.row(i);
             match bonds.nbr[r.clone()].binary_search(&j) {
-                Ok(e) => state.alive[bonds.bond[r.start + e] as usize],
+                Ok(e) => state.alive()[bonds.bond[r.start + e] as usize],
                 Err(_) => false,
             }
         };

@@ -148,6 +148,8 @@ pub struct Integrator {
     /// Scratch for interaction forces and the velocities of their nodes before the sweep.
     contact: Vec<(u32, [Real; 3])>,
     v_contact: Vec<[Real; 3]>,
+    /// `State::breaks` when the kernel's spring masks last matched the state.
+    synced: u64,
 }
 
 impl Integrator {
@@ -216,6 +218,7 @@ impl Integrator {
             }
         };
         let mut it = Self::assemble(body, loading, opts, kernel, dt, stable);
+        it.synced = state.breaks();
         // Prescribed positions and velocities at the start.
         let t = state.time;
         for d in &it.dofs {
@@ -289,6 +292,7 @@ impl Integrator {
             partials: vec![Default::default(); crate::kernel::partials_len(body.nodes())],
             contact: Vec::new(),
             v_contact: Vec::new(),
+            synced: 0,
         }
     }
 
@@ -331,6 +335,7 @@ impl Integrator {
             s.set_simd(false);
         }
         let mut it = Self::assemble(body, loading, opts, kernel, ck.dt, ck.stable);
+        it.synced = state.breaks();
         it.ledger = ck.ledger;
         it.initial = ck.initial;
         it.initial_power = ck.initial_power;
@@ -381,6 +386,37 @@ impl Integrator {
         self.ledger
     }
 
+    /// Break spring `b`: the state (its intact flags and both nodes' normalisers) and the
+    /// kernel's spring masks change together. Returns false if it was already broken.
+    pub fn break_spring(&mut self, body: &Body, state: &mut State, b: usize) -> bool {
+        let in_sync = state.breaks() == self.synced;
+        if !state.kill_bond(body, b) {
+            return false;
+        }
+        self.kernel.bond_killed(body, b);
+        if in_sync {
+            self.synced = state.breaks();
+        }
+        true
+    }
+
+    /// Bring the kernel's spring masks in line with the state if springs were changed without
+    /// [`Integrator::break_spring`] (a caller's `State::kill_bond` or `set_alive`): cheap when
+    /// nothing changed, one pass over the springs when something did.
+    fn sync(&mut self, body: &Body, state: &State) {
+        if state.breaks() == self.synced {
+            return;
+        }
+        if let Kernel::Cubic(old) = &self.kernel {
+            let simd = old.simd();
+            if let Kernel::Cubic(mut s) = Kernel::for_body(body, state) {
+                s.set_simd(simd);
+                self.kernel = Kernel::Cubic(s);
+            }
+        }
+        self.synced = state.breaks();
+    }
+
     /// Book energy released by springs broken outside the integrator (fracture).
     pub fn add_released(&mut self, e: Real) {
         self.ledger.released += e;
@@ -398,6 +434,7 @@ impl Integrator {
         state: &mut State,
         mut interaction: Option<&mut dyn Interaction>,
     ) {
+        self.sync(body, state);
         let dt = self.dt;
         let t = state.time;
         self.contact.clear();

@@ -5,7 +5,12 @@ use crate::body::Body;
 use crate::math::{Coords, Real, Vector};
 
 /// Everything that changes during a run.
-#[derive(Clone, Debug, PartialEq)]
+///
+/// Which springs are intact and the normalisers that follow from them are kept consistent by
+/// this type (read them with [`State::alive`] and [`State::norm`]; change them with
+/// [`State::kill_bond`] or [`State::set_alive`]), and an integrator notices any change through
+/// [`State::breaks`], so its kernel never runs on stale spring masks.
+#[derive(Clone, Debug)]
 pub struct State {
     /// Node displacements from the reference positions (m). Stored instead of positions so that
     /// spring extensions keep full precision at small strain: a spring's vector is formed as
@@ -16,10 +21,10 @@ pub struct State {
     /// Internal forces of the last evaluation (N).
     pub f: Coords,
     /// Whether each spring is intact.
-    pub alive: Vec<bool>,
+    pub(crate) alive: Vec<bool>,
     /// Normaliser `S_n = sum_t k_t L_t^2` over node n's intact springs (N m). Kept in step with
     /// `alive` by [`State::kill_bond`].
-    pub norm: Vec<Real>,
+    pub(crate) norm: Vec<Real>,
     /// Pool ratio `p_n = Pi_n / S_n` of the last evaluation (dimensionless strain-like measure:
     /// `tr(eps)/d` under uniform strain).
     pub pool: Vec<Real>,
@@ -27,6 +32,23 @@ pub struct State {
     pub time: Real,
     /// Steps taken.
     pub step: u64,
+    /// Changes to `alive` so far (see [`State::breaks`]).
+    breaks: u64,
+}
+
+/// Equal states: the same displacements, velocities, forces, springs, pools, time and step (how
+/// many changes led to the springs is not part of the state).
+impl PartialEq for State {
+    fn eq(&self, o: &Self) -> bool {
+        self.u == o.u
+            && self.v == o.v
+            && self.f == o.f
+            && self.alive == o.alive
+            && self.norm == o.norm
+            && self.pool == o.pool
+            && self.time == o.time
+            && self.step == o.step
+    }
 }
 
 impl State {
@@ -42,6 +64,7 @@ impl State {
             pool: vec![0.0; n],
             time: 0.0,
             step: 0,
+            breaks: 0,
         };
         for i in 0..n {
             s.norm[i] = node_norm(body, &s.alive, i);
@@ -69,6 +92,7 @@ impl State {
             return false;
         }
         self.alive[b] = false;
+        self.breaks += 1;
         for n in body.lattice.bonds.ends[b] {
             let n = n as usize;
             // Recomputed from scratch rather than decremented: the sum then does not depend on
@@ -76,6 +100,32 @@ impl State {
             self.norm[n] = node_norm(body, &self.alive, n);
         }
         true
+    }
+
+    /// Whether each spring is intact.
+    pub fn alive(&self) -> &[bool] {
+        &self.alive
+    }
+
+    /// Normaliser `S_n` of every node over its intact springs.
+    pub fn norm(&self) -> &[Real] {
+        &self.norm
+    }
+
+    /// A counter that changes whenever a spring is removed or restored: integrators compare it
+    /// with the value their kernel was synchronised at.
+    pub fn breaks(&self) -> u64 {
+        self.breaks
+    }
+
+    /// Set which springs are intact (e.g. from a checkpoint) and recompute every normaliser.
+    pub fn set_alive(&mut self, body: &Body, alive: Vec<bool>) {
+        assert_eq!(alive.len(), body.springs(), "one flag per spring");
+        self.alive = alive;
+        for n in 0..body.nodes() {
+            self.norm[n] = node_norm(body, &self.alive, n);
+        }
+        self.breaks += 1;
     }
 
     /// Number of intact springs.

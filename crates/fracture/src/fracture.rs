@@ -119,7 +119,7 @@ impl Fracture {
                     let b = bonds.bond[e] as usize;
                     // Each spring once, from its lower end; rows are sorted, so the lists come
                     // out in a fixed order.
-                    if j < i || !state.alive[b] || no_fail[j] {
+                    if j < i || !state.alive()[b] || no_fail[j] {
                         continue;
                     }
                     let rest = bonds.rest[b];
@@ -187,10 +187,10 @@ impl Fracture {
         }
         for list in &self.found {
             for &b in list {
-                state.kill_bond(body, b as usize);
-                if let Some(it) = integrator.as_deref_mut() {
-                    it.kernel.bond_killed(body, b as usize);
-                }
+                match integrator.as_deref_mut() {
+                    Some(it) => it.break_spring(body, state, b as usize),
+                    None => state.kill_bond(body, b as usize),
+                };
             }
         }
         let mut released = 0.0;
@@ -219,7 +219,7 @@ impl Fracture {
             .map(|n| {
                 let alive = bonds
                     .row(n)
-                    .filter(|&e| state.alive[bonds.bond[e] as usize])
+                    .filter(|&e| state.alive()[bonds.bond[e] as usize])
                     .count();
                 if self.initial[n] == 0 {
                     0.0
@@ -256,7 +256,7 @@ fn shifted_extension(body: &Body, state: &State, h: Real, i: usize, j: usize, re
 
 /// `q/2 Pi_n^2 / S_n` of node n at the displacements `u - h v`.
 fn shifted_dispersive_energy(body: &Body, state: &State, h: Real, n: usize) -> Real {
-    let s = state.norm[n];
+    let s = state.norm()[n];
     if body.q == 0.0 || s <= 0.0 {
         return 0.0;
     }
@@ -264,7 +264,7 @@ fn shifted_dispersive_energy(body: &Body, state: &State, h: Real, n: usize) -> R
     let mut pi = 0.0;
     for e in bonds.row(n) {
         let b = bonds.bond[e] as usize;
-        if state.alive[b] {
+        if state.alive()[b] {
             let rest = bonds.rest[b];
             pi += body.k[b]
                 * rest

@@ -238,7 +238,7 @@ fn solve(body: &Body, state: &mut State, cons: &Constraints) -> Result<(), Fract
 }
 
 fn stored(body: &Body, state: &State) -> Real {
-    let e = law::energy(body, &state.u, &state.alive, &state.norm);
+    let e = law::energy(body, &state.u, &state.alive(), &state.norm());
     e.direct + e.dispersive
 }
 
@@ -373,7 +373,7 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
         let mut over = Vec::new();
         for b in 0..bonds.len() {
             let [i, j] = bonds.ends[b].map(|v| v as usize);
-            if !state.alive[b] || !breakable[i] || !breakable[j] {
+            if !state.alive()[b] || !breakable[i] || !breakable[j] {
                 continue;
             }
             let g = spring_geometry(&body.lattice, &state.u, i, j, bonds.rest[b]);

@@ -80,7 +80,7 @@ fn main() {
         h5.write(&body, &state, extras).unwrap();
         let last = body.nodes() - 1;
         let dmax = damage.iter().cloned().fold(0.0, Real::max);
-        let intact = state.alive.iter().filter(|&&a| a).count();
+        let intact = state.alive().iter().filter(|&&a| a).count();
         frames.push(format!(
             "{{\"file\": \"{}\", \"time\": {:e}, \"ux_first\": {:e}, \"ux_last\": {:e}, \"vx_last\": {:e}, \"damage_max\": {:e}, \"lines\": {}}}",
             path.file_name().unwrap().to_string_lossy(),

@@ -23,7 +23,6 @@ use std::path::Path;
 
 use hooke_core::dynamics::{IntegratorCheckpoint, Ledger};
 use hooke_core::stability::StableStep;
-use hooke_core::state::node_norm;
 use hooke_core::{Body, Real, State};
 
 use crate::error::{io, IoError};
@@ -64,10 +63,10 @@ impl Checkpoint {
     pub fn save(&self, path: &Path) -> Result<(), IoError> {
         let s = &self.state;
         let n = s.u.len();
-        let mut b: Vec<u8> = Vec::with_capacity(128 + 48 * n + s.alive.len());
+        let mut b: Vec<u8> = Vec::with_capacity(128 + 48 * n + s.alive().len());
         b.extend_from_slice(MAGIC);
         b.extend_from_slice(&VERSION.to_le_bytes());
-        for v in [self.digest, n as u64, s.alive.len() as u64, s.step] {
+        for v in [self.digest, n as u64, s.alive().len() as u64, s.step] {
             b.extend_from_slice(&v.to_le_bytes());
         }
         let ck = &self.integrator;
@@ -97,7 +96,7 @@ impl Checkpoint {
                 }
             }
         }
-        b.extend(s.alive.iter().map(|&a| a as u8));
+        b.extend(s.alive().iter().map(|&a| a as u8));
         b.extend_from_slice(&(self.extra.len() as u64).to_le_bytes());
         for v in &self.extra {
             b.extend_from_slice(&v.to_le_bytes());
@@ -184,12 +183,8 @@ impl Checkpoint {
                 *v = r.f64();
             }
         }
-        for a in state.alive.iter_mut() {
-            *a = r.take(1)[0] != 0;
-        }
-        for i in 0..n {
-            state.norm[i] = node_norm(body, &state.alive, i);
-        }
+        let alive: Vec<bool> = (0..springs).map(|_| r.take(1)[0] != 0).collect();
+        state.set_alive(body, alive);
         let extra = if version >= 2 {
             let k = r.u64() as usize;
             (0..k).map(|_| r.f64()).collect()

@@ -20,10 +20,10 @@ pub struct Derived {
 pub fn derived(body: &Body, state: &State) -> Derived {
     let n = body.nodes();
     let mut pool = vec![0.0; n];
-    law::compute_pools(body, &state.u, &state.alive, &state.norm, &mut pool);
+    law::compute_pools(body, &state.u, &state.alive(), &state.norm(), &mut pool);
     let bonds = &body.lattice.bonds;
     let lat = &body.lattice;
-    let t = law::spring_tensions(body, &state.u, &state.alive, &pool);
+    let t = law::spring_tensions(body, &state.u, &state.alive(), &pool);
     let mut energy_density = vec![0.0; n];
     let mut stress = vec![[0.0; 9]; n];
     for i in 0..n {
@@ -31,15 +31,15 @@ pub fn derived(body: &Body, state: &State) -> Derived {
         let mut pi = 0.0;
         for e in bonds.row(i) {
             let b = bonds.bond[e] as usize;
-            if state.alive[b] {
+            if state.alive()[b] {
                 let rest = bonds.rest[b];
                 let dl = spring_geometry(lat, &state.u, i, bonds.nbr[e] as usize, rest).dl;
                 direct += 0.25 * body.k[b] * dl * dl;
                 pi += body.k[b] * rest * dl;
             }
         }
-        let disp = if state.norm[i] > 0.0 {
-            0.5 * body.q * pi * pi / state.norm[i]
+        let disp = if state.norm()[i] > 0.0 {
+            0.5 * body.q * pi * pi / state.norm()[i]
         } else {
             0.0
         };

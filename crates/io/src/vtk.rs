@@ -313,7 +313,7 @@ pub fn frame_vtk(body: &Body, state: &State, extras: FrameExtras, springs: bool)
     let mut types = vec![CellType::Vertex; n];
     if springs {
         for (b, &[i, j]) in body.lattice.bonds.ends.iter().enumerate() {
-            if state.alive[b] {
+            if state.alive()[b] {
                 connectivity.extend([i as u64, j as u64]);
                 offsets.push(connectivity.len() as u64);
                 types.push(CellType::Line);

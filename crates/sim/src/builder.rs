@@ -118,6 +118,8 @@ pub enum BreakRule {
     Stretch(Real),
     /// The spring-energy criterion calibrated to G_c (regular lattices).
     SpringEnergy(Real),
+    /// The spring-energy criterion matching a given critical stretch (regular lattices).
+    SpringEnergyFromStretch(Real),
 }
 
 /// A simulation under construction. See the module docs.
@@ -331,10 +333,12 @@ impl Builder {
             BuildError::new(key, msg)
         };
         material::check_elastic(&elastic).map_err(mat)?;
-        let body = Body::new(lattice, &elastic, self.plane).map_err(mat)?;
+        // What the lattice cannot reach is a matter of nu.
+        let nu = |e: hooke_core::Error| BuildError::new("material.poisson", e.to_string());
+        let body = Body::new(lattice, &elastic, self.plane).map_err(nu)?;
         let k = if kind.is_random() {
             material::constants_for_lattice(&body.lattice, &elastic, self.plane)
-                .map_err(mat)?
+                .map_err(nu)?
                 .k
         } else {
             body.k[0]
@@ -353,13 +357,26 @@ impl Builder {
             Some(BreakRule::Stretch(s)) => Some(Box::new(
                 CriticalStretch::new(s).map_err(fr("material.critical_stretch"))?,
             )),
-            Some(BreakRule::SpringEnergy(_)) if kind.is_random() => {
+            Some(BreakRule::SpringEnergy(_) | BreakRule::SpringEnergyFromStretch(_))
+                if kind.is_random() =>
+            {
                 return Err(BuildError::new("material.criterion", "the energy criterion is calibrated on the hex and cubic lattices (a random lattice's springs differ in stiffness); use the stretch criterion here"))
             }
-            Some(BreakRule::SpringEnergy(g)) => Some(Box::new(
-                SpringEnergy::from_fracture_energy(kind, k, a, q, h, g)
-                    .map_err(fr("material.criterion"))?,
-            )),
+            Some(BreakRule::SpringEnergy(g)) => {
+                // The stretch calibration validates G_c first (its errors name the key).
+                CriticalStretch::from_fracture_energy(kind, k, a, q, h, g)
+                    .map_err(fr("material.fracture_energy"))?;
+                Some(Box::new(
+                    SpringEnergy::from_fracture_energy(kind, k, a, q, h, g)
+                        .map_err(fr("material.criterion"))?,
+                ))
+            }
+            Some(BreakRule::SpringEnergyFromStretch(s)) => {
+                let c = CriticalStretch::new(s).map_err(fr("material.critical_stretch"))?;
+                Some(Box::new(
+                    SpringEnergy::matching(c.s_c, k, q, a).map_err(fr("material.criterion"))?,
+                ))
+            }
         };
         let mut fracture = criterion.map(|c| Fracture::new(&body, c));
         let mut precracked = 0;

@@ -123,6 +123,11 @@ impl CubicStencil {
         self.simd = on && simd_available();
     }
 
+    /// Whether the vector path is on.
+    pub fn simd(&self) -> bool {
+        self.simd
+    }
+
     /// A copy with another dispersion ratio (q = 0: the plain law).
     pub fn with_q(&self, q: Real) -> Self {
         CubicStencil { q, ..self.clone() }
