@@ -283,6 +283,61 @@ impl Builder {
 
     /// Check everything and build the simulation.
     pub fn build(self) -> Result<Simulation, BuildError> {
+        let (body, k, h) = self.body()?;
+        let mut state = State::new(&body);
+        let (mut fracture, precracked) = self.fracture(&body, &mut state, k, h)?;
+        let (loading, regions, boundaries) = self.loading(&body, &mut state, &mut fracture)?;
+        let (end_time, output_every, checkpoint_every, reactions_every) = self.times()?;
+        let q = body.q;
+        let contact = match self.contact {
+            None => None,
+            Some(_) if self.quasi_static.is_some() => {
+                return Err(BuildError::new("contact", "contact runs with the explicit solver; remove the quasi-static solver or the contact"))
+            }
+            Some((opts, bodies)) => {
+                // Defaults from the lattice: radius a/2, fragments below 0.8 of the shortest spring.
+                let opts = opts.unwrap_or_else(|| ContactOptions::for_body(&body));
+                if !(opts.stiffness_factor > 0.0 && opts.stiffness_factor <= 1.0) {
+                    return Err(BuildError::new("contact.stiffness_factor", "give 0 < c <= 1 (the default 0.1 keeps the step stable)"));
+                }
+                Some(Contact::new(&body, bodies, opts))
+            }
+        };
+        loading
+            .validate(body.nodes())
+            .map_err(|e| BuildError::new("boundary", e.to_string()))?;
+        let options = IntegratorOptions {
+            time_step: self.time_step,
+            damping: self.damping,
+            damage_proof: fracture.is_some(),
+            ..Default::default()
+        };
+        Ok(Simulation {
+            body,
+            state,
+            loading,
+            fracture,
+            options,
+            end_time,
+            output_every,
+            checkpoint_every,
+            reactions_every,
+            springs: self.springs,
+            regions,
+            boundaries,
+            quasi_static: self.quasi_static,
+            vtk: self.formats.0,
+            hdf5: self.formats.1,
+            k,
+            q,
+            precracked,
+            contact,
+        })
+    }
+
+    /// The lattice filled into the solid, with the material's constants: the body, its
+    /// stiffness constant (k, or kappa on random lattices) and the plate thickness (1 in 3D).
+    fn body(&self) -> Result<(Body, Real, Real), BuildError> {
         let kind = self.kind;
         let dim = kind.dim();
         let a = self.spacing;
@@ -343,8 +398,18 @@ impl Builder {
         } else {
             body.k[0]
         };
-        let q = body.q;
-        let mut state = State::new(&body);
+        Ok((body, k, h))
+    }
+
+    /// The breaking rule and the pre-cracks: the fracture state and the springs cut.
+    fn fracture(
+        &self,
+        body: &Body,
+        state: &mut State,
+        k: Real,
+        h: Real,
+    ) -> Result<(Option<Fracture>, usize), BuildError> {
+        let (kind, a, q) = (self.kind, self.spacing, body.q);
         let fr = |key: &'static str| {
             move |e: hooke_fracture::FractureError| BuildError::new(key, e.to_string())
         };
@@ -378,7 +443,7 @@ impl Builder {
                 ))
             }
         };
-        let mut fracture = criterion.map(|c| Fracture::new(&body, c));
+        let mut fracture = criterion.map(|c| Fracture::new(body, c));
         let mut precracked = 0;
         for (n, c) in self.cracks.iter().enumerate() {
             let f = fracture.get_or_insert_with(|| {
@@ -390,7 +455,7 @@ impl Builder {
                 )
             });
             precracked += f
-                .precrack(&body, &mut state, std::slice::from_ref(c))
+                .precrack(body, state, std::slice::from_ref(c))
                 .map_err(|e| {
                     BuildError::new(
                         format!("precrack[{n}]"),
@@ -398,6 +463,18 @@ impl Builder {
                     )
                 })?;
         }
+        Ok((fracture, precracked))
+    }
+
+    /// Boundary conditions and initial velocities: the loading, each node's region id and the
+    /// regions whose reactions are recorded. No-fail regions are marked in `fracture`.
+    fn loading(
+        &self,
+        body: &Body,
+        state: &mut State,
+        fracture: &mut Option<Fracture>,
+    ) -> Result<(Loading, Vec<u32>, Vec<Boundary>), BuildError> {
+        let dim = self.kind.dim();
         let mut loading = Loading {
             body_acceleration: Vector::from(self.gravity),
             ..Default::default()
@@ -419,7 +496,7 @@ impl Builder {
         };
         for (n, bc) in self.bcs.iter().enumerate() {
             let key = format!("boundary[{n}]");
-            let nodes = bc.region.select(&body);
+            let nodes = bc.region.select(body);
             if nodes.is_empty() {
                 return Err(BuildError::new(
                     format!("{key}.region"),
@@ -465,7 +542,7 @@ impl Builder {
                 axis_ok(*normal, format!("{key}.traction[{j}].normal"))?;
                 loading
                     .loads
-                    .extend(traction_loads(&body, &nodes, *t, *normal, scale.clone()));
+                    .extend(traction_loads(body, &nodes, *t, *normal, scale.clone()));
             }
             if bc.no_fail {
                 if let Some(f) = fracture.as_mut() {
@@ -474,7 +551,7 @@ impl Builder {
             }
         }
         for (n, (region, v)) in self.initial.iter().enumerate() {
-            let nodes = region.select(&body);
+            let nodes = region.select(body);
             if nodes.is_empty() {
                 return Err(BuildError::new(
                     format!("initial[{n}].region"),
@@ -485,6 +562,11 @@ impl Builder {
                 state.v.set(i as usize, Vector::from(*v));
             }
         }
+        Ok((loading, regions, boundaries))
+    }
+
+    /// End time and the output intervals (s).
+    fn times(&self) -> Result<(Real, Real, Real, Option<Real>), BuildError> {
         let end_time = match self.end_time {
             Some(t) if t.is_finite() && t > 0.0 => t,
             Some(t) => {
@@ -538,49 +620,6 @@ impl Builder {
                 "give at least one format: VTK, HDF5 or both",
             ));
         }
-        let contact = match self.contact {
-            None => None,
-            Some(_) if self.quasi_static.is_some() => {
-                return Err(BuildError::new("contact", "contact runs with the explicit solver; remove the quasi-static solver or the contact"))
-            }
-            Some((opts, bodies)) => {
-                // Defaults from the lattice: radius a/2, fragments below 0.8 of the shortest spring.
-                let opts = opts.unwrap_or_else(|| ContactOptions::for_body(&body));
-                if !(opts.stiffness_factor > 0.0 && opts.stiffness_factor <= 1.0) {
-                    return Err(BuildError::new("contact.stiffness_factor", "give 0 < c <= 1 (the default 0.1 keeps the step stable)"));
-                }
-                Some(Contact::new(&body, bodies, opts))
-            }
-        };
-        loading
-            .validate(body.nodes())
-            .map_err(|e| BuildError::new("boundary", e.to_string()))?;
-        let options = IntegratorOptions {
-            time_step: self.time_step,
-            damping: self.damping,
-            damage_proof: fracture.is_some(),
-            ..Default::default()
-        };
-        Ok(Simulation {
-            body,
-            state,
-            loading,
-            fracture,
-            options,
-            end_time,
-            output_every,
-            checkpoint_every,
-            reactions_every,
-            springs: self.springs,
-            regions,
-            boundaries,
-            quasi_static: self.quasi_static,
-            vtk: self.formats.0,
-            hdf5: self.formats.1,
-            k,
-            q,
-            precracked,
-            contact,
-        })
+        Ok((end_time, output_every, checkpoint_every, reactions_every))
     }
 }
