@@ -67,6 +67,22 @@ pub struct BenchArgs {
     /// cost an intact run pays) and report the ratio as `contact_overhead`.
     #[arg(long)]
     pub contact: bool,
+    /// Instead: time the step with the stretch criterion active and nothing breaking against the
+    /// intact step on the same body (`fracture_overhead`), alternating windows of --steps steps
+    /// --repeats times; with --case, also a running crack: the case is run to --crack-time
+    /// (default: half its end time), then windows of steps with breaking alternate with windows
+    /// without it (`running_crack_overhead`).
+    #[arg(long)]
+    pub fracture: bool,
+    /// A case file for --fracture's running crack (e.g. cases/glass_branching_random.toml).
+    #[arg(long)]
+    pub case: Option<std::path::PathBuf>,
+    /// Resolution factor of --case.
+    #[arg(long, default_value_t = 1.0)]
+    pub scale: Real,
+    /// Simulated time (s) the --case is run to before timing.
+    #[arg(long)]
+    pub crack_time: Option<Real>,
 }
 
 #[derive(Debug, serde::Serialize)]
@@ -105,6 +121,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if args.compare {
         return bench_compare(&args);
     }
+    if args.fracture {
+        return bench_fracture(&args);
+    }
     if args.nodes < 27 || args.steps == 0 {
         return Err(InputError(format!(
             "--nodes {} --steps {}: give at least 27 nodes and 1 step",
@@ -113,31 +132,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
         .into());
     }
     let setup = Instant::now();
-    let (kind, lattice) = match args.lattice {
-        LatticeArg::Cubic => {
-            let side = (args.nodes as f64).cbrt().round().max(3.0) as usize;
-            (
-                LatticeKind::Cubic,
-                Lattice::cubic_box([side, side, side], 1.0)?,
-            )
-        }
-        LatticeArg::Hex => {
-            let side = (args.nodes as f64).sqrt().round().max(3.0) as usize;
-            (LatticeKind::Hex, Lattice::hex_box(side, side, 1.0, 1.0)?)
-        }
-        LatticeArg::Random3d => {
-            let side = (args.nodes as f64).cbrt().round().max(3.0) - 1.0;
-            let spec = hooke_core::random::RandomSpec::default();
-            let l = Lattice::random(3, [0.0; 3], [side; 3], 1.0, 1.0, spec, &|_| true)?;
-            (LatticeKind::Random3d, l)
-        }
-        LatticeArg::Random2d => {
-            let side = (args.nodes as f64).sqrt().round().max(3.0) - 1.0;
-            let spec = hooke_core::random::RandomSpec::default();
-            let l = Lattice::random(2, [0.0; 3], [side, side, 0.0], 1.0, 1.0, spec, &|_| true)?;
-            (LatticeKind::Random2d, l)
-        }
-    };
+    let lattice = bench_lattice(&args)?;
+    let kind = lattice.kind;
     let nu = match (args.law, kind) {
         (LawArg::Plain, _) => hooke_core::material::nu_from_q(kind, 0.0),
         (LawArg::Dispersive, LatticeKind::Cubic | LatticeKind::Random3d) => 0.3,
@@ -227,6 +223,30 @@ pub fn run(args: BenchArgs) -> Result<()> {
     Ok(())
 }
 
+/// The block the benchmarks run on: about `--nodes` nodes of `--lattice` in lattice units.
+fn bench_lattice(args: &BenchArgs) -> Result<Lattice> {
+    Ok(match args.lattice {
+        LatticeArg::Cubic => {
+            let side = (args.nodes as f64).cbrt().round().max(3.0) as usize;
+            Lattice::cubic_box([side, side, side], 1.0)?
+        }
+        LatticeArg::Hex => {
+            let side = (args.nodes as f64).sqrt().round().max(3.0) as usize;
+            Lattice::hex_box(side, side, 1.0, 1.0)?
+        }
+        LatticeArg::Random3d => {
+            let side = (args.nodes as f64).cbrt().round().max(3.0) - 1.0;
+            let spec = hooke_core::random::RandomSpec::default();
+            Lattice::random(3, [0.0; 3], [side; 3], 1.0, 1.0, spec, &|_| true)?
+        }
+        LatticeArg::Random2d => {
+            let side = (args.nodes as f64).sqrt().round().max(3.0) - 1.0;
+            let spec = hooke_core::random::RandomSpec::default();
+            Lattice::random(2, [0.0; 3], [side, side, 0.0], 1.0, 1.0, spec, &|_| true)?
+        }
+    })
+}
+
 /// A body on `lattice` in lattice units with ratio `q`, moving with a smooth velocity field (so
 /// the springs do real work), and its integrator on the kernel `args` asks for.
 fn bench_run(args: &BenchArgs, lattice: Lattice, q: Real) -> Result<(Body, State, Integrator)> {
@@ -237,14 +257,18 @@ fn bench_run(args: &BenchArgs, lattice: Lattice, q: Real) -> Result<(Body, State
         state.v.x[i] = 1e-3 * (0.1 * p.y).sin();
         state.v.y[i] = 1e-3 * (0.13 * p.z + 0.07 * p.x).cos();
     }
-    let opts = IntegratorOptions {
+    let it = Integrator::new(&body, &mut state, Loading::default(), &bench_opts(args))
+        .context("setting up the integrator")?;
+    Ok((body, state, it))
+}
+
+/// The integrator options `--kernel` asks for.
+fn bench_opts(args: &BenchArgs) -> IntegratorOptions {
+    IntegratorOptions {
         portable: args.kernel == KernelArg::Portable,
         force_csr: args.kernel == KernelArg::Csr,
         ..Default::default()
-    };
-    let it = Integrator::new(&body, &mut state, Loading::default(), &opts)
-        .context("setting up the integrator")?;
-    Ok((body, state, it))
+    }
 }
 
 fn median(v: &mut [f64]) -> f64 {
@@ -299,6 +323,142 @@ fn bench_compare(args: &BenchArgs) -> Result<()> {
             runs[0].0.nodes(), springs, runs[1].2.kernel.name(), rayon::current_num_threads(), args.repeats, args.steps,
             plain * 1e3, springs as f64 / plain / 1e6, disp * 1e3, springs as f64 / disp / 1e6, disp / plain
         );
+    }
+    Ok(())
+}
+
+/// Medians of alternating windows: `a` and `b` each take `steps` steps per window.
+fn alternate(
+    repeats: usize,
+    mut a: impl FnMut() -> Result<()>,
+    mut b: impl FnMut() -> Result<()>,
+) -> Result<(f64, f64)> {
+    let (mut ta, mut tb) = (Vec::new(), Vec::new());
+    for _ in 0..repeats.max(1) {
+        let t0 = Instant::now();
+        a()?;
+        ta.push(t0.elapsed().as_secs_f64());
+        let t0 = Instant::now();
+        b()?;
+        tb.push(t0.elapsed().as_secs_f64());
+    }
+    Ok((median(&mut ta), median(&mut tb)))
+}
+
+fn bench_fracture(args: &BenchArgs) -> Result<()> {
+    if args.repeats == 0 || args.steps == 0 {
+        return Err(InputError("--repeats and --steps must be at least 1".into()).into());
+    }
+    // Nothing breaking: a random3d (or the chosen lattice's) block with a criterion no spring
+    // reaches, against the same block without fracture.
+    let lattice = bench_lattice(args)?;
+    let kind = lattice.kind;
+    let q = q_from_nu(kind, if kind.dim() == 3 { 0.3 } else { 0.45 })?;
+    let (body, mut state, mut it) = bench_run(args, lattice, q)?;
+    let mut fr =
+        hooke_fracture::Fracture::new(&body, Box::new(hooke_fracture::CriticalStretch::new(1.0)?));
+    let mut plain_state = state.clone();
+    let mut plain_it = Integrator::resume(
+        &body,
+        &plain_state,
+        Loading::default(),
+        &bench_opts(args),
+        &it.checkpoint(),
+    )?;
+    let steps = args.steps;
+    let (with, without) = alternate(
+        args.repeats,
+        || {
+            for _ in 0..steps {
+                it.step(&body, &mut state);
+                fr.check(&body, &mut state, &mut it);
+            }
+            Ok(())
+        },
+        || {
+            for _ in 0..steps {
+                plain_it.step(&body, &mut plain_state);
+            }
+            Ok(())
+        },
+    )?;
+    if fr.broken_total > 0 {
+        return Err(anyhow::anyhow!(
+            "{} springs broke in the intact benchmark",
+            fr.broken_total
+        ));
+    }
+    let mut out = serde_json::json!({
+        "lattice": kind.name(), "kernel": it.kernel.name(), "nodes": body.nodes(),
+        "springs": body.springs(), "threads": rayon::current_num_threads(),
+        "repeats": args.repeats, "steps": steps,
+        "intact_seconds_per_step": without / steps as f64,
+        "fracture_seconds_per_step": with / steps as f64,
+        "fracture_overhead": with / without,
+    });
+    if let Some(case) = &args.case {
+        let sim = hooke_case::load(case, args.scale).map_err(|e| InputError(e.to_string()))?;
+        let mut sim = sim;
+        let until = args.crack_time.unwrap_or(0.5 * sim.end_time);
+        let body = &sim.body;
+        let mut it = Integrator::new(body, &mut sim.state, sim.loading.clone(), &sim.options)?;
+        let Some(mut fr) = sim.fracture.take() else {
+            return Err(InputError(format!("{}: the case has no fracture", case.display())).into());
+        };
+        let mut state = sim.state.clone();
+        while state.time < until {
+            it.step(body, &mut state);
+            fr.check(body, &mut state, &mut it);
+        }
+        let before = fr.broken_total;
+        // Without breaking: a copy of the same state and integrator, stepped on its own.
+        let mut plain_state = state.clone();
+        let mut plain_it = Integrator::resume(
+            body,
+            &plain_state,
+            sim.loading.clone(),
+            &sim.options,
+            &it.checkpoint(),
+        )?;
+        let (with, without) = alternate(
+            args.repeats,
+            || {
+                for _ in 0..steps {
+                    it.step(body, &mut state);
+                    fr.check(body, &mut state, &mut it);
+                }
+                Ok(())
+            },
+            || {
+                for _ in 0..steps {
+                    plain_it.step(body, &mut plain_state);
+                }
+                Ok(())
+            },
+        )?;
+        out["case"] = serde_json::json!(case.display().to_string());
+        out["case_nodes"] = serde_json::json!(body.nodes());
+        out["case_kernel"] = serde_json::json!(it.kernel.name());
+        out["crack_time"] = serde_json::json!(until);
+        out["springs_broken_while_timed"] = serde_json::json!(fr.broken_total - before);
+        out["case_intact_seconds_per_step"] = serde_json::json!(without / steps as f64);
+        out["case_fracture_seconds_per_step"] = serde_json::json!(with / steps as f64);
+        out["running_crack_overhead"] = serde_json::json!(with / without);
+    }
+    if args.json {
+        println!("{out}");
+    } else {
+        println!(
+            "{} lattice, {} kernel, {} nodes, {} threads, medians of {} alternating windows of {} steps:\n  stretch criterion, nothing breaking: {:.3} x the intact step ({:.3} vs {:.3} ms)",
+            out["lattice"].as_str().unwrap_or(""), out["kernel"].as_str().unwrap_or(""), out["nodes"], out["threads"], args.repeats, steps,
+            out["fracture_overhead"].as_f64().unwrap_or(0.0), with / steps as f64 * 1e3, without / steps as f64 * 1e3
+        );
+        if let Some(r) = out.get("running_crack_overhead").and_then(|v| v.as_f64()) {
+            println!(
+                "  running crack ({}, {} springs broken while timed): {:.3} x the step without breaking",
+                out["case"].as_str().unwrap_or(""), out["springs_broken_while_timed"], r
+            );
+        }
     }
     Ok(())
 }

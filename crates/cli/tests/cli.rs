@@ -346,3 +346,35 @@ fn toughness_json_reports_g_measured_near_g_c() {
         assert!(stderr(&o).contains(msg), "{args:?}: {}", stderr(&o));
     }
 }
+
+/// `hooke bench --fracture --json` times the step with an idle criterion against the intact
+/// step, and with --case a running crack, and prints `fracture_overhead` and
+/// `running_crack_overhead` (ratios of medians, so positive and of order one).
+#[test]
+fn bench_fracture_reports_the_overheads() {
+    let case =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../cases/mode1_plate.toml");
+    let o = hooke(&[
+        "bench",
+        "--fracture",
+        "--lattice",
+        "hex",
+        "--nodes",
+        "4000",
+        "--steps",
+        "2",
+        "--repeats",
+        "3",
+        "--case",
+        case.to_str().unwrap(),
+        "--scale",
+        "0.25",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for key in ["fracture_overhead", "running_crack_overhead"] {
+        let r = v[key].as_f64().unwrap_or(-1.0);
+        assert!(r > 0.2 && r < 20.0, "{key} = {r} in {v}");
+    }
+}

@@ -134,6 +134,9 @@ pub struct Integrator {
     dofs: Vec<PrescribedDof>,
     /// Nodes carrying external loads, with the load index.
     loaded: Vec<(usize, usize)>,
+    /// Whether each entry of `loaded` is the first for its node (set up once: a search per
+    /// entry in the step was quadratic in the loaded nodes).
+    first_load: Vec<bool>,
     inv_mass: Vec<Real>,
     u_next: Coords,
     ledger: Ledger,
@@ -272,6 +275,8 @@ impl Integrator {
             .flat_map(|(li, l)| l.nodes.iter().map(move |&i| (i as usize, li)))
             .collect();
         let sparse = dofs.len() + loaded.len();
+        let mut seen = std::collections::HashSet::new();
+        let first_load = loaded.iter().map(|&(i, _)| seen.insert(i)).collect();
         Integrator {
             dt,
             damping: opts.damping,
@@ -281,6 +286,7 @@ impl Integrator {
             motions,
             dofs,
             loaded,
+            first_load,
             inv_mass: body.mass.iter().map(|&m| 1.0 / m).collect(),
             u_next: Coords::zeros(body.nodes()),
             ledger: Ledger::default(),
@@ -504,7 +510,7 @@ impl Integrator {
         let g = self.loading.body_acceleration;
         for (k, &(i, li)) in self.loaded.iter().enumerate() {
             let f: Vector = self.loading.loads[li].force * self.loading.loads[li].scale.value(t);
-            let first = self.loaded.iter().position(|&(j, _)| j == i) == Some(k);
+            let first = self.first_load[k];
             for c in 0..3 {
                 let (v0, v1) = (self.v_before[k][c], state.v.comp(c)[i]);
                 self.ledger.external_work += f[c] * 0.5 * (v0 + v1) * dt;

@@ -73,7 +73,7 @@ fn main() {
         let extras = FrameExtras {
             velocity: Some(&velocity),
             damage: Some(&damage),
-            region: None,
+            ..Default::default()
         };
         let path = series.write(&body, &state, extras).unwrap();
         #[cfg(feature = "hdf5")]

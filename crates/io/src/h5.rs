@@ -155,7 +155,14 @@ impl H5Series {
         let vec3 = |c: &hooke_core::Coords| -> Vec<Real> {
             (0..n).flat_map(|i| [c.x[i], c.y[i], c.z[i]]).collect()
         };
-        let d = derived(body, state);
+        let own;
+        let d = match extras.derived {
+            Some(d) => d,
+            None => {
+                own = derived(body, state);
+                &own
+            }
+        };
         let stress: Vec<Real> = d.stress.iter().flatten().copied().collect();
         let has_damage = extras.damage.is_some();
         atomic_h5(&path, |f| {

@@ -29,6 +29,9 @@ pub struct FrameExtras<'a> {
     pub damage: Option<&'a [Real]>,
     /// Region id per node.
     pub region: Option<&'a [u32]>,
+    /// The derived fields of this state, when the caller computed them already (one
+    /// computation per frame for every format); computed here otherwise.
+    pub derived: Option<&'a crate::fields::Derived>,
 }
 
 /// A time series of `.vtu` frames with its `.pvd` index.
@@ -320,14 +323,21 @@ pub fn frame_vtk(body: &Body, state: &State, extras: FrameExtras, springs: bool)
             }
         }
     }
-    let d = derived(body, state);
+    let own;
+    let d = match extras.derived {
+        Some(d) => d,
+        None => {
+            own = derived(body, state);
+            &own
+        }
+    };
     let mut point = vec![vectors("displacement", &state.u)];
     point.push(vectors("velocity", extras.velocity.unwrap_or(&state.v)));
     if let Some(dmg) = extras.damage {
         point.push(scalars("damage", dmg.to_vec()));
     }
-    point.push(scalars("pool_ratio", d.pool));
-    point.push(scalars("strain_energy_density", d.energy_density));
+    point.push(scalars("pool_ratio", d.pool.clone()));
+    point.push(scalars("strain_energy_density", d.energy_density.clone()));
     let stress: Vec<Real> = d.stress.iter().flatten().copied().collect();
     point.push(Attribute::DataArray(DataArray {
         name: "stress".into(),

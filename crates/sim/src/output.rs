@@ -53,6 +53,8 @@ pub struct Frame<'a> {
     /// Full-step velocity `v(t)` (the state holds half-step velocities).
     pub velocity: &'a Coords,
     pub damage: Option<&'a [Real]>,
+    /// Pool ratio, strain energy density and stress, computed once for every sink.
+    pub derived: &'a hooke_io::fields::Derived,
     /// Region id per node (`region` point field).
     pub regions: &'a [u32],
     pub energy: EnergyRow,
@@ -123,6 +125,7 @@ impl Sink for VtkSink {
                 velocity: Some(f.velocity),
                 damage: f.damage,
                 region: Some(f.regions),
+                derived: Some(f.derived),
             },
         )?;
         Ok(())
@@ -149,6 +152,7 @@ impl Sink for H5Sink {
                 velocity: Some(f.velocity),
                 damage: f.damage,
                 region: Some(f.regions),
+                derived: Some(f.derived),
             },
         )?;
         Ok(())

@@ -314,6 +314,7 @@ fn write(
         state: &sim.state,
         velocity: &zero,
         damage: damage.as_deref(),
+        derived: &hooke_io::fields::derived(&sim.body, &sim.state),
         regions: &sim.regions,
         energy,
         reactions: &reactions,

@@ -571,6 +571,7 @@ impl Run {
             state: &sim.state,
             velocity: &v,
             damage: damage.as_deref(),
+            derived: &hooke_io::fields::derived(body, &sim.state),
             regions: &sim.regions,
             energy: EnergyRow {
                 time: sim.state.time,
@@ -649,6 +650,7 @@ pub fn write_probe(
         state,
         velocity: &zero,
         damage: damage.as_deref(),
+        derived: &hooke_io::fields::derived(&sim.body, state),
         regions: &sim.regions,
         energy: EnergyRow::default(),
         reactions: &reactions,
