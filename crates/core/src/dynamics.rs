@@ -222,6 +222,11 @@ impl Integrator {
         };
         let mut it = Self::assemble(body, loading, opts, kernel, dt, stable);
         it.synced = state.breaks();
+        // The CSR kernel's scratch is sized here, so that no step allocates (the pools it also
+        // computes are recomputed below).
+        if let Kernel::Csr { .. } = it.kernel {
+            it.kernel.pools(body, state);
+        }
         // Prescribed positions and velocities at the start.
         let t = state.time;
         for d in &it.dofs {

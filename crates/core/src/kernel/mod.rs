@@ -92,17 +92,11 @@ impl Kernel {
         }
     }
 
-    /// Sweep 1: `state.pool` from `state.u`.
+    /// Sweep 1: `state.pool` from `state.u` (and the CSR kernel's per-spring scratch, which
+    /// sweep 2 reads: call it before every [`Kernel::force_kick_drift`]).
     pub fn pools(&self, body: &Body, state: &mut State) {
         match self {
-            Kernel::Csr { plain: true } => state.pool.fill(0.0),
-            Kernel::Csr { plain: false } => crate::law::compute_pools(
-                body,
-                &state.u,
-                &state.alive,
-                &state.norm,
-                &mut state.pool,
-            ),
+            Kernel::Csr { plain } => csr::pools(body, state, *plain),
             Kernel::Cubic(s) => s.pools(body, state),
         }
     }
