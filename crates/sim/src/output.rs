@@ -34,6 +34,25 @@ pub struct EnergyRow {
     pub balance_error: Real,
 }
 
+impl EnergyRow {
+    /// The row of an explicit run at `time` from the integrator's energy balance.
+    pub fn from_balance(time: Real, b: &hooke_core::dynamics::EnergyBalance) -> Self {
+        let l = b.ledger;
+        EnergyRow {
+            time,
+            kinetic: b.kinetic,
+            strain_direct: b.strain.direct,
+            strain_dispersive: b.strain.dispersive,
+            external_work: l.external_work,
+            boundary_work: l.boundary_work,
+            body_work: l.body_work,
+            dissipated: l.dissipated,
+            released: l.released,
+            balance_error: b.error,
+        }
+    }
+}
+
 /// The force a boundary region exerts on the body and how far it moved.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct RegionReaction {
@@ -60,6 +79,18 @@ pub struct Frame<'a> {
     pub energy: EnergyRow,
     pub reactions: &'a [RegionReaction],
     pub contact: Option<&'a Contact>,
+}
+
+impl<'a> Frame<'a> {
+    /// What the field writers take beside the state.
+    fn extras(&self) -> FrameExtras<'a> {
+        FrameExtras {
+            velocity: Some(self.velocity),
+            damage: self.damage,
+            region: Some(self.regions),
+            derived: Some(self.derived),
+        }
+    }
 }
 
 /// An output of a run.
@@ -118,16 +149,7 @@ pub struct VtkSink(pub VtkSeries);
 
 impl Sink for VtkSink {
     fn frame(&mut self, f: &Frame) -> Result<()> {
-        self.0.write(
-            f.body,
-            f.state,
-            FrameExtras {
-                velocity: Some(f.velocity),
-                damage: f.damage,
-                region: Some(f.regions),
-                derived: Some(f.derived),
-            },
-        )?;
+        self.0.write(f.body, f.state, f.extras())?;
         Ok(())
     }
     fn describe(&self) -> Option<(String, PathBuf)> {
@@ -145,16 +167,7 @@ pub struct H5Sink(pub hooke_io::H5Series);
 #[cfg(feature = "hdf5")]
 impl Sink for H5Sink {
     fn frame(&mut self, f: &Frame) -> Result<()> {
-        self.0.write(
-            f.body,
-            f.state,
-            FrameExtras {
-                velocity: Some(f.velocity),
-                damage: f.damage,
-                region: Some(f.regions),
-                derived: Some(f.derived),
-            },
-        )?;
+        self.0.write(f.body, f.state, f.extras())?;
         Ok(())
     }
     fn finish(&mut self) -> Result<()> {

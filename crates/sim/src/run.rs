@@ -507,24 +507,8 @@ impl Run {
             outputs.push(("contact history".into(), h.path.clone()));
         }
         outputs.push(("checkpoint".into(), self.opts.checkpoint_path()));
-        let l = b.ledger;
-        let energy = EnergyRow {
-            time: sim.state.time,
-            kinetic: b.kinetic,
-            strain_direct: b.strain.direct,
-            strain_dispersive: b.strain.dispersive,
-            external_work: l.external_work,
-            boundary_work: l.boundary_work,
-            body_work: l.body_work,
-            dissipated: l.dissipated,
-            released: l.released,
-            balance_error: b.error,
-        };
-        let reactions = {
-            let v = self.it.full_velocity(&self.sim.body, &mut self.sim.state);
-            let f = self.it.boundary_forces(&self.sim.body, &self.sim.state, &v);
-            region_reactions(&self.sim, &f)
-        };
+        let energy = EnergyRow::from_balance(sim.state.time, &b);
+        let reactions = self.reactions();
         let sim = &self.sim;
         let summary = Summary {
             steps: sim.state.step - self.step_start,
@@ -565,7 +549,6 @@ impl Run {
         let b = self.it.energy(body, &mut self.sim.state);
         let sim = &self.sim;
         let damage = sim.fracture.as_ref().map(|f| f.damage(body, &sim.state));
-        let l = b.ledger;
         let frame = Frame {
             body,
             state: &sim.state,
@@ -573,18 +556,7 @@ impl Run {
             damage: damage.as_deref(),
             derived: &hooke_io::fields::derived(body, &sim.state),
             regions: &sim.regions,
-            energy: EnergyRow {
-                time: sim.state.time,
-                kinetic: b.kinetic,
-                strain_direct: b.strain.direct,
-                strain_dispersive: b.strain.dispersive,
-                external_work: l.external_work,
-                boundary_work: l.boundary_work,
-                body_work: l.body_work,
-                dissipated: l.dissipated,
-                released: l.released,
-                balance_error: b.error,
-            },
+            energy: EnergyRow::from_balance(sim.state.time, &b),
             reactions: &reactions,
             contact: sim.contact.as_ref(),
         };
