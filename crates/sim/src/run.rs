@@ -226,8 +226,15 @@ pub(crate) fn region_reactions(sim: &Simulation, forces: &Coords) -> Vec<RegionR
 /// A run of an explicit simulation, stepped by the caller or to its end.
 ///
 /// ```no_run
-/// # fn main() -> Result<(), hooke_sim::Error> {
-/// # let sim: hooke_sim::Simulation = unimplemented!();
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// # use hooke_sim::{Bc, Builder, Region, Solid};
+/// # let sim = Builder::new(hooke_core::LatticeKind::Hex, 1e-3)
+/// #     .thickness(1e-3)
+/// #     .solid(Solid::cuboid([0.0; 3], [20e-3, 10e-3, 0.0]))
+/// #     .material(70e9, 0.22, 2500.0)
+/// #     .boundary(Bc::on(Region::All).fixed(0))
+/// #     .end_time(40e-6)
+/// #     .build()?;
 /// let mut run = hooke_sim::Run::start(sim, hooke_sim::RunOptions::new("out", "plate"))?;
 /// run.advance(20e-6, &mut hooke_sim::Silent)?; // to t = 20 us, writing on schedule
 /// println!("{} springs broken", run.simulation().broken().0);
