@@ -74,6 +74,12 @@ pub struct BenchArgs {
     /// without it (`running_crack_overhead`).
     #[arg(long)]
     pub fracture: bool,
+    /// Also write the block (positions, masses, initial velocities, springs with their rest
+    /// lengths and stiffnesses) as a LAMMPS data file, one bond type per spring
+    /// (`bond_style harmonic`, K = k/2, r0 = L), so that LAMMPS can run exactly this network
+    /// (tools/bench_lammps/).
+    #[arg(long, value_name = "FILE")]
+    pub export_lammps: Option<std::path::PathBuf>,
     /// A case file for --fracture's running crack (e.g. cases/glass_branching_random.toml).
     #[arg(long)]
     pub case: Option<std::path::PathBuf>,
@@ -141,6 +147,10 @@ pub fn run(args: BenchArgs) -> Result<()> {
     };
     let (body, mut state, mut it) = bench_run(&args, lattice, q_from_nu(kind, nu)?)?;
     let setup_seconds = setup.elapsed().as_secs_f64();
+    if let Some(path) = &args.export_lammps {
+        write_lammps(path, &body, &state, it.dt)
+            .with_context(|| format!("writing the LAMMPS data file {}", path.display()))?;
+    }
     for _ in 0..3 {
         it.step(&body, &mut state);
     }
@@ -285,12 +295,17 @@ fn bench_compare(args: &BenchArgs) -> Result<()> {
     if args.repeats == 0 || args.steps == 0 {
         return Err(InputError("--repeats and --steps must be at least 1".into()).into());
     }
-    let side = (args.nodes as f64).cbrt().round().max(3.0) as usize;
+    let lattice = bench_lattice(args)?;
+    let kind = lattice.kind;
+    // The dispersive law at the bench's Poisson's ratio against plain springs on the same
+    // lattice (the plain lattice's own ratio: 1/4 in 3D, 1/3 in 2D).
+    let nu = match kind {
+        LatticeKind::Cubic | LatticeKind::Random3d => 0.3,
+        LatticeKind::Hex | LatticeKind::Random2d => 0.45,
+    };
     let mut runs = Vec::new();
-    for nu in [0.25, 0.3] {
-        let lattice = Lattice::cubic_box([side, side, side], 1.0)?;
-        let (body, mut state, mut it) =
-            bench_run(args, lattice, q_from_nu(LatticeKind::Cubic, nu)?)?;
+    for q in [0.0, q_from_nu(kind, nu)?] {
+        let (body, mut state, mut it) = bench_run(args, lattice.clone(), q)?;
         for _ in 0..3 {
             it.step(&body, &mut state);
         }
@@ -309,7 +324,7 @@ fn bench_compare(args: &BenchArgs) -> Result<()> {
     let plain = median(&mut runs[0].3.clone());
     let disp = median(&mut runs[1].3.clone());
     let out = serde_json::json!({
-        "nodes": runs[0].0.nodes(), "springs": springs, "threads": rayon::current_num_threads(),
+        "lattice": kind.name(), "nodes": runs[0].0.nodes(), "springs": springs, "threads": rayon::current_num_threads(),
         "kernel": runs[1].2.kernel.name(), "repeats": args.repeats, "steps": args.steps,
         "plain_seconds_per_step": plain, "dispersive_seconds_per_step": disp,
         "plain_spring_updates_per_s": springs as f64 / plain, "dispersive_spring_updates_per_s": springs as f64 / disp,
@@ -319,8 +334,8 @@ fn bench_compare(args: &BenchArgs) -> Result<()> {
         println!("{out}");
     } else {
         println!(
-            "{} nodes, {} springs, {} kernel, {} threads, medians of {} windows of {} steps:\n  plain {:.3} ms/step ({:.1} M spring-updates/s), dispersive {:.3} ms/step ({:.1} M/s), ratio {:.3}",
-            runs[0].0.nodes(), springs, runs[1].2.kernel.name(), rayon::current_num_threads(), args.repeats, args.steps,
+            "{} lattice, {} nodes, {} springs, {} kernel, {} threads, medians of {} windows of {} steps:\n  plain {:.3} ms/step ({:.1} M spring-updates/s), dispersive {:.3} ms/step ({:.1} M/s), ratio {:.3}",
+            kind.name(), runs[0].0.nodes(), springs, runs[1].2.kernel.name(), rayon::current_num_threads(), args.repeats, args.steps,
             plain * 1e3, springs as f64 / plain / 1e6, disp * 1e3, springs as f64 / disp / 1e6, disp / plain
         );
     }
@@ -495,5 +510,76 @@ fn bench_static(args: &BenchArgs) -> Result<()> {
         );
     }
     let _: Real = 0.0;
+    Ok(())
+}
+
+/// The bench body as a LAMMPS data file (`atom_style bond`, `bond_style harmonic`): one atom per
+/// node with its half-step velocity, one bond type per spring with `K = k/2` (LAMMPS's
+/// harmonic energy is `K (r - r0)^2`) and `r0 = L`, so that LAMMPS integrates exactly the
+/// network hooke does with plain springs. Masses are per atom type in LAMMPS, and a type per
+/// node would make its per-type-pair tables quadratic, so every atom gets the mean node mass
+/// (the cost of a step does not depend on it). Lattice units; the header names the time step.
+fn write_lammps(
+    path: &std::path::Path,
+    body: &hooke_core::body::Body,
+    state: &hooke_core::state::State,
+    dt: Real,
+) -> Result<()> {
+    use std::io::Write;
+    let lat = &body.lattice;
+    let (n, m) = (body.nodes(), body.springs());
+    let mut lo = [Real::INFINITY; 3];
+    let mut hi = [Real::NEG_INFINITY; 3];
+    for i in 0..n {
+        let p = lat.pos.get(i);
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+    writeln!(
+        f,
+        "hooke {} network: {n} nodes, {m} springs, dt {dt:e} (lattice units)\n",
+        lat.kind.name()
+    )?;
+    writeln!(f, "{n} atoms\n{m} bonds\n1 atom types\n{m} bond types\n")?;
+    // A margin so that no node sits on the box face; 2D plates get a slab in z.
+    for (c, name) in ["x", "y", "z"].iter().enumerate() {
+        let pad = 1.0 + 0.01 * (hi[c] - lo[c]);
+        writeln!(
+            f,
+            "{:.17e} {:.17e} {name}lo {name}hi",
+            lo[c] - pad,
+            hi[c] + pad
+        )?;
+    }
+    let mean_mass = body.mass.iter().sum::<Real>() / n as Real;
+    writeln!(f, "\nMasses\n\n1 {mean_mass:.17e}")?;
+    writeln!(f, "\nBond Coeffs # harmonic\n")?;
+    for b in 0..m {
+        writeln!(
+            f,
+            "{} {:.17e} {:.17e}",
+            b + 1,
+            0.5 * body.k[b],
+            lat.bonds.rest[b]
+        )?;
+    }
+    writeln!(f, "\nAtoms # bond\n")?;
+    for i in 0..n {
+        let p = lat.pos.get(i);
+        writeln!(f, "{} 1 1 {:.17e} {:.17e} {:.17e}", i + 1, p.x, p.y, p.z)?;
+    }
+    writeln!(f, "\nVelocities\n")?;
+    for i in 0..n {
+        let v = state.v.get(i);
+        writeln!(f, "{} {:.17e} {:.17e} {:.17e}", i + 1, v.x, v.y, v.z)?;
+    }
+    writeln!(f, "\nBonds\n")?;
+    for (b, &[i, j]) in lat.bonds.ends.iter().enumerate() {
+        writeln!(f, "{} {} {} {}", b + 1, b + 1, i + 1, j + 1)?;
+    }
+    f.flush()?;
     Ok(())
 }

@@ -34,11 +34,11 @@ pub struct State {
     pub step: u64,
     /// Changes to `alive` so far (see [`State::breaks`]).
     breaks: u64,
-    /// Scratch of the CSR kernel: each intact spring's current length and extension, computed
+    /// Scratch of the CSR kernel (`kernel::csr`): each spring's record and pool share, computed
     /// once per spring in its first sweep and read by both of its ends (not state: not compared,
     /// not checkpointed).
-    pub(crate) spring_len: Vec<Real>,
-    pub(crate) spring_dl: Vec<Real>,
+    pub(crate) spring: Vec<Real>,
+    pub(crate) spring_pi: Vec<Real>,
 }
 
 /// Equal states: the same displacements, velocities, forces, springs, pools, time and step (how
@@ -70,8 +70,8 @@ impl State {
             time: 0.0,
             step: 0,
             breaks: 0,
-            spring_len: Vec::new(),
-            spring_dl: Vec::new(),
+            spring: Vec::new(),
+            spring_pi: Vec::new(),
         };
         for i in 0..n {
             s.norm[i] = node_norm(body, &s.alive, i);

@@ -112,10 +112,7 @@ impl Kernel {
         partials: &mut [SweepSums],
     ) -> SweepSums {
         match self {
-            Kernel::Csr { plain } => {
-                let q = if *plain { 0.0 } else { body.q };
-                csr::force_kick_drift(body, state, inv_mass, p, u_next, partials, q)
-            }
+            Kernel::Csr { .. } => csr::force_kick_drift(body, state, inv_mass, p, u_next, partials),
             Kernel::Cubic(s) => s.force_kick_drift(body, state, inv_mass, p, u_next, partials),
         }
     }
@@ -135,6 +132,13 @@ impl Kernel {
             s.bond_killed(body, b);
         }
     }
+}
+
+/// False when the environment variable `HOOKE_NO_SIMD` is set: every kernel then takes its
+/// portable path (what CI checks the vector paths against, and the way to rule them out when
+/// chasing a problem).
+pub(crate) fn simd_allowed() -> bool {
+    std::env::var_os("HOOKE_NO_SIMD").is_none()
 }
 
 /// A mutable slice shared by parallel tasks that each write a disjoint range of it.
