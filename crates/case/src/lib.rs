@@ -14,3 +14,28 @@ mod overrides;
 pub use build::{load, load_str, load_str_with, Simulation};
 pub use error::CaseError;
 pub use overrides::{parse_overrides, physics_text, Override};
+
+/// A case ready to run: the simulation, and the run options that make its output, checkpoint
+/// and `run.json` the same whoever runs it (the command line, the Python package): the digest
+/// of its physics (`--set` overrides and `scale` included; what a resumed checkpoint must
+/// match) and the physics lines `run.json` keeps. `out`, `name`, `command` and `resume` are the
+/// caller's to fill in.
+pub fn prepare(
+    path: &std::path::Path,
+    text: &str,
+    scale: hooke_core::Real,
+    overrides: &[Override],
+) -> Result<(Simulation, hooke_sim::RunOptions), CaseError> {
+    let sim = load_str_with(path, text, scale, overrides)?;
+    let physics = format!(
+        "{}scale = {scale:e}\n",
+        physics_text(path, text, overrides)?
+    );
+    let opts = hooke_sim::RunOptions {
+        digest: hooke_io::checkpoint::digest(physics.as_bytes()),
+        case_text: text.to_string(),
+        physics,
+        ..Default::default()
+    };
+    Ok((sim, opts))
+}

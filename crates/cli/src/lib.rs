@@ -91,3 +91,19 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Toughness(args) => toughness::run(args),
     })
 }
+
+/// `hooke moduli FLAGS --json`'s object as a value, for callers in other languages (the Python
+/// package): `flags` are the command's own, e.g. `["--lattice", "cubic", "--nu", "0.3"]`, so
+/// the keys and the numbers are the command's exactly. Bad flags are an [`InputError`] with
+/// clap's message.
+pub fn moduli_json(flags: &[String]) -> Result<serde_json::Value> {
+    let argv = ["hooke", "moduli"]
+        .into_iter()
+        .map(String::from)
+        .chain(flags.iter().cloned());
+    let cli = Cli::try_parse_from(argv).map_err(|e| InputError(e.to_string()))?;
+    match cli.command {
+        Command::Moduli(args) => moduli::value(&args),
+        _ => unreachable!("parsed as the moduli command"),
+    }
+}

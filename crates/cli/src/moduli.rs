@@ -380,6 +380,17 @@ fn mean_sd(v: &[Real]) -> (Real, Real) {
     (mean, var.sqrt())
 }
 
+/// The block test's `--json` object as a value (one Poisson's ratio, `--nu`).
+pub fn value(args: &ModuliArgs) -> Result<serde_json::Value> {
+    if args.table || args.sweep {
+        return Err(InputError("--table and --sweep print tables: give --nu NU".into()).into());
+    }
+    let nu = args
+        .nu
+        .ok_or_else(|| InputError("give --nu NU (the Poisson's ratio to build)".into()))?;
+    Ok(serde_json::to_value(measure(args, nu)?)?)
+}
+
 pub fn run(args: ModuliArgs) -> Result<()> {
     if args.table {
         return random_table(&args);

@@ -12,7 +12,6 @@ use clap::Args;
 use hooke_case::Simulation;
 use hooke_core::dynamics::Integrator;
 use hooke_core::Real;
-use hooke_io::checkpoint::digest;
 use hooke_sim::{Observer, Progress, RunOptions};
 
 use crate::InputError;
@@ -71,8 +70,8 @@ impl std::fmt::Display for Interrupted {
 
 impl std::error::Error for Interrupted {}
 
-/// The case built with its overrides, and the digest that names its physics in checkpoints.
-fn load(case: &Path, scale: Real, set: &[String]) -> Result<(Simulation, u64, String)> {
+/// The case built with its overrides, and the run options that carry its physics digest.
+fn load(case: &Path, scale: Real, set: &[String]) -> Result<(Simulation, RunOptions)> {
     let text = std::fs::read_to_string(case).map_err(|e| {
         InputError(format!(
             "{}: cannot read the case file: {e}",
@@ -80,12 +79,8 @@ fn load(case: &Path, scale: Real, set: &[String]) -> Result<(Simulation, u64, St
         ))
     })?;
     let overrides = hooke_case::parse_overrides(set).map_err(|e| InputError(e.to_string()))?;
-    let sim = hooke_case::load_str_with(case, &text, scale, &overrides)
-        .map_err(|e| InputError(e.to_string()))?;
-    let physics =
-        hooke_case::physics_text(case, &text, &overrides).map_err(|e| InputError(e.to_string()))?;
-    let physics = format!("{physics}scale = {scale:e}\n");
-    Ok((sim, digest(physics.as_bytes()), physics))
+    hooke_case::prepare(case, &text, scale, &overrides)
+        .map_err(|e| InputError(e.to_string()).into())
 }
 
 fn stem(case: &Path) -> String {
@@ -94,7 +89,7 @@ fn stem(case: &Path) -> String {
 }
 
 pub fn check(args: CheckArgs) -> Result<()> {
-    let (mut sim, _, _) = load(&args.case, args.scale, &args.set)?;
+    let (mut sim, _) = load(&args.case, args.scale, &args.set)?;
     let it = Integrator::new(&sim.body, &mut sim.state, sim.loading.clone(), &sim.options)
         .map_err(|e| InputError(format!("{}: {e}", args.case.display())))?;
     let (n, s) = (sim.body.nodes(), sim.body.springs());
@@ -259,7 +254,7 @@ pub fn check(args: CheckArgs) -> Result<()> {
 }
 
 pub fn run(args: RunArgs) -> Result<()> {
-    let (sim, case_digest, physics) = load(&args.case, args.scale, &args.set)?;
+    let (sim, base) = load(&args.case, args.scale, &args.set)?;
     let name = stem(&args.case);
     let out = args.out.clone().unwrap_or_else(|| {
         let dir = args.case.parent().unwrap_or(Path::new("."));
@@ -280,10 +275,8 @@ pub fn run(args: RunArgs) -> Result<()> {
         out: out.clone(),
         name,
         resume: args.resume.clone(),
-        digest: case_digest,
         command: std::env::args().collect(),
-        case_text: std::fs::read_to_string(&args.case).unwrap_or_default(),
-        physics,
+        ..base
     };
     let stop = Arc::new(AtomicBool::new(false));
     {

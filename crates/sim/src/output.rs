@@ -94,7 +94,7 @@ impl<'a> Frame<'a> {
 }
 
 /// An output of a run.
-pub trait Sink {
+pub trait Sink: Send {
     /// Write one frame.
     fn frame(&mut self, frame: &Frame) -> Result<()>;
     /// Reactions between frames (`output.reactions_every`); most sinks ignore them.

@@ -497,7 +497,13 @@ impl Run {
     }
 
     /// Run to the end time, make the outputs final and say how it went.
-    pub fn finish(mut self, obs: &mut dyn Observer) -> Result<Summary> {
+    pub fn finish(self, obs: &mut dyn Observer) -> Result<Summary> {
+        self.finish_keeping(obs).map(|(s, _)| s)
+    }
+
+    /// As [`Run::finish`], and hand back the simulation as it ended (for callers that go on
+    /// reading its state, such as the Python package).
+    pub fn finish_keeping(mut self, obs: &mut dyn Observer) -> Result<(Summary, Simulation)> {
         self.advance(Real::INFINITY, obs)?;
         for s in &mut self.sinks {
             s.finish()?;
@@ -544,7 +550,7 @@ impl Run {
         if let Some(p) = self.provenance.as_mut() {
             p.end("completed", &self.opts.out);
         }
-        Ok(summary)
+        Ok((summary, self.sim))
     }
 
     /// One frame into every sink, the contact history flushed.

@@ -8,7 +8,7 @@ runs it with `bond_style harmonic` (plain springs) and velocity Verlet. Whole ru
 plain and dispersive springs in alternating windows itself (`hooke bench --compare`). Reported:
 medians of unique spring-updates per second and the ratios.
 
-    python3 tools/bench_lammps/run.py --lattice random3d --nodes 200000 --steps 50 --repeats 3
+    python3 tools/bench_lammps/network.py --lattice random3d --nodes 200000 --steps 50 --repeats 3
 
 Needs `lmp` on the PATH (apt-get install lammps) and a release build of hooke.
 """

@@ -1,0 +1,252 @@
+"""hooke from Python: script, run and inspect mass-spring lattice simulations of elastic solids
+and their fracture, at any Poisson's ratio (the momentum dispersion of Kot & Nagahashi).
+
+    import hooke
+    sim = hooke.load_case("cases/mode1_plate.toml", scale=0.25, set={"solver.end_time": 20e-6})
+    sim.run(every=5e-6, callback=lambda s: print(s.time, s.broken()))
+    print(sim.energy()["kinetic"], sim.reactions())
+    summary = sim.finish()
+    frames = hooke.read(summary["output_dir"])
+
+The stepping, the physics and the files are hooke's own (the Rust library behind the command
+line), so a case run here writes exactly what ``hooke run`` writes.
+"""
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple, Union
+
+import numpy as np
+
+from . import _hooke
+from ._hooke import CaseError, RunError
+
+__version__ = _hooke.__version__
+__all__ = ["load_case", "Simulation", "moduli", "read", "Output", "CaseError", "RunError"]
+
+
+def _toml_value(v: Any) -> str:
+    """A Python value as the TOML text of a ``--set`` override."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float, np.integer, np.floating)):
+        return repr(float(v)) if isinstance(v, (float, np.floating)) else str(int(v))
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise CaseError(f"--set value {v!r}: give a number, a bool, a string or a list of them")
+
+
+class Simulation:
+    """A simulation loaded from a case. It starts (opens its output folder, writes run.json and
+    the first frame) on its first step; ``finish()`` writes the last frame, the checkpoint and
+    the end of run.json. Arrays are read-only snapshots of the state when read."""
+
+    def __init__(self, inner: "_hooke.Simulation"):
+        self._inner = inner
+
+    def step(self, n: int = 1) -> "Simulation":
+        """Take ``n`` explicit steps (fewer if the end time comes first). Ctrl-C raises
+        KeyboardInterrupt after a whole step, the simulation still usable."""
+        if n < 0:
+            raise CaseError(f"step(n={n}): give a number of steps, 0 or more")
+        self._inner.step(int(n))
+        return self
+
+    def run(self, until: Optional[float] = None, every: Optional[float] = None,
+            callback: Optional[Callable[["Simulation"], Any]] = None) -> "Simulation":
+        """Step to ``until`` (s; default the case's end time), calling ``callback(sim)`` every
+        ``every`` seconds of simulated time (and at ``until``)."""
+        cb = None if callback is None else (lambda _inner: callback(self))
+        self._inner.run(until, every, cb)
+        return self
+
+    def finish(self) -> Dict[str, Any]:
+        """Run to the end time and make the outputs final; returns ``hooke run --json``'s
+        summary (steps, time, broken springs, energy, reactions, outputs, output_dir)."""
+        return json.loads(self._inner.finish())
+
+    @property
+    def time(self) -> float:
+        """Simulated time (s)."""
+        return self._inner.time
+
+    @property
+    def steps(self) -> int:
+        """Steps taken."""
+        return self._inner.steps
+
+    @property
+    def end_time(self) -> float:
+        return self._inner.end_time
+
+    @property
+    def dt(self) -> Optional[float]:
+        """The time step (s); None before the first step."""
+        return self._inner.dt
+
+    @property
+    def nodes(self) -> int:
+        return self._inner.nodes
+
+    @property
+    def springs(self) -> int:
+        return self._inner.springs
+
+    @property
+    def out(self) -> str:
+        """The output folder."""
+        return self._inner.out
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Reference positions (m), n x 3."""
+        return self._inner.positions
+
+    @property
+    def displacement(self) -> np.ndarray:
+        """Displacements (m), n x 3."""
+        return self._inner.displacement
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """Velocities (m/s) at the last half step, n x 3."""
+        return self._inner.velocity
+
+    @property
+    def damage(self) -> np.ndarray:
+        """Per node, the fraction of its springs that are broken (n)."""
+        return self._inner.damage
+
+    @property
+    def spring_ends(self) -> np.ndarray:
+        """Each spring's end nodes (m x 2)."""
+        return self._inner.spring_ends
+
+    @property
+    def spring_intact(self) -> np.ndarray:
+        """Whether each spring is intact (m, bool)."""
+        return self._inner.spring_intact
+
+    def broken(self) -> Tuple[int, float]:
+        """Springs broken so far and the energy they released (J)."""
+        return self._inner.broken()
+
+    def energy(self) -> Dict[str, float]:
+        """The energy ledger now (J): kinetic, strain_direct, strain_dispersive, external_work,
+        boundary_work, body_work, dissipated, released, balance_error (NAME_energy.csv's
+        columns)."""
+        return json.loads(self._inner.energy_json())
+
+    def reactions(self) -> Dict[str, Dict[str, Any]]:
+        """Each boundary region's force on the body (N) and displacement (m), by name."""
+        return {r["name"]: r for r in json.loads(self._inner.reactions_json())}
+
+    def __repr__(self) -> str:
+        return repr(self._inner)
+
+
+def load_case(case: Union[str, os.PathLike], set: Optional[Mapping[str, Any]] = None,
+              scale: float = 1.0, out: Optional[Union[str, os.PathLike]] = None,
+              name: Optional[str] = None) -> Simulation:
+    """Load a case from a file path or from TOML text.
+
+    ``set`` changes keys as ``hooke run --set`` does (``{"material.poisson": 0.3}``); ``scale``
+    divides the lattice spacing like ``--scale``. The output folder defaults to the command
+    line's (``CASE.out`` beside the case, ``CASE.scaleS.out`` at another scale), or a new
+    temporary folder for TOML text. Mistakes raise ``CaseError`` with the command line's
+    ``file:line:column: key: fix`` message.
+    """
+    text_given = isinstance(case, str) and ("\n" in case or "=" in case) and not os.path.exists(case)
+    if text_given:
+        path = Path("<text>.toml")
+        text = case
+        stem = name or "case"
+        default_out = Path(tempfile.mkdtemp(prefix="hooke-"))
+    else:
+        path = Path(case)
+        try:
+            text = path.read_text()
+        except OSError as e:
+            raise CaseError(f"{path}: cannot read the case file: {e.strerror}") from None
+        stem = name or path.stem
+        suffix = ".out" if scale == 1.0 else f".scale{scale!r}.out" if not float(scale).is_integer() else f".scale{int(scale)}.out"
+        default_out = path.parent / f"{stem}{suffix}"
+    overrides = [f"{k}={_toml_value(v)}" for k, v in (set or {}).items()]
+    target = Path(out) if out is not None else default_out
+    inner = _hooke.load_case(str(path), text, str(target), stem, overrides, float(scale),
+                             ["python", "hooke.load_case", str(case) if not text_given else "<text>"])
+    return Simulation(inner)
+
+
+def moduli(lattice: str = "cubic", nu: float = 0.3, **flags: Any) -> Dict[str, Any]:
+    """The paper's block test, as ``hooke moduli --lattice LATTICE --nu NU ... --json``: the
+    same keys and numbers. Other flags by name (``size=[21, 6, 6]``, ``samples=4``,
+    ``sampler="jitter"``); a True flag is passed bare."""
+    argv: List[str] = ["--lattice", str(lattice), "--nu", repr(float(nu))]
+    for k, v in flags.items():
+        opt = "--" + k.replace("_", "-")
+        if v is True:
+            argv.append(opt)
+        elif v is False or v is None:
+            continue
+        elif isinstance(v, (list, tuple)):
+            argv += [opt] + [str(x) for x in v]
+        else:
+            argv += [opt, str(v)]
+    return json.loads(_hooke.moduli_json(argv))
+
+
+class Output:
+    """A run's output folder as written by ``hooke run`` or by ``Simulation``: the frames of
+    its ``.pvd`` series, the energy history and run.json."""
+
+    def __init__(self, folder: Union[str, os.PathLike]):
+        self.folder = Path(folder)
+        pvds = sorted(self.folder.glob("*.pvd"))
+        pvds = [p for p in pvds if not p.stem.endswith("_rigid")]
+        if not pvds:
+            raise CaseError(f"{self.folder}: no .pvd series here (is it a hooke output folder?)")
+        self.name = pvds[0].stem
+        root = ET.parse(pvds[0]).getroot()
+        sets = root.iter("DataSet")
+        pairs = sorted((float(d.get("timestep")), self.folder / d.get("file")) for d in sets)
+        self.times = np.array([t for t, _ in pairs])
+        self.files = [f for _, f in pairs]
+        info = self.folder / "run.json"
+        self.info: Dict[str, Any] = json.loads(info.read_text()) if info.exists() else {}
+
+    def __len__(self) -> int:
+        return len(self.files)
+
+    def fields(self, i: int = -1) -> Dict[str, np.ndarray]:
+        """Frame ``i``'s point fields as numpy arrays (meshio), plus ``points``."""
+        import meshio
+
+        m = meshio.read(self.files[i])
+        out = {k: np.asarray(v) for k, v in m.point_data.items()}
+        out["points"] = np.asarray(m.points)
+        return out
+
+    def mesh(self, i: int = -1):
+        """Frame ``i`` as a pyvista mesh."""
+        import pyvista
+
+        return pyvista.read(self.files[i])
+
+    def energy(self) -> Dict[str, np.ndarray]:
+        """The energy history (NAME_energy.csv) by column."""
+        path = self.folder / f"{self.name}_energy.csv"
+        data = np.genfromtxt(path, delimiter=",", names=True)
+        return {k: np.asarray(data[k]) for k in data.dtype.names}
+
+
+def read(folder: Union[str, os.PathLike]) -> Output:
+    """Open a run's output folder: ``out.times``, ``out.fields(i)``, ``out.mesh(i)``,
+    ``out.energy()``, ``out.info`` (run.json)."""
+    return Output(folder)
