@@ -26,7 +26,7 @@ from . import _hooke
 from ._hooke import CaseError, RunError
 
 __version__ = _hooke.__version__
-__all__ = ["load_case", "Simulation", "moduli", "read", "Output", "CaseError", "RunError"]
+__all__ = ["load_case", "Simulation", "moduli", "toughness", "read", "Output", "CaseError", "RunError"]
 
 
 def _toml_value(v: Any) -> str:
@@ -184,10 +184,9 @@ def load_case(case: Union[str, os.PathLike], set: Optional[Mapping[str, Any]] = 
     return Simulation(inner)
 
 
-def moduli(lattice: str = "cubic", nu: float = 0.3, **flags: Any) -> Dict[str, Any]:
-    """The paper's block test, as ``hooke moduli --lattice LATTICE --nu NU ... --json``: the
-    same keys and numbers. Other flags by name (``size=[21, 6, 6]``, ``samples=4``,
-    ``sampler="jitter"``); a True flag is passed bare."""
+def _flags(lattice: str, nu: float, flags: Mapping[str, Any]) -> List[str]:
+    """Keyword arguments as the command's flags: ``size=[21, 6, 6]`` -> ``--size 21 6 6``, a
+    True flag bare, False or None left out."""
     argv: List[str] = ["--lattice", str(lattice), "--nu", repr(float(nu))]
     for k, v in flags.items():
         opt = "--" + k.replace("_", "-")
@@ -199,7 +198,21 @@ def moduli(lattice: str = "cubic", nu: float = 0.3, **flags: Any) -> Dict[str, A
             argv += [opt] + [str(x) for x in v]
         else:
             argv += [opt, str(v)]
-    return json.loads(_hooke.moduli_json(argv))
+    return argv
+
+
+def moduli(lattice: str = "cubic", nu: float = 0.3, **flags: Any) -> Dict[str, Any]:
+    """The paper's block test, as ``hooke moduli --lattice LATTICE --nu NU ... --json``: the
+    same keys and numbers. Other flags by name (``size=[21, 6, 6]``, ``samples=4``,
+    ``sampler="jitter"``)."""
+    return json.loads(_hooke.moduli_json(_flags(lattice, nu, flags)))
+
+
+def toughness(lattice: str = "hex", nu: float = 0.25, **flags: Any) -> Dict[str, Any]:
+    """The fracture energy a lattice crack dissipates in a strip under fixed grips, against
+    the G_c calibration, as ``hooke toughness --lattice LATTICE --nu NU ... --json`` (same keys
+    and numbers). Other flags by name (``height=20``, ``window=4``, ``criterion="energy"``)."""
+    return json.loads(_hooke.toughness_json(_flags(lattice, nu, flags)))
 
 
 class Output:

@@ -398,11 +398,21 @@ fn moduli_json(py: Python<'_>, flags: Vec<String>) -> PyResult<String> {
     Ok(v.to_string())
 }
 
+/// `hooke toughness FLAGS --json` (one `--nu`) as JSON text.
+#[pyfunction]
+fn toughness_json(py: Python<'_>, flags: Vec<String>) -> PyResult<String> {
+    let v = py
+        .detach(|| hooke_cli::toughness_json(&flags))
+        .map_err(|e| CaseError::new_err(format!("{e:#}")))?;
+    Ok(v.to_string())
+}
+
 #[pymodule]
 fn _hooke(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PySimulation>()?;
     m.add_function(wrap_pyfunction!(load_case, m)?)?;
     m.add_function(wrap_pyfunction!(moduli_json, m)?)?;
+    m.add_function(wrap_pyfunction!(toughness_json, m)?)?;
     m.add("CaseError", m.py().get_type::<CaseError>())?;
     m.add("RunError", m.py().get_type::<RunError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

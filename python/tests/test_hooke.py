@@ -33,6 +33,18 @@ def test_moduli_match_the_command_line_exactly():
     assert abs(mine["nu_measured"] - 0.3) < 0.03 * 0.3 + 0.01
 
 
+def test_toughness_matches_the_command_line_exactly():
+    mine = hooke.toughness(lattice="hex", nu=0.25, height=10, window=3)
+    theirs = json.loads(cli("toughness", "--lattice", "hex", "--nu", "0.25", "--height", "10",
+                            "--window", "3", "--json"))
+    assert mine.pop("seconds") > 0 and theirs.pop("seconds") > 0
+    assert mine == theirs
+    # The calibrated criterion dissipates about G_c (a short strip: within 15 %).
+    assert abs(mine["ratio"] - 1.0) < 0.15
+    with pytest.raises(hooke.CaseError, match="height"):
+        hooke.toughness(lattice="hex", nu=0.25, height=5)
+
+
 def test_a_case_run_from_python_is_the_command_lines_run_bit_for_bit(tmp_path):
     sets = {"solver.end_time": 6e-6, "output.every": 2e-6}
     sim = hooke.load_case(CASE, scale=0.25, set=sets, out=tmp_path / "py")

@@ -97,13 +97,26 @@ pub fn run(cli: Cli) -> Result<()> {
 /// the keys and the numbers are the command's exactly. Bad flags are an [`InputError`] with
 /// clap's message.
 pub fn moduli_json(flags: &[String]) -> Result<serde_json::Value> {
-    let argv = ["hooke", "moduli"]
-        .into_iter()
-        .map(String::from)
-        .chain(flags.iter().cloned());
-    let cli = Cli::try_parse_from(argv).map_err(|e| InputError(e.to_string()))?;
-    match cli.command {
+    match parse_command("moduli", flags)? {
         Command::Moduli(args) => moduli::value(&args),
         _ => unreachable!("parsed as the moduli command"),
     }
+}
+
+/// `hooke toughness FLAGS --json`'s object (one `--nu`) as a value, like [`moduli_json`].
+pub fn toughness_json(flags: &[String]) -> Result<serde_json::Value> {
+    match parse_command("toughness", flags)? {
+        Command::Toughness(args) => toughness::value(&args),
+        _ => unreachable!("parsed as the toughness command"),
+    }
+}
+
+fn parse_command(name: &str, flags: &[String]) -> Result<Command> {
+    let argv = ["hooke", name]
+        .into_iter()
+        .map(String::from)
+        .chain(flags.iter().cloned());
+    Ok(Cli::try_parse_from(argv)
+        .map_err(|e| InputError(e.to_string()))?
+        .command)
 }

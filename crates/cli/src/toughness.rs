@@ -149,7 +149,7 @@ fn measure(args: &ToughnessArgs, nu: Real) -> Result<ToughnessJson> {
     })
 }
 
-pub fn run(args: ToughnessArgs) -> Result<()> {
+fn check_args(args: &ToughnessArgs) -> Result<()> {
     if args.height.is_some_and(|h| h < 6 || h % 2 == 1) {
         return Err(InputError(format!(
             "--height {}: give an even number of rows, 6 or more",
@@ -165,6 +165,21 @@ pub fn run(args: ToughnessArgs) -> Result<()> {
         ))
         .into());
     }
+    Ok(())
+}
+
+/// One strip's `--json` object as a value (`--nu`, not `--table`).
+pub fn value(args: &ToughnessArgs) -> Result<serde_json::Value> {
+    check_args(args)?;
+    let nu = match (args.table, args.nu) {
+        (false, Some(nu)) => nu,
+        _ => return Err(InputError("give --nu NU (--table prints a table)".into()).into()),
+    };
+    Ok(serde_json::to_value(measure(args, nu)?)?)
+}
+
+pub fn run(args: ToughnessArgs) -> Result<()> {
+    check_args(&args)?;
     let kind = LatticeKind::from(args.lattice);
     let list: Vec<Real> = match (args.table, args.nu) {
         (true, _) => table_nu(kind).to_vec(),
