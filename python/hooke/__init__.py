@@ -26,7 +26,7 @@ from . import _hooke
 from ._hooke import CaseError, RunError
 
 __version__ = _hooke.__version__
-__all__ = ["load_case", "Simulation", "moduli", "toughness", "read", "Output", "CaseError", "RunError"]
+__all__ = ["load_case", "Builder", "ramp", "smooth_ramp", "table", "Simulation", "moduli", "toughness", "read", "Output", "CaseError", "RunError"]
 
 
 def _toml_value(v: Any) -> str:
@@ -199,6 +199,117 @@ def _flags(lattice: str, nu: float, flags: Mapping[str, Any]) -> List[str]:
         else:
             argv += [opt, str(v)]
     return argv
+
+
+def ramp(to: float, t1: float, t0: float = 0.0, start: float = 0.0) -> Dict[str, List[float]]:
+    """A time function: ``start`` until ``t0``, linear to ``to`` at ``t1``, then ``to``."""
+    return {"ramp": [t0, t1, start, to]}
+
+
+def smooth_ramp(to: float, t1: float, t0: float = 0.0, start: float = 0.0) -> Dict[str, List[float]]:
+    """A half-cosine ramp from ``start`` to ``to`` between ``t0`` and ``t1`` (no shock)."""
+    return {"smooth": [t0, t1, start, to]}
+
+
+def table(points: Any) -> Dict[str, List[List[float]]]:
+    """A piecewise-linear time function through ``[(t, value), ...]``."""
+    return {"table": [[float(t), float(v)] for t, v in points]}
+
+
+class Builder:
+    """A simulation built in code, for cases easier as code than as a file: the library's
+    builder (``hooke_sim::Builder``) with the same checks and messages (a mistake raises
+    ``CaseError`` naming the item). Regions: ``"all"``, ``{"face": "y+"}``,
+    ``{"box": {"min": [...], "max": [...]}}``, ``{"plane": {"axis": "x", "at": 0.0}}``,
+    ``{"inside": SHAPE}``, ``{"nodes": [...]}``; shapes: ``{"box": {min, max}}``,
+    ``{"sphere": {"center", "radius"}}``, ``{"cylinder": {"center", "axis", "radius",
+    "length"}}``; time functions: a number, ``ramp(...)``, ``smooth_ramp(...)``, ``table(...)``.
+
+        sim = (hooke.Builder("random2d", spacing=0.5e-3).thickness(1e-3)
+               .box([0, 0], [60e-3, 30e-3]).material(72e9, 0.22, 2440).fracture_energy(3.8)
+               .boundary({"face": "y+"}, velocity={"y": hooke.smooth_ramp(0.02, 5e-6)})
+               .end_time(60e-6).output_every(1e-6).build("out", "plate"))
+    """
+
+    def __init__(self, lattice: str, spacing: float):
+        self._spec: Dict[str, Any] = {"lattice": lattice, "spacing": float(spacing), "calls": []}
+
+    def _call(self, name: str, arg: Any = None) -> "Builder":
+        self._spec["calls"].append([name, arg])
+        return self
+
+    def thickness(self, h: float) -> "Builder":
+        """Plate thickness (m), 2D lattices."""
+        return self._call("thickness", float(h))
+
+    def plane(self, model: str) -> "Builder":
+        """2D: ``"stress"`` (thin plate) or ``"strain"``."""
+        return self._call("plane", model)
+
+    def box(self, lo: Any, hi: Any) -> "Builder":
+        """The body is this box (m)."""
+        return self._call("box", {"min": list(lo), "max": list(hi)})
+
+    def add(self, shape: Mapping[str, Any]) -> "Builder":
+        """The body is the union of the added shapes (instead of a box)."""
+        return self._call("add", shape)
+
+    def subtract(self, shape: Mapping[str, Any]) -> "Builder":
+        return self._call("subtract", shape)
+
+    def material(self, youngs: float, poisson: float, density: float) -> "Builder":
+        """E (Pa), nu (any value in (-1, 1/2)), rho (kg/m^3)."""
+        return self._call("material", {"youngs": youngs, "poisson": poisson, "density": density})
+
+    def fracture_energy(self, g_c: float) -> "Builder":
+        """G_c (J/m^2): springs break, calibrated so that cracks dissipate G_c."""
+        return self._call("fracture_energy", float(g_c))
+
+    def precrack(self, a: Any, b: Any = None) -> "Builder":
+        """2D: the springs crossing the segment a-b are removed; 3D: pass the polygon's
+        vertices as ``a`` (a list of [x, y, z])."""
+        if b is None:
+            return self._call("precrack_polygon", [list(v) for v in a])
+        return self._call("precrack_segment", {"a": list(a), "b": list(b)})
+
+    def boundary(self, region: Any, fixed: Any = (), velocity: Optional[Mapping[str, Any]] = None,
+                 displacement: Optional[Mapping[str, Any]] = None, no_fail: bool = False,
+                 name: Optional[str] = None) -> "Builder":
+        """Conditions on a region: ``fixed`` axes, prescribed ``velocity`` or ``displacement``
+        per axis (``{"y": 0.02}`` or a time function), ``no_fail`` springs, a ``name`` for the
+        reactions."""
+        arg: Dict[str, Any] = {"region": region, "fixed": list(fixed), "no_fail": no_fail}
+        if velocity:
+            arg["velocity"] = dict(velocity)
+        if displacement:
+            arg["displacement"] = dict(displacement)
+        if name:
+            arg["name"] = name
+        return self._call("boundary", arg)
+
+    def initial_velocity(self, region: Any, v: Any) -> "Builder":
+        return self._call("initial_velocity", {"region": region, "velocity": list(v)})
+
+    def gravity(self, g: Any) -> "Builder":
+        """Body acceleration (m/s^2)."""
+        return self._call("gravity", list(g))
+
+    def end_time(self, t: float) -> "Builder":
+        return self._call("end_time", float(t))
+
+    def output_every(self, t: float) -> "Builder":
+        return self._call("output_every", float(t))
+
+    def checkpoint_every(self, t: float) -> "Builder":
+        return self._call("checkpoint_every", float(t))
+
+    def damping(self, c: float) -> "Builder":
+        """Mass-proportional damping c (1/s)."""
+        return self._call("damping", float(c))
+
+    def build(self, out: Union[str, os.PathLike], name: str = "run") -> Simulation:
+        """The simulation; it writes to ``out`` (files named ``name``) once it steps."""
+        return Simulation(_hooke.build(json.dumps(self._spec), str(out), name))
 
 
 def moduli(lattice: str = "cubic", nu: float = 0.3, **flags: Any) -> Dict[str, Any]:

@@ -5,6 +5,8 @@
 //! a tenth of a second and checks for Ctrl-C between slices, so a long `run` stays interruptible
 //! and leaves the simulation usable (the KeyboardInterrupt arrives after a whole step).
 
+mod spec;
+
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -60,6 +62,18 @@ struct PySimulation {
 }
 
 impl PySimulation {
+    /// A simulation that starts (and writes to `opts.out`) on its first step.
+    fn new(sim: hooke_sim::Simulation, opts: RunOptions) -> Self {
+        PySimulation {
+            out: opts.out.clone(),
+            pending: Some((sim, opts)),
+            run: None,
+            summary: None,
+            ended: None,
+            step_seconds: 0.0,
+        }
+    }
+
     fn sim(&self) -> &hooke_sim::Simulation {
         match (&self.pending, &self.run, &self.ended) {
             (Some((s, _)), _, _) => s,
@@ -374,19 +388,29 @@ fn load_case(
         )));
     }
     let opts = RunOptions {
-        out: out.clone(),
+        out,
         name,
         command,
         ..base
     };
-    Ok(PySimulation {
-        pending: Some((sim, opts)),
-        run: None,
-        summary: None,
-        ended: None,
-        out,
-        step_seconds: 0.0,
-    })
+    Ok(PySimulation::new(sim, opts))
+}
+
+/// A simulation built from a `hooke.Builder` spec (JSON text).
+#[pyfunction]
+fn build(spec: &str, out: PathBuf, name: String) -> PyResult<PySimulation> {
+    let v: serde_json::Value =
+        serde_json::from_str(spec).map_err(|e| CaseError::new_err(format!("builder spec: {e}")))?;
+    let sim = spec::build(&v).map_err(CaseError::new_err)?;
+    if sim.quasi_static.is_some() {
+        return Err(CaseError::new_err(
+            "quasi-static simulations run to their end with the Rust library or hooke run",
+        ));
+    }
+    let mut opts = RunOptions::new(out, name);
+    opts.command = vec!["python".into(), "hooke.Builder".into()];
+    opts.case_text = spec.to_string();
+    Ok(PySimulation::new(sim, opts))
 }
 
 /// `hooke moduli FLAGS --json` as JSON text.
@@ -411,6 +435,7 @@ fn toughness_json(py: Python<'_>, flags: Vec<String>) -> PyResult<String> {
 fn _hooke(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PySimulation>()?;
     m.add_function(wrap_pyfunction!(load_case, m)?)?;
+    m.add_function(wrap_pyfunction!(build, m)?)?;
     m.add_function(wrap_pyfunction!(moduli_json, m)?)?;
     m.add_function(wrap_pyfunction!(toughness_json, m)?)?;
     m.add("CaseError", m.py().get_type::<CaseError>())?;

@@ -126,3 +126,34 @@ def test_ctrl_c_interrupts_cleanly(tmp_path):
 def test_examples_run(example, tmp_path):
     env = dict(os.environ, HOOKE_EXAMPLE_SMALL="1", MPLBACKEND="Agg")
     subprocess.run([sys.executable, str(example), str(tmp_path)], check=True, env=env, cwd=tmp_path)
+
+
+def mode1_plate(scale):
+    pull = lambda v: hooke.smooth_ramp(v, 5e-6)
+    grip = lambda lo, hi: {"box": {"min": [-1.0, lo], "max": [1.0, hi]}}
+    return (hooke.Builder("random2d", spacing=0.5e-3 / scale).thickness(1e-3)
+            .box([0.0, 0.0], [60e-3, 30e-3]).material(72e9, 0.22, 2440.0).fracture_energy(3.8)
+            .precrack([-1e-3, 15.05e-3], [15e-3, 15.05e-3])
+            .boundary(grip(29e-3, 1.0), velocity={"y": pull(0.02)}, no_fail=True)
+            .boundary(grip(-1.0, 1e-3), velocity={"y": pull(-0.02)}, no_fail=True)
+            .end_time(6e-6).output_every(2e-6))
+
+
+def test_the_builder_makes_the_case_files_plate_bit_for_bit(tmp_path):
+    sim = mode1_plate(0.25).build(tmp_path / "built", "mode1_plate")
+    sim.finish()
+    cli("run", str(CASE), "--scale", "0.25", "--out", str(tmp_path / "cli"),
+        "--set", "solver.end_time=6e-6", "--set", "output.every=2e-6")
+    subprocess.run([sys.executable, str(ROOT / "tools" / "compare_runs.py"), str(tmp_path / "built"),
+                    str(tmp_path / "cli")], check=True)
+
+
+def test_builder_mistakes_name_the_item(tmp_path):
+    b = hooke.Builder("random2d", spacing=0.5e-3).thickness(1e-3).box([0, 0], [1e-2, 1e-2])
+    with pytest.raises(hooke.CaseError, match="poisson|nu"):
+        b.material(72e9, 0.7, 2440).end_time(1e-6).build(tmp_path / "x")
+    with pytest.raises(hooke.CaseError, match="face"):
+        (hooke.Builder("hex", spacing=1e-3).thickness(1e-3).box([0, 0], [1e-2, 1e-2])
+         .material(1e9, 0.2, 1000).boundary({"face": "w+"}, fixed=["x"]).build(tmp_path / "y"))
+    with pytest.raises(hooke.CaseError, match="lattice"):
+        hooke.Builder("square", spacing=1e-3).build(tmp_path / "z")
