@@ -316,14 +316,14 @@ def moduli(lattice: str = "cubic", nu: float = 0.3, **flags: Any) -> Dict[str, A
     """The paper's block test, as ``hooke moduli --lattice LATTICE --nu NU ... --json``: the
     same keys and numbers. Other flags by name (``size=[21, 6, 6]``, ``samples=4``,
     ``sampler="jitter"``)."""
-    return json.loads(_hooke.moduli_json(_flags(lattice, nu, flags)))
+    return json.loads(_hooke.command_json("moduli", _flags(lattice, nu, flags)))
 
 
 def toughness(lattice: str = "hex", nu: float = 0.25, **flags: Any) -> Dict[str, Any]:
     """The fracture energy a lattice crack dissipates in a strip under fixed grips, against
     the G_c calibration, as ``hooke toughness --lattice LATTICE --nu NU ... --json`` (same keys
     and numbers). Other flags by name (``height=20``, ``window=4``, ``criterion="energy"``)."""
-    return json.loads(_hooke.toughness_json(_flags(lattice, nu, flags)))
+    return json.loads(_hooke.command_json("toughness", _flags(lattice, nu, flags)))
 
 
 class Output:

@@ -413,20 +413,17 @@ fn build(spec: &str, out: PathBuf, name: String) -> PyResult<PySimulation> {
     Ok(PySimulation::new(sim, opts))
 }
 
-/// `hooke moduli FLAGS --json` as JSON text.
+/// `hooke COMMAND FLAGS --json` as JSON text, for the commands that return one object
+/// (`moduli`, `toughness`): the command's own parser and numbers.
 #[pyfunction]
-fn moduli_json(py: Python<'_>, flags: Vec<String>) -> PyResult<String> {
+fn command_json(py: Python<'_>, command: &str, flags: Vec<String>) -> PyResult<String> {
+    let run = match command {
+        "moduli" => hooke_cli::moduli_json,
+        "toughness" => hooke_cli::toughness_json,
+        _ => return Err(CaseError::new_err(format!("{command}: not a JSON command"))),
+    };
     let v = py
-        .detach(|| hooke_cli::moduli_json(&flags))
-        .map_err(|e| CaseError::new_err(format!("{e:#}")))?;
-    Ok(v.to_string())
-}
-
-/// `hooke toughness FLAGS --json` (one `--nu`) as JSON text.
-#[pyfunction]
-fn toughness_json(py: Python<'_>, flags: Vec<String>) -> PyResult<String> {
-    let v = py
-        .detach(|| hooke_cli::toughness_json(&flags))
+        .detach(|| run(&flags))
         .map_err(|e| CaseError::new_err(format!("{e:#}")))?;
     Ok(v.to_string())
 }
@@ -436,8 +433,7 @@ fn _hooke(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PySimulation>()?;
     m.add_function(wrap_pyfunction!(load_case, m)?)?;
     m.add_function(wrap_pyfunction!(build, m)?)?;
-    m.add_function(wrap_pyfunction!(moduli_json, m)?)?;
-    m.add_function(wrap_pyfunction!(toughness_json, m)?)?;
+    m.add_function(wrap_pyfunction!(command_json, m)?)?;
     m.add("CaseError", m.py().get_type::<CaseError>())?;
     m.add("RunError", m.py().get_type::<RunError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

@@ -83,6 +83,3 @@ fn main() {
         s / t.elapsed().as_secs_f64() / 1e6
     );
 }
-
-#[allow(dead_code)]
-fn unused() {}

@@ -22,7 +22,6 @@ use std::path::{Path, PathBuf};
 use hooke_core::{Body, Real, State};
 
 use crate::error::{io, IoError};
-use crate::fields::derived;
 use crate::vtk::{write_atomic, FrameExtras};
 
 /// An HDF5 time series with its XDMF description.
@@ -155,14 +154,7 @@ impl H5Series {
         let vec3 = |c: &hooke_core::Coords| -> Vec<Real> {
             (0..n).flat_map(|i| [c.x[i], c.y[i], c.z[i]]).collect()
         };
-        let own;
-        let d = match extras.derived {
-            Some(d) => d,
-            None => {
-                own = derived(body, state);
-                &own
-            }
-        };
+        let d = extras.derived_or_compute(body, state);
         let stress: Vec<Real> = d.stress.iter().flatten().copied().collect();
         let has_damage = extras.damage.is_some();
         atomic_h5(&path, |f| {

@@ -18,7 +18,6 @@ use vtkio::model::{
 };
 
 use crate::error::{io, IoError};
-use crate::fields::derived;
 
 /// Per-frame inputs that are not in the state.
 #[derive(Clone, Copy, Debug, Default)]
@@ -32,6 +31,20 @@ pub struct FrameExtras<'a> {
     /// The derived fields of this state, when the caller computed them already (one
     /// computation per frame for every format); computed here otherwise.
     pub derived: Option<&'a crate::fields::Derived>,
+}
+
+impl<'a> FrameExtras<'a> {
+    /// The derived fields of `state`: the caller's, or computed now.
+    pub(crate) fn derived_or_compute(
+        &self,
+        body: &Body,
+        state: &State,
+    ) -> std::borrow::Cow<'a, crate::fields::Derived> {
+        match self.derived {
+            Some(d) => std::borrow::Cow::Borrowed(d),
+            None => std::borrow::Cow::Owned(crate::fields::derived(body, state)),
+        }
+    }
 }
 
 /// A time series of `.vtu` frames with its `.pvd` index.
@@ -323,14 +336,7 @@ pub fn frame_vtk(body: &Body, state: &State, extras: FrameExtras, springs: bool)
             }
         }
     }
-    let own;
-    let d = match extras.derived {
-        Some(d) => d,
-        None => {
-            own = derived(body, state);
-            &own
-        }
-    };
+    let d = extras.derived_or_compute(body, state);
     let mut point = vec![vectors("displacement", &state.u)];
     point.push(vectors("velocity", extras.velocity.unwrap_or(&state.v)));
     if let Some(dmg) = extras.damage {

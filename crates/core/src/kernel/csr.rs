@@ -134,12 +134,17 @@ struct Springs<'a> {
 /// True when sweep 1 may use AVX (x86-64 processors since 2011), unless `HOOKE_NO_SIMD` is
 /// set. Either way the results are the same bits: the vector loop performs the same IEEE
 /// operations (Rust never fuses a multiply and an add on its own).
+/// Decided once per process: the sweep asks every step, and reading the environment is not
+/// free.
 pub(crate) fn wide_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    let avx = std::arch::is_x86_feature_detected!("avx");
-    #[cfg(not(target_arch = "x86_64"))]
-    let avx = false;
-    super::simd_allowed() && avx
+    static WIDE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *WIDE.get_or_init(|| {
+        #[cfg(target_arch = "x86_64")]
+        let avx = std::arch::is_x86_feature_detected!("avx");
+        #[cfg(not(target_arch = "x86_64"))]
+        let avx = false;
+        super::simd_allowed() && avx
+    })
 }
 
 /// [`spring_chunk`] compiled for AVX.
