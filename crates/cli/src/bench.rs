@@ -80,7 +80,13 @@ pub struct BenchArgs {
     /// (tools/bench_lammps/).
     #[arg(long, value_name = "FILE")]
     pub export_lammps: Option<std::path::PathBuf>,
-    /// A case file for --fracture's running crack (e.g. cases/glass_branching_random.toml).
+    /// Instead: the cost of an output frame (every sink the case writes: VTK, HDF5, histories)
+    /// against a step, on --case run to --crack-time: alternating windows of --steps steps and
+    /// of one frame, --repeats times; prints `frame_over_step` (frame time in step times).
+    #[arg(long)]
+    pub frame: bool,
+    /// A case file for --fracture's running crack and for --frame (e.g.
+    /// cases/glass_branching_random.toml).
     #[arg(long)]
     pub case: Option<std::path::PathBuf>,
     /// Resolution factor of --case.
@@ -129,6 +135,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
     }
     if args.fracture {
         return bench_fracture(&args);
+    }
+    if args.frame {
+        return bench_frame(&args);
     }
     if args.nodes < 27 || args.steps == 0 {
         return Err(InputError(format!(
@@ -385,8 +394,7 @@ fn bench_fracture(args: &BenchArgs) -> Result<()> {
         args.repeats,
         || {
             for _ in 0..steps {
-                it.step(&body, &mut state);
-                fr.check(&body, &mut state, &mut it);
+                fr.step(&body, &mut state, &mut it, None);
             }
             Ok(())
         },
@@ -422,8 +430,7 @@ fn bench_fracture(args: &BenchArgs) -> Result<()> {
         };
         let mut state = sim.state.clone();
         while state.time < until {
-            it.step(body, &mut state);
-            fr.check(body, &mut state, &mut it);
+            fr.step(body, &mut state, &mut it, None);
         }
         let before = fr.broken_total;
         // Without breaking: a copy of the same state and integrator, stepped on its own.
@@ -439,8 +446,7 @@ fn bench_fracture(args: &BenchArgs) -> Result<()> {
             args.repeats,
             || {
                 for _ in 0..steps {
-                    it.step(body, &mut state);
-                    fr.check(body, &mut state, &mut it);
+                    fr.step(body, &mut state, &mut it, None);
                 }
                 Ok(())
             },
@@ -581,5 +587,56 @@ fn write_lammps(
         writeln!(f, "{} {} {} {}", b + 1, b + 1, i + 1, j + 1)?;
     }
     f.flush()?;
+    Ok(())
+}
+
+fn bench_frame(args: &BenchArgs) -> Result<()> {
+    let Some(case) = &args.case else {
+        return Err(InputError("--frame needs --case CASE.toml".into()).into());
+    };
+    if args.repeats == 0 || args.steps == 0 {
+        return Err(InputError("--repeats and --steps must be at least 1".into()).into());
+    }
+    let text = std::fs::read_to_string(case)
+        .map_err(|e| InputError(format!("{}: {e}", case.display())))?;
+    let (sim, mut opts) =
+        hooke_case::prepare(case, &text, args.scale, &[]).map_err(|e| InputError(e.to_string()))?;
+    let out = std::env::temp_dir().join(format!("hooke-bench-frame-{}", std::process::id()));
+    opts.out = out.clone();
+    let until = args.crack_time.unwrap_or(0.5 * sim.end_time);
+    let (nodes, springs) = (sim.body.nodes(), sim.body.springs());
+    let result = (|| -> Result<(f64, f64, String, usize)> {
+        let mut run = hooke_sim::Run::start(sim, opts)?;
+        let mut quiet = hooke_sim::Silent;
+        run.advance(until, &mut quiet)?;
+        let (mut ts, mut tf) = (Vec::new(), Vec::new());
+        for _ in 0..args.repeats {
+            let t0 = Instant::now();
+            run.steps(args.steps, &mut quiet)?;
+            ts.push(t0.elapsed().as_secs_f64() / args.steps as f64);
+            let t0 = Instant::now();
+            run.frame()?;
+            tf.push(t0.elapsed().as_secs_f64());
+        }
+        let kernel = run.integrator().kernel.name().to_string();
+        let broken = run.simulation().broken().0;
+        Ok((median(&mut ts), median(&mut tf), kernel, broken))
+    })();
+    let _ = std::fs::remove_dir_all(&out);
+    let (step, frame, kernel, broken) = result?;
+    let json = serde_json::json!({
+        "case": case.display().to_string(), "nodes": nodes, "springs": springs,
+        "kernel": kernel, "threads": rayon::current_num_threads(), "repeats": args.repeats,
+        "steps": args.steps, "crack_time": until, "broken_springs": broken,
+        "step_seconds": step, "frame_seconds": frame, "frame_over_step": frame / step,
+    });
+    if args.json {
+        println!("{json}");
+    } else {
+        println!(
+            "{} ({nodes} nodes, {broken} springs broken), {kernel} kernel, {} threads, medians of {} windows:\n  step {:.3} ms, frame {:.3} ms = {:.2} steps",
+            case.display(), rayon::current_num_threads(), args.repeats, step * 1e3, frame * 1e3, frame / step
+        );
+    }
     Ok(())
 }

@@ -122,6 +122,24 @@ pub trait Interaction {
     fn forces(&mut self, body: &Body, state: &State, dt: Real, out: &mut Vec<(u32, [Real; 3])>);
 }
 
+/// Breaks springs inside a step, between sweep 1 and sweep 2 (fracture, `hooke-fracture`).
+///
+/// A step with a breaker ([`Integrator::step_breaking`]) runs sweep 1 with the breaker's screen,
+/// lets the breaker decide and commit breaks at the step's start state (through
+/// [`Integrator::break_spring`]), brings sweep 1's results in line with the broken springs,
+/// then computes the forces. That is the same state and the same bits as checking after the
+/// previous step and then stepping, without a pass of its own over all springs: the screen
+/// costs a compare per spring inside sweep 1, which has each extension at hand.
+pub trait Breaker {
+    /// Screen stretch s: the breaker never breaks a spring with `dL <= s L` (the integrator
+    /// widens it by a margin far above round-off before the kernel compares). Infinity: the
+    /// breaker needs no spring listed (it is still called every step).
+    fn screen(&self) -> Real;
+    /// Decide and commit breaks in the state at the step's start. [`Integrator::hot_springs`]
+    /// lists every spring that can be past the screen.
+    fn break_in_step(&mut self, body: &Body, state: &mut State, it: &mut Integrator);
+}
+
 /// The explicit integrator for one body.
 #[derive(Debug)]
 pub struct Integrator {
@@ -153,6 +171,8 @@ pub struct Integrator {
     v_contact: Vec<[Real; 3]>,
     /// `State::breaks` when the kernel's spring masks last matched the state.
     synced: u64,
+    /// Springs broken through [`Integrator::break_spring`] since the step began.
+    killed: Vec<u32>,
 }
 
 impl Integrator {
@@ -304,6 +324,7 @@ impl Integrator {
             contact: Vec::new(),
             v_contact: Vec::new(),
             synced: 0,
+            killed: Vec::new(),
         }
     }
 
@@ -405,6 +426,7 @@ impl Integrator {
             return false;
         }
         self.kernel.bond_killed(body, b);
+        self.killed.push(b as u32);
         if in_sync {
             self.synced = state.breaks();
         }
@@ -443,9 +465,74 @@ impl Integrator {
         &mut self,
         body: &Body,
         state: &mut State,
+        interaction: Option<&mut dyn Interaction>,
+    ) {
+        self.step_full(body, state, interaction, None);
+    }
+
+    /// One step that breaks springs at its start ([`Breaker`]), with an optional interaction.
+    pub fn step_breaking(
+        &mut self,
+        body: &Body,
+        state: &mut State,
+        interaction: Option<&mut dyn Interaction>,
+        breaker: &mut dyn Breaker,
+    ) {
+        self.step_full(body, state, interaction, Some(breaker));
+    }
+
+    /// The springs that the last screened sweep 1 found possibly past the breaker's screen
+    /// (ascending, each once, broken ones included), into `out` (cleared first).
+    pub fn hot_springs(&self, body: &Body, state: &State, out: &mut Vec<u32>) {
+        self.kernel.hot_springs(body, state, out);
+    }
+
+    /// Apply the breaker's decisions at the current state now, without stepping (before writing
+    /// a frame or a checkpoint, so that they show the springs the next step would break at its
+    /// start). The breaker must decide idempotently: deciding again at the same state breaks
+    /// nothing more, so settling never changes a run.
+    pub fn settle(&mut self, body: &Body, state: &mut State, breaker: &mut dyn Breaker) {
+        self.sync(body, state);
+        self.killed.clear();
+        self.break_at_start(body, state, breaker);
+    }
+
+    /// Screened sweep 1, the breaker's decisions, and sweep 1's results repaired for them.
+    /// Returns false if the pools still have to be computed (springs changed behind the
+    /// integrator's back).
+    fn break_at_start(&mut self, body: &Body, state: &mut State, b: &mut dyn Breaker) -> bool {
+        let s = b.screen();
+        let screen = if s.is_finite() {
+            s - 1e-9 * s.abs() - 1e-12
+        } else {
+            s
+        };
+        self.kernel.pools_screened(body, state, screen);
+        b.break_in_step(body, state, self);
+        if self.synced != state.breaks() {
+            self.sync(body, state);
+            return false;
+        }
+        let killed = std::mem::take(&mut self.killed);
+        self.kernel.repair(body, state, &killed);
+        self.killed = killed;
+        true
+    }
+
+    fn step_full(
+        &mut self,
+        body: &Body,
+        state: &mut State,
         mut interaction: Option<&mut dyn Interaction>,
+        breaker: Option<&mut dyn Breaker>,
     ) {
         self.sync(body, state);
+        self.killed.clear();
+        // Sweep 1 done (and consistent with every break) before the contact forces.
+        let swept = match breaker {
+            Some(b) => self.break_at_start(body, state, b),
+            None => false,
+        };
         let dt = self.dt;
         let t = state.time;
         self.contact.clear();
@@ -458,7 +545,9 @@ impl Integrator {
                     .push([state.v.x[i], state.v.y[i], state.v.z[i]]);
             }
         }
-        self.kernel.pools(body, state);
+        if !swept {
+            self.kernel.pools(body, state);
+        }
         // Sparse bookkeeping before the sweep overwrites v: the half-step velocity and the
         // internal force at u(t) of every loaded or prescribed node.
         self.v_before.clear();

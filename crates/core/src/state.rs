@@ -39,6 +39,10 @@ pub struct State {
     /// not checkpointed).
     pub(crate) spring: Vec<Real>,
     pub(crate) spring_pi: Vec<Real>,
+    /// Break screen of the last screened sweep 1 ([`crate::kernel::Kernel::pools_screened`]):
+    /// one flag per block of springs (CSR) or nodes (stencil) holding a spring stretched past
+    /// the screen. Scratch like `spring`.
+    pub(crate) hot: Vec<bool>,
 }
 
 /// Equal states: the same displacements, velocities, forces, springs, pools, time and step (how
@@ -72,6 +76,7 @@ impl State {
             breaks: 0,
             spring: Vec::new(),
             spring_pi: Vec::new(),
+            hot: Vec::new(),
         };
         for i in 0..n {
             s.norm[i] = node_norm(body, &s.alive, i);

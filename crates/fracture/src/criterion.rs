@@ -53,4 +53,11 @@ pub trait Criterion: Send + Sync + std::fmt::Debug {
     fn name(&self) -> &'static str;
     /// True if the spring fails in this state.
     fn breaks(&self, s: &SpringState) -> bool;
+    /// A screen stretch s, if the criterion allows one: `breaks` is then true only when
+    /// `dL > s L`, and depends on the spring's own k, L and dL alone (not on the pools). With a
+    /// screen, the check is folded into the step's first sweep ([`crate::Fracture::step`]), which
+    /// computes each extension anyway; without one, every spring is checked after the step.
+    fn screen(&self) -> Option<Real> {
+        None
+    }
 }

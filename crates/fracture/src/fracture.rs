@@ -2,7 +2,7 @@
 
 use rayon::prelude::*;
 
-use hooke_core::dynamics::Integrator;
+use hooke_core::dynamics::{Breaker, Integrator, Interaction};
 use hooke_core::kernel::CHUNK;
 use hooke_core::law::spring_geometry;
 use hooke_core::{Body, Real, State};
@@ -33,6 +33,10 @@ pub struct Fracture {
     found: Vec<Vec<u32>>,
     /// Scratch: nodes touched by a commit.
     touched: Vec<u32>,
+    /// Scratch: the springs sweep 1's screen flagged.
+    hot: Vec<u32>,
+    /// What the last screened decision broke.
+    last: BreakReport,
     /// Total springs broken by checks (pre-cracks not counted).
     pub broken_total: usize,
     /// Total energy released by checks (J).
@@ -51,6 +55,8 @@ impl Fracture {
                 .collect(),
             found: vec![Vec::new(); body.nodes().div_ceil(CHUNK)],
             touched: Vec::new(),
+            hot: Vec::new(),
+            last: BreakReport::default(),
             broken_total: 0,
             released_total: 0.0,
         }
@@ -85,6 +91,46 @@ impl Fracture {
             }
         }
         Ok(n)
+    }
+
+    /// One step of `integrator` with breaking. With a criterion that has a screen (the
+    /// critical stretch), the check runs inside the step: sweep 1 flags the blocks holding a
+    /// spring past the screen, the criterion looks at those springs only, and the breaks are
+    /// committed before the forces, at the step's start state. That is the state, the decisions
+    /// and the bits of [`Fracture::check`] after the previous step, without its pass over every
+    /// spring. Other criteria: the step, then [`Fracture::check`]. Returns what broke.
+    pub fn step(
+        &mut self,
+        body: &Body,
+        state: &mut State,
+        integrator: &mut Integrator,
+        interaction: Option<&mut dyn Interaction>,
+    ) -> BreakReport {
+        if self.criterion.screen().is_some() {
+            self.last = BreakReport::default();
+            integrator.step_breaking(body, state, interaction, self);
+            self.last
+        } else {
+            integrator.step_with(body, state, interaction);
+            self.check(body, state, integrator)
+        }
+    }
+
+    /// With a screened criterion, commit now the breaks that the next [`Fracture::step`] would
+    /// make at its start (before a frame or a checkpoint shows the state). Deciding is
+    /// idempotent, so this never changes a run. Without a screen there is nothing pending.
+    pub fn settle(
+        &mut self,
+        body: &Body,
+        state: &mut State,
+        integrator: &mut Integrator,
+    ) -> BreakReport {
+        if self.criterion.screen().is_none() {
+            return BreakReport::default();
+        }
+        self.last = BreakReport::default();
+        integrator.settle(body, state, self);
+        self.last
     }
 
     /// Decide which intact springs fail in the current state and commit them: they leave the
@@ -122,16 +168,7 @@ impl Fracture {
                     if j < i || !state.alive()[b] || no_fail[j] {
                         continue;
                     }
-                    let rest = bonds.rest[b];
-                    let g = spring_geometry(&body.lattice, &state.u, i, j, rest);
-                    let s = SpringState {
-                        k: body.k[b],
-                        rest,
-                        dl: g.dl,
-                        pool: [state.pool[i], state.pool[j]],
-                        q: body.q,
-                    };
-                    if crit.breaks(&s) {
+                    if fails(crit, body, state, b, i, j) {
                         list.push(b as u32);
                     }
                 }
@@ -228,6 +265,54 @@ impl Fracture {
                 }
             })
             .collect()
+    }
+}
+
+/// Whether intact spring `b` from `i` to `j` fails now.
+#[inline]
+fn fails(crit: &dyn Criterion, body: &Body, state: &State, b: usize, i: usize, j: usize) -> bool {
+    let rest = body.lattice.bonds.rest[b];
+    let g = spring_geometry(&body.lattice, &state.u, i, j, rest);
+    crit.breaks(&SpringState {
+        k: body.k[b],
+        rest,
+        dl: g.dl,
+        pool: [state.pool[i], state.pool[j]],
+        q: body.q,
+    })
+}
+
+/// The screened check inside a step (see [`Fracture::step`]).
+impl Breaker for Fracture {
+    fn screen(&self) -> Real {
+        self.criterion.screen().unwrap_or(Real::INFINITY)
+    }
+
+    fn break_in_step(&mut self, body: &Body, state: &mut State, it: &mut Integrator) {
+        let mut hot = std::mem::take(&mut self.hot);
+        it.hot_springs(body, state, &mut hot);
+        for l in &mut self.found {
+            l.clear();
+        }
+        let bonds = &body.lattice.bonds;
+        let (crit, no_fail) = (&*self.criterion, &self.no_fail);
+        if let Some(list) = self.found.first_mut() {
+            // Ascending spring order is (lower end, upper end) order: the order of `decide`.
+            for &b in &hot {
+                let b = b as usize;
+                let [i, j] = bonds.ends[b].map(|v| v as usize);
+                if !state.alive()[b] || no_fail[i] || no_fail[j] {
+                    continue;
+                }
+                if fails(crit, body, state, b, i, j) {
+                    list.push(b as u32);
+                }
+            }
+        }
+        self.hot = hot;
+        let report = self.commit(body, state, Some(&mut *it));
+        it.add_released(report.released);
+        self.last = report;
     }
 }
 

@@ -269,6 +269,9 @@ impl Criterion for CriticalStretch {
     fn breaks(&self, s: &SpringState) -> bool {
         s.stretch() > self.s_c
     }
+    fn screen(&self) -> Option<Real> {
+        Some(self.s_c)
+    }
 }
 
 #[cfg(test)]

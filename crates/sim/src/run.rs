@@ -368,13 +368,25 @@ impl Run {
         self.sim.state.time >= self.sim.end_time - 0.5 * self.it.dt
     }
 
+    /// Commit the breaks that are due at the current state (a screened criterion decides them
+    /// at the next step's start, see `Fracture::step`): what is written or reported then shows
+    /// them. Never changes the run.
+    fn settle(&mut self) {
+        let sim = &mut self.sim;
+        if let Some(fr) = sim.fracture.as_mut() {
+            fr.settle(&sim.body, &mut sim.state, &mut self.it);
+        }
+    }
+
     /// The energy balance now (one force evaluation).
     pub fn energy(&mut self) -> hooke_core::dynamics::EnergyBalance {
+        self.settle();
         self.it.energy(&self.sim.body, &mut self.sim.state)
     }
 
     /// The reactions of the boundary regions now (one force evaluation).
     pub fn reactions(&mut self) -> Vec<RegionReaction> {
+        self.settle();
         let v = self.it.full_velocity(&self.sim.body, &mut self.sim.state);
         let f = self.it.boundary_forces(&self.sim.body, &self.sim.state, &v);
         region_reactions(&self.sim, &f)
@@ -384,14 +396,12 @@ impl Run {
     pub fn step(&mut self, obs: &mut dyn Observer) -> Result<()> {
         let sim = &mut self.sim;
         let body = &sim.body;
-        match sim.contact.as_mut() {
-            Some(c) => self
-                .it
-                .step_with(body, &mut sim.state, Some(c as &mut dyn Interaction)),
-            None => self.it.step(body, &mut sim.state),
-        }
-        if let Some(fr) = sim.fracture.as_mut() {
-            fr.check(body, &mut sim.state, &mut self.it);
+        let contact = sim.contact.as_mut().map(|c| c as &mut dyn Interaction);
+        match sim.fracture.as_mut() {
+            Some(fr) => {
+                fr.step(body, &mut sim.state, &mut self.it, contact);
+            }
+            None => self.it.step_with(body, &mut sim.state, contact),
         }
         if sim.state.step % 64 == 0 {
             self.it.check(body, &sim.state)?;
@@ -443,6 +453,7 @@ impl Run {
     }
 
     fn progress(&mut self) -> Progress {
+        self.settle();
         let sim = &self.sim;
         let frac =
             ((sim.state.time - self.t_start) / (sim.end_time - self.t_start)).clamp(0.0, 1.0);
@@ -482,6 +493,7 @@ impl Run {
         while !self.done() && self.sim.state.time < until - 0.5 * self.it.dt {
             self.step(obs)?;
         }
+        self.settle();
         Ok(())
     }
 
@@ -493,6 +505,7 @@ impl Run {
             }
             self.step(obs)?;
         }
+        self.settle();
         Ok(())
     }
 
@@ -553,8 +566,15 @@ impl Run {
         Ok((summary, self.sim))
     }
 
+    /// Write a frame of the current state into every sink now, besides the schedule (what
+    /// `hooke bench --frame` times; a caller that wants a picture at a moment of its choosing).
+    pub fn frame(&mut self) -> Result<()> {
+        self.write_frame()
+    }
+
     /// One frame into every sink, the contact history flushed.
     fn write_frame(&mut self) -> Result<()> {
+        self.settle();
         let body = &self.sim.body;
         let v = self.it.full_velocity(body, &mut self.sim.state);
         let forces = self.it.boundary_forces(body, &self.sim.state, &v);
@@ -582,7 +602,8 @@ impl Run {
         Ok(())
     }
 
-    fn save(&self) -> Result<()> {
+    fn save(&mut self) -> Result<()> {
+        self.settle();
         let (broken, released) = self.sim.broken();
         Checkpoint {
             digest: self.opts.digest,

@@ -42,15 +42,17 @@ pub(crate) const fn stride(dim: usize) -> usize {
 }
 
 /// Sweep 1: the spring records and pool shares, then the pools (zero for the plain law, `q =
-/// 0`).
-pub fn pools(body: &Body, state: &mut State, plain: bool) {
+/// 0`). With a finite `screen` s, it also flags each block of [`BLOCK`] springs holding an
+/// intact spring with `dL > s L` in `state.hot` (the fracture check then looks at those blocks
+/// only); pass infinity for no screen.
+pub fn pools(body: &Body, state: &mut State, plain: bool, screen: Real) {
     let lat = &body.lattice;
     let q = if plain { 0.0 } else { body.q };
     match (lat.dim(), lat.is_periodic()) {
-        (2, false) => pools_impl::<2, false>(body, state, q),
-        (2, true) => pools_impl::<2, true>(body, state, q),
-        (_, false) => pools_impl::<3, false>(body, state, q),
-        (_, true) => pools_impl::<3, true>(body, state, q),
+        (2, false) => pools_impl::<2, false>(body, state, q, screen),
+        (2, true) => pools_impl::<2, true>(body, state, q, screen),
+        (_, false) => pools_impl::<3, false>(body, state, q, screen),
+        (_, true) => pools_impl::<3, true>(body, state, q, screen),
     }
 }
 
@@ -59,9 +61,14 @@ pub fn pools(body: &Body, state: &mut State, plain: bool) {
 /// arrays, which the compiler turns into vector instructions (two or four springs at once).
 /// Those two operations are most of a spring's cost, and they are not pipelined: one spring
 /// at a time they would wait on each other.
-const BLOCK: usize = 32;
+pub(crate) const BLOCK: usize = 32;
 
-fn pools_impl<const D: usize, const P: bool>(body: &Body, state: &mut State, q: Real) {
+fn pools_impl<const D: usize, const P: bool>(
+    body: &Body,
+    state: &mut State,
+    q: Real,
+    screen: Real,
+) {
     let bonds = &body.lattice.bonds;
     let springs = bonds.len();
     let w = stride(D);
@@ -70,6 +77,9 @@ fn pools_impl<const D: usize, const P: bool>(body: &Body, state: &mut State, q: 
         state.spring = vec![0.0; w * springs];
         state.spring_pi = vec![0.0; springs];
     }
+    if state.hot.len() != springs.div_ceil(BLOCK) {
+        state.hot = vec![false; springs.div_ceil(BLOCK)];
+    }
     let (u, alive) = (&state.u, &state.alive);
     let lat = &body.lattice;
     let wide = wide_available();
@@ -77,8 +87,9 @@ fn pools_impl<const D: usize, const P: bool>(body: &Body, state: &mut State, q: 
         .spring
         .par_chunks_mut(w * CHUNK)
         .zip(state.spring_pi.par_chunks_mut(CHUNK))
+        .zip(state.hot.par_chunks_mut(CHUNK / BLOCK))
         .enumerate()
-        .for_each(|(c, (rec, pis))| {
+        .for_each(|(c, ((rec, pis), hot))| {
             let start = c * CHUNK;
             let n = pis.len();
             let springs = Springs {
@@ -90,11 +101,11 @@ fn pools_impl<const D: usize, const P: bool>(body: &Body, state: &mut State, q: 
             #[cfg(target_arch = "x86_64")]
             if wide {
                 // SAFETY: `wide_available` checked that the processor has AVX.
-                unsafe { spring_chunk_avx::<D, P>(lat, u, q, &springs, rec, pis) };
+                unsafe { spring_chunk_avx::<D, P>(lat, u, q, screen, &springs, rec, pis, hot) };
                 return;
             }
             let _ = wide;
-            spring_chunk::<D, P>(lat, u, q, &springs, rec, pis);
+            spring_chunk::<D, P>(lat, u, q, screen, &springs, rec, pis, hot);
         });
     if q == 0.0 {
         state.pool.fill(0.0);
@@ -107,20 +118,57 @@ fn pools_impl<const D: usize, const P: bool>(body: &Body, state: &mut State, q: 
         .enumerate()
         .for_each(|(c, pool)| {
             let first = c * CHUNK;
-            let norm = &norm[first..first + pool.len()];
             for (k, p) in pool.iter_mut().enumerate() {
-                let s = norm[k];
-                *p = if s > 0.0 {
-                    let mut sum = 0.0;
-                    for &b in &bonds.bond[bonds.row(first + k)] {
-                        sum += pis[b as usize];
-                    }
-                    sum / s
-                } else {
-                    0.0
-                };
+                *p = node_pool(body, norm, pis, first + k);
             }
         });
+}
+
+/// `p_n = sum_t pi_t / S_n` over node n's row (broken springs' shares are zeros).
+#[inline(always)]
+fn node_pool(body: &Body, norm: &[Real], pis: &[Real], n: usize) -> Real {
+    let bonds = &body.lattice.bonds;
+    let s = norm[n];
+    if s > 0.0 {
+        let mut sum = 0.0;
+        for &b in &bonds.bond[bonds.row(n)] {
+            sum += pis[b as usize];
+        }
+        sum / s
+    } else {
+        0.0
+    }
+}
+
+/// After springs `killed` broke between sweep 1 and sweep 2: zero their records and shares and
+/// recompute their ends' pools, exactly as sweep 1 would have with them broken (the same
+/// gather over the same values), so breaking mid-step gives the bits of breaking before it.
+pub(crate) fn repair(body: &Body, state: &mut State, plain: bool, killed: &[u32]) {
+    let w = stride(body.lattice.dim());
+    if state.spring_pi.len() != body.springs() {
+        return;
+    }
+    for &b in killed {
+        let b = b as usize;
+        state.spring[w * b..w * b + w].fill(0.0);
+        state.spring_pi[b] = 0.0;
+    }
+    if plain || body.q == 0.0 {
+        return;
+    }
+    for &b in killed {
+        for n in body.lattice.bonds.ends[b as usize] {
+            let n = n as usize;
+            state.pool[n] = node_pool(body, &state.norm, &state.spring_pi, n);
+        }
+    }
+}
+
+/// Springs of the blocks sweep 1 flagged (ascending; broken ones included), appended to `out`.
+pub(crate) fn hot_springs(state: &State, springs: usize, out: &mut Vec<u32>) {
+    for (blk, _) in state.hot.iter().enumerate().filter(|(_, &h)| h) {
+        out.extend((blk * BLOCK..((blk + 1) * BLOCK).min(springs)).map(|b| b as u32));
+    }
 }
 
 /// The per-spring inputs of one chunk of sweep 1.
@@ -153,26 +201,32 @@ pub(crate) fn wide_available() -> bool {
 /// The processor must support AVX.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
+#[allow(clippy::too_many_arguments)]
 unsafe fn spring_chunk_avx<const D: usize, const P: bool>(
     lat: &Lattice,
     u: &Coords,
     q: Real,
+    screen: Real,
     sp: &Springs,
     rec: &mut [Real],
     pis: &mut [Real],
+    hot: &mut [bool],
 ) {
-    spring_chunk::<D, P>(lat, u, q, sp, rec, pis)
+    spring_chunk::<D, P>(lat, u, q, screen, sp, rec, pis, hot)
 }
 
-/// Sweep 1 over one chunk of springs: records and pool shares.
+/// Sweep 1 over one chunk of springs: records, pool shares and the blocks' screen flags.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn spring_chunk<const D: usize, const P: bool>(
     lat: &Lattice,
     u: &Coords,
     q: Real,
+    screen: Real,
     sp: &Springs,
     rec: &mut [Real],
     pis: &mut [Real],
+    hot: &mut [bool],
 ) {
     let w = stride(D);
     let n = pis.len();
@@ -206,6 +260,13 @@ fn spring_chunk<const D: usize, const P: bool>(
             inv[s] = 1.0 / l;
             dl[s] = num[s] / (l + rest[s]);
         }
+        // The break screen (no branch: a compare per spring). Broken springs and the unused
+        // tail have dL = 0, and rest 0 makes the product NaN, which compares false.
+        let mut h = false;
+        for s in 0..BLOCK {
+            h |= dl[s] > screen * rest[s];
+        }
+        hot[b0 / BLOCK] = h;
         for s in 0..m {
             let b = b0 + s;
             let r = &mut rec[w * b..w * b + w];
@@ -354,37 +415,65 @@ mod tests {
                 rest: &body.lattice.bonds.rest,
                 alive: &state.alive,
             };
+            let dl: Vec<Real> = (0..n)
+                .map(|b| {
+                    let [i, j] = body.lattice.bonds.ends[b].map(|v| v as usize);
+                    let rest = body.lattice.bonds.rest[b];
+                    crate::law::spring_geometry(&body.lattice, &state.u, i, j, rest).dl
+                })
+                .collect();
+            // A screen that only the most stretched springs pass.
+            let screen = 0.9
+                * (0..n)
+                    .filter(|&b| state.alive[b])
+                    .map(|b| dl[b] / body.lattice.bonds.rest[b])
+                    .fold(0.0, Real::max);
             let w = stride(dim);
             let run = |wide: bool| {
                 let (mut rec, mut pis) = (vec![0.0; w * n], vec![0.0; n]);
+                let mut hot = vec![false; n.div_ceil(BLOCK)];
                 let lat = &body.lattice;
                 match (dim, wide) {
-                    (2, false) => {
-                        spring_chunk::<2, false>(lat, &state.u, 0.3, &sp, &mut rec, &mut pis)
-                    }
-                    (3, false) => {
-                        spring_chunk::<3, false>(lat, &state.u, 0.3, &sp, &mut rec, &mut pis)
-                    }
+                    (2, false) => spring_chunk::<2, false>(
+                        lat, &state.u, 0.3, screen, &sp, &mut rec, &mut pis, &mut hot,
+                    ),
+                    (3, false) => spring_chunk::<3, false>(
+                        lat, &state.u, 0.3, screen, &sp, &mut rec, &mut pis, &mut hot,
+                    ),
                     #[cfg(target_arch = "x86_64")]
                     (2, true) => unsafe {
-                        spring_chunk_avx::<2, false>(lat, &state.u, 0.3, &sp, &mut rec, &mut pis)
+                        spring_chunk_avx::<2, false>(
+                            lat, &state.u, 0.3, screen, &sp, &mut rec, &mut pis, &mut hot,
+                        )
                     },
                     #[cfg(target_arch = "x86_64")]
                     (3, true) => unsafe {
-                        spring_chunk_avx::<3, false>(lat, &state.u, 0.3, &sp, &mut rec, &mut pis)
+                        spring_chunk_avx::<3, false>(
+                            lat, &state.u, 0.3, screen, &sp, &mut rec, &mut pis, &mut hot,
+                        )
                     },
                     _ => unreachable!(),
                 }
-                (rec, pis)
+                (rec, pis, hot)
             };
             let portable = run(false);
             assert!(portable.0.iter().any(|&r| r != 0.0));
+            // The screen flags exactly the blocks with a spring past it.
+            let expect: Vec<bool> = (0..n.div_ceil(BLOCK))
+                .map(|blk| {
+                    (blk * BLOCK..((blk + 1) * BLOCK).min(n))
+                        .any(|b| state.alive[b] && dl[b] > screen * body.lattice.bonds.rest[b])
+                })
+                .collect();
+            assert_eq!(portable.2, expect);
+            assert!(expect.iter().any(|&h| h) && expect.iter().any(|&h| !h));
             if cfg!(target_arch = "x86_64") && std::arch::is_x86_feature_detected!("avx") {
                 let wide = run(true);
                 let same = |a: &[Real], b: &[Real]| {
                     a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
                 };
                 assert!(same(&portable.0, &wide.0) && same(&portable.1, &wide.1));
+                assert_eq!(portable.2, wide.2);
             }
         }
     }

@@ -24,6 +24,9 @@ use crate::lattice::LatticeKind;
 use crate::math::{Coords, Real};
 use crate::state::State;
 
+/// Nodes per flag of the break screen (divides [`CHUNK`]).
+pub const SCREEN: usize = 64;
+
 /// The 18 directions of the Ladd star, in opposite pairs: `opposite(d) = d ^ 1`.
 pub const DIRS: [[i32; 3]; 18] = [
     [1, 0, 0],
@@ -194,16 +197,19 @@ impl CubicStencil {
         (j, x, l, l - self.rest[d])
     }
 
-    fn pool_scalar(&self, u: &Coords, i: usize) -> Real {
+    /// Node i's pool and whether one of its intact springs has `dL > screen L`.
+    fn pool_scalar(&self, u: &Coords, i: usize, screen: Real) -> (Real, bool) {
         let m = self.mask[i];
         let mut pi = 0.0;
+        let mut hot = false;
         for d in 0..18 {
             if m & (1 << d) != 0 {
                 let (_, _, _, dl) = self.spring(u, i, d);
                 pi += self.k * self.rest[d] * dl;
+                hot |= dl > screen * self.rest[d];
             }
         }
-        pi * self.inv_norm[i]
+        (pi * self.inv_norm[i], hot)
     }
 
     fn force_scalar(&self, u: &Coords, pool: &[Real], i: usize) -> [Real; 3] {
@@ -222,35 +228,82 @@ impl CubicStencil {
         f
     }
 
-    /// Sweep 1.
-    pub fn pools(&self, _body: &Body, state: &mut State) {
-        if self.q == 0.0 {
+    /// Sweep 1, and with a finite `screen` s the break screen: `state.hot` flags each block of
+    /// [`SCREEN`] nodes with an intact spring of `dL > s L` (seen from either end: both ends
+    /// compute the same length).
+    pub fn pools(&self, _body: &Body, state: &mut State, screen: Real) {
+        if self.q == 0.0 && !screen.is_finite() {
             state.pool.fill(0.0);
             return;
+        }
+        let blocks = self.n.div_ceil(SCREEN);
+        if state.hot.len() != blocks {
+            state.hot = vec![false; blocks];
         }
         let u = &state.u;
         state
             .pool
             .par_chunks_mut(CHUNK)
+            .zip(state.hot.par_chunks_mut(CHUNK / SCREEN))
             .enumerate()
-            .for_each(|(c, out)| {
-                let start = c * CHUNK;
-                let mut k = 0;
-                while k < out.len() {
-                    let i = start + k;
-                    if self.simd && k + 8 <= out.len() && self.block_inside(i) {
-                        // SAFETY: AVX-512F was detected; the block and its neighbours are in bounds.
-                        #[cfg(target_arch = "x86_64")]
-                        unsafe {
-                            avx512::pools8(self, u, i, &mut out[k..k + 8])
-                        };
-                        k += 8;
-                    } else {
-                        out[k] = self.pool_scalar(u, i);
-                        k += 1;
-                    }
+            .for_each(|(c, (out, hot))| self.pool_chunk(u, c, out, hot, screen));
+    }
+
+    /// Sweep 1 over chunk `c` (its pools `out` and screen flags `hot`).
+    fn pool_chunk(&self, u: &Coords, c: usize, out: &mut [Real], hot: &mut [bool], screen: Real) {
+        hot.fill(false);
+        let start = c * CHUNK;
+        let mut k = 0;
+        while k < out.len() {
+            let i = start + k;
+            if self.simd && k + 8 <= out.len() && self.block_inside(i) {
+                // SAFETY: AVX-512F was detected; the block and its neighbours are in bounds.
+                #[cfg(target_arch = "x86_64")]
+                {
+                    let h = unsafe { avx512::pools8(self, u, i, &mut out[k..k + 8], screen) };
+                    // A block of 8 may straddle two screen blocks (scalar steps shift it).
+                    hot[k / SCREEN] |= h;
+                    hot[(k + 7) / SCREEN] |= h;
                 }
-            });
+                k += 8;
+            } else {
+                let (p, h) = self.pool_scalar(u, i, screen);
+                out[k] = p;
+                hot[k / SCREEN] |= h;
+                k += 1;
+            }
+        }
+        if self.q == 0.0 {
+            out.fill(0.0);
+        }
+    }
+
+    /// After springs broke between sweep 1 and sweep 2 (`bond_killed` already applied):
+    /// recompute the pools of the chunks holding their ends with the same code as sweep 1, so
+    /// the bits are those of breaking before the step.
+    pub fn repair(&self, body: &Body, state: &mut State, killed: &[u32]) {
+        if self.q == 0.0 {
+            return;
+        }
+        let mut chunks: Vec<usize> = killed
+            .iter()
+            .flat_map(|&b| body.lattice.bonds.ends[b as usize])
+            .map(|n| n as usize / CHUNK)
+            .collect();
+        chunks.sort_unstable();
+        chunks.dedup();
+        let mut scratch = [false; CHUNK / SCREEN];
+        for c in chunks {
+            let r = c * CHUNK..((c + 1) * CHUNK).min(self.n);
+            let blocks = r.len().div_ceil(SCREEN);
+            self.pool_chunk(
+                &state.u,
+                c,
+                &mut state.pool[r],
+                &mut scratch[..blocks],
+                Real::INFINITY,
+            );
+        }
     }
 
     /// Sweep 2.
@@ -406,9 +459,16 @@ mod avx512 {
 
     /// Sweep 1 for the 8 nodes at `i`.
     #[target_feature(enable = "avx512f")]
-    pub(super) unsafe fn pools8(s: &CubicStencil, u: &Coords, i: usize, out: &mut [Real]) {
+    pub(super) unsafe fn pools8(
+        s: &CubicStencil,
+        u: &Coords,
+        i: usize,
+        out: &mut [Real],
+        screen: Real,
+    ) -> bool {
         let (ui, mask) = unsafe { load_block(s, u, i) };
         let mut acc = _mm512_setzero_pd();
+        let mut hot: __mmask8 = 0;
         for d in 0..18 {
             let m = unsafe { lanes(mask, d) };
             if m == 0 {
@@ -419,12 +479,14 @@ mod avx512 {
             let l = _mm512_sqrt_pd(ss);
             let dl = _mm512_sub_pd(l, _mm512_set1_pd(s.rest[d]));
             acc = _mm512_mask3_fmadd_pd(_mm512_set1_pd(s.k * s.rest[d]), dl, acc, m);
+            hot |= _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m, dl, _mm512_set1_pd(screen * s.rest[d]));
         }
         // SAFETY: out has 8 entries; inv_norm[i..i+8] is in bounds.
         unsafe {
             let inv = _mm512_loadu_pd(s.inv_norm.as_ptr().add(i));
             _mm512_storeu_pd(out.as_mut_ptr(), _mm512_mul_pd(acc, inv));
         }
+        hot != 0
     }
 
     /// Sweep 2 for the 8 nodes at `i`: force, kick, drift.

@@ -95,9 +95,51 @@ impl Kernel {
     /// Sweep 1: `state.pool` from `state.u` (and the CSR kernel's per-spring scratch, which
     /// sweep 2 reads: call it before every [`Kernel::force_kick_drift`]).
     pub fn pools(&self, body: &Body, state: &mut State) {
+        self.pools_screened(body, state, Real::INFINITY);
+    }
+
+    /// Sweep 1 with the break screen: besides the pools, flag the blocks of springs (CSR) or
+    /// nodes (stencil) where an intact spring has `dL > screen L`. The test costs a compare per
+    /// spring inside the sweep, which has `dL` at hand; [`Kernel::hot_springs`] then lists the
+    /// springs a stretch-type criterion has to look at, instead of a separate pass over all of
+    /// them. Infinity: no screen.
+    pub fn pools_screened(&self, body: &Body, state: &mut State, screen: Real) {
         match self {
-            Kernel::Csr { plain } => csr::pools(body, state, *plain),
-            Kernel::Cubic(s) => s.pools(body, state),
+            Kernel::Csr { plain } => csr::pools(body, state, *plain, screen),
+            Kernel::Cubic(s) => s.pools(body, state, screen),
+        }
+    }
+
+    /// The springs of the blocks the last [`Kernel::pools_screened`] flagged, ascending and
+    /// each once (a superset of the springs past the screen; broken ones included), into `out`
+    /// (cleared first; it keeps its capacity, so steady state allocates nothing).
+    pub fn hot_springs(&self, body: &Body, state: &State, out: &mut Vec<u32>) {
+        out.clear();
+        match self {
+            Kernel::Csr { .. } => csr::hot_springs(state, body.springs(), out),
+            Kernel::Cubic(_) => {
+                let bonds = &body.lattice.bonds;
+                let n = body.nodes();
+                for (blk, _) in state.hot.iter().enumerate().filter(|(_, &h)| h) {
+                    for i in blk * cubic::SCREEN..((blk + 1) * cubic::SCREEN).min(n) {
+                        out.extend(bonds.row(i).map(|e| bonds.bond[e]));
+                    }
+                }
+                out.sort_unstable();
+                out.dedup();
+            }
+        }
+    }
+
+    /// Make sweep 1's results (pools, CSR records) those of a sweep with the springs `killed`
+    /// already broken (after they broke between the sweeps, the kernel's masks updated).
+    pub fn repair(&self, body: &Body, state: &mut State, killed: &[u32]) {
+        if killed.is_empty() {
+            return;
+        }
+        match self {
+            Kernel::Csr { plain } => csr::repair(body, state, *plain, killed),
+            Kernel::Cubic(s) => s.repair(body, state, killed),
         }
     }
 
