@@ -509,6 +509,34 @@ fn energy_balance_holds_with_loads_supports_and_damping() {
             0.0,
             None,
         ),
+        // Loads on supported nodes too (two loads on each of them): the supports' reactions
+        // must take exactly those loads out.
+        (
+            "loads on the supports as well",
+            Loading {
+                prescribed: vec![fixed_left(0), fixed_left(2)],
+                loads: vec![
+                    Load {
+                        nodes: right.clone(),
+                        force: Vector::new(1e-4, 0.0, -2e-4),
+                        scale: TimeFunction::Constant(1.0),
+                    },
+                    Load {
+                        nodes: left.clone(),
+                        force: Vector::new(-3e-4, 1e-4, 5e-5),
+                        scale: TimeFunction::Constant(1.0),
+                    },
+                    Load {
+                        nodes: left.clone(),
+                        force: Vector::new(1e-4, 0.0, -1e-4),
+                        scale: TimeFunction::Constant(1.0),
+                    },
+                ],
+                body_acceleration: Vector::zeros(),
+            },
+            0.0,
+            None,
+        ),
         // Starts undeformed with a smooth velocity: an initial displacement that is not traction
         // free at the faces would kick the highest modes (omega dt ~ 1.6), where velocity
         // Verlet's O(dt^2) energy error is tens of percent.

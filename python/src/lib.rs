@@ -109,7 +109,10 @@ impl PySimulation {
                 || budget == 0
                 || run.simulation().state.time >= until - 0.5 * run.integrator().dt
             {
-                return Ok(());
+                // Back in Python: the state shows every break due, and the output folder every
+                // frame written so far.
+                run.settle();
+                return py.detach(|| run.flush_outputs()).map_err(run_error);
             }
             let n = ((SLICE_SECONDS / per) as u64).clamp(1, budget);
             let t0 = Instant::now();

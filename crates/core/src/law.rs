@@ -256,6 +256,147 @@ pub fn spring_tensions(body: &Body, u: &Coords, alive: &[bool], pool: &[Real]) -
         .collect()
 }
 
+/// Everything an output frame shows of the lattice, from one pass over the springs and two over
+/// the rows instead of a set of passes per field: the pools, forces and strain energy of [`update_forces`] and
+/// [`energy`], and the per-node energy density and virial stress. The values are those of the
+/// separate functions, bit for bit (the same operations in the same order; the virial's length
+/// is [`spring_geometry`]'s).
+#[derive(Clone, Debug)]
+pub struct FrameFields {
+    /// Pool ratios `p_n` (as [`compute_pools`]).
+    pub pool: Vec<Real>,
+    /// Internal forces (as [`compute_forces`]).
+    pub force: Coords,
+    /// Strain energy (as [`energy`]).
+    pub strain: Energy,
+    /// Strain energy density (J/m^3): half of each intact spring's direct energy plus the
+    /// node's dispersive energy, over the node's volume.
+    pub energy_density: Vec<Real>,
+    /// Virial stress `1/(2 V_n) sum_t T_t l_t e_t (x) e_t` (Pa), row-major 3x3.
+    pub stress: Vec<[Real; 9]>,
+}
+
+/// See [`FrameFields`]. Parallel over nodes (each writes its own entries) and bit-identical for
+/// any thread count.
+pub fn frame_fields(body: &Body, u: &Coords, alive: &[bool], norm: &[Real]) -> FrameFields {
+    let n = body.nodes();
+    let lat = &body.lattice;
+    let bonds = &lat.bonds;
+    let q = body.q;
+    // Pass 1, over the springs: each extension once (8 bytes a spring, for this frame only).
+    let dl: Vec<Real> = (0..bonds.len())
+        .into_par_iter()
+        .with_min_len(MIN_NODES_PER_TASK)
+        .map(|b| {
+            if !alive[b] {
+                return 0.0;
+            }
+            let [i, j] = bonds.ends[b].map(|v| v as usize);
+            spring_geometry(lat, u, i, j, bonds.rest[b]).dl
+        })
+        .collect();
+    // Pass 2, over the nodes: the pool Pi_n and a quarter of the springs' direct energy (the
+    // extension is the same bits from either end: `spring_geometry` is symmetric).
+    let mut pi = vec![0.0; n];
+    let mut quarter = vec![0.0; n];
+    pi.par_iter_mut()
+        .zip(quarter.par_iter_mut())
+        .with_min_len(MIN_NODES_PER_TASK)
+        .enumerate()
+        .for_each(|(i, (p, e4))| {
+            let (mut s, mut d) = (0.0, 0.0);
+            for e in bonds.row(i) {
+                let b = bonds.bond[e] as usize;
+                if alive[b] {
+                    let (rest, x) = (bonds.rest[b], dl[b]);
+                    d += 0.25 * body.k[b] * x * x;
+                    s += body.k[b] * rest * x;
+                }
+            }
+            (*p, *e4) = (s, d);
+        });
+    let pool: Vec<Real> = (0..n)
+        .into_par_iter()
+        .with_min_len(MIN_NODES_PER_TASK)
+        .map(|i| {
+            if q != 0.0 && norm[i] > 0.0 {
+                pi[i] / norm[i]
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    // Pass 3, over the nodes: forces, energy densities and virial stresses.
+    let mut force = Coords::zeros(n);
+    let mut energy_density = vec![0.0; n];
+    let mut stress = vec![[0.0; 9]; n];
+    force
+        .x
+        .par_iter_mut()
+        .zip(force.y.par_iter_mut())
+        .zip(force.z.par_iter_mut())
+        .zip(energy_density.par_iter_mut())
+        .zip(stress.par_iter_mut())
+        .with_min_len(MIN_NODES_PER_TASK)
+        .enumerate()
+        .for_each(|(i, ((((fx, fy), fz), ed), st))| {
+            let mut f = [0.0; 3];
+            let mut m = [0.0; 9];
+            for e in bonds.row(i) {
+                let b = bonds.bond[e] as usize;
+                if !alive[b] {
+                    continue;
+                }
+                let j = bonds.nbr[e] as usize;
+                let (dx, dy, dz) = spring_vector(lat, u, i, j);
+                let d = [dx, dy, dz];
+                let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                let t = tension(body.k[b], bonds.rest[b], dl[b], q, pool[i], pool[j]);
+                let s = t / l;
+                for c in 0..3 {
+                    f[c] += s * d[c];
+                }
+                let h = 0.5 * t / l;
+                let hd = [h * d[0], h * d[1], h * d[2]];
+                for r in 0..3 {
+                    for c in 0..3 {
+                        m[3 * r + c] += hd[r] * d[c];
+                    }
+                }
+            }
+            [*fx, *fy, *fz] = f;
+            let disp = if norm[i] > 0.0 {
+                0.5 * q * pi[i] * pi[i] / norm[i]
+            } else {
+                0.0
+            };
+            // Each node's own volume (on random lattices they differ): summed times it, U.
+            let v = lat.node_volume(i);
+            *ed = (quarter[i] + disp) / v;
+            *st = m.map(|x| x / v);
+        });
+    // The energy, summed in the order of `energy`.
+    let direct = ordered_sum(bonds.len(), |b| 0.5 * body.k[b] * dl[b] * dl[b]);
+    let dispersive = if q == 0.0 {
+        0.0
+    } else {
+        ordered_sum(n, |i| {
+            if norm[i] > 0.0 {
+                0.5 * q * pi[i] * pi[i] / norm[i]
+            } else {
+                0.0
+            }
+        })
+    };
+    FrameFields {
+        pool,
+        force,
+        strain: Energy { direct, dispersive },
+        energy_density,
+        stress,
+    }
+}
+
 /// Virial stress at node `n` (Pa in 3D; N/m times 1/h, i.e. Pa, in 2D):
 /// `sigma_n = 1/(2 V_n) sum_t T_t l_t e_t (x) e_t` over its springs, each spring's share split
 /// evenly between its two ends. `u` and `tension` may be current (finite strain), or zero

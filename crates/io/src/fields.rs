@@ -1,7 +1,7 @@
 //! Derived per-node fields, computed only for output (never on the hot path).
 
-use hooke_core::law::{self, spring_geometry};
-use hooke_core::{Body, Matrix, Real, State};
+use hooke_core::law;
+use hooke_core::{Body, Real, State};
 
 /// Fields derived from a state.
 #[derive(Clone, Debug)]
@@ -16,45 +16,17 @@ pub struct Derived {
     pub stress: Vec<[Real; 9]>,
 }
 
-/// Compute the derived fields of `state`.
+/// Compute the derived fields of `state` ([`law::frame_fields`]).
 pub fn derived(body: &Body, state: &State) -> Derived {
-    let n = body.nodes();
-    let mut pool = vec![0.0; n];
-    law::compute_pools(body, &state.u, &state.alive(), &state.norm(), &mut pool);
-    let bonds = &body.lattice.bonds;
-    let lat = &body.lattice;
-    let t = law::spring_tensions(body, &state.u, &state.alive(), &pool);
-    let mut energy_density = vec![0.0; n];
-    let mut stress = vec![[0.0; 9]; n];
-    for i in 0..n {
-        let mut direct = 0.0;
-        let mut pi = 0.0;
-        for e in bonds.row(i) {
-            let b = bonds.bond[e] as usize;
-            if state.alive()[b] {
-                let rest = bonds.rest[b];
-                let dl = spring_geometry(lat, &state.u, i, bonds.nbr[e] as usize, rest).dl;
-                direct += 0.25 * body.k[b] * dl * dl;
-                pi += body.k[b] * rest * dl;
-            }
+    law::frame_fields(body, &state.u, state.alive(), state.norm()).into()
+}
+
+impl From<law::FrameFields> for Derived {
+    fn from(f: law::FrameFields) -> Self {
+        Derived {
+            pool: f.pool,
+            energy_density: f.energy_density,
+            stress: f.stress,
         }
-        let disp = if state.norm()[i] > 0.0 {
-            0.5 * body.q * pi * pi / state.norm()[i]
-        } else {
-            0.0
-        };
-        // Each node's own volume (on random lattices they differ): summed times it, U exactly.
-        energy_density[i] = (direct + disp) / lat.node_volume(i);
-        let s: Matrix = law::node_virial(body, &state.u, &t, i);
-        for r in 0..3 {
-            for c in 0..3 {
-                stress[i][3 * r + c] = s[(r, c)];
-            }
-        }
-    }
-    Derived {
-        pool,
-        energy_density,
-        stress,
     }
 }

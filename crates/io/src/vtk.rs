@@ -48,12 +48,21 @@ impl<'a> FrameExtras<'a> {
 }
 
 /// A time series of `.vtu` frames with its `.pvd` index.
+///
+/// With [`VtkSeries::set_background`], a frame's arrays are copied on the caller's thread and
+/// encoded and written on a thread of their own while the run goes on (encoding a frame as
+/// base64 XML costs tens of steps on a plate of 10^5 nodes). At most one frame is in flight:
+/// the next write, [`VtkSeries::flush`] and dropping the series wait for it, and report its
+/// error. The collection is rewritten after its frame is in place, so a run killed at any
+/// moment still lists only complete frames.
 #[derive(Debug)]
 pub struct VtkSeries {
     dir: PathBuf,
     stem: String,
     springs: bool,
     frames: Vec<(Real, String)>,
+    background: bool,
+    pending: Option<(PathBuf, std::thread::JoinHandle<Result<(), IoError>>)>,
 }
 
 /// The frames (time, file) a `.pvd` collection lists up to time `until`; none if it is missing.
@@ -121,7 +130,28 @@ impl VtkSeries {
             stem: stem.to_string(),
             springs,
             frames: Vec::new(),
+            background: false,
+            pending: None,
         })
+    }
+
+    /// Write frames on a background thread (see the type's docs); off by default, so that a
+    /// frame is on disk when [`VtkSeries::write`] returns.
+    pub fn set_background(&mut self, on: bool) {
+        self.background = on;
+    }
+
+    /// Wait for the frame in flight, if any, and return its outcome.
+    pub fn flush(&mut self) -> Result<(), IoError> {
+        match self.pending.take() {
+            None => Ok(()),
+            Some((path, h)) => h.join().unwrap_or_else(|_| {
+                Err(IoError::Vtk {
+                    path,
+                    msg: "the writer thread panicked".into(),
+                })
+            }),
+        }
     }
 
     /// Continue the series of a previous run in `dir`, keeping the frames its `.pvd` lists up
@@ -152,15 +182,34 @@ impl VtkSeries {
         let name = format!("{}_{:06}.vtu", self.stem, state.step);
         let path = self.dir.join(&name);
         let vtk = frame_vtk(body, state, extras, self.springs);
-        write_vtu(&path, vtk)?;
+        self.flush()?;
         self.frames.retain(|(_, f)| f != &name);
         self.frames.push((state.time, name));
-        self.write_pvd()?;
+        let (pvd, frames) = (self.pvd_path(), self.frames.clone());
+        let job = {
+            let path = path.clone();
+            move || {
+                write_vtu(&path, vtk)?;
+                write_pvd(&pvd, &frames)
+            }
+        };
+        if !self.background {
+            job()?;
+            return Ok(path);
+        }
+        let h = std::thread::Builder::new()
+            .name("hooke-vtk".into())
+            .spawn(job)
+            .map_err(io(&path))?;
+        self.pending = Some((path.clone(), h));
         Ok(path)
     }
+}
 
-    fn write_pvd(&self) -> Result<(), IoError> {
-        write_pvd(&self.pvd_path(), &self.frames)
+impl Drop for VtkSeries {
+    /// The frame in flight reaches the disk even when a run ends in an error.
+    fn drop(&mut self) {
+        let _ = self.flush();
     }
 }
 

@@ -101,9 +101,14 @@ pub trait Sink: Send {
     fn reactions(&mut self, _time: Real, _reactions: &[RegionReaction]) -> Result<()> {
         Ok(())
     }
+    /// Wait until everything written so far is on disk (frames may be written in the
+    /// background).
+    fn flush(&mut self) -> Result<()> {
+        Ok(())
+    }
     /// The run completed: make the output final (HDF5 merges its frame files here).
     fn finish(&mut self) -> Result<()> {
-        Ok(())
+        self.flush()
     }
     /// What this sink wrote, for the run's summary (a path and a short description).
     fn describe(&self) -> Option<(String, PathBuf)> {
@@ -150,6 +155,10 @@ pub struct VtkSink(pub VtkSeries);
 impl Sink for VtkSink {
     fn frame(&mut self, f: &Frame) -> Result<()> {
         self.0.write(f.body, f.state, f.extras())?;
+        Ok(())
+    }
+    fn flush(&mut self) -> Result<()> {
+        self.0.flush()?;
         Ok(())
     }
     fn describe(&self) -> Option<(String, PathBuf)> {

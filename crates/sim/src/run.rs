@@ -166,6 +166,9 @@ pub(crate) fn open_sinks(
         } else {
             VtkSeries::create(out, name, sim.springs).map_err(input)?
         };
+        let mut series = series;
+        // Frames are encoded and written while the run goes on.
+        series.set_background(true);
         sinks.push(Box::new(VtkSink(series)));
     }
     #[cfg(feature = "hdf5")]
@@ -370,8 +373,9 @@ impl Run {
 
     /// Commit the breaks that are due at the current state (a screened criterion decides them
     /// at the next step's start, see `Fracture::step`): what is written or reported then shows
-    /// them. Never changes the run.
-    fn settle(&mut self) {
+    /// them. Never changes the run. [`Run::steps`] and [`Run::advance`] end with it; after
+    /// [`Run::step`] the state may still hold springs that the next step breaks first.
+    pub fn settle(&mut self) {
         let sim = &mut self.sim;
         if let Some(fr) = sim.fracture.as_mut() {
             fr.settle(&sim.body, &mut sim.state, &mut self.it);
@@ -431,6 +435,7 @@ impl Run {
         if obs.interrupted() {
             self.write_frame()?;
             self.save()?;
+            self.flush_outputs()?;
             let e = Error::Interrupted {
                 step: self.sim.state.step,
                 time: self.sim.state.time,
@@ -566,6 +571,16 @@ impl Run {
         Ok((summary, self.sim))
     }
 
+    /// Wait until every frame written so far is on disk (VTK frames are written in the
+    /// background; [`Run::finish`] and dropping the run wait too). Call it before reading the
+    /// output folder of a run that goes on.
+    pub fn flush_outputs(&mut self) -> Result<()> {
+        for s in &mut self.sinks {
+            s.flush()?;
+        }
+        Ok(())
+    }
+
     /// Write a frame of the current state into every sink now, besides the schedule (what
     /// `hooke bench --frame` times; a caller that wants a picture at a moment of its choosing).
     pub fn frame(&mut self) -> Result<()> {
@@ -576,10 +591,10 @@ impl Run {
     fn write_frame(&mut self) -> Result<()> {
         self.settle();
         let body = &self.sim.body;
-        let v = self.it.full_velocity(body, &mut self.sim.state);
+        // One evaluation for the velocity, the energy and the derived fields.
+        let (v, b, fields) = self.it.frame_view(body, &mut self.sim.state);
         let forces = self.it.boundary_forces(body, &self.sim.state, &v);
         let reactions = region_reactions(&self.sim, &forces);
-        let b = self.it.energy(body, &mut self.sim.state);
         let sim = &self.sim;
         let damage = sim.fracture.as_ref().map(|f| f.damage(body, &sim.state));
         let frame = Frame {
@@ -587,7 +602,7 @@ impl Run {
             state: &sim.state,
             velocity: &v,
             damage: damage.as_deref(),
-            derived: &hooke_io::fields::derived(body, &sim.state),
+            derived: &fields.into(),
             regions: &sim.regions,
             energy: EnergyRow::from_balance(sim.state.time, &b),
             reactions: &reactions,
