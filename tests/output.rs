@@ -133,6 +133,38 @@ fn vtk_frames_read_back_exactly() {
         pvd.contains("bar_000001.vtu") && pvd.contains("timestep=\"2.50000000000000000e-1\""),
         "{pvd}"
     );
+    // Written in the background: after a flush, or when the series is dropped, every frame is
+    // on disk and listed, with the same bytes as the synchronous writer's.
+    let bg = tmpdir("frames_background");
+    let mut series_bg = VtkSeries::create(&bg, "bar", true).unwrap();
+    series_bg.set_background(true);
+    for step in 0..3 {
+        state.step = step;
+        state.time = step as Real * 0.25;
+        series_bg.write(&body, &state, Default::default()).unwrap();
+    }
+    series_bg.flush().unwrap();
+    let pvd = std::fs::read_to_string(series_bg.pvd_path()).unwrap();
+    assert_eq!(pvd.matches("<DataSet").count(), 3, "{pvd}");
+    state.step = 3;
+    series_bg.write(&body, &state, Default::default()).unwrap();
+    drop(series_bg);
+    let sync_dir = tmpdir("frames_sync");
+    let mut series_sync = VtkSeries::create(&sync_dir, "bar", true).unwrap();
+    let p = series_sync
+        .write(&body, &state, Default::default())
+        .unwrap();
+    assert_eq!(
+        std::fs::read(bg.join("bar_000003.vtu")).unwrap(),
+        std::fs::read(p).unwrap()
+    );
+    assert_eq!(
+        std::fs::read_to_string(bg.join("bar.pvd"))
+            .unwrap()
+            .matches("<DataSet")
+            .count(),
+        4
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 

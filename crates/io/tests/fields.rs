@@ -100,3 +100,41 @@ fn frames_carry_node_volume_and_id() {
         assert_eq!(ids[i], i as u64);
     }
 }
+
+/// The one-evaluation frame fields are the separate passes' values, bit for bit: pools and forces
+/// as `update_forces`, the strain energy as `energy`, and the virial stress as `node_virial`
+/// (to round-off: its length is nalgebra's norm), on random lattices with broken springs.
+#[test]
+fn frame_fields_are_the_separate_passes() {
+    for dim in [2, 3] {
+        let (body, mut state) = deformed(dim);
+        let f = law::frame_fields(&body, &state.u, state.alive(), state.norm());
+        law::update_forces(&body, &mut state);
+        let bits = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+        assert!(bits(&f.pool, &state.pool), "dim {dim}: pools differ");
+        for c in 0..3 {
+            assert!(
+                bits(f.force.comp(c), state.f.comp(c)),
+                "dim {dim}: forces differ"
+            );
+        }
+        let u = law::energy(&body, &state.u, state.alive(), state.norm());
+        assert_eq!(f.strain, u);
+        let t = law::spring_tensions(&body, &state.u, state.alive(), &state.pool);
+        let smax = f
+            .stress
+            .iter()
+            .flatten()
+            .fold(0.0f64, |m, x| m.max(x.abs()));
+        assert!(smax > 0.0);
+        for i in 0..body.nodes() {
+            let s = law::node_virial(&body, &state.u, &t, i);
+            for r in 0..3 {
+                for c in 0..3 {
+                    let d = (s[(r, c)] - f.stress[i][3 * r + c]).abs();
+                    assert!(d <= 1e-14 * smax, "dim {dim} node {i}: stress off by {d:e}");
+                }
+            }
+        }
+    }
+}
