@@ -274,15 +274,19 @@ class Builder:
 
     def boundary(self, region: Any, fixed: Any = (), velocity: Optional[Mapping[str, Any]] = None,
                  displacement: Optional[Mapping[str, Any]] = None, no_fail: bool = False,
-                 name: Optional[str] = None) -> "Builder":
+                 name: Optional[str] = None, traction: Any = None, normal: str = "y",
+                 scale: Any = 1.0) -> "Builder":
         """Conditions on a region: ``fixed`` axes, prescribed ``velocity`` or ``displacement``
-        per axis (``{"y": 0.02}`` or a time function), ``no_fail`` springs, a ``name`` for the
-        reactions."""
+        per axis (``{"y": 0.02}`` or a time function), a ``traction`` (Pa, a vector, spread
+        over the region's area normal to the axis ``normal``, times the time function
+        ``scale``), ``no_fail`` springs, a ``name`` for the reactions."""
         arg: Dict[str, Any] = {"region": region, "fixed": list(fixed), "no_fail": no_fail}
         if velocity:
             arg["velocity"] = dict(velocity)
         if displacement:
             arg["displacement"] = dict(displacement)
+        if traction is not None:
+            arg["traction"] = {"value": list(traction), "normal": normal, "scale": scale}
         if name:
             arg["name"] = name
         return self._call("boundary", arg)
@@ -306,6 +310,84 @@ class Builder:
     def damping(self, c: float) -> "Builder":
         """Mass-proportional damping c (1/s)."""
         return self._call("damping", float(c))
+
+    def random(self, seed: int = 1, sampler: str = "poisson", jitter: float = 0.6) -> "Builder":
+        """Node set of a random lattice: the sampler (``"poisson"``: blue noise, or
+        ``"jitter"``: a grid whose nodes move by up to ``jitter`` spacings) and its seed."""
+        return self._call("random", {"seed": int(seed), "sampler": sampler,
+                                     "jitter": float(jitter)})
+
+    def breaking(self, stretch: Optional[float] = None, fracture_energy: Optional[float] = None,
+                 criterion: str = "stretch") -> "Builder":
+        """The breaking rule: a critical ``stretch``, or a ``fracture_energy`` G_c (J/m^2)
+        through the measured lattice toughness; ``criterion="energy"`` takes the spring-energy
+        criterion matched to either (regular lattices)."""
+        if (stretch is None) == (fracture_energy is None):
+            raise CaseError("breaking: give stretch or fracture_energy, one of them")
+        arg: Dict[str, Any] = {"criterion": criterion}
+        if stretch is not None:
+            arg["stretch"] = float(stretch)
+        else:
+            arg["fracture_energy"] = float(fracture_energy)  # type: ignore[arg-type]
+        return self._call("breaking", arg)
+
+    def time_step(self, safety: Optional[float] = None, dt: Optional[float] = None,
+                  force: bool = False) -> "Builder":
+        """The explicit step: a ``safety`` factor on the stable step (default 0.8), or a fixed
+        ``dt`` (s), refused above the stable step unless ``force``."""
+        if (safety is None) == (dt is None):
+            raise CaseError("time_step: give safety or dt, one of them")
+        if dt is not None:
+            return self._call("time_step", {"dt": float(dt), "force": bool(force)})
+        return self._call("time_step", {"safety": float(safety)})  # type: ignore[arg-type]
+
+    def quasi_static(self, steps: int) -> "Builder":
+        """Solve ``steps`` equilibrium load steps to the end time instead of dynamics (the
+        simulation then runs with ``finish()``)."""
+        return self._call("quasi_static", int(steps))
+
+    def reactions_every(self, t: float) -> "Builder":
+        """Write the regions' reactions every ``t`` seconds besides the frames."""
+        return self._call("reactions_every", float(t))
+
+    def formats(self, vtk: bool = True, hdf5: bool = False) -> "Builder":
+        """Output formats (HDF5 needs the package built with the ``hdf5`` feature)."""
+        return self._call("formats", {"vtk": bool(vtk), "hdf5": bool(hdf5)})
+
+    def springs(self, on: bool = True) -> "Builder":
+        """Write the intact springs as lines in the VTK frames."""
+        return self._call("springs", bool(on))
+
+    def rigid(self, shape: Mapping[str, Any], position: Any, velocity: Any = (0.0, 0.0, 0.0),
+              motion: str = "dynamic", mass: Optional[float] = None,
+              density: Optional[float] = None, friction: float = 0.0,
+              name: Optional[str] = None) -> "Builder":
+        """A rigid body in contact with the lattice, as the case file's ``[[rigid]]``:
+        ``shape`` one of ``{"sphere": {"radius"}}``, ``{"box": {"size": [...]}}``,
+        ``{"cylinder": {"radius", "length", "axis"}}``, ``{"capsule": {...}}``,
+        ``{"halfspace": {"normal": [...]}}``; ``motion`` ``"dynamic"`` (with ``mass`` or
+        ``density``) or ``"kinematic"`` (moves at ``velocity``)."""
+        arg: Dict[str, Any] = {"shape": dict(shape), "position": list(position),
+                               "velocity": list(velocity), "motion": motion,
+                               "friction": float(friction)}
+        if mass is not None:
+            arg["mass"] = float(mass)
+        if density is not None:
+            arg["density"] = float(density)
+        if name:
+            arg["name"] = name
+        return self._call("rigid", arg)
+
+    def contact(self, stiffness_factor: float = 0.1, radius: Optional[float] = None,
+                fragments: bool = True, fragment_distance: Optional[float] = None) -> "Builder":
+        """Contact options (as ``[contact]``): on with these; the defaults are the lattice's."""
+        arg: Dict[str, Any] = {"stiffness_factor": float(stiffness_factor),
+                               "fragments": bool(fragments)}
+        if radius is not None:
+            arg["radius"] = float(radius)
+        if fragment_distance is not None:
+            arg["fragment_distance"] = float(fragment_distance)
+        return self._call("contact", arg)
 
     def build(self, out: Union[str, os.PathLike], name: str = "run") -> Simulation:
         """The simulation; it writes to ``out`` (files named ``name``) once it steps."""

@@ -89,6 +89,13 @@ impl PySimulation {
                 "the run is finished (finish() was called): load the case again to run it anew",
             ));
         }
+        if let Some((sim, _)) = &self.pending {
+            if sim.quasi_static.is_some() {
+                return Err(RunError::new_err(
+                    "a quasi-static simulation solves its load steps to the end in one go: call finish()",
+                ));
+            }
+        }
         if let Some((sim, opts)) = self.pending.take() {
             self.run = Some(Run::start(sim, opts).map_err(run_error)?);
         }
@@ -217,11 +224,19 @@ impl PySimulation {
         if let Some(s) = &self.summary {
             return Ok(s.clone());
         }
-        self.drive(py, u64::MAX, Real::INFINITY)?;
-        let run = self.run.take().expect("started by drive");
-        let (summary, ended) = py
-            .detach(|| run.finish_keeping(&mut Quiet))
-            .map_err(run_error)?;
+        let (summary, ended) = match self.pending.take() {
+            // Quasi-static: the load steps, to the end, through the library's driver.
+            Some((sim, opts)) if sim.quasi_static.is_some() => py
+                .detach(|| hooke_sim::run_keeping(sim, opts, &mut Quiet))
+                .map_err(run_error)?,
+            pending => {
+                self.pending = pending;
+                self.drive(py, u64::MAX, Real::INFINITY)?;
+                let run = self.run.take().expect("started by drive");
+                py.detach(|| run.finish_keeping(&mut Quiet))
+                    .map_err(run_error)?
+            }
+        };
         let mut v = serde_json::to_value(&summary).map_err(|e| RunError::new_err(e.to_string()))?;
         v["output_dir"] = serde_json::json!(self.out.display().to_string());
         let s = v.to_string();
@@ -384,12 +399,6 @@ fn load_case(
         hooke_case::parse_overrides(&set).map_err(|e| CaseError::new_err(e.to_string()))?;
     let (sim, base) = hooke_case::prepare(&path, &text, scale, &overrides)
         .map_err(|e| CaseError::new_err(e.to_string()))?;
-    if sim.quasi_static.is_some() {
-        return Err(CaseError::new_err(format!(
-            "{}: quasi-static cases run to their end with hooke run; the Python package steps explicit runs",
-            path.display()
-        )));
-    }
     let opts = RunOptions {
         out,
         name,
@@ -405,11 +414,6 @@ fn build(spec: &str, out: PathBuf, name: String) -> PyResult<PySimulation> {
     let v: serde_json::Value =
         serde_json::from_str(spec).map_err(|e| CaseError::new_err(format!("builder spec: {e}")))?;
     let sim = spec::build(&v).map_err(CaseError::new_err)?;
-    if sim.quasi_static.is_some() {
-        return Err(CaseError::new_err(
-            "quasi-static simulations run to their end with the Rust library or hooke run",
-        ));
-    }
     let mut opts = RunOptions::new(out, name);
     opts.command = vec!["python".into(), "hooke.Builder".into()];
     opts.case_text = spec.to_string();

@@ -3,10 +3,13 @@
 //! leaves the binding thin: every check and every error message is the library's
 //! (`BuildError` names the item), except the spec's own shape, checked here with the key.
 
+use hooke_contact::{ContactOptions, Geometry, Motion, RigidBody};
+use hooke_core::dynamics::TimeStep;
 use hooke_core::loading::TimeFunction;
+use hooke_core::random::{RandomSpec, Sampler};
 use hooke_core::{LatticeKind, PlaneModel, Real, Vector};
 use hooke_fracture::Crack;
-use hooke_sim::{Bc, Builder, Region, Shape, Simulation, Solid};
+use hooke_sim::{Bc, BreakRule, Builder, Region, Shape, Simulation, Solid};
 use serde_json::Value;
 
 type R<T> = Result<T, String>;
@@ -27,6 +30,16 @@ fn point(v: &Value, key: &str) -> R<[Real; 3]> {
         p[c] = num(x, key)?;
     }
     Ok(p)
+}
+
+/// A positive, finite number.
+fn positive(v: &Value, key: &str) -> R<Real> {
+    let x = num(v, key)?;
+    if x.is_finite() && x > 0.0 {
+        Ok(x)
+    } else {
+        Err(format!("{key}: {x}: give a positive number"))
+    }
 }
 
 fn axis(v: &Value, key: &str) -> R<usize> {
@@ -145,6 +158,126 @@ fn region(v: &Value, key: &str) -> R<Region> {
     Err(format!("{key}: give \"all\", {{\"face\": \"y+\"}}, {{\"box\": {{min, max}}}}, {{\"plane\": {{axis, at}}}}, {{\"inside\": SHAPE}} or {{\"nodes\": [...]}}, not {v}"))
 }
 
+/// A rigid body (the case file's `[[rigid]]`, without `start_gap`), `dim` the lattice's.
+fn rigid(a: &Value, key: &str, dim: usize, thickness: Real, k: usize) -> R<RigidBody> {
+    let sh = field(a, "shape", key)?;
+    let pos = |v: &Value, what: &str| positive(v, &format!("{key}: {what}"));
+    let axis_or_z = |v: &Value| -> R<usize> {
+        match v.get("axis") {
+            Some(x) => axis(x, key),
+            None => Ok(2),
+        }
+    };
+    let geometry = if let Some(b) = sh.get("sphere") {
+        Geometry::ball(dim, pos(field(b, "radius", key)?, "radius")?)
+    } else if let Some(b) = sh.get("box") {
+        let size = point(field(b, "size", key)?, key)?;
+        if size[..dim].iter().any(|&x| !(x.is_finite() && x > 0.0)) {
+            return Err(format!(
+                "{key}: box size {size:?}: give positive edge lengths"
+            ));
+        }
+        Geometry::cuboid(dim, size)
+    } else if let Some(b) = sh.get("cylinder") {
+        if dim != 3 {
+            return Err(format!(
+                "{key}: a cylinder is 3D; use a sphere (a disk) or a box in 2D"
+            ));
+        }
+        Geometry::cylinder(
+            pos(field(b, "radius", key)?, "radius")?,
+            pos(field(b, "length", key)?, "length")?,
+            axis_or_z(b)?,
+        )
+    } else if let Some(b) = sh.get("capsule") {
+        Geometry::capsule(
+            dim,
+            pos(field(b, "radius", key)?, "radius")?,
+            pos(field(b, "length", key)?, "length")?,
+            axis_or_z(b)?,
+        )
+    } else if let Some(b) = sh.get("halfspace") {
+        let n = point(field(b, "normal", key)?, key)?;
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        if !(len.is_finite() && len > 0.0) {
+            return Err(format!(
+                "{key}: halfspace normal {n:?}: give a non-zero vector"
+            ));
+        }
+        Geometry::halfspace(dim, n)
+    } else {
+        return Err(format!("{key}: give the shape as {{\"sphere\": {{radius}}}}, {{\"box\": {{size}}}}, {{\"cylinder\": {{radius, length, axis}}}}, {{\"capsule\": {{...}}}} or {{\"halfspace\": {{normal}}}}"));
+    };
+    let position = point(field(a, "position", key)?, key)?;
+    let velocity = match a.get("velocity") {
+        Some(v) => point(v, key)?,
+        None => [0.0; 3],
+    };
+    if position.iter().chain(&velocity).any(|x| !x.is_finite()) {
+        return Err(format!("{key}: position and velocity must be finite"));
+    }
+    let (mass, density) = (a.get("mass"), a.get("density"));
+    let motion = match a.get("motion").and_then(Value::as_str).unwrap_or("dynamic") {
+        "kinematic" => {
+            if mass.is_some() || density.is_some() {
+                return Err(format!(
+                    "{key}: a kinematic body moves as prescribed: remove mass and density"
+                ));
+            }
+            Motion::Kinematic(velocity.map(TimeFunction::Constant))
+        }
+        "dynamic" => {
+            if geometry.is_unbounded() {
+                return Err(format!(
+                    "{key}: a half-space has no finite mass: make it motion = \"kinematic\""
+                ));
+            }
+            let mass = match (mass, density) {
+                (Some(m), None) => pos(m, "mass")?,
+                (None, Some(d)) => geometry.mass(pos(d, "density")?, thickness),
+                (Some(_), Some(_)) => return Err(format!("{key}: give mass or density, not both")),
+                (None, None) => {
+                    return Err(format!(
+                        "{key}: a dynamic body needs its mass (kg) or density (kg/m^3)"
+                    ))
+                }
+            };
+            Motion::Dynamic { mass }
+        }
+        other => {
+            return Err(format!(
+                "{key}: motion \"{other}\": give \"dynamic\" or \"kinematic\""
+            ))
+        }
+    };
+    let friction = match a.get("friction") {
+        None => 0.0,
+        Some(f) => {
+            let x = num(f, key)?;
+            if !(x.is_finite() && x >= 0.0) {
+                return Err(format!(
+                    "{key}: friction {x}: give a Coulomb coefficient >= 0"
+                ));
+            }
+            x
+        }
+    };
+    let name = match a.get("name").and_then(Value::as_str) {
+        Some(n) => n.to_string(),
+        None => format!("rigid{k}"),
+    };
+    let flat = |p: [Real; 3]| [p[0], p[1], if dim == 3 { p[2] } else { 0.0 }];
+    Ok(RigidBody {
+        name,
+        geometry,
+        motion,
+        position: flat(position),
+        velocity: flat(velocity),
+        friction,
+        reaction: [0.0; 3],
+    })
+}
+
 /// Build the simulation a `hooke.Builder` spec describes.
 pub fn build(spec: &Value) -> R<Simulation> {
     let kind = match field(spec, "lattice", "lattice")?.as_str() {
@@ -159,13 +292,20 @@ pub fn build(spec: &Value) -> R<Simulation> {
         .as_array()
         .ok_or("calls: a list")?;
     let mut solid = Solid::default();
+    let dim = kind.dim();
+    let mut thickness = 1.0;
+    let mut rigids = Vec::new();
+    let mut contact: Option<Value> = None;
     for (k, call) in calls.iter().enumerate() {
         let name = call.get(0).and_then(Value::as_str).unwrap_or("");
         let a = call.get(1).cloned().unwrap_or(Value::Null);
         let key = format!("{name} (call {})", k + 1);
         let key = key.as_str();
         b = match name {
-            "thickness" => b.thickness(num(&a, key)?),
+            "thickness" => {
+                thickness = num(&a, key)?;
+                b.thickness(thickness)
+            }
             "plane" => b.plane(match a.as_str() {
                 Some("stress") => PlaneModel::Stress,
                 Some("strain") => PlaneModel::Strain,
@@ -233,6 +373,15 @@ pub fn build(spec: &Value) -> R<Simulation> {
                         }
                     }
                 }
+                if let Some(t) = a.get("traction") {
+                    let v = point(field(t, "value", key)?, key)?;
+                    let normal = axis(field(t, "normal", key)?, key)?;
+                    let scale = match t.get("scale") {
+                        Some(f) => time_function(f, key)?,
+                        None => TimeFunction::Constant(1.0),
+                    };
+                    bc = bc.traction(v, normal, scale);
+                }
                 if a.get("no_fail").and_then(Value::as_bool) == Some(true) {
                     bc = bc.no_fail();
                 }
@@ -250,8 +399,157 @@ pub fn build(spec: &Value) -> R<Simulation> {
             "output_every" => b.output_every(num(&a, key)?),
             "checkpoint_every" => b.checkpoint_every(num(&a, key)?),
             "damping" => b.damping(num(&a, key)?),
+            "reactions_every" => b.reactions_every(num(&a, key)?),
+            "springs" => b.springs(
+                a.as_bool()
+                    .ok_or_else(|| format!("{key}: give true or false"))?,
+            ),
+            "formats" => {
+                let flag = |n: &str| a.get(n).and_then(Value::as_bool).unwrap_or(n == "vtk");
+                b.formats(flag("vtk"), flag("hdf5"))
+            }
+            "quasi_static" => b.quasi_static(
+                a.as_u64()
+                    .filter(|&n| n > 0)
+                    .ok_or_else(|| format!("{key}: give a positive number of load steps"))?
+                    as usize,
+            ),
+            "time_step" => b.time_step(match (a.get("safety"), a.get("dt")) {
+                (Some(s), None) => TimeStep::Auto {
+                    safety: num(s, key)?,
+                },
+                (None, Some(dt)) => TimeStep::Fixed {
+                    dt: num(dt, key)?,
+                    force: a.get("force").and_then(Value::as_bool).unwrap_or(false),
+                },
+                _ => return Err(format!("{key}: give safety or dt")),
+            }),
+            "random" => {
+                let seed = match a.get("seed") {
+                    None => 1,
+                    Some(s) => s
+                        .as_u64()
+                        .ok_or_else(|| format!("{key}: give a non-negative integer seed"))?,
+                };
+                let sampler = match a
+                    .get("sampler")
+                    .and_then(Value::as_str)
+                    .unwrap_or("poisson")
+                {
+                    "poisson" => Sampler::Poisson,
+                    "jitter" => {
+                        let j = a
+                            .get("jitter")
+                            .map(|j| num(j, key))
+                            .transpose()?
+                            .unwrap_or(0.6);
+                        if !(0.0..=1.0).contains(&j) {
+                            return Err(format!("{key}: jitter {j}: give the largest move as a fraction of the spacing, 0 to 1"));
+                        }
+                        Sampler::Jitter { amplitude: j }
+                    }
+                    other => {
+                        return Err(format!(
+                            "{key}: unknown sampler \"{other}\"; use \"poisson\" or \"jitter\""
+                        ))
+                    }
+                };
+                b.random(RandomSpec { sampler, seed })
+            }
+            "breaking" => {
+                let energy = match a
+                    .get("criterion")
+                    .and_then(Value::as_str)
+                    .unwrap_or("stretch")
+                {
+                    "stretch" => false,
+                    "energy" => true,
+                    other => {
+                        return Err(format!(
+                            "{key}: criterion \"{other}\": give \"stretch\" or \"energy\""
+                        ))
+                    }
+                };
+                let rule = match (a.get("stretch"), a.get("fracture_energy"), energy) {
+                    (Some(s), None, false) => BreakRule::Stretch(num(s, key)?),
+                    (Some(s), None, true) => BreakRule::SpringEnergyFromStretch(num(s, key)?),
+                    (None, Some(g), false) => BreakRule::FractureEnergy(num(g, key)?),
+                    (None, Some(g), true) => BreakRule::SpringEnergy(num(g, key)?),
+                    _ => return Err(format!("{key}: give stretch or fracture_energy")),
+                };
+                b.breaking(rule)
+            }
+            "rigid" => {
+                rigids.push(rigid(&a, key, dim, thickness, rigids.len())?);
+                b
+            }
+            "contact" => {
+                contact = Some(a.clone());
+                b
+            }
             other => return Err(format!("{key}: unknown call \"{other}\"")),
         };
     }
-    b.solid(solid).build().map_err(|e| e.to_string())
+    let mut sim = b.solid(solid).build().map_err(|e| e.to_string())?;
+    if contact.is_some() || !rigids.is_empty() {
+        if sim.quasi_static.is_some() {
+            return Err("contact runs with the explicit solver; remove the quasi-static solver or the contact".into());
+        }
+        let opts = contact_options(&sim, contact.as_ref())?;
+        for rb in &rigids {
+            starts_clear(&sim, rb, opts.radius)?;
+        }
+        sim.contact = Some(hooke_contact::Contact::new(&sim.body, rigids, opts));
+    }
+    Ok(sim)
+}
+
+/// Contact options: the lattice's defaults with the given ones (as `[contact]`).
+fn contact_options(sim: &Simulation, c: Option<&Value>) -> R<ContactOptions> {
+    let key = "contact";
+    let mut o = ContactOptions::for_body(&sim.body);
+    let Some(c) = c else { return Ok(o) };
+    if let Some(v) = c.get("stiffness_factor") {
+        let x = num(v, key)?;
+        if !(x > 0.0 && x <= 1.0) {
+            return Err(format!("contact.stiffness_factor: {x}: give 0 < c <= 1 (k = c m / dt^2; the default 0.1 keeps the step stable)"));
+        }
+        o.stiffness_factor = x;
+    }
+    if let Some(v) = c.get("radius") {
+        o.radius = positive(v, "contact.radius")?;
+    }
+    let fragments = c.get("fragments").and_then(Value::as_bool).unwrap_or(true);
+    if !fragments {
+        o.fragment_distance = None;
+    }
+    if let Some(v) = c.get("fragment_distance") {
+        let d = positive(v, "contact.fragment_distance")?;
+        let shortest = sim.body.lattice.bonds.shortest();
+        if d >= 0.95 * shortest {
+            return Err(format!("contact.fragment_distance: {d:e} m: keep it below 0.95 x the shortest spring ({shortest:e} m), or springs that break would start in contact"));
+        }
+        if !fragments {
+            return Err("contact.fragment_distance: fragments = False turns fragment contact off; remove one of the two".into());
+        }
+        o.fragment_distance = Some(d);
+    }
+    Ok(o)
+}
+
+/// A rigid body must not start inside a node's contact range.
+fn starts_clear(sim: &Simulation, rb: &RigidBody, radius: Real) -> R<()> {
+    let pos = &sim.body.lattice.pos;
+    for i in 0..sim.body.nodes() {
+        let x = [pos.x[i], pos.y[i], pos.z[i]];
+        if let Some((d, _)) = rb.geometry.signed_distance(rb.position, x) {
+            if d < radius {
+                return Err(format!(
+                    "rigid body \"{}\": node {i} at {x:?} starts {d:e} m from its surface, inside the contact radius {radius:e} m: move the body away",
+                    rb.name
+                ));
+            }
+        }
+    }
+    Ok(())
 }

@@ -157,3 +157,132 @@ def test_builder_mistakes_name_the_item(tmp_path):
          .material(1e9, 0.2, 1000).boundary({"face": "w+"}, fixed=["x"]).build(tmp_path / "y"))
     with pytest.raises(hooke.CaseError, match="lattice"):
         hooke.Builder("square", spacing=1e-3).build(tmp_path / "z")
+
+
+IMPACT_TOML = """
+[lattice]
+kind = "random2d"
+spacing = 1e-3
+thickness = 2e-3
+seed = 5
+
+[material]
+youngs = 3e9
+poisson = 0.3
+density = 1200
+critical_stretch = 0.02
+
+[geometry]
+box = { min = [0.0, 0.0], max = [20e-3, 10e-3] }
+
+[[boundary]]
+region = { face = "y-" }
+fixed = ["x", "y"]
+no_fail = true
+
+[[boundary]]
+region = { face = "x+" }
+traction = [{ value = [2e5, 0.0], normal = "x" }]
+
+[[rigid]]
+name = "striker"
+shape = { sphere = { radius = 2e-3 } }
+position = [10e-3, 12.8e-3]
+velocity = [0.0, -100.0]
+density = 7800
+
+[contact]
+stiffness_factor = 0.2
+
+[solver]
+end_time = 30e-6
+safety = 0.7
+
+[output]
+every = 5e-6
+reactions_every = 1e-6
+"""
+
+
+def impact_builder():
+    return (hooke.Builder("random2d", spacing=1e-3).thickness(2e-3).random(seed=5)
+            .box([0.0, 0.0], [20e-3, 10e-3]).material(3e9, 0.3, 1200.0).breaking(stretch=0.02)
+            .boundary({"face": "y-"}, fixed=["x", "y"], no_fail=True)
+            .boundary({"face": "x+"}, traction=[2e5, 0.0], normal="x")
+            .rigid({"sphere": {"radius": 2e-3}}, position=[10e-3, 12.8e-3], velocity=[0.0, -100.0],
+                   density=7800.0, name="striker")
+            .contact(stiffness_factor=0.2)
+            .end_time(30e-6).time_step(safety=0.7).output_every(5e-6).reactions_every(1e-6))
+
+
+def test_the_builder_with_contact_traction_and_rules_is_the_case_file_bit_for_bit(tmp_path):
+    """Rigid bodies, contact options, tractions, the breaking rule, the time step, the random
+    lattice's seed and the reaction history, built in Python, make the case file's run."""
+    from_case = hooke.load_case(IMPACT_TOML, out=tmp_path / "case", name="impact")
+    s1 = from_case.finish()
+    built = impact_builder().build(tmp_path / "built", "impact")
+    s2 = built.finish()
+    assert s1["broken_springs"] == s2["broken_springs"] > 0
+    assert s1["rigid"] == s2["rigid"]
+    subprocess.run([sys.executable, str(ROOT / "tools" / "compare_runs.py"), str(tmp_path / "built"),
+                    str(tmp_path / "case")], check=True)
+
+
+def test_builder_refuses_bad_rigid_bodies_and_rules(tmp_path):
+    base = lambda: (hooke.Builder("hex", spacing=1e-3).thickness(1e-3).box([0, 0], [1e-2, 1e-2])
+                    .material(1e9, 0.2, 1000).end_time(1e-6))
+    with pytest.raises(hooke.CaseError, match="mass"):
+        base().rigid({"sphere": {"radius": 1e-3}}, position=[5e-3, 2e-2]).build(tmp_path / "a")
+    with pytest.raises(hooke.CaseError, match="radius"):
+        base().rigid({"sphere": {"radius": -1.0}}, position=[5e-3, 2e-2], mass=1.0).build(
+            tmp_path / "b")
+    with pytest.raises(hooke.CaseError, match="inside the contact radius"):
+        base().rigid({"sphere": {"radius": 2e-3}}, position=[5e-3, 5e-3], mass=1.0).build(
+            tmp_path / "c")
+    with pytest.raises(hooke.CaseError, match="kinematic"):
+        base().rigid({"halfspace": {"normal": [0, 1]}}, position=[0, 2e-2], mass=1.0).build(
+            tmp_path / "d")
+    with pytest.raises(hooke.CaseError, match="stiffness_factor"):
+        base().contact(stiffness_factor=3.0).build(tmp_path / "e")
+    with pytest.raises(hooke.CaseError, match="stretch or fracture_energy"):
+        base().breaking()
+    with pytest.raises(hooke.CaseError, match="sampler"):
+        base().random(sampler="sobol").build(tmp_path / "f")
+
+
+def test_quasi_static_runs_with_finish(tmp_path):
+    """A quasi-static simulation solves its load steps with finish() (stepping is refused with
+    the reason), and writes what hooke run writes."""
+    text = """
+[lattice]
+kind = "cubic"
+spacing = 1e-3
+[material]
+youngs = 1e9
+poisson = 0.3
+density = 1000
+[geometry]
+box = { min = [0, 0, 0], max = [6e-3, 3e-3, 3e-3] }
+[[boundary]]
+region = { face = "x-" }
+fixed = ["x", "y", "z"]
+[[boundary]]
+region = { face = "x+" }
+displacement = [{ axis = "x", value = 6e-6 }]
+[solver]
+type = "quasi-static"
+steps = 3
+end_time = 1.0
+"""
+    sim = hooke.load_case(text, out=tmp_path / "qs", name="qs")
+    with pytest.raises(hooke.RunError, match="finish"):
+        sim.step(1)
+    summary = sim.finish()
+    assert summary["quasi_static"] and summary["steps"] == 3
+    # The end state: the pulled face moved by the prescribed displacement.
+    x = sim.positions[:, 0]
+    assert np.allclose(sim.displacement[x > 5.9e-3, 0], 6e-6)
+    (tmp_path / "qs.toml").write_text(text)
+    cli("run", str(tmp_path / "qs.toml"), "--out", str(tmp_path / "cli"))
+    subprocess.run([sys.executable, str(ROOT / "tools" / "compare_runs.py"), str(tmp_path / "qs"),
+                    str(tmp_path / "cli")], check=True)

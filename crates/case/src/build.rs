@@ -938,13 +938,7 @@ fn contact(
         return Ok(None);
     }
     let mut opts = ContactOptions::for_body(body);
-    let shortest = body
-        .lattice
-        .bonds
-        .rest
-        .iter()
-        .cloned()
-        .fold(Real::INFINITY, Real::min);
+    let shortest = body.lattice.bonds.shortest();
     if let Some(c) = &raw.contact {
         let c = c.get_ref();
         if let Some(v) = &c.stiffness_factor {

@@ -56,13 +56,7 @@ impl ContactOptions {
     /// Defaults for a body: `c = 0.1`, radius `a/2`, fragment contact at 0.8 of the shortest
     /// spring.
     pub fn for_body(body: &Body) -> Self {
-        let shortest = body
-            .lattice
-            .bonds
-            .rest
-            .iter()
-            .cloned()
-            .fold(Real::INFINITY, Real::min);
+        let shortest = body.lattice.bonds.shortest();
         ContactOptions {
             stiffness_factor: 0.1,
             radius: 0.5 * body.lattice.spacing,

@@ -82,6 +82,11 @@ pub struct Bonds {
 }
 
 impl Bonds {
+    /// The shortest rest length (m); infinity without springs.
+    pub fn shortest(&self) -> Real {
+        self.rest.iter().cloned().fold(Real::INFINITY, Real::min)
+    }
+
     /// Build from a list of undirected springs `(i, j)` with `i != j`; rest lengths from `pos`
     /// (minimum image along the axes where `period` is non-zero).
     pub fn from_pairs(

@@ -28,5 +28,5 @@ pub use geometry::{fill_lattice, Face, Region, Shape, Solid};
 pub use observer::{Observer, Progress, Silent, StopFlag};
 pub use output::{EnergyRow, Frame, RegionReaction, Sink};
 pub use provenance::{utc_now, GIT_COMMIT};
-pub use run::{free_space, run, seconds, write_probe, Run, RunOptions, Summary};
+pub use run::{free_space, run, run_keeping, seconds, write_probe, Run, RunOptions, Summary};
 pub use simulation::{Boundary, Schedule, Simulation};

@@ -26,14 +26,14 @@ use crate::Simulation;
 
 /// Run `steps` load steps of `sim` to its end time.
 pub(crate) fn run(
-    mut sim: Simulation,
+    sim: &mut Simulation,
     steps: usize,
     opts: &RunOptions,
     obs: &mut dyn Observer,
 ) -> Result<Summary> {
-    let mut sinks = open_sinks(&sim, &opts.out, &opts.name, false, 0.0)?;
-    let mut provenance = Provenance::start(&sim, opts, None)?;
-    let r = drive(&mut sim, steps, &mut sinks, obs);
+    let mut sinks = open_sinks(sim, &opts.out, &opts.name, false, 0.0)?;
+    let mut provenance = Provenance::start(sim, opts, None)?;
+    let r = drive(sim, steps, &mut sinks, obs);
     match &r {
         Ok(_) => provenance.end("completed", &opts.out),
         Err(e @ Error::Interrupted { .. }) => provenance.end(&e.to_string(), &opts.out),

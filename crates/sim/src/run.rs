@@ -639,12 +639,23 @@ impl Run {
 
 /// Run a simulation to its end: explicit dynamics or quasi-static load steps, whichever it is.
 pub fn run(sim: Simulation, opts: RunOptions, obs: &mut dyn Observer) -> Result<Summary> {
+    run_keeping(sim, opts, obs).map(|(s, _)| s)
+}
+
+/// As [`run`], and hand back the simulation as it ended (for callers that go on reading its
+/// state, such as the Python package).
+pub fn run_keeping(
+    mut sim: Simulation,
+    opts: RunOptions,
+    obs: &mut dyn Observer,
+) -> Result<(Summary, Simulation)> {
     match sim.quasi_static {
         Some(steps) => {
             preflight(&sim, &opts)?;
-            crate::quasi_static::run(sim, steps, &opts, obs)
+            let s = crate::quasi_static::run(&mut sim, steps, &opts, obs)?;
+            Ok((s, sim))
         }
-        None => Run::start(sim, opts)?.finish(obs),
+        None => Run::start(sim, opts)?.finish_keeping(obs),
     }
 }
 
