@@ -36,6 +36,81 @@ fn moduli_json_has_the_contract_keys() {
     assert!((v["nu_measured"].as_f64().unwrap() - 0.3).abs() < 0.05);
 }
 
+/// `hooke moduli --bulk --json`: the exact bulk test's full stiffness tensor (`C_measured`,
+/// 6x6 Voigt, Pa) equals the isotropic target for the lattice's E and nu (`C_target`) to 1e-9
+/// relative on both regular lattices across nu, with the isotropy relations visible in it;
+/// random lattices are refused with the reason.
+#[test]
+fn moduli_bulk_gives_the_full_stiffness_tensor() {
+    for (lattice, nu) in [
+        ("cubic", -0.8),
+        ("cubic", 0.3),
+        ("cubic", 0.49),
+        ("hex", -0.9),
+        ("hex", 0.6),
+    ] {
+        let nu_s = nu.to_string();
+        let o = hooke(&[
+            "moduli",
+            "--bulk",
+            "--lattice",
+            lattice,
+            "--nu",
+            &nu_s,
+            "--spacing",
+            "2e-3",
+            "--stiffness",
+            "5e4",
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let m = |key: &str| -> Vec<Vec<f64>> {
+            v[key]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|r| {
+                    r.as_array()
+                        .unwrap()
+                        .iter()
+                        .map(|x| x.as_f64().unwrap())
+                        .collect()
+                })
+                .collect()
+        };
+        let (c, t) = (m("C_measured"), m("C_target"));
+        assert_eq!((c.len(), c[0].len()), (6, 6));
+        let scale = t.iter().flatten().fold(0.0f64, |a, x| a.max(x.abs()));
+        for i in 0..6 {
+            for j in 0..6 {
+                assert!(
+                    (c[i][j] - t[i][j]).abs() <= 1e-9 * scale,
+                    "{lattice} nu={nu}: C[{i}][{j}] = {} against {}",
+                    c[i][j],
+                    t[i][j]
+                );
+            }
+        }
+        // Isotropy: C11 - C12 = 2 C66 and, from them, the target's nu.
+        let (c11, c12, c66) = (c[0][0], c[0][1], c[5][5]);
+        assert!((c11 - c12 - 2.0 * c66).abs() <= 1e-9 * c11);
+        let nu_m = if lattice == "cubic" {
+            c12 / (c11 + c12)
+        } else {
+            c12 / c11
+        };
+        assert!(
+            (nu_m - nu).abs() < 1e-9,
+            "{lattice}: nu {nu_m} against {nu}"
+        );
+        assert!(v["max_relative_difference"].as_f64().unwrap() < 1e-9);
+    }
+    let o = hooke(&["moduli", "--bulk", "--lattice", "random3d", "--nu", "0.3"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("block test"), "{}", stderr(&o));
+}
+
 /// Random lattices: the cubic test's keys with nu_measured and E_measured the ensemble means,
 /// plus nu_spread and E_spread; bad random arguments exit 2.
 #[test]

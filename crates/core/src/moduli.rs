@@ -462,6 +462,60 @@ pub fn bulk_stress(kind: LatticeKind, k: Real, a: Real, q: Real, eps: &Matrix) -
     law::node_virial(&body, &Coords::zeros(body.nodes()), &dt, centre)
 }
 
+/// Voigt order of the 6x6 stiffness: xx, yy, zz, yz, xz, xy.
+pub const VOIGT: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)];
+
+/// The full stiffness tensor of the infinite regular lattice, `C[i][j]` in Voigt order
+/// ([`VOIGT`]; engineering shear strains), column j the bulk stress ([`bulk_stress`]) under unit
+/// strain j: exact to round-off, whatever symmetry the lattice has. In 2D (hex) the entries
+/// involving z are zero and the stress is per unit thickness (N/m).
+///
+/// # Panics
+/// For random lattices (see [`bulk_stress`]).
+pub fn bulk_stiffness(kind: LatticeKind, k: Real, a: Real, q: Real) -> [[Real; 6]; 6] {
+    let mut c = [[0.0; 6]; 6];
+    for (j, &(r, s)) in VOIGT.iter().enumerate() {
+        if kind.dim() == 2 && (r == 2 || s == 2) {
+            continue;
+        }
+        // Engineering shear: gamma = 1 is eps_rs = eps_sr = 1/2.
+        let mut eps = Matrix::zeros();
+        let e = if r == s { 1.0 } else { 0.5 };
+        eps[(r, s)] = e;
+        eps[(s, r)] = e;
+        let sigma = bulk_stress(kind, k, a, q, &eps);
+        for (i, &(p, t)) in VOIGT.iter().enumerate() {
+            c[i][j] = sigma[(p, t)];
+        }
+    }
+    c
+}
+
+/// The isotropic stiffness in Voigt order for Young's modulus `e` and Poisson's ratio `nu`: in
+/// 3D from the Lame constants; in 2D the plane (membrane) stiffness of a 2D material
+/// (`e / (1 - nu^2)`, entries involving z zero), as the hexagonal lattice has.
+pub fn isotropic_stiffness(dim: usize, e: Real, nu: Real) -> [[Real; 6]; 6] {
+    let mut c = [[0.0; 6]; 6];
+    let mu = e / (2.0 * (1.0 + nu));
+    if dim == 3 {
+        let lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+        for i in 0..3 {
+            for j in 0..3 {
+                c[i][j] = if i == j { lambda + 2.0 * mu } else { lambda };
+            }
+            c[i + 3][i + 3] = mu;
+        }
+    } else {
+        let d = e / (1.0 - nu * nu);
+        c[0][0] = d;
+        c[1][1] = d;
+        c[0][1] = nu * d;
+        c[1][0] = nu * d;
+        c[5][5] = mu;
+    }
+    c
+}
+
 /// C11, C12, C44 and (E, nu) of the infinite lattice with stiffness k, spacing a and ratio q.
 pub fn bulk_moduli(kind: LatticeKind, k: Real, a: Real, q: Real) -> BulkModuli {
     let mut exx = Matrix::zeros();
