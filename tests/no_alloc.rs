@@ -1,5 +1,5 @@
 //! A step allocates nothing: counted with a global allocator around 200 steps on each kernel,
-//! with loads, supports, damping and 2 threads.
+//! with loads, supports, damping and 2 threads, and with the break check folded into the step.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -7,6 +7,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use hooke_core::dynamics::{Integrator, IntegratorOptions};
 use hooke_core::loading::{Load, Loading, Motion, Prescribed, TimeFunction};
 use hooke_core::{Body, Lattice, State, Vector};
+use hooke_fracture::{CriticalStretch, Fracture};
 
 struct Counting;
 static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
@@ -65,7 +66,8 @@ fn steps_allocate_nothing() {
                 force_csr,
                 ..Default::default()
             };
-            let mut it = Integrator::new(&body, &mut state, loading, &opts).unwrap();
+            let fracture_state = state.clone();
+            let mut it = Integrator::new(&body, &mut state, loading.clone(), &opts).unwrap();
             it.run(&body, &mut state, 10).unwrap(); // warm up the thread pool
             let before = ALLOCATIONS.load(Ordering::Relaxed);
             it.run(&body, &mut state, 200).unwrap();
@@ -76,6 +78,31 @@ fn steps_allocate_nothing() {
                 "kernel {}: {during} allocations in 200 steps",
                 it.kernel.name()
             );
+            // The folded break check: a screen every stretched spring passes (all nodes no-fail,
+            // so every flagged spring is examined and none breaks), and one nothing passes.
+            for (s_c, no_fail) in [(1e-12, true), (1.0, false)] {
+                let mut st = fracture_state.clone();
+                let mut it = Integrator::new(&body, &mut st, loading.clone(), &opts).unwrap();
+                let mut fr = Fracture::new(&body, Box::new(CriticalStretch::new(s_c).unwrap()));
+                if no_fail {
+                    fr.set_no_fail(&(0..body.nodes() as u32).collect::<Vec<_>>());
+                }
+                for _ in 0..10 {
+                    fr.step(&body, &mut st, &mut it, None);
+                }
+                let before = ALLOCATIONS.load(Ordering::Relaxed);
+                for _ in 0..200 {
+                    fr.step(&body, &mut st, &mut it, None);
+                }
+                let during = ALLOCATIONS.load(Ordering::Relaxed) - before;
+                assert_eq!(
+                    during,
+                    0,
+                    "kernel {} with fracture (s_c {s_c}): {during} allocations in 200 steps",
+                    it.kernel.name()
+                );
+                assert_eq!(fr.broken_total, 0);
+            }
         }
     });
 }
