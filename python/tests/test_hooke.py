@@ -33,6 +33,14 @@ def test_moduli_match_the_command_line_exactly():
     assert abs(mine["nu_measured"] - 0.3) < 0.03 * 0.3 + 0.01
 
 
+def test_bulk_moduli_match_the_command_line_exactly():
+    mine = hooke.moduli(lattice="hex", nu=0.4, bulk=True)
+    theirs = json.loads(cli("moduli", "--lattice", "hex", "--nu", "0.4", "--bulk", "--json"))
+    assert mine == theirs
+    c, t = np.array(mine["C_measured"]), np.array(mine["C_target"])
+    assert c.shape == (6, 6) and np.allclose(c, t, rtol=0, atol=1e-9 * abs(t).max())
+
+
 def test_toughness_matches_the_command_line_exactly():
     mine = hooke.toughness(lattice="hex", nu=0.25, height=10, window=3)
     theirs = json.loads(cli("toughness", "--lattice", "hex", "--nu", "0.25", "--height", "10",
