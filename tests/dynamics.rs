@@ -28,10 +28,10 @@ fn smooth_field(body: &Body, amp: Real) -> Coords {
     for i in 0..body.nodes() {
         let p = body.lattice.pos.get(i) / l;
         let pi = std::f64::consts::PI;
-        u.x[i] = amp * ((pi * p.y).sin() + 0.5 * (2.0 * pi * p.x).cos());
-        u.y[i] = amp * (0.7 * (pi * p.z).cos() - 0.3 * (pi * p.x).sin());
+        u.x_mut()[i] = amp * ((pi * p.y).sin() + 0.5 * (2.0 * pi * p.x).cos());
+        u.y_mut()[i] = amp * (0.7 * (pi * p.z).cos() - 0.3 * (pi * p.x).sin());
         if body.lattice.dim() == 3 {
-            u.z[i] = amp * 0.4 * (pi * (p.x + p.y)).sin();
+            u.z_mut()[i] = amp * 0.4 * (pi * (p.x + p.y)).sin();
         }
     }
     u
@@ -142,7 +142,7 @@ fn pulse_speed(kind: LatticeKind, nu: Real, axis: usize, c_guess: Real) -> Real 
     let mut state = State::new(&body);
     let (x0, sigma) = (60.0, 6.0);
     for i in 0..body.nodes() {
-        let x = body.lattice.pos.x[i];
+        let x = body.lattice.pos.x()[i];
         state.u.comp_mut(axis)[i] = 1e-4 * (-(x - x0) * (x - x0) / (2.0 * sigma * sigma)).exp();
     }
     let mut it = Integrator::new(
@@ -153,7 +153,7 @@ fn pulse_speed(kind: LatticeKind, nu: Real, axis: usize, c_guess: Real) -> Real 
     )
     .unwrap();
     let line: Vec<usize> = (0..nx).collect(); // the first row: y = 0 (and z = 0)
-    let xs: Vec<Real> = line.iter().map(|&i| body.lattice.pos.x[i]).collect();
+    let xs: Vec<Real> = line.iter().map(|&i| body.lattice.pos.x()[i]).collect();
     let record = |t_target: Real, it: &mut Integrator, state: &mut State| {
         while state.time + 0.5 * it.dt < t_target {
             it.step(&body, state);
@@ -296,20 +296,21 @@ fn kernels_agree() {
     let csr = run_with_threads(2, true, false);
     let umax = csr
         .u
-        .x
+        .x()
         .iter()
-        .chain(&csr.u.y)
-        .chain(&csr.u.z)
+        .chain(csr.u.y())
+        .chain(csr.u.z())
         .fold(0.0 as Real, |m, v| m.max(v.abs()));
     for portable in [false, true] {
         let s = run_with_threads(2, false, portable);
         let mut d = s.u.clone();
         d.axpy(-1.0, &csr.u);
-        let dmax =
-            d.x.iter()
-                .chain(&d.y)
-                .chain(&d.z)
-                .fold(0.0 as Real, |m, v| m.max(v.abs()));
+        let dmax = d
+            .x()
+            .iter()
+            .chain(d.y())
+            .chain(d.z())
+            .fold(0.0 as Real, |m, v| m.max(v.abs()));
         assert!(
             dmax < 1e-9 * umax,
             "portable={portable}: max difference {dmax:e} of {umax:e}"
@@ -415,9 +416,11 @@ fn unstable_time_steps_are_refused_or_reported() {
 }
 
 fn x_end(body: &Body, right: bool) -> Vec<u32> {
-    let xmax = body.lattice.pos.x.iter().cloned().fold(0.0, Real::max);
+    let xmax = body.lattice.pos.x().iter().cloned().fold(0.0, Real::max);
     (0..body.nodes() as u32)
-        .filter(|&i| (body.lattice.pos.x[i as usize] - if right { xmax } else { 0.0 }).abs() < 1e-9)
+        .filter(|&i| {
+            (body.lattice.pos.x()[i as usize] - if right { xmax } else { 0.0 }).abs() < 1e-9
+        })
         .collect()
 }
 
@@ -612,8 +615,8 @@ fn dynamic_relaxation_matches_the_static_solver() {
     for i in x_end(&body, true) {
         cons.fix(i as usize, 0);
         cons.fix(i as usize, 1);
-        start.u.x[i as usize] = 1e-3;
-        start.u.y[i as usize] = 5e-4;
+        start.u.x_mut()[i as usize] = 1e-3;
+        start.u.y_mut()[i as usize] = 5e-4;
     }
     let mut newton = start.clone();
     statics::solve(

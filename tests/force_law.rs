@@ -144,7 +144,7 @@ fn cut_halves_are_exactly_decoupled() {
     ] {
         let body = small_body(kind, q_from_nu(kind, nu).unwrap(), 8);
         let cut = 3.3;
-        let left = |i: usize| body.lattice.pos.x[i] < cut;
+        let left = |i: usize| body.lattice.pos.x()[i] < cut;
         let mut state = State::new(&body);
         let mut killed = 0;
         for (b, &[i, j]) in body.lattice.bonds.ends.iter().enumerate() {
@@ -161,8 +161,8 @@ fn cut_halves_are_exactly_decoupled() {
         // Move and deform the right half violently.
         let mut moved = state.clone();
         for i in (0..body.nodes()).filter(|&i| !left(i)) {
-            moved.u.x[i] += 0.3 + rng.sym(0.2);
-            moved.u.y[i] += rng.sym(0.2);
+            moved.u.x_mut()[i] += 0.3 + rng.sym(0.2);
+            moved.u.y_mut()[i] += rng.sym(0.2);
         }
         law::update_forces(&body, &mut moved);
         for i in (0..body.nodes()).filter(|&i| left(i)) {

@@ -64,14 +64,14 @@ fn precrack_through_the_section_decouples_the_halves() {
             .precrack(&body, &mut state, &[full_cut(kind, 5.3)])
             .unwrap();
         assert!(cut > 0);
-        let left = |i: usize| body.lattice.pos.x[i] < 5.3;
+        let left = |i: usize| body.lattice.pos.x()[i] < 5.3;
         let mut rng = Rng::new(5);
         state.u = random_displacement(&body, &mut rng, 0.03);
         law::update_forces(&body, &mut state);
         let before = state.f.clone();
         for i in (0..body.nodes()).filter(|&i| !left(i)) {
-            state.u.x[i] += 0.5;
-            state.u.y[i] += rng.sym(0.1);
+            state.u.x_mut()[i] += 0.5;
+            state.u.y_mut()[i] += rng.sym(0.1);
         }
         law::update_forces(&body, &mut state);
         for i in (0..body.nodes()).filter(|&i| left(i)) {
@@ -85,7 +85,7 @@ fn precrack_through_the_section_decouples_the_halves() {
         let d = fr.damage(&body, &state);
         assert!(d.iter().any(|&v| v > 0.0) && d.iter().all(|&v| (0.0..=1.0).contains(&v)));
         assert!((0..body.nodes())
-            .filter(|&i| (body.lattice.pos.x[i] - 5.3).abs() > 2.0)
+            .filter(|&i| (body.lattice.pos.x()[i] - 5.3).abs() > 2.0)
             .all(|i| d[i] == 0.0));
     }
 }
@@ -104,13 +104,13 @@ fn momentum_is_conserved_through_breaking() {
         let mut state = State::new(&body);
         let mut rng = Rng::new(8);
         for i in 0..body.nodes() {
-            let side = if body.lattice.pos.x[i] < 7.5 {
+            let side = if body.lattice.pos.x()[i] < 7.5 {
                 -1.0
             } else {
                 1.0
             };
-            state.v.x[i] = 0.02 * side + rng.sym(1e-3);
-            state.v.y[i] = rng.sym(1e-3);
+            state.v.x_mut()[i] = 0.02 * side + rng.sym(1e-3);
+            state.v.y_mut()[i] = rng.sym(1e-3);
         }
         let mut it = Integrator::new(
             &body,
@@ -144,19 +144,19 @@ fn pulled_bar(kind: LatticeKind, nu: Real, speed: Real) -> (Body, Loading) {
         _ => [30, 10, 1],
     };
     let body = bar(kind, nu, n);
-    let xmax = body.lattice.pos.x.iter().cloned().fold(0.0, Real::max);
+    let xmax = body.lattice.pos.x().iter().cloned().fold(0.0, Real::max);
     let xmin = body
         .lattice
         .pos
-        .x
+        .x()
         .iter()
         .cloned()
         .fold(Real::INFINITY, Real::min);
     let left: Vec<u32> = (0..body.nodes() as u32)
-        .filter(|&i| body.lattice.pos.x[i as usize] < xmin + 0.6)
+        .filter(|&i| body.lattice.pos.x()[i as usize] < xmin + 0.6)
         .collect();
     let right: Vec<u32> = (0..body.nodes() as u32)
-        .filter(|&i| body.lattice.pos.x[i as usize] > xmax - 0.6)
+        .filter(|&i| body.lattice.pos.x()[i as usize] > xmax - 0.6)
         .collect();
     let ramp = |to: Real| {
         Motion::Velocity(TimeFunction::SmoothRamp {
@@ -270,7 +270,7 @@ fn breaking_is_bit_identical_for_any_thread_count() {
             let body = bar(LatticeKind::Cubic, 0.4, [40, 16, 16]);
             let mut state = State::new(&body);
             for i in 0..body.nodes() {
-                state.v.x[i] = if body.lattice.pos.x[i] < 19.5 {
+                state.v.x_mut()[i] = if body.lattice.pos.x()[i] < 19.5 {
                     -0.02
                 } else {
                     0.02
@@ -307,12 +307,12 @@ fn no_fail_regions_hold() {
     let body = bar(LatticeKind::Cubic, 0.25, [10, 4, 4]);
     let mut state = State::new(&body);
     for i in 0..body.nodes() {
-        state.u.x[i] = 0.1 * body.lattice.pos.x[i]; // 10 % strain everywhere
+        state.u.x_mut()[i] = 0.1 * body.lattice.pos.x()[i]; // 10 % strain everywhere
     }
     law::update_forces(&body, &mut state);
     let mut fr = Fracture::new(&body, Box::new(CriticalStretch::new(0.01).unwrap()));
     let protected: Vec<u32> = (0..body.nodes() as u32)
-        .filter(|&i| body.lattice.pos.x[i as usize] < 2.5)
+        .filter(|&i| body.lattice.pos.x()[i as usize] < 2.5)
         .collect();
     fr.set_no_fail(&protected);
     fr.decide(&body, &state);
@@ -375,13 +375,13 @@ fn folded_break_check_is_the_check_after_the_step_bit_for_bit() {
         let mut a = State::new(&body);
         let mut rng = Rng::new(11);
         for i in 0..body.nodes() {
-            let side = if body.lattice.pos.x[i] < 7.5 {
+            let side = if body.lattice.pos.x()[i] < 7.5 {
                 -1.0
             } else {
                 1.0
             };
-            a.v.x[i] = 0.02 * side + rng.sym(1e-3);
-            a.v.y[i] = rng.sym(1e-3);
+            a.v.x_mut()[i] = 0.02 * side + rng.sym(1e-3);
+            a.v.y_mut()[i] = rng.sym(1e-3);
         }
         let mut b = a.clone();
         let opts = IntegratorOptions {

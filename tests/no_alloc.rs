@@ -43,10 +43,10 @@ fn steps_allocate_nothing() {
             );
             let mut state = State::new(&body);
             let ends: Vec<u32> = (0..body.nodes() as u32)
-                .filter(|&i| body.lattice.pos.x[i as usize] == 0.0)
+                .filter(|&i| body.lattice.pos.x()[i as usize] == 0.0)
                 .collect();
             let far: Vec<u32> = (0..body.nodes() as u32)
-                .filter(|&i| body.lattice.pos.x[i as usize] == 29.0)
+                .filter(|&i| body.lattice.pos.x()[i as usize] == 29.0)
                 .collect();
             let loading = Loading {
                 prescribed: vec![Prescribed {

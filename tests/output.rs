@@ -32,7 +32,7 @@ fn bar() -> Body {
 fn pulled(body: &Body) -> Loading {
     let ends = |x: Real| {
         (0..body.nodes() as u32)
-            .filter(|&i| (body.lattice.pos.x[i as usize] - x).abs() < 0.1)
+            .filter(|&i| (body.lattice.pos.x()[i as usize] - x).abs() < 0.1)
             .collect::<Vec<_>>()
     };
     let v = |to: Real| {
@@ -113,7 +113,7 @@ fn vtk_frames_read_back_exactly() {
         for i in 0..body.nodes() {
             assert_eq!(
                 [u[3 * i], u[3 * i + 1], u[3 * i + 2]],
-                [state.u.x[i], state.u.y[i], state.u.z[i]]
+                [state.u.x()[i], state.u.y()[i], state.u.z()[i]]
             );
         }
         assert_eq!(f64s(get("damage")), damage);

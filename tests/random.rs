@@ -238,15 +238,15 @@ fn random_lattice_respects_holes_and_notches() {
     )
     .unwrap();
     for i in 0..l.len() {
-        assert!(inside([l.pos.x[i], l.pos.y[i], 0.0]));
+        assert!(inside([l.pos.x()[i], l.pos.y()[i], 0.0]));
     }
     for &[i, j] in &l.bonds.ends {
         let (i, j) = (i as usize, j as usize);
         for t in 1..10 {
             let t = t as Real / 10.0;
             let p = [
-                l.pos.x[i] + t * (l.pos.x[j] - l.pos.x[i]),
-                l.pos.y[i] + t * (l.pos.y[j] - l.pos.y[i]),
+                l.pos.x()[i] + t * (l.pos.x()[j] - l.pos.x()[i]),
+                l.pos.y()[i] + t * (l.pos.y()[j] - l.pos.y()[i]),
                 0.0,
             ];
             let in_hole = (p[0] - 5.0).powi(2) + (p[1] - 4.0).powi(2) < 1.9f64.powi(2);

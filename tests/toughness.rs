@@ -134,7 +134,7 @@ fn dynamic_strip(nu: Real, over: Real, ramp: Real, damping: Real) -> (Real, usiz
     let bonds = &body.lattice.bonds;
     let crosses = |b: usize| {
         let [i, j] = bonds.ends[b].map(|v| v as usize);
-        (body.lattice.pos.y[i] - yc) * (body.lattice.pos.y[j] - yc) < 0.0
+        (body.lattice.pos.y()[i] - yc) * (body.lattice.pos.y()[j] - yc) < 0.0
     };
     let mut was_alive = state.alive().to_vec();
     let (mut on, mut off) = (0usize, 0usize);
@@ -148,7 +148,7 @@ fn dynamic_strip(nu: Real, over: Real, ramp: Real, damping: Real) -> (Real, usiz
                     if crosses(b) {
                         on += 1;
                         let [i, j] = bonds.ends[b].map(|v| v as usize);
-                        tip = tip.max(0.5 * (body.lattice.pos.x[i] + body.lattice.pos.x[j]));
+                        tip = tip.max(0.5 * (body.lattice.pos.x()[i] + body.lattice.pos.x()[j]));
                         history.push((state.time, tip));
                     } else {
                         off += 1;
@@ -184,7 +184,7 @@ fn strip_grips(
     let pos = &body.lattice.pos;
     let rows_where = |sel: &dyn Fn(Real) -> bool| -> Vec<u32> {
         (0..body.nodes() as u32)
-            .filter(|&i| sel(pos.y[i as usize]))
+            .filter(|&i| sel(pos.y()[i as usize]))
             .collect()
     };
     let (lower, upper) = (rows_where(&|y| y < 1e-9), rows_where(&|y| y > top - 1e-9));
@@ -207,7 +207,7 @@ fn strip_grips(
         });
     }
     let mut keep: Vec<u32> = lower.iter().chain(&upper).copied().collect();
-    keep.extend((0..body.nodes() as u32).filter(|&i| pos.x[i as usize] > far_x));
+    keep.extend((0..body.nodes() as u32).filter(|&i| pos.x()[i as usize] > far_x));
     fr.set_no_fail(&keep);
     Loading {
         prescribed,
@@ -338,7 +338,10 @@ fn dynamic_strip_random(nu: Real, over: Real, height: Real, seed: u64) -> Dynami
             for b in 0..bonds.len() {
                 if was_alive[b] && !state.alive()[b] {
                     let [i, j] = bonds.ends[b].map(|v| v as usize);
-                    let (xm, ym) = (0.5 * (pos.x[i] + pos.x[j]), 0.5 * (pos.y[i] + pos.y[j]));
+                    let (xm, ym) = (
+                        0.5 * (pos.x()[i] + pos.x()[j]),
+                        0.5 * (pos.y()[i] + pos.y()[j]),
+                    );
                     path.push((xm, ym));
                     if xm > tip {
                         tip = xm;
@@ -378,8 +381,8 @@ fn dynamic_strip_random(nu: Real, over: Real, height: Real, seed: u64) -> Dynami
     let mean_uy = |x0: Real, y0: Real, y1: Real| {
         let (mut s, mut n) = (0.0, 0usize);
         for i in 0..body.nodes() {
-            if pos.x[i] >= x0 && pos.x[i] < x0 + 10.0 && pos.y[i] >= y0 && pos.y[i] < y1 {
-                s += state.u.y[i];
+            if pos.x()[i] >= x0 && pos.x()[i] < x0 + 10.0 && pos.y()[i] >= y0 && pos.y()[i] < y1 {
+                s += state.u.y()[i];
                 n += 1;
             }
         }

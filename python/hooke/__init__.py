@@ -105,32 +105,37 @@ class Simulation:
 
     @property
     def positions(self) -> np.ndarray:
-        """Reference positions (m), n x 3."""
+        """Reference positions (m), n x 3: a read-only view of the simulation's own buffer
+        (no copy; it keeps the simulation alive)."""
         return self._inner.positions
 
     @property
     def displacement(self) -> np.ndarray:
-        """Displacements (m), n x 3."""
+        """Displacements (m), n x 3: a read-only view without a copy that follows the state
+        (a view taken before ``step`` or ``run`` shows the displacements after it)."""
         return self._inner.displacement
 
     @property
     def velocity(self) -> np.ndarray:
-        """Velocities (m/s) at the last half step, n x 3."""
+        """Velocities (m/s) at the current time (full step), n x 3: read-only, follows the
+        state like ``displacement`` (recomputed in place when stepping returns)."""
         return self._inner.velocity
 
     @property
     def damage(self) -> np.ndarray:
-        """Per node, the fraction of its springs that are broken (n)."""
+        """Per node, the fraction of its springs that are broken (n): read-only, follows the
+        state."""
         return self._inner.damage
 
     @property
     def spring_ends(self) -> np.ndarray:
-        """Each spring's end nodes (m x 2)."""
+        """Each spring's end nodes (m x 2, uint32): a read-only view without a copy."""
         return self._inner.spring_ends
 
     @property
     def spring_intact(self) -> np.ndarray:
-        """Whether each spring is intact (m, bool)."""
+        """Whether each spring is intact (m, bool): a read-only view without a copy that follows
+        the state."""
         return self._inner.spring_intact
 
     def broken(self) -> Tuple[int, float]:

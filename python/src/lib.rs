@@ -10,6 +10,7 @@ mod spec;
 use std::path::PathBuf;
 use std::time::Instant;
 
+use numpy::ndarray::{ArrayView1, ArrayView2, ShapeBuilder};
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -59,6 +60,16 @@ struct PySimulation {
     out: PathBuf,
     /// Seconds per step, measured, to size the slices.
     step_seconds: f64,
+    /// The views handed out (numpy arrays without copies) look at these buffers, which
+    /// therefore must neither move nor be freed while this object lives: the displacements'
+    /// allocation (the integrator alternates two; `sync` moves them back), and the addresses
+    /// of the other viewed buffers, checked after every call that ran Rust code.
+    u_home: Option<usize>,
+    viewed: Vec<(&'static str, usize)>,
+    /// Full-step velocities and node damage, derived: computed when control returns to
+    /// Python, and only once they have been asked for.
+    velocity: Option<Coords>,
+    damage: Option<Vec<Real>>,
 }
 
 impl PySimulation {
@@ -71,6 +82,72 @@ impl PySimulation {
             summary: None,
             ended: None,
             step_seconds: 0.0,
+            u_home: None,
+            viewed: Vec::new(),
+            velocity: None,
+            damage: None,
+        }
+    }
+
+    /// The address of each viewed buffer now.
+    fn address(&self, what: &str) -> usize {
+        let sim = self.sim();
+        match what {
+            "positions" => sim.body.lattice.pos.as_flat().as_ptr() as usize,
+            "spring_ends" => sim.body.lattice.bonds.ends.as_ptr() as usize,
+            "spring_intact" => sim.state.alive().as_ptr() as usize,
+            _ => unreachable!("{what} is not a viewed buffer"),
+        }
+    }
+
+    /// Back in Python after Rust code ran: the views show the state now. The displacements
+    /// return to the allocation the views look at; the derived arrays that were asked for are
+    /// recomputed in place.
+    fn sync(&mut self) -> PyResult<()> {
+        if let Some(home) = self.u_home {
+            let home_ptr = home as *const Real;
+            let ok = match self.run.as_mut() {
+                Some(run) => run.keep_displacement_in(home_ptr),
+                None => self.sim().state.u.as_flat().as_ptr() == home_ptr,
+            };
+            if !ok {
+                return Err(RunError::new_err(
+                    "internal error: the displacements left the buffer that numpy views look at",
+                ));
+            }
+        }
+        for &(what, at) in &self.viewed {
+            if self.address(what) != at {
+                return Err(RunError::new_err(format!(
+                    "internal error: the buffer of {what} moved under its numpy views"
+                )));
+            }
+        }
+        if let Some(mut v) = self.velocity.take() {
+            match (self.run.as_mut(), &self.ended) {
+                (Some(run), _) => run.full_velocity_into(&mut v),
+                // Ended: the last velocities computed before the end stay.
+                (None, Some(_)) => {}
+                (None, None) => v.copy_from(&self.sim().state.v),
+            }
+            self.velocity = Some(v);
+        }
+        if let Some(mut d) = self.damage.take() {
+            let sim = self.sim();
+            match &sim.fracture {
+                Some(f) => d.copy_from_slice(&f.damage(&sim.body, &sim.state)),
+                None => d.fill(0.0),
+            }
+            self.damage = Some(d);
+        }
+        Ok(())
+    }
+
+    /// Note a buffer handed out as a view, to check after each call that it did not move.
+    fn remember(&mut self, what: &'static str) {
+        if !self.viewed.iter().any(|&(w, _)| w == what) {
+            let at = self.address(what);
+            self.viewed.push((what, at));
         }
     }
 
@@ -119,7 +196,8 @@ impl PySimulation {
                 // Back in Python: the state shows every break due, and the output folder every
                 // frame written so far.
                 run.settle();
-                return py.detach(|| run.flush_outputs()).map_err(run_error);
+                py.detach(|| run.flush_outputs()).map_err(run_error)?;
+                return self.sync();
             }
             let n = ((SLICE_SECONDS / per) as u64).clamp(1, budget);
             let t0 = Instant::now();
@@ -136,7 +214,11 @@ impl PySimulation {
                 Ok(())
             });
             let taken = run.simulation().state.step - before;
-            result.map_err(run_error)?;
+            if let Err(e) = result {
+                // The views show the state the failure left.
+                self.sync()?;
+                return Err(run_error(e));
+            }
             budget -= taken.min(budget);
             if taken > 0 {
                 self.step_seconds = t0.elapsed().as_secs_f64() / taken as f64;
@@ -146,21 +228,34 @@ impl PySimulation {
     }
 }
 
-fn coords<'py>(py: Python<'py>, c: &Coords) -> Bound<'py, PyArray2<Real>> {
+/// An `n x 3` read-only numpy array over `c`'s buffer, without a copy (the components are
+/// stored one after the other, so a row steps 8 bytes and a column `8 n`), kept alive by `owner`.
+///
+/// SAFETY (caller): `c` lives in `owner` and is neither reallocated nor freed while `owner`
+/// lives (`PySimulation::sync` checks it after every call that runs Rust code).
+unsafe fn coords_view<'py>(
+    c: &Coords,
+    owner: &Bound<'py, PySimulation>,
+) -> Bound<'py, PyArray2<Real>> {
     let n = c.len();
-    let mut flat = Vec::with_capacity(3 * n);
-    for i in 0..n {
-        flat.extend_from_slice(&[c.x[i], c.y[i], c.z[i]]);
-    }
-    let a = PyArray1::from_vec(py, flat)
-        .reshape([n, 3])
-        .expect("3n values reshape to n x 3");
+    let view = ArrayView2::from_shape((n, 3).strides((1, n.max(1))), c.as_flat())
+        .expect("3 n values in component order");
+    // SAFETY: the caller's promise.
+    let a = unsafe { PyArray2::borrow_from_array(&view, owner.clone().into_any()) };
     a.readwrite().make_nonwriteable();
     a
 }
 
-fn readonly<'py>(py: Python<'py>, v: Vec<Real>) -> Bound<'py, PyArray1<Real>> {
-    let a = PyArray1::from_vec(py, v);
+/// A read-only numpy array over a slice owned by `owner`, without a copy.
+///
+/// SAFETY (caller): as for [`coords_view`].
+unsafe fn slice_view<'py, T: numpy::Element>(
+    v: &[T],
+    owner: &Bound<'py, PySimulation>,
+) -> Bound<'py, PyArray1<T>> {
+    let view = ArrayView1::from(v);
+    // SAFETY: the caller's promise.
+    let a = unsafe { PyArray1::borrow_from_array(&view, owner.clone().into_any()) };
     a.readwrite().make_nonwriteable();
     a
 }
@@ -226,13 +321,29 @@ impl PySimulation {
         }
         let (summary, ended) = match self.pending.take() {
             // Quasi-static: the load steps, to the end, through the library's driver.
-            Some((sim, opts)) if sim.quasi_static.is_some() => py
-                .detach(|| hooke_sim::run_keeping(sim, opts, &mut Quiet))
-                .map_err(run_error)?,
+            Some((sim, opts)) if sim.quasi_static.is_some() => {
+                let (summary, ended) = py
+                    .detach(|| hooke_sim::run_keeping(sim, opts, &mut Quiet))
+                    .map_err(run_error)?;
+                let mut v = self
+                    .velocity
+                    .take()
+                    .unwrap_or_else(|| Coords::zeros(ended.body.nodes()));
+                v.copy_from(&ended.state.v);
+                self.velocity = Some(v);
+                (summary, ended)
+            }
             pending => {
                 self.pending = pending;
                 self.drive(py, u64::MAX, Real::INFINITY)?;
-                let run = self.run.take().expect("started by drive");
+                let mut run = self.run.take().expect("started by drive");
+                // The velocities at the end, while the integrator that computes them exists.
+                let mut v = self
+                    .velocity
+                    .take()
+                    .unwrap_or_else(|| Coords::zeros(run.simulation().body.nodes()));
+                run.full_velocity_into(&mut v);
+                self.velocity = Some(v);
                 py.detach(|| run.finish_keeping(&mut Quiet))
                     .map_err(run_error)?
             }
@@ -242,6 +353,7 @@ impl PySimulation {
         let s = v.to_string();
         self.summary = Some(s.clone());
         self.ended = Some(ended);
+        self.sync()?;
         Ok(s)
     }
 
@@ -285,56 +397,86 @@ impl PySimulation {
         self.out.display().to_string()
     }
 
-    /// Reference positions (m), n x 3, read-only.
+    /// Reference positions (m), n x 3, a read-only view without a copy.
     #[getter]
-    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<Real>> {
-        coords(py, &self.sim().body.lattice.pos)
+    fn positions<'py>(slf: Bound<'py, Self>) -> Bound<'py, PyArray2<Real>> {
+        slf.borrow_mut().remember("positions");
+        let me = slf.borrow();
+        // SAFETY: the lattice is immutable and lives in the simulation, which `slf` owns.
+        unsafe { coords_view(&me.sim().body.lattice.pos, &slf) }
     }
 
-    /// Displacements (m), n x 3, read-only.
+    /// Displacements (m), n x 3, a read-only view without a copy that follows the state: it
+    /// shows the displacements after every `step` or `run`.
     #[getter]
-    fn displacement<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<Real>> {
-        coords(py, &self.sim().state.u)
+    fn displacement<'py>(slf: Bound<'py, Self>) -> Bound<'py, PyArray2<Real>> {
+        {
+            let mut me = slf.borrow_mut();
+            if me.u_home.is_none() {
+                me.u_home = Some(me.sim().state.u.as_flat().as_ptr() as usize);
+            }
+        }
+        let me = slf.borrow();
+        // SAFETY: `u_home` pins the allocation; `sync` keeps the displacements in it, and the
+        // state's buffers are overwritten in place (never replaced) while the object lives.
+        unsafe { coords_view(&me.sim().state.u, &slf) }
     }
 
-    /// Velocities (m/s) at the last half step (leapfrog), n x 3, read-only.
+    /// Velocities (m/s) at the current time (the full step, not leapfrog's half step), n x 3,
+    /// a read-only array that follows the state (recomputed in place when `step` or `run`
+    /// returns, once it has been asked for).
     #[getter]
-    fn velocity<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<Real>> {
-        coords(py, &self.sim().state.v)
+    fn velocity<'py>(slf: Bound<'py, Self>) -> PyResult<Bound<'py, PyArray2<Real>>> {
+        {
+            let mut me = slf.borrow_mut();
+            if me.velocity.is_none() {
+                me.velocity = Some(Coords::zeros(me.sim().body.nodes()));
+                me.sync()?;
+            }
+        }
+        let me = slf.borrow();
+        // SAFETY: the buffer belongs to `slf` and is only ever overwritten in place.
+        Ok(unsafe { coords_view(me.velocity.as_ref().expect("made above"), &slf) })
     }
 
-    /// Damage per node: the fraction of its springs that are broken (0 without fracture).
+    /// Damage per node: the fraction of its springs that are broken (0 without fracture),
+    /// a read-only array that follows the state like `velocity`.
     #[getter]
-    fn damage<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<Real>> {
-        let sim = self.sim();
-        let d = match &sim.fracture {
-            Some(f) => f.damage(&sim.body, &sim.state),
-            None => vec![0.0; sim.body.nodes()],
-        };
-        readonly(py, d)
+    fn damage<'py>(slf: Bound<'py, Self>) -> PyResult<Bound<'py, PyArray1<Real>>> {
+        {
+            let mut me = slf.borrow_mut();
+            if me.damage.is_none() {
+                me.damage = Some(vec![0.0; me.sim().body.nodes()]);
+                me.sync()?;
+            }
+        }
+        let me = slf.borrow();
+        // SAFETY: the buffer belongs to `slf` and is only ever overwritten in place.
+        Ok(unsafe { slice_view(me.damage.as_ref().expect("made above"), &slf) })
     }
 
-    /// Each spring's end nodes, m x 2 (int64), read-only.
+    /// Each spring's end nodes, m x 2 (uint32), a read-only view without a copy.
     #[getter]
-    fn spring_ends<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<i64>> {
-        let ends = &self.sim().body.lattice.bonds.ends;
-        let flat: Vec<i64> = ends
-            .iter()
-            .flat_map(|e| [e[0] as i64, e[1] as i64])
-            .collect();
-        let a = PyArray1::from_vec(py, flat)
-            .reshape([ends.len(), 2])
-            .expect("2m values reshape to m x 2");
+    fn spring_ends<'py>(slf: Bound<'py, Self>) -> Bound<'py, PyArray2<u32>> {
+        slf.borrow_mut().remember("spring_ends");
+        let me = slf.borrow();
+        let ends = &me.sim().body.lattice.bonds.ends;
+        let flat = ends.as_flattened();
+        let view = ArrayView2::from_shape((ends.len(), 2), flat).expect("2 m values");
+        // SAFETY: the topology is immutable and lives in the simulation, which `slf` owns.
+        let a = unsafe { PyArray2::borrow_from_array(&view, slf.clone().into_any()) };
         a.readwrite().make_nonwriteable();
         a
     }
 
-    /// Whether each spring is intact (bool, m), read-only.
+    /// Whether each spring is intact (bool, m), a read-only view without a copy that follows
+    /// the state.
     #[getter]
-    fn spring_intact<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<bool>> {
-        let a = PyArray1::from_slice(py, self.sim().state.alive());
-        a.readwrite().make_nonwriteable();
-        a
+    fn spring_intact<'py>(slf: Bound<'py, Self>) -> Bound<'py, PyArray1<bool>> {
+        slf.borrow_mut().remember("spring_intact");
+        let me = slf.borrow();
+        // SAFETY: springs are broken in place; the buffer lives in the state, which `slf` owns.
+        unsafe { slice_view(me.sim().state.alive(), &slf) }
     }
 
     /// The energy ledger now (J) as JSON text (`NAME_energy.csv`'s columns).

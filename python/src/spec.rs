@@ -541,7 +541,7 @@ fn contact_options(sim: &Simulation, c: Option<&Value>) -> R<ContactOptions> {
 fn starts_clear(sim: &Simulation, rb: &RigidBody, radius: Real) -> R<()> {
     let pos = &sim.body.lattice.pos;
     for i in 0..sim.body.nodes() {
-        let x = [pos.x[i], pos.y[i], pos.z[i]];
+        let x = [pos.x()[i], pos.y()[i], pos.z()[i]];
         if let Some((d, _)) = rb.geometry.signed_distance(rb.position, x) {
             if d < radius {
                 return Err(format!(

@@ -56,6 +56,8 @@ def test_toughness_matches_the_command_line_exactly():
 def test_a_case_run_from_python_is_the_command_lines_run_bit_for_bit(tmp_path):
     sets = {"solver.end_time": 6e-6, "output.every": 2e-6}
     sim = hooke.load_case(CASE, scale=0.25, set=sets, out=tmp_path / "py")
+    # Views taken before the run show the end state (whatever the parity of the step count).
+    u, v = sim.displacement, sim.velocity
     sim.run()
     summary = sim.finish()
     assert summary["steps"] > 0 and summary["output_dir"] == str(tmp_path / "py")
@@ -67,6 +69,8 @@ def test_a_case_run_from_python_is_the_command_lines_run_bit_for_bit(tmp_path):
     assert len(out) == len(out.times) >= 4
     last = out.fields(-1)
     assert np.array_equal(last["displacement"], sim.displacement)
+    assert np.array_equal(last["displacement"], u) and np.abs(u).max() > 0.0
+    assert np.array_equal(last["velocity"], v) and np.abs(v).max() > 0.0
     assert out.info["status"] == "completed"
 
 
@@ -91,6 +95,44 @@ def test_views_follow_the_state_and_are_read_only(tmp_path):
     assert set(r) == {"boundary[0]", "boundary[1]"}, r
     sim.run(until=sim.time + 5 * sim.dt)
     assert sim.steps == 25
+
+
+def test_views_are_zero_copy_and_stay_valid(tmp_path):
+    sim = hooke.load_case(CASE, scale=0.25, out=tmp_path / "z")
+    n, m = sim.nodes, sim.springs
+    views = {"positions": sim.positions, "displacement": sim.displacement,
+             "velocity": sim.velocity, "damage": sim.damage, "spring_ends": sim.spring_ends,
+             "spring_intact": sim.spring_intact}
+    for name, a in views.items():
+        # A view: it owns no data, keeps the simulation alive, and is not writable.
+        assert not a.flags.owndata and a.base is not None and not a.flags.writeable, name
+        assert np.shares_memory(a, getattr(sim, name)), name
+    assert views["spring_ends"].shape == (m, 2) and views["spring_ends"].dtype == np.uint32
+    assert views["spring_ends"].max() == n - 1
+    u = views["displacement"]
+    # One step at a time, so the integrator's two buffers alternate: the view held from the
+    # start follows the state, equal to a fresh one and to the frame written at the end.
+    previous = u.copy()
+    for _ in range(5):
+        sim.step(1)
+        assert np.shares_memory(u, sim.displacement)
+        assert not np.array_equal(u, previous)
+        previous = u.copy()
+    # The velocity is the full step v(t) = v(t - dt/2) + dt/2 a(t), which leapfrog makes
+    # (u(t + dt) - u(t - dt)) / 2 dt to round-off on the free (undamped) nodes.
+    u_before = u.copy()
+    sim.step(1)
+    v_now = views["velocity"].copy()
+    sim.step(1)
+    central = (u - u_before) / (2.0 * sim.dt)
+    y = sim.positions[:, 1]
+    free = (y > 2e-3) & (y < 28e-3)
+    scale = np.abs(central[free]).max()
+    assert scale > 0.0
+    assert np.abs(v_now[free] - central[free]).max() <= 1e-6 * scale
+    # The views outlive the simulation object that made them (they keep it alive).
+    del sim
+    assert np.isfinite(u).all() and views["positions"].shape == (n, 3)
 
 
 def test_callback_every_interval(tmp_path):
@@ -283,6 +325,7 @@ steps = 3
 end_time = 1.0
 """
     sim = hooke.load_case(text, out=tmp_path / "qs", name="qs")
+    u = sim.displacement  # a view held across the solve
     with pytest.raises(hooke.RunError, match="finish"):
         sim.step(1)
     summary = sim.finish()
@@ -290,6 +333,7 @@ end_time = 1.0
     # The end state: the pulled face moved by the prescribed displacement.
     x = sim.positions[:, 0]
     assert np.allclose(sim.displacement[x > 5.9e-3, 0], 6e-6)
+    assert np.shares_memory(u, sim.displacement) and np.array_equal(u, sim.displacement)
     (tmp_path / "qs.toml").write_text(text)
     cli("run", str(tmp_path / "qs.toml"), "--out", str(tmp_path / "cli"))
     subprocess.run([sys.executable, str(ROOT / "tools" / "compare_runs.py"), str(tmp_path / "qs"),

@@ -67,10 +67,10 @@ pub fn small_body(kind: LatticeKind, q: Real, n: usize) -> Body {
 pub fn random_displacement(body: &Body, rng: &mut Rng, amp: Real) -> Coords {
     let mut u = Coords::zeros(body.nodes());
     for i in 0..body.nodes() {
-        u.x[i] = rng.sym(amp);
-        u.y[i] = rng.sym(amp);
+        u.x_mut()[i] = rng.sym(amp);
+        u.y_mut()[i] = rng.sym(amp);
         if body.lattice.dim() == 3 {
-            u.z[i] = rng.sym(amp);
+            u.z_mut()[i] = rng.sym(amp);
         }
     }
     u

@@ -274,8 +274,8 @@ fn bench_run(args: &BenchArgs, lattice: Lattice, q: Real) -> Result<(Body, State
     let mut state = State::new(&body);
     for i in 0..body.nodes() {
         let p = body.lattice.pos.get(i);
-        state.v.x[i] = 1e-3 * (0.1 * p.y).sin();
-        state.v.y[i] = 1e-3 * (0.13 * p.z + 0.07 * p.x).cos();
+        state.v.x_mut()[i] = 1e-3 * (0.1 * p.y).sin();
+        state.v.y_mut()[i] = 1e-3 * (0.13 * p.z + 0.07 * p.x).cos();
     }
     let it = Integrator::new(&body, &mut state, Loading::default(), &bench_opts(args))
         .context("setting up the integrator")?;

@@ -221,7 +221,11 @@ impl Contact {
 
     fn position(body: &Body, u: &Coords, i: usize) -> [Real; 3] {
         let p = &body.lattice.pos;
-        [p.x[i] + u.x[i], p.y[i] + u.y[i], p.z[i] + u.z[i]]
+        [
+            p.x()[i] + u.x()[i],
+            p.y()[i] + u.y()[i],
+            p.z()[i] + u.z()[i],
+        ]
     }
 
     /// Whether the lists built at the last rebuild still hold every pair that can be in range.
@@ -234,9 +238,9 @@ impl Contact {
             .with_min_len(4096)
             .map(|i| {
                 let d = [
-                    u.x[i] - self.u_build.x[i],
-                    u.y[i] - self.u_build.y[i],
-                    u.z[i] - self.u_build.z[i],
+                    u.x()[i] - self.u_build.x()[i],
+                    u.y()[i] - self.u_build.y()[i],
+                    u.z()[i] - self.u_build.z()[i],
                 ];
                 d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
             })
@@ -340,9 +344,9 @@ impl Contact {
                             if d2 >= h * h {
                                 continue;
                             }
-                            let r0 = ((pos.x[i] - pos.x[jj]).powi(2)
-                                + (pos.y[i] - pos.y[jj]).powi(2)
-                                + (pos.z[i] - pos.z[jj]).powi(2))
+                            let r0 = ((pos.x()[i] - pos.x()[jj]).powi(2)
+                                + (pos.y()[i] - pos.y()[jj]).powi(2)
+                                + (pos.z()[i] - pos.z()[jj]).powi(2))
                             .sqrt();
                             if r0 < 1e-12 * h || bonded(i, j) {
                                 continue;
@@ -415,7 +419,7 @@ impl Interaction for Contact {
                     f[c] = fn_mag * nrm[c];
                 }
                 if friction > 0.0 {
-                    let vi = [state.v.x[i], state.v.y[i], state.v.z[i]];
+                    let vi = [state.v.x()[i], state.v.y()[i], state.v.z()[i]];
                     let rel = [0, 1, 2].map(|c| vi[c] - vb[c]);
                     let vn: Real = (0..3).map(|c| rel[c] * nrm[c]).sum();
                     let vt = [0, 1, 2].map(|c| rel[c] - vn * nrm[c]);
@@ -466,17 +470,25 @@ impl Interaction for Contact {
                 .with_min_len(256)
                 .map(|(f, &i)| {
                     let i = i as usize;
-                    let xi = [pos.x[i] + u.x[i], pos.y[i] + u.y[i], pos.z[i] + u.z[i]];
+                    let xi = [
+                        pos.x()[i] + u.x()[i],
+                        pos.y()[i] + u.y()[i],
+                        pos.z()[i] + u.z()[i],
+                    ];
                     *f = [0.0; 3];
                     let mut e = 0.0;
                     for &j in &nbr[offs[i] as usize..offs[i + 1] as usize] {
                         let j = j as usize;
-                        let xj = [pos.x[j] + u.x[j], pos.y[j] + u.y[j], pos.z[j] + u.z[j]];
+                        let xj = [
+                            pos.x()[j] + u.x()[j],
+                            pos.y()[j] + u.y()[j],
+                            pos.z()[j] + u.z()[j],
+                        ];
                         let d = [xi[0] - xj[0], xi[1] - xj[1], xi[2] - xj[2]];
                         let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                        let r0 = ((pos.x[i] - pos.x[j]).powi(2)
-                            + (pos.y[i] - pos.y[j]).powi(2)
-                            + (pos.z[i] - pos.z[j]).powi(2))
+                        let r0 = ((pos.x()[i] - pos.x()[j]).powi(2)
+                            + (pos.y()[i] - pos.y()[j]).powi(2)
+                            + (pos.z()[i] - pos.z()[j]).powi(2))
                         .sqrt();
                         let dij = df.min(r0);
                         if r >= dij || r == 0.0 {

@@ -154,11 +154,11 @@ fn contact_is_bit_identical_for_one_and_two_threads() {
     let (u1, v1, x1) = run(1);
     let (u2, v2, x2) = run(2);
     let same = |a: &[Real], b: &[Real]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
-    assert!(same(&u1.x, &u2.x) && same(&u1.y, &u2.y) && same(&u1.z, &u2.z));
-    assert!(same(&v1.x, &v2.x) && same(&v1.y, &v2.y) && same(&v1.z, &v2.z));
+    assert!(same(u1.x(), u2.x()) && same(u1.y(), u2.y()) && same(u1.z(), u2.z()));
+    assert!(same(v1.x(), v2.x()) && same(v1.y(), v2.y()) && same(v1.z(), v2.z()));
     assert_eq!(x1.map(f64::to_bits), x2.map(f64::to_bits));
     assert!(
-        u1.z.iter().any(|&z| z != 0.0),
+        u1.z().iter().any(|&z| z != 0.0),
         "the sphere must have hit the block"
     );
 }
@@ -171,7 +171,7 @@ fn fragments_do_not_interpenetrate() {
     let closest = |fragments: bool| {
         let body = steel_block([12, 6, 6]);
         let mut state = State::new(&body);
-        let left = |i: usize| body.lattice.pos.x[i] < 5.5 * A;
+        let left = |i: usize| body.lattice.pos.x()[i] < 5.5 * A;
         let cut: Vec<usize> = (0..body.springs())
             .filter(|&b| {
                 let [i, j] = body.lattice.bonds.ends[b];
@@ -182,7 +182,7 @@ fn fragments_do_not_interpenetrate() {
             state.kill_bond(&body, b);
         }
         for i in 0..body.nodes() {
-            state.v.x[i] = if left(i) { 20.0 } else { -20.0 };
+            state.v.x_mut()[i] = if left(i) { 20.0 } else { -20.0 };
         }
         let mut it = Integrator::new(
             &body,
@@ -237,7 +237,7 @@ fn kinematic_platen_pushes_and_records_its_reaction() {
     // strain of about 0.3 %.
     let mut loading = Loading::default();
     let bottom: Vec<u32> = (0..body.nodes() as u32)
-        .filter(|&i| body.lattice.pos.z[i as usize] == 0.0)
+        .filter(|&i| body.lattice.pos.z()[i as usize] == 0.0)
         .collect();
     for axis in 0..3 {
         loading.prescribed.push(hooke_core::loading::Prescribed {
@@ -272,9 +272,9 @@ fn kinematic_platen_pushes_and_records_its_reaction() {
     // The reaction points up and the block is compressed; at this stress (about E/300) the
     // penalty gives way by far less than the stated tolerance.
     let top: Vec<usize> = (0..body.nodes())
-        .filter(|&i| body.lattice.pos.z[i] == 8.0 * A)
+        .filter(|&i| body.lattice.pos.z()[i] == 8.0 * A)
         .collect();
-    let dz: Real = top.iter().map(|&i| state.u.z[i]).sum::<Real>() / top.len() as Real;
+    let dz: Real = top.iter().map(|&i| state.u.z()[i]).sum::<Real>() / top.len() as Real;
     println!(
         "platen moved {:.3e} m, top face {dz:.3e} m, reaction {:.3e} N, penetration {:.3e} m",
         8.5 * A - last.position[2],
@@ -299,7 +299,7 @@ fn fragment_contact_is_bit_identical_for_one_and_two_threads() {
         pool.install(|| {
             let body = steel_block([12, 6, 6]);
             let mut state = State::new(&body);
-            let left = |i: usize| body.lattice.pos.x[i] < 5.5 * A;
+            let left = |i: usize| body.lattice.pos.x()[i] < 5.5 * A;
             for b in 0..body.springs() {
                 let [i, j] = body.lattice.bonds.ends[b];
                 if left(i as usize) != left(j as usize) {
@@ -307,7 +307,7 @@ fn fragment_contact_is_bit_identical_for_one_and_two_threads() {
                 }
             }
             for i in 0..body.nodes() {
-                state.v.x[i] = if left(i) { 20.0 } else { -20.0 };
+                state.v.x_mut()[i] = if left(i) { 20.0 } else { -20.0 };
             }
             let mut it = Integrator::new(
                 &body,

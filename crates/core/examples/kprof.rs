@@ -21,7 +21,7 @@ fn main() {
     let body = Body::uniform(lat, 1.0, 0.2, 1.0);
     let mut state = State::new(&body);
     for i in 0..body.nodes() {
-        state.u.x[i] = 1e-3 * (0.1 * body.lattice.pos.y[i]).sin();
+        state.u.x_mut()[i] = 1e-3 * (0.1 * body.lattice.pos.y()[i]).sin();
     }
     let k = Kernel::Csr { plain: false };
     let inv_mass = vec![1.0; body.nodes()];

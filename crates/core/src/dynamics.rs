@@ -570,7 +570,7 @@ impl Integrator {
             for &(i, _) in &self.contact {
                 let i = i as usize;
                 self.v_contact
-                    .push([state.v.x[i], state.v.y[i], state.v.z[i]]);
+                    .push([state.v.x()[i], state.v.y()[i], state.v.z()[i]]);
             }
         }
         if !swept {
@@ -582,12 +582,12 @@ impl Integrator {
         self.f_before.clear();
         for &(i, _) in &self.loaded {
             self.v_before
-                .push([state.v.x[i], state.v.y[i], state.v.z[i]]);
+                .push([state.v.x()[i], state.v.y()[i], state.v.z()[i]]);
         }
         for d in &self.dofs {
             let i = d.node;
             self.v_before
-                .push([state.v.x[i], state.v.y[i], state.v.z[i]]);
+                .push([state.v.x()[i], state.v.y()[i], state.v.z()[i]]);
             self.f_before.push(crate::law::node_force(
                 body,
                 body.q,
@@ -619,7 +619,7 @@ impl Integrator {
         self.v_kernel.clear();
         for &(i, _) in &self.loaded {
             self.v_kernel
-                .push([state.v.x[i], state.v.y[i], state.v.z[i]]);
+                .push([state.v.x()[i], state.v.y()[i], state.v.z()[i]]);
         }
         for &(i, li) in &self.loaded {
             let l = &self.loading.loads[li];
@@ -653,7 +653,7 @@ impl Integrator {
         for (k, &(i, f)) in self.contact.iter().enumerate() {
             let i = i as usize;
             let m = body.mass[i];
-            let v_sweep = [state.v.x[i], state.v.y[i], state.v.z[i]];
+            let v_sweep = [state.v.x()[i], state.v.y()[i], state.v.z()[i]];
             for c in 0..3 {
                 let dv = f[c] * dt * self.inv_mass[i] * grow;
                 state.v.comp_mut(c)[i] += dv;
@@ -747,6 +747,16 @@ impl Integrator {
             }
         }
         Ok(())
+    }
+
+    /// Moves the displacements into the integrator's other buffer, values unchanged (one copy
+    /// of `3 n` values). A step writes the new displacements into a second buffer and swaps the
+    /// two, so `state.u`'s allocation alternates from step to step; a reader that holds a view
+    /// of it without copying (numpy) calls this, when the parity is wrong, to keep the
+    /// displacements where its view looks.
+    pub fn swap_displacement_buffers(&mut self, state: &mut State) {
+        std::mem::swap(&mut state.u, &mut self.u_next);
+        state.u.copy_from(&self.u_next);
     }
 
     /// Full-step velocity `v(t)` (for output and energy): `v(t-dt/2) + dt/2 a(t)` on free DOFs,

@@ -175,9 +175,9 @@ impl Bonds {
 #[inline(always)]
 pub fn reference_vector(pos: &Coords, period: [Real; 3], i: usize, j: usize) -> [Real; 3] {
     let mut d = [
-        pos.x[j] - pos.x[i],
-        pos.y[j] - pos.y[i],
-        pos.z[j] - pos.z[i],
+        pos.x()[j] - pos.x()[i],
+        pos.y()[j] - pos.y()[i],
+        pos.z()[j] - pos.z()[i],
     ];
     for c in 0..3 {
         let p = period[c];
@@ -487,13 +487,14 @@ impl Lattice {
             return Ok(self);
         }
         let mut new_index = vec![u32::MAX; n];
-        let mut pos = Coords::default();
+        let (mut x, mut y, mut z) = (Vec::new(), Vec::new(), Vec::new());
         for i in (0..n).filter(|&i| kept[i]) {
-            new_index[i] = pos.x.len() as u32;
-            pos.x.push(self.pos.x[i]);
-            pos.y.push(self.pos.y[i]);
-            pos.z.push(self.pos.z[i]);
+            new_index[i] = x.len() as u32;
+            x.push(self.pos.x()[i]);
+            y.push(self.pos.y()[i]);
+            z.push(self.pos.z()[i]);
         }
+        let pos = Coords::from_components(&x, &y, &z);
         if pos.is_empty() {
             return Err(Error::InvalidInput {
                 what: "geometry",

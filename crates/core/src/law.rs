@@ -81,7 +81,11 @@ pub fn spring_geometry(
     rest: Real,
 ) -> SpringGeometry {
     let big = lat.reference_vector(i, j);
-    let w = [u.x[j] - u.x[i], u.y[j] - u.y[i], u.z[j] - u.z[i]];
+    let w = [
+        u.x()[j] - u.x()[i],
+        u.y()[j] - u.y()[i],
+        u.z()[j] - u.z()[i],
+    ];
     let d = [big[0] + w[0], big[1] + w[1], big[2] + w[2]];
     let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
     let num = 2.0 * (big[0] * w[0] + big[1] * w[1] + big[2] * w[2])
@@ -98,9 +102,9 @@ pub fn spring_geometry(
 pub fn spring_vector(lat: &Lattice, u: &Coords, i: usize, j: usize) -> (Real, Real, Real) {
     let d = lat.reference_vector(i, j);
     (
-        d[0] + (u.x[j] - u.x[i]),
-        d[1] + (u.y[j] - u.y[i]),
-        d[2] + (u.z[j] - u.z[i]),
+        d[0] + (u.x()[j] - u.x()[i]),
+        d[1] + (u.y()[j] - u.y()[i]),
+        d[2] + (u.z()[j] - u.z()[i]),
     )
 }
 
@@ -172,9 +176,10 @@ pub fn node_force(
 
 /// Spring pass: internal force on every node from the current pools.
 pub fn compute_forces(body: &Body, u: &Coords, alive: &[bool], pool: &[Real], f: &mut Coords) {
-    f.x.par_iter_mut()
-        .zip(f.y.par_iter_mut())
-        .zip(f.z.par_iter_mut())
+    let [x, y, z] = f.xyz_mut();
+    x.par_iter_mut()
+        .zip(y.par_iter_mut())
+        .zip(z.par_iter_mut())
         .with_min_len(MIN_NODES_PER_TASK)
         .enumerate()
         .for_each(|(n, ((fx, fy), fz))| {
@@ -330,11 +335,10 @@ pub fn frame_fields(body: &Body, u: &Coords, alive: &[bool], norm: &[Real]) -> F
     let mut force = Coords::zeros(n);
     let mut energy_density = vec![0.0; n];
     let mut stress = vec![[0.0; 9]; n];
-    force
-        .x
-        .par_iter_mut()
-        .zip(force.y.par_iter_mut())
-        .zip(force.z.par_iter_mut())
+    let [fx, fy, fz] = force.xyz_mut();
+    fx.par_iter_mut()
+        .zip(fy.par_iter_mut())
+        .zip(fz.par_iter_mut())
         .zip(energy_density.par_iter_mut())
         .zip(stress.par_iter_mut())
         .with_min_len(MIN_NODES_PER_TASK)

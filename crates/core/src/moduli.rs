@@ -191,16 +191,16 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
     }
     if t.ends == Ends::Slide {
         let mut ty = Coords::zeros(n);
-        ty.y.fill(1.0);
+        ty.y_mut().fill(1.0);
         cons.add_null_mode(ty);
         if t.kind.dim() == 3 {
             let mut tz = Coords::zeros(n);
-            tz.z.fill(1.0);
+            tz.z_mut().fill(1.0);
             cons.add_null_mode(tz);
             let mut rx = Coords::zeros(n);
             for i in 0..n {
-                rx.y[i] = -(pos.z[i] - zc);
-                rx.z[i] = pos.y[i] - yc;
+                rx.y_mut()[i] = -(pos.z()[i] - zc);
+                rx.z_mut()[i] = pos.y()[i] - yc;
             }
             cons.add_null_mode(rx);
         }
@@ -210,7 +210,7 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
     // Reaction on the +x end: minus the internal force there.
     let force: Real = (0..n)
         .filter(|&i| end_of(i) == Some(1.0))
-        .map(|i| -state.f.x[i])
+        .map(|i| -state.f.x()[i])
         .sum();
     let (area, area_cell, w_change) = match t.kind {
         LatticeKind::Cubic => {
@@ -245,13 +245,13 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
                 let idx: Vec<usize> = (0..nx).map(|c| c + nx * r).collect();
                 let best = idx
                     .iter()
-                    .map(|&i| (pos.x[i] - xc).abs())
+                    .map(|&i| (pos.x()[i] - xc).abs())
                     .fold(Real::INFINITY, Real::min);
                 let sel: Vec<usize> = idx
                     .into_iter()
-                    .filter(|&i| (pos.x[i] - xc).abs() <= best + 1e-9 * a)
+                    .filter(|&i| (pos.x()[i] - xc).abs() <= best + 1e-9 * a)
                     .collect();
-                sel.iter().map(|&i| state.u.y[i]).sum::<Real>() / sel.len() as Real
+                sel.iter().map(|&i| state.u.y()[i]).sum::<Real>() / sel.len() as Real
             };
             (w, ny as Real * dyr, (row_mean(ny - 1) - row_mean(0)) / w)
         }
@@ -414,7 +414,7 @@ fn centre(pos: &Coords) -> (Real, Real) {
         let hi = v.iter().cloned().fold(Real::NEG_INFINITY, Real::max);
         0.5 * (lo + hi)
     };
-    (minmax(&pos.y), minmax(&pos.z))
+    (minmax(pos.y()), minmax(pos.z()))
 }
 
 /// Elastic constants of the infinite lattice, measured through the force law.

@@ -173,11 +173,7 @@ impl KernelJacobian {
     }
 
     fn apply(&mut self, body: &Body, kernel: &Kernel, v: &Coords, out: &mut Coords) {
-        let vmax =
-            v.x.iter()
-                .chain(&v.y)
-                .chain(&v.z)
-                .fold(0.0 as Real, |m, x| m.max(x.abs()));
+        let vmax = v.as_flat().iter().fold(0.0 as Real, |m, x| m.max(x.abs()));
         if vmax == 0.0 {
             out.fill_zero();
             return;

@@ -10,7 +10,7 @@ use crate::math::{Coords, Real, Vector};
 /// this type (read them with [`State::alive`] and [`State::norm`]; change them with
 /// [`State::kill_bond`] or [`State::set_alive`]), and an integrator notices any change through
 /// [`State::breaks`], so its kernel never runs on stale spring masks.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct State {
     /// Node displacements from the reference positions (m). Stored instead of positions so that
     /// spring extensions keep full precision at small strain: a spring's vector is formed as
@@ -43,6 +43,44 @@ pub struct State {
     /// one flag per block of springs (CSR) or nodes (stencil) holding a spring stretched past
     /// the screen. Scratch like `spring`.
     pub(crate) hot: Vec<bool>,
+}
+
+impl Clone for State {
+    fn clone(&self) -> Self {
+        let mut s = State {
+            u: Coords::default(),
+            v: Coords::default(),
+            f: Coords::default(),
+            alive: Vec::new(),
+            norm: Vec::new(),
+            pool: Vec::new(),
+            time: 0.0,
+            step: 0,
+            breaks: 0,
+            spring: Vec::new(),
+            spring_pi: Vec::new(),
+            hot: Vec::new(),
+        };
+        s.clone_from(self);
+        s
+    }
+
+    /// Field by field into the existing buffers: a state of the same body is overwritten without
+    /// reallocating, so views of its arrays (numpy) stay valid.
+    fn clone_from(&mut self, o: &Self) {
+        self.u.clone_from(&o.u);
+        self.v.clone_from(&o.v);
+        self.f.clone_from(&o.f);
+        self.alive.clone_from(&o.alive);
+        self.norm.clone_from(&o.norm);
+        self.pool.clone_from(&o.pool);
+        self.time = o.time;
+        self.step = o.step;
+        self.breaks = o.breaks;
+        self.spring.clone_from(&o.spring);
+        self.spring_pi.clone_from(&o.spring_pi);
+        self.hot.clone_from(&o.hot);
+    }
 }
 
 /// Equal states: the same displacements, velocities, forces, springs, pools, time and step (how

@@ -205,7 +205,7 @@ pub fn solve(
         let u0 = state.u.clone();
         let mut alpha = 1.0;
         loop {
-            state.u = u0.clone();
+            state.u.copy_from(&u0);
             state.u.axpy(alpha, &du);
             let (r_new, s_new) = residual(state);
             if r_new.norm() < rn || alpha < 1.0 / 64.0 {

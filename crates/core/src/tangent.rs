@@ -113,9 +113,9 @@ impl Tangent {
                         let d = &this.data[bonds.bond[e] as usize];
                         let u = Self::unit(d, n, j);
                         s += d[4]
-                            * (u[0] * (v.x[j] - v.x[n])
-                                + u[1] * (v.y[j] - v.y[n])
-                                + u[2] * (v.z[j] - v.z[n]));
+                            * (u[0] * (v.x()[j] - v.x()[n])
+                                + u[1] * (v.y()[j] - v.y()[n])
+                                + u[2] * (v.z()[j] - v.z()[n]));
                     }
                     *dp = s * this.inv_norm[n];
                 });
@@ -128,10 +128,10 @@ impl Tangent {
         self.compute_dpool(body, v);
         let bonds = &body.lattice.bonds;
         let this = &*self;
-        out.x
-            .par_iter_mut()
-            .zip(out.y.par_iter_mut())
-            .zip(out.z.par_iter_mut())
+        let [ox, oy, oz] = out.xyz_mut();
+        ox.par_iter_mut()
+            .zip(oy.par_iter_mut())
+            .zip(oz.par_iter_mut())
             .with_min_len(MIN_NODES_PER_TASK)
             .enumerate()
             .for_each(|(n, ((ox, oy), oz))| {
@@ -140,7 +140,11 @@ impl Tangent {
                     let j = bonds.nbr[e] as usize;
                     let d = &this.data[bonds.bond[e] as usize];
                     let u = Self::unit(d, n, j);
-                    let w = [v.x[j] - v.x[n], v.y[j] - v.y[n], v.z[j] - v.z[n]];
+                    let w = [
+                        v.x()[j] - v.x()[n],
+                        v.y()[j] - v.y()[n],
+                        v.z()[j] - v.z()[n],
+                    ];
                     let delta = u[0] * w[0] + u[1] * w[1] + u[2] * w[2];
                     let dt = d[3] * delta + this.q * d[4] * (this.dpool[n] + this.dpool[j]);
                     for c in 0..3 {
@@ -162,8 +166,9 @@ impl Tangent {
             .map(|b| {
                 let [i, j] = bonds.ends[b].map(|x| x as usize);
                 let d = &self.data[b];
-                let delta =
-                    d[0] * (v.x[j] - v.x[i]) + d[1] * (v.y[j] - v.y[i]) + d[2] * (v.z[j] - v.z[i]);
+                let delta = d[0] * (v.x()[j] - v.x()[i])
+                    + d[1] * (v.y()[j] - v.y()[i])
+                    + d[2] * (v.z()[j] - v.z()[i]);
                 d[3] * delta + self.q * d[4] * (self.dpool[i] + self.dpool[j])
             })
             .collect()

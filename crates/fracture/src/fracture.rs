@@ -329,9 +329,9 @@ fn shifted_extension(body: &Body, state: &State, h: Real, i: usize, j: usize, re
     let d = body.lattice.reference_vector(i, j);
     let (u, v) = (&state.u, &state.v);
     let w = [
-        (u.x[j] - h * v.x[j]) - (u.x[i] - h * v.x[i]),
-        (u.y[j] - h * v.y[j]) - (u.y[i] - h * v.y[i]),
-        (u.z[j] - h * v.z[j]) - (u.z[i] - h * v.z[i]),
+        (u.x()[j] - h * v.x()[j]) - (u.x()[i] - h * v.x()[i]),
+        (u.y()[j] - h * v.y()[j]) - (u.y()[i] - h * v.y()[i]),
+        (u.z()[j] - h * v.z()[j]) - (u.z()[i] - h * v.z()[i]),
     ];
     let x = [d[0] + w[0], d[1] + w[1], d[2] + w[2]];
     let l = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();

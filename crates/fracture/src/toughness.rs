@@ -196,7 +196,7 @@ fn grips(body: &Body, top: Real) -> (Constraints, Vec<usize>, Vec<Real>) {
     let mut cons = Constraints::all_free(n);
     let (mut nodes, mut sign) = (Vec::new(), Vec::new());
     for i in 0..n {
-        let y = body.lattice.pos.y[i];
+        let y = body.lattice.pos.y()[i];
         if body.lattice.dim() == 2 {
             cons.fix(i, 2);
         }
@@ -260,7 +260,7 @@ fn strip_energy_per_length(t: &StripTest) -> Result<Real, FractureError> {
     let mut state = State::new(&body);
     let eps = 1e-6;
     for (&i, &s) in nodes.iter().zip(&sign) {
-        state.u.y[i] = s * 0.5 * eps * top;
+        state.u.y_mut()[i] = s * 0.5 * eps * top;
     }
     solve(&body, &mut state, &cons)?;
     Ok(stored(&body, &state) / (8.0 * eps * eps))
@@ -313,7 +313,7 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
     let x1 = tip0 + t.height as Real / 2.0;
     let x2 = x1 + t.window as Real;
     let mut breakable: Vec<bool> = (0..body.nodes())
-        .map(|i| body.lattice.pos.x[i] < x2 + t.height as Real / 2.0)
+        .map(|i| body.lattice.pos.x()[i] < x2 + t.height as Real / 2.0)
         .collect();
     for &i in &grip {
         breakable[i] = false;
@@ -324,7 +324,7 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
     let random = t.kind.is_random();
     let crosses = |b: usize| {
         let [i, j] = bonds.ends[b].map(|v| v as usize);
-        let (yi, yj) = (body.lattice.pos.y[i], body.lattice.pos.y[j]);
+        let (yi, yj) = (body.lattice.pos.y()[i], body.lattice.pos.y()[j]);
         if random {
             (0.5 * (yi + yj) - yc).abs() <= 0.25 * top
         } else {
@@ -344,7 +344,7 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
     // Start from a small opening; the first load scaling brings the tip to the criterion.
     let eps0 = 1e-3 * t.s_c;
     for (&i, &s) in grip.iter().zip(&sign) {
-        state.u.y[i] = s * 0.5 * eps0 * top;
+        state.u.y_mut()[i] = s * 0.5 * eps0 * top;
     }
     let mut eps = eps0;
     solve(&body, &mut state, &cons)?;
@@ -358,7 +358,7 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
         // Force the grips exert along y, weighted by their direction of motion.
         grip.iter()
             .zip(&sign)
-            .map(|(&i, &s)| -state.f.y[i] * s)
+            .map(|(&i, &s)| -state.f.y()[i] * s)
             .sum()
     };
     while tip < x2 {
@@ -423,7 +423,7 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
             broken += 1;
             if crosses(b) {
                 let [i, j] = bonds.ends[b].map(|v| v as usize);
-                tip = tip.max(0.5 * (body.lattice.pos.x[i] + body.lattice.pos.x[j]));
+                tip = tip.max(0.5 * (body.lattice.pos.x()[i] + body.lattice.pos.x()[j]));
             } else {
                 off_plane += 1;
             }

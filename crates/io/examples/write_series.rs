@@ -24,7 +24,7 @@ fn main() {
     );
     let ends = |x: Real| {
         (0..body.nodes() as u32)
-            .filter(|&i| (body.lattice.pos.x[i as usize] - x).abs() < 1e-6)
+            .filter(|&i| (body.lattice.pos.x()[i as usize] - x).abs() < 1e-6)
             .collect::<Vec<_>>()
     };
     let v = |to: Real| {
@@ -85,9 +85,9 @@ fn main() {
             "{{\"file\": \"{}\", \"time\": {:e}, \"ux_first\": {:e}, \"ux_last\": {:e}, \"vx_last\": {:e}, \"damage_max\": {:e}, \"lines\": {}}}",
             path.file_name().unwrap().to_string_lossy(),
             state.time,
-            state.u.x[0],
-            state.u.x[last],
-            velocity.x[last],
+            state.u.x()[0],
+            state.u.x()[last],
+            velocity.x()[last],
             dmax,
             intact
         ));

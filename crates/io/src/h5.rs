@@ -152,7 +152,9 @@ impl H5Series {
         let path = self.dir.join(&file);
         let n = self.n;
         let vec3 = |c: &hooke_core::Coords| -> Vec<Real> {
-            (0..n).flat_map(|i| [c.x[i], c.y[i], c.z[i]]).collect()
+            (0..n)
+                .flat_map(|i| [c.x()[i], c.y()[i], c.z()[i]])
+                .collect()
         };
         let d = extras.derived_or_compute(body, state);
         let stress: Vec<Real> = d.stress.iter().flatten().copied().collect();
@@ -326,7 +328,7 @@ fn write_mesh(f: &hdf5_metno::File, body: &Body, path: &Path) -> Result<(), IoEr
     let n = body.nodes();
     let pos = &body.lattice.pos;
     let points: Vec<Real> = (0..n)
-        .flat_map(|i| [pos.x[i], pos.y[i], pos.z[i]])
+        .flat_map(|i| [pos.x()[i], pos.y()[i], pos.z()[i]])
         .collect();
     let mesh = f.create_group("mesh").map_err(h5err(path))?;
     write(&mesh, "points", &points, 3, path)?;

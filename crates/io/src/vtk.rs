@@ -343,7 +343,7 @@ impl RigidSeries {
 fn vectors(name: &str, c: &Coords) -> Attribute {
     let mut data = Vec::with_capacity(3 * c.len());
     for i in 0..c.len() {
-        data.extend([c.x[i], c.y[i], c.z[i]]);
+        data.extend([c.x()[i], c.y()[i], c.z()[i]]);
     }
     Attribute::DataArray(DataArray {
         name: name.into(),
@@ -369,7 +369,7 @@ pub fn frame_vtk(body: &Body, state: &State, extras: FrameExtras, springs: bool)
     let x = state.positions(body);
     let mut points = Vec::with_capacity(3 * n);
     for i in 0..n {
-        points.extend([x.x[i], x.y[i], x.z[i]]);
+        points.extend([x.x()[i], x.y()[i], x.z()[i]]);
     }
     // One vertex cell per node, so that every reader shows the nodes; intact springs as lines
     // on request (for small models: they double the file size per 9 springs per node).

@@ -31,11 +31,11 @@ fn deformed(dim: usize) -> (Body, State) {
     let mut state = State::new(&body);
     let pos = &body.lattice.pos;
     for i in 0..body.nodes() {
-        let (x, y, z) = (pos.x[i], pos.y[i], pos.z[i]);
-        state.u.x[i] = 1e-6 * (x * 1e3).sin() + 2e-7 * y * 1e3;
-        state.u.y[i] = 3e-7 * (x * y * 1e6).cos();
+        let (x, y, z) = (pos.x()[i], pos.y()[i], pos.z()[i]);
+        state.u.x_mut()[i] = 1e-6 * (x * 1e3).sin() + 2e-7 * y * 1e3;
+        state.u.y_mut()[i] = 3e-7 * (x * y * 1e6).cos();
         if dim == 3 {
-            state.u.z[i] = 1e-7 * z * 1e3;
+            state.u.z_mut()[i] = 1e-7 * z * 1e3;
         }
     }
     for b in (0..body.springs()).step_by(7) {

@@ -28,7 +28,7 @@ fn hdf5_frames_read_back_exactly() {
     let body = body();
     let mut state = State::new(&body);
     for i in 0..body.nodes() {
-        state.u.x[i] = 1e-6 * i as f64;
+        state.u.x_mut()[i] = 1e-6 * i as f64;
     }
     let dir = tmp("frames");
     let mut s = H5Series::create(&dir, "t", &body).unwrap();
@@ -54,7 +54,7 @@ fn hdf5_frames_read_back_exactly() {
     let merged = s.finish().unwrap();
     assert_eq!(read(&merged), during);
     for i in 0..body.nodes() {
-        assert_eq!(during[3 * i], state.u.x[i]);
+        assert_eq!(during[3 * i], state.u.x()[i]);
     }
     let x = std::fs::read_to_string(s.xdmf_path()).unwrap();
     assert!(
@@ -82,7 +82,7 @@ fn killed_run_leaves_readable_hdf5_frames() {
         loop {
             state.step += 1;
             state.time += 1e-7;
-            state.u.x[0] += 1e-9;
+            state.u.x_mut()[0] += 1e-9;
             s.write(&body, &state, FrameExtras::default()).unwrap();
         }
     }

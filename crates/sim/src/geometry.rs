@@ -244,10 +244,10 @@ pub fn fill_lattice(
         }
     };
     for i in 0..lattice.len() {
-        lattice.pos.x[i] += lo.x;
-        lattice.pos.y[i] += lo.y;
+        lattice.pos.x_mut()[i] += lo.x;
+        lattice.pos.y_mut()[i] += lo.y;
         if dim == 3 {
-            lattice.pos.z[i] += lo.z;
+            lattice.pos.z_mut()[i] += lo.z;
         }
     }
     if !geometry.add.is_empty() || !geometry.subtract.is_empty() {

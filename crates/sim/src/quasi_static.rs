@@ -120,7 +120,7 @@ fn drive(
             match statics::solve(body, state, &cons, Some(fext), &opts) {
                 Ok(_) => Ok(()),
                 Err(newton) => {
-                    state.u = before;
+                    state.u.copy_from(&before);
                     // Springs break while the body relaxes: an unstable crack runs through.
                     let mut fr = fr;
                     let mut hook = |s: &mut State| match fr.as_deref_mut() {

@@ -283,7 +283,8 @@ impl Run {
                     }
                     Error::Input(msg)
                 })?;
-                sim.state = ck.state.clone();
+                // In place: readers that view the state's buffers (numpy) keep seeing it.
+                sim.state.clone_from(&ck.state);
                 match sim.contact.as_mut() {
                     Some(c) => c
                         .restore(&ck.extra)
@@ -380,6 +381,25 @@ impl Run {
         if let Some(fr) = sim.fracture.as_mut() {
             fr.settle(&sim.body, &mut sim.state, &mut self.it);
         }
+    }
+
+    /// Keeps the displacements in the allocation that starts at `home` (an address taken from
+    /// `simulation().state.u.as_flat()`), for readers that view them without a copy: the
+    /// integrator alternates two buffers from step to step, and this moves the values back
+    /// (one copy) when they are in the other one. False if `home` is neither buffer.
+    pub fn keep_displacement_in(&mut self, home: *const Real) -> bool {
+        if self.sim.state.u.as_flat().as_ptr() != home {
+            self.it.swap_displacement_buffers(&mut self.sim.state);
+        }
+        self.sim.state.u.as_flat().as_ptr() == home
+    }
+
+    /// The velocities at the current time into `out` (the full step: `v(t - dt/2) + dt/2 a(t)`
+    /// on free DOFs, the prescribed velocity on prescribed ones), in place.
+    pub fn full_velocity_into(&mut self, out: &mut Coords) {
+        self.settle();
+        let v = self.it.full_velocity(&self.sim.body, &mut self.sim.state);
+        out.copy_from(&v);
     }
 
     /// The energy balance now (one force evaluation).

@@ -104,7 +104,7 @@ impl Simulation {
     /// The extent of the body (m): its largest side.
     pub fn extent(&self) -> Real {
         let pos = &self.body.lattice.pos;
-        [&pos.x, &pos.y, &pos.z]
+        [pos.x(), pos.y(), pos.z()]
             .iter()
             .map(|v| {
                 let lo = v.iter().cloned().fold(Real::INFINITY, Real::min);

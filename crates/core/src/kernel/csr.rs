@@ -295,11 +295,11 @@ fn vector<const D: usize, const P: bool>(
     let big = if P {
         reference_vector(p, lat.period, i, j)
     } else {
-        let z = if D == 3 { p.z[j] - p.z[i] } else { 0.0 };
-        [p.x[j] - p.x[i], p.y[j] - p.y[i], z]
+        let z = if D == 3 { p.z()[j] - p.z()[i] } else { 0.0 };
+        [p.x()[j] - p.x()[i], p.y()[j] - p.y()[i], z]
     };
-    let wz = if D == 3 { u.z[j] - u.z[i] } else { 0.0 };
-    let w = [u.x[j] - u.x[i], u.y[j] - u.y[i], wz];
+    let wz = if D == 3 { u.z()[j] - u.z()[i] } else { 0.0 };
+    let w = [u.x()[j] - u.x()[i], u.y()[j] - u.y()[i], wz];
     let d = [big[0] + w[0], big[1] + w[1], big[2] + w[2]];
     if D == 3 {
         (
@@ -369,7 +369,7 @@ fn fkd<const D: usize>(
                 inv_mass[i],
                 p,
                 [&mut vx[k], &mut vy[k], &mut vz[k]],
-                [u.x[i], u.y[i], u.z[i]],
+                [u.x()[i], u.y()[i], u.z()[i]],
                 [&mut nx[k], &mut ny[k], &mut nz[k]],
             );
             sums.dissipated += d;
@@ -402,10 +402,10 @@ mod tests {
             }
             for i in 0..body.nodes() {
                 let x = body.lattice.pos.get(i);
-                state.u.x[i] = 0.01 * (1.3 * x.y).sin();
-                state.u.y[i] = 0.02 * (0.7 * x.x + 0.2 * x.z).cos();
+                state.u.x_mut()[i] = 0.01 * (1.3 * x.y).sin();
+                state.u.y_mut()[i] = 0.02 * (0.7 * x.x + 0.2 * x.z).cos();
                 if dim == 3 {
-                    state.u.z[i] = 0.015 * (0.9 * x.x).sin();
+                    state.u.z_mut()[i] = 0.015 * (0.9 * x.x).sin();
                 }
             }
             let n = body.springs();

@@ -189,9 +189,9 @@ impl CubicStencil {
         let j = (i as isize + self.off[d]) as usize;
         let dv = self.dvec[d];
         let x = [
-            dv[0] + (u.x[j] - u.x[i]),
-            dv[1] + (u.y[j] - u.y[i]),
-            dv[2] + (u.z[j] - u.z[i]),
+            dv[0] + (u.x()[j] - u.x()[i]),
+            dv[1] + (u.y()[j] - u.y()[i]),
+            dv[2] + (u.z()[j] - u.z()[i]),
         ];
         let l = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
         (j, x, l, l - self.rest[d])
@@ -354,7 +354,7 @@ impl CubicStencil {
                         inv_mass[i],
                         p,
                         [&mut vx[k], &mut vy[k], &mut vz[k]],
-                        [u.x[i], u.y[i], u.z[i]],
+                        [u.x()[i], u.y()[i], u.z()[i]],
                         [&mut nx[k], &mut ny[k], &mut nz[k]],
                     );
                     sums.dissipated += d;
@@ -409,7 +409,7 @@ mod avx512 {
                 )
             }
         };
-        let (x, y, z) = (comp(&u.x, 0), comp(&u.y, 1), comp(&u.z, 2));
+        let (x, y, z) = (comp(u.x(), 0), comp(u.y(), 1), comp(u.z(), 2));
         (
             [x, y, z],
             _mm512_fmadd_pd(x, x, _mm512_fmadd_pd(y, y, _mm512_mul_pd(z, z))),
@@ -440,9 +440,9 @@ mod avx512 {
         unsafe {
             (
                 [
-                    _mm512_loadu_pd(u.x.as_ptr().add(i)),
-                    _mm512_loadu_pd(u.y.as_ptr().add(i)),
-                    _mm512_loadu_pd(u.z.as_ptr().add(i)),
+                    _mm512_loadu_pd(u.x().as_ptr().add(i)),
+                    _mm512_loadu_pd(u.y().as_ptr().add(i)),
+                    _mm512_loadu_pd(u.z().as_ptr().add(i)),
                 ],
                 _mm256_loadu_si256(s.mask.as_ptr().add(i) as *const __m256i),
             )

@@ -234,16 +234,8 @@ where
 {
     use rayon::prelude::*;
     let chunks = n.div_ceil(CHUNK);
-    let vs = [
-        Disjoint::new(&mut v.x),
-        Disjoint::new(&mut v.y),
-        Disjoint::new(&mut v.z),
-    ];
-    let us = [
-        Disjoint::new(&mut u_next.x),
-        Disjoint::new(&mut u_next.y),
-        Disjoint::new(&mut u_next.z),
-    ];
+    let vs = v.xyz_mut().map(Disjoint::new);
+    let us = u_next.xyz_mut().map(Disjoint::new);
     partials[..chunks]
         .par_iter_mut()
         .enumerate()

@@ -165,15 +165,16 @@ impl Lattice {
         }
         // Drop nodes without springs and renumber.
         let mut new_index = vec![u32::MAX; pts.len()];
-        let mut pos = Coords::default();
+        let (mut x, mut y, mut z) = (Vec::new(), Vec::new(), Vec::new());
         for (i, p) in pts.iter().enumerate() {
             if node_vol[i] > 0.0 {
-                new_index[i] = pos.len() as u32;
-                pos.x.push(p[0]);
-                pos.y.push(p[1]);
-                pos.z.push(p[2]);
+                new_index[i] = x.len() as u32;
+                x.push(p[0]);
+                y.push(p[1]);
+                z.push(p[2]);
             }
         }
+        let pos = Coords::from_components(&x, &y, &z);
         if pos.is_empty() {
             return Err(Error::InvalidInput {
                 what: "geometry",
