@@ -64,6 +64,36 @@ def synthetic(outdir, branch=False, kink=False, edge=False):
         f.write("0,0,0,0,0,0,0,0,0,0\n1e-5,1,2,0.5,0,4,0,0,0.5,0\n")
 
 
+def synthetic_3d(outdir, angles):
+    """A plate of len(angles) layers in z (0, 0.01, ...), the notch through all of them and a
+    crack of length 0.3 at angles[k] degrees in layer k: a crack front that twists."""
+    n = 41
+    xs, ys = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n))
+    h = 1.0 / (n - 1)
+    layers, before, after = [], [], []
+    for k, deg in enumerate(angles):
+        pts = np.column_stack([xs.ravel(), ys.ravel(), np.full(n * n, 0.01 * k)])
+        notch = (np.abs(pts[:, 1] - 0.5) < 0.6 * h) & (pts[:, 0] <= 0.5 + 1e-9)
+        a = math.radians(deg)
+        rel = pts[:, :2] - [0.5, 0.5]
+        along = rel @ [math.cos(a), math.sin(a)]
+        across = np.abs(rel @ [-math.sin(a), math.cos(a)])
+        crack = (along > 0) & (along <= 0.3) & (across < 0.6 * h)
+        layers.append(pts)
+        before.append(notch)
+        after.append(notch | crack)
+    pts = np.vstack(layers)
+    with open(os.path.join(outdir, "run.pvd"), "w") as f:
+        f.write('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n<Collection>\n')
+        for k, (t, dmg) in enumerate([(0.0, np.concatenate(before)), (1e-5, np.concatenate(after))]):
+            name = f"run_{k:06}.vtu"
+            meshio.Mesh(pts, [("vertex", np.arange(len(pts)).reshape(-1, 1))],
+                        point_data={"damage": dmg.astype(float), "displacement": np.zeros((len(pts), 3))}
+                        ).write(os.path.join(outdir, name))
+            f.write(f'<DataSet timestep="{t:.17e}" group="" part="0" file="{name}"/>\n')
+        f.write("</Collection>\n</VTKFile>\n")
+
+
 def largest(out):
     """The largest speed crack_tip.py printed (m/s), or nan."""
     try:
@@ -97,6 +127,13 @@ def main():
         code, out = run(os.path.join(HERE, "crack_map.py"), d, "--times", "0,1e-5")
         check(code == 0 and os.path.getsize(os.path.join(d, "crack_map.png")) > 1000, f"crack_map: {out.strip()}")
     with tempfile.TemporaryDirectory() as d:
+        # Through the thickness: the angle per slab of a 3D plate, and over all of it.
+        synthetic_3d(d, [60.0, 70.0, 80.0])
+        code, out = run(os.path.join(HERE, "crack_angle.py"), d, "--tip", "0.5,0.5", "--radius", "0.4", "--slabs", "3")
+        found = [float(line.split(": ")[-1].split(" degrees")[0]) for line in out.splitlines() if "degrees" in line]
+        check(code == 0 and len(found) == 4 and all(abs(f - e) < 2.0 for f, e in zip(found[1:], [60.0, 70.0, 80.0]))
+              and abs(found[0] - 70.0) < 3.0, f"crack_angle --slabs: {out.strip()}")
+    with tempfile.TemporaryDirectory() as d:
         synthetic(d, branch=True)
         code, out = run(os.path.join(HERE, "crack_angle.py"), d, "--tip", "0.5,0.5", "--radius", "0.4", "--time", "0.9e-5")
         angle = float(out.split("tip 0.5,0.5: ")[1].split(" degrees")[0]) if "degrees" in out else float("nan")
@@ -129,9 +166,9 @@ def main():
                 load = 2e3 * min(k, 10 - k)  # peak 1e4 N at k = 5
                 f.write(f"{k},0,grip,0,{load},0,0,{u},0\n{k},1,base,0,{-load},0,0,0,0\n")
         with open(os.path.join(d, "c_contact.csv"), "w") as f:
-            f.write("time,body,name,reaction_x,reaction_y,reaction_z,x,y,z,vx,vy,vz\n")
+            f.write("time,body,name,reaction_x,reaction_y,reaction_z,x,y,z,vx,vy,vz,wx,wy,wz,qw,qx,qy,qz,torque_x,torque_y,torque_z\n")
             for k in range(5):
-                f.write(f"{k},0,platen,0,{300.0 * k},0,0,{0.1 - 1e-4 * k},0,0,-1,0\n")
+                f.write(f"{k},0,platen,0,{300.0 * k},0,0,{0.1 - 1e-4 * k},0,0,-1,0,0,0,0,1,0,0,0,0,0,0\n")
         code, out = run(os.path.join(HERE, "load_displacement.py"), d)
         check(code == 0 and "grip: peak 1.0000e+04 N at 0.0500 mm" in out and "base" not in out, f"load_displacement regions: {out.strip()}")
         check("platen: peak 1.2000e+03 N at 0.4000 mm" in out, f"load_displacement rigid bodies: {out.strip()}")

@@ -366,12 +366,16 @@ class Builder:
     def rigid(self, shape: Mapping[str, Any], position: Any, velocity: Any = (0.0, 0.0, 0.0),
               motion: str = "dynamic", mass: Optional[float] = None,
               density: Optional[float] = None, friction: float = 0.0,
-              name: Optional[str] = None) -> "Builder":
+              name: Optional[str] = None, angular_velocity: Optional[Any] = None,
+              rotates: Optional[bool] = None) -> "Builder":
         """A rigid body in contact with the lattice, as the case file's ``[[rigid]]``:
         ``shape`` one of ``{"sphere": {"radius"}}``, ``{"box": {"size": [...]}}``,
         ``{"cylinder": {"radius", "length", "axis"}}``, ``{"capsule": {...}}``,
         ``{"halfspace": {"normal": [...]}}``; ``motion`` ``"dynamic"`` (with ``mass`` or
-        ``density``) or ``"kinematic"`` (moves at ``velocity``)."""
+        ``density``) or ``"kinematic"`` (moves at ``velocity``). ``angular_velocity`` (rad/s;
+        ``[wx, wy, wz]`` in 3D, ``[wz]`` in 2D) is a kinematic body's constant spin or a dynamic
+        body's initial one; a dynamic body turns under the contact torques unless
+        ``rotates=False``."""
         arg: Dict[str, Any] = {"shape": dict(shape), "position": list(position),
                                "velocity": list(velocity), "motion": motion,
                                "friction": float(friction)}
@@ -381,6 +385,10 @@ class Builder:
             arg["density"] = float(density)
         if name:
             arg["name"] = name
+        if angular_velocity is not None:
+            arg["angular_velocity"] = [float(w) for w in angular_velocity]
+        if rotates is not None:
+            arg["rotates"] = bool(rotates)
         return self._call("rigid", arg)
 
     def contact(self, stiffness_factor: float = 0.1, radius: Optional[float] = None,

@@ -267,15 +267,33 @@ fn rigid(a: &Value, key: &str, dim: usize, thickness: Real, k: usize) -> R<Rigid
         None => format!("rigid{k}"),
     };
     let flat = |p: [Real; 3]| [p[0], p[1], if dim == 3 { p[2] } else { 0.0 }];
-    Ok(RigidBody {
+    let rotates = match a.get("rotates") {
+        None => None,
+        Some(r) => Some(
+            r.as_bool()
+                .ok_or_else(|| format!("{key}: rotates: give true or false"))?,
+        ),
+    };
+    let spin: Option<Vec<Real>> = match a.get("angular_velocity") {
+        None => None,
+        Some(w) => Some(
+            w.as_array()
+                .and_then(|v| v.iter().map(Value::as_f64).collect::<Option<Vec<Real>>>())
+                .ok_or_else(|| {
+                    format!("{key}: angular_velocity: give a list of numbers (rad/s)")
+                })?,
+        ),
+    };
+    RigidBody::new(
         name,
         geometry,
         motion,
-        position: flat(position),
-        velocity: flat(velocity),
+        flat(position),
+        flat(velocity),
         friction,
-        reaction: [0.0; 3],
-    })
+    )
+    .with_spin_settings(rotates, spin.as_deref(), dim)
+    .map_err(|(which, why)| format!("{key}: {which}: {why}"))
 }
 
 /// Build the simulation a `hooke.Builder` spec describes.

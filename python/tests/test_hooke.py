@@ -240,6 +240,8 @@ shape = { sphere = { radius = 2e-3 } }
 position = [10e-3, 12.8e-3]
 velocity = [0.0, -100.0]
 density = 7800
+friction = 0.3
+angular_velocity = [3000.0]
 
 [contact]
 stiffness_factor = 0.2
@@ -260,7 +262,7 @@ def impact_builder():
             .boundary({"face": "y-"}, fixed=["x", "y"], no_fail=True)
             .boundary({"face": "x+"}, traction=[2e5, 0.0], normal="x")
             .rigid({"sphere": {"radius": 2e-3}}, position=[10e-3, 12.8e-3], velocity=[0.0, -100.0],
-                   density=7800.0, name="striker")
+                   density=7800.0, name="striker", friction=0.3, angular_velocity=[3000.0])
             .contact(stiffness_factor=0.2)
             .end_time(30e-6).time_step(safety=0.7).output_every(5e-6).reactions_every(1e-6))
 
@@ -294,6 +296,15 @@ def test_builder_refuses_bad_rigid_bodies_and_rules(tmp_path):
             tmp_path / "d")
     with pytest.raises(hooke.CaseError, match="stiffness_factor"):
         base().contact(stiffness_factor=3.0).build(tmp_path / "e")
+    with pytest.raises(hooke.CaseError, match=r"\[wz\]"):
+        base().rigid({"sphere": {"radius": 1e-3}}, position=[5e-3, 2e-2], mass=1.0,
+                     angular_velocity=[1.0, 2.0, 3.0]).build(tmp_path / "g")
+    with pytest.raises(hooke.CaseError, match="kinematic"):
+        base().rigid({"halfspace": {"normal": [0, 1]}}, position=[0, 2e-2], motion="kinematic",
+                     rotates=True).build(tmp_path / "h")
+    with pytest.raises(hooke.CaseError, match="rotates = false"):
+        base().rigid({"sphere": {"radius": 1e-3}}, position=[5e-3, 2e-2], mass=1.0,
+                     rotates=False, angular_velocity=[3.0]).build(tmp_path / "i")
     with pytest.raises(hooke.CaseError, match="stretch or fracture_energy"):
         base().breaking()
     with pytest.raises(hooke.CaseError, match="sampler"):

@@ -1225,22 +1225,35 @@ fn rigid(
             x
         }
     };
-    Ok(RigidBody {
-        name: raw.name.clone().unwrap_or_else(|| format!("rigid{k}")),
+    RigidBody::new(
+        raw.name.clone().unwrap_or_else(|| format!("rigid{k}")),
         geometry,
         motion,
-        position: [
+        [
             position.x,
             position.y,
             if dim == 3 { position.z } else { 0.0 },
         ],
-        velocity: [
+        [
             velocity.x,
             velocity.y,
             if dim == 3 { velocity.z } else { 0.0 },
         ],
         friction,
-        reaction: [0.0; 3],
+    )
+    .with_spin_settings(
+        raw.rotates.as_ref().map(|r| *r.get_ref()),
+        raw.angular_velocity
+            .as_ref()
+            .map(|w| w.get_ref().as_slice()),
+        dim,
+    )
+    .map_err(|(which, why)| {
+        let sp = match which {
+            "rotates" => raw.rotates.as_ref().map(|r| r.span()),
+            _ => raw.angular_velocity.as_ref().map(|w| w.span()),
+        };
+        ctx.err(sp.unwrap_or(span.clone()), format!("{key}.{which}"), why)
     })
 }
 

@@ -52,6 +52,11 @@ pub struct RawRigid {
     pub mass: Option<Spanned<Real>>,
     pub density: Option<Spanned<Real>>,
     pub friction: Option<Spanned<Real>>,
+    /// Angular velocity (rad/s): `[wx, wy, wz]` in 3D, `[wz]` in 2D. Prescribed (constant, about
+    /// the reference point) for a kinematic body, the initial one for a dynamic body.
+    pub angular_velocity: Option<Spanned<Vec<Real>>>,
+    /// A dynamic body turns under the contact torques (default true); false keeps it translating.
+    pub rotates: Option<Spanned<bool>>,
     /// Move the body along its velocity until the nearest node is this far outside contact
     /// range (m): places impactors and platens independently of the resolution.
     pub start_gap: Option<Spanned<Real>>,

@@ -61,6 +61,36 @@ fn bodies_are_built_with_their_mass_and_settings() {
         hooke_contact::Motion::Kinematic(_)
     ));
     assert_eq!(c.bodies[1].friction, 0.3);
+    // A dynamic disk turns (its inertia: m r^2 / 2 about z); the floor does not.
+    let inertia = c.bodies[0].inertia.expect("a dynamic disk turns");
+    let m = match c.bodies[0].motion {
+        hooke_contact::Motion::Dynamic { mass } => mass,
+        _ => unreachable!(),
+    };
+    assert!((inertia.tensor[2][2] / (0.5 * m * 4e-6) - 1.0).abs() < 1e-9);
+    assert!(c.bodies[1].inertia.is_none() && c.bodies[0].spin == [0.0; 3]);
+    // Spin keys: a kinematic body's constant spin, a dynamic body's initial one (L = I w),
+    // and rotation switched off.
+    let spun = BASE
+        .replacen(
+            "density = 7800",
+            "density = 7800\nangular_velocity = [50.0]",
+            1,
+        )
+        .replacen(
+            "friction = 0.3",
+            "friction = 0.3\nangular_velocity = [-2.0]",
+            1,
+        );
+    let sim = load(&spun).unwrap();
+    let b = &sim.contact.as_ref().unwrap().bodies;
+    assert_eq!(b[0].spin, [0.0, 0.0, 50.0]);
+    assert!((b[0].angular_momentum[2] / (50.0 * inertia.tensor[2][2]) - 1.0).abs() < 1e-12);
+    assert_eq!(b[1].spin, [0.0, 0.0, -2.0]);
+    let fixed = BASE.replacen("density = 7800", "density = 7800\nrotates = false", 1);
+    assert!(load(&fixed).unwrap().contact.unwrap().bodies[0]
+        .inertia
+        .is_none());
     // No contact section and no body: no contact at all (and no cost).
     let plain = BASE.split("[[rigid]]").next().unwrap().to_string() + "[solver]\nend_time = 1e-6\n";
     assert!(load(&plain).unwrap().contact.is_none());
@@ -81,6 +111,10 @@ fn contact_mistakes_name_line_key_and_fix() {
         ("stiffness_factor = 0.2", "fragment_distance = 2e-3", "contact.fragment_distance", "shortest spring"),
         ("friction = 0.3", "friction = -0.3", "rigid[1].friction", ">= 0"),
         ("normal = [0.0, 1.0]", "normal = [0.0, 0.0]", "rigid[1].shape.halfspace.normal", "non-zero"),
+        ("density = 7800", "density = 7800\nangular_velocity = [1.0, 2.0, 3.0]", "rigid[0].angular_velocity", "[wz]"),
+        ("density = 7800", "density = 7800\nangular_velocity = [\"fast\"]", "angular_velocity", "expected f64"),
+        ("friction = 0.3", "friction = 0.3\nrotates = true", "rigid[1].rotates", "kinematic"),
+        ("density = 7800", "density = 7800\nrotates = false\nangular_velocity = [5.0]", "rigid[0].angular_velocity", "rotates = false"),
     ];
     for (from, to, key, msg) in cases {
         assert!(BASE.contains(from), "{from}");

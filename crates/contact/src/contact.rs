@@ -76,6 +76,12 @@ pub struct Record {
     pub position: [Real; 3],
     /// Full-step velocity: the mean of the half-step velocities around `time` (m/s).
     pub velocity: [Real; 3],
+    /// Full-step angular velocity, the mean of the half steps' (rad/s, world frame).
+    pub spin: [Real; 3],
+    /// Orientation at `time` (unit quaternion w, x, y, z; body frame to world).
+    pub orientation: [Real; 4],
+    /// Torque of the lattice on the body about its centre of mass (N m).
+    pub torque: [Real; 3],
 }
 
 /// Contact of one lattice with rigid bodies and with itself.
@@ -94,6 +100,10 @@ pub struct Contact {
     frag_force: Vec<[Real; 3]>,
     u_build: Coords,
     x_build: Vec<[Real; 3]>,
+    /// Each body's orientation at the last build, and the radius of a ball about its
+    /// reference point that holds it (for the turned distance).
+    q_build: Vec<[Real; 4]>,
+    reach: Vec<Real>,
     built: bool,
     /// Per-node accumulator and the nodes it touched this step.
     acc: Vec<[Real; 3]>,
@@ -123,6 +133,24 @@ impl Contact {
             .fold(Real::INFINITY, Real::min)
             .min(body.lattice.spacing);
         let nb = bodies.len();
+        // How far a body reaches from its reference point (bounded shapes).
+        let reach = bodies
+            .iter()
+            .map(|b| {
+                let (lo, hi) = b.geometry.bounds([0.0; 3]);
+                let r: Real = (0..3)
+                    .map(|c| {
+                        let m = lo[c].abs().max(hi[c].abs());
+                        if m.is_finite() {
+                            m * m
+                        } else {
+                            0.0
+                        }
+                    })
+                    .sum();
+                r.sqrt()
+            })
+            .collect();
         Contact {
             bodies,
             dim: body.lattice.dim(),
@@ -139,6 +167,8 @@ impl Contact {
             frag_force: Vec::new(),
             u_build: Coords::zeros(n),
             x_build: vec![[0.0; 3]; nb],
+            q_build: vec![crate::rigid::IDENTITY; nb],
+            reach,
             built: false,
             acc: vec![[0.0; 3]; n],
             touched: Vec::new(),
@@ -152,8 +182,8 @@ impl Contact {
         }
     }
 
-    /// What a checkpoint keeps to continue bit for bit: each body's position, half-step velocity
-    /// and last reaction, the step counter (the history's cadence), the list builds and the
+    /// What a checkpoint keeps to continue bit for bit: each body's position, half-step velocity,
+    /// last reaction, orientation, spin, angular momentum and torque, the step counter (the history's cadence), the list builds and the
     /// deepest penetration. The candidate lists are not kept: the forces do not depend on when
     /// they were built (every list holds every pair in range, and forces are summed in node
     /// order), so a resumed run rebuilds them.
@@ -163,6 +193,10 @@ impl Contact {
             v.extend(b.position);
             v.extend(b.velocity);
             v.extend(b.reaction);
+            v.extend(b.orientation);
+            v.extend(b.spin);
+            v.extend(b.angular_momentum);
+            v.extend(b.torque);
         }
         v.extend([
             self.steps as Real,
@@ -175,20 +209,28 @@ impl Contact {
     /// Restore what [`Contact::snapshot`] kept; refuses a snapshot of another set of bodies.
     pub fn restore(&mut self, v: &[Real]) -> Result<(), String> {
         let nb = self.bodies.len();
-        if v.len() != 1 + 9 * nb + 3 || v[0] != nb as Real {
+        // 22 values per body; checkpoints from before rotation hold 9 (no turn).
+        let per = if v.len() == 1 + 9 * nb + 3 { 9 } else { 22 };
+        if v.len() != 1 + per * nb + 3 || v.first() != Some(&(nb as Real)) {
             return Err(format!(
                 "the checkpoint holds {} values for the rigid bodies and contact, this case has {nb} bodies ({} values)",
                 v.len(),
-                1 + 9 * nb + 3
+                1 + 22 * nb + 3
             ));
         }
         for (k, b) in self.bodies.iter_mut().enumerate() {
-            let s = &v[1 + 9 * k..1 + 9 * (k + 1)];
+            let s = &v[1 + per * k..1 + per * (k + 1)];
             b.position = [s[0], s[1], s[2]];
             b.velocity = [s[3], s[4], s[5]];
             b.reaction = [s[6], s[7], s[8]];
+            if per == 22 {
+                b.orientation = [s[9], s[10], s[11], s[12]];
+                b.spin = [s[13], s[14], s[15]];
+                b.angular_momentum = [s[16], s[17], s[18]];
+                b.torque = [s[19], s[20], s[21]];
+            }
         }
-        let t = &v[1 + 9 * nb..];
+        let t = &v[1 + per * nb..];
         self.steps = t[0] as u64;
         self.rebuilds = t[1] as usize;
         self.max_penetration = t[2];
@@ -212,6 +254,18 @@ impl Contact {
             }
         }
         p
+    }
+
+    /// Total angular momentum of the dynamic bodies about the world origin (kg m^2/s).
+    pub fn angular_momentum(&self) -> [Real; 3] {
+        let mut l = [0.0; 3];
+        for b in &self.bodies {
+            let m = b.angular_momentum_about_origin();
+            for c in 0..3 {
+                l[c] += m[c];
+            }
+        }
+        l
     }
 
     /// Kinetic energy of the dynamic bodies (J, half-step velocities).
@@ -249,10 +303,12 @@ impl Contact {
         let body_moved = self
             .bodies
             .iter()
-            .zip(&self.x_build)
-            .map(|(b, x)| {
+            .enumerate()
+            .map(|(k, b)| {
+                let x = self.x_build[k];
                 let d = [0, 1, 2].map(|c| b.position[c] - x[c]);
                 (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+                    + b.turned_since(self.q_build[k], self.reach[k])
             })
             .fold(0.0, Real::max);
         // Two nodes approach by at most twice the largest move; a node and a body by the sum.
@@ -266,10 +322,11 @@ impl Contact {
         self.u_build.clone_from(&state.u);
         for (k, b) in self.bodies.iter().enumerate() {
             self.x_build[k] = b.position;
+            self.q_build[k] = b.orientation;
         }
         let reach = self.opts.radius + self.skin;
         for (k, b) in self.bodies.iter().enumerate() {
-            let (lo, hi) = b.geometry.bounds(b.position);
+            let (lo, hi) = b.bounds();
             let list = &mut self.candidates[k];
             list.clear();
             for i in 0..n {
@@ -395,14 +452,15 @@ impl Interaction for Contact {
         // Rigid bodies, in body order; each body's reaction summed in node order.
         for k in 0..self.bodies.len() {
             let mut reaction = [0.0; 3];
-            let (friction, xb, vb) = {
+            let mut torque = [0.0; 3];
+            let (friction, xc, rotates) = {
                 let b = &self.bodies[k];
-                (b.friction, b.position, b.velocity)
+                (b.friction, b.center(), b.inertia.is_some())
             };
             for idx in 0..self.candidates[k].len() {
                 let i = self.candidates[k][idx] as usize;
                 let x = Self::position(body, &state.u, i);
-                let Some((d, nrm)) = self.bodies[k].geometry.signed_distance(xb, x) else {
+                let Some((d, nrm)) = self.bodies[k].signed_distance(x) else {
                     continue;
                 };
                 let gap = d - self.opts.radius;
@@ -420,6 +478,8 @@ impl Interaction for Contact {
                 }
                 if friction > 0.0 {
                     let vi = [state.v.x()[i], state.v.y()[i], state.v.z()[i]];
+                    // The body's material point under the node moves with V + w x r.
+                    let vb = self.bodies[k].velocity_at(x);
                     let rel = [0, 1, 2].map(|c| vi[c] - vb[c]);
                     let vn: Real = (0..3).map(|c| rel[c] * nrm[c]).sum();
                     let vt = [0, 1, 2].map(|c| rel[c] - vn * nrm[c]);
@@ -435,23 +495,35 @@ impl Interaction for Contact {
                     self.acc[i][c] += f[c];
                     reaction[c] -= f[c];
                 }
+                if rotates {
+                    // The reaction acts where the node is, on the force's own line.
+                    let arm = [0, 1, 2].map(|c| x[c] - xc[c]);
+                    let t = crate::rigid::cross(arm, f);
+                    for c in 0..3 {
+                        torque[c] -= t[c];
+                    }
+                }
                 if !self.mark[i] {
                     self.mark[i] = true;
                     self.touched.push(i as u32);
                 }
             }
             let (x0, v0) = (self.bodies[k].position, self.bodies[k].velocity);
-            self.bodies[k].advance(reaction, t, dt, dim);
+            let (q0, w0) = (self.bodies[k].orientation, self.bodies[k].spin);
+            self.bodies[k].advance(reaction, torque, t, dt, dim);
             if self.steps.is_multiple_of(self.record_every.max(1)) {
                 // At time t: the reaction, the position and the full-step velocity (the mean of
                 // the half steps around t), the pair a load-displacement curve needs.
-                let v1 = self.bodies[k].velocity;
+                let (v1, w1) = (self.bodies[k].velocity, self.bodies[k].spin);
                 self.history.push(Record {
                     time: t,
                     body: k,
                     reaction,
                     position: x0,
                     velocity: [0, 1, 2].map(|c| 0.5 * (v0[c] + v1[c])),
+                    spin: [0, 1, 2].map(|c| 0.5 * (w0[c] + w1[c])),
+                    orientation: q0,
+                    torque,
                 });
             }
         }

@@ -1,8 +1,30 @@
-//! Rigid bodies: a parry shape (2D or 3D) that translates, either with a prescribed velocity
-//! (kinematic: supports, platens, indenters) or moved by the contact reactions (dynamic:
-//! projectiles, impactors). Bodies do not rotate: the impactors of our benchmarks hit
-//! head-on, and a translating body keeps the contact law conservative and simple; rotation
-//! would need the inertia tensor and a torque balance (left for later).
+//! Rigid bodies: a parry shape (2D or 3D) that moves either as prescribed (kinematic:
+//! supports, platens, indenters, with a velocity and an optional constant spin about the
+//! reference point) or under the contact reactions (dynamic: projectiles, impactors), which
+//! translate and rotate it.
+//!
+//! # Rotation of a dynamic body
+//!
+//! The state is the centre of mass `X_c`, its velocity `V`, the orientation `R` (a unit
+//! quaternion, body frame to world) and the angular momentum `L` about the centre of mass, in
+//! the world frame. Leapfrog, as for the lattice:
+//!
+//! ```text
+//! V(t + dt/2) = V(t - dt/2) + dt F(t) / M          X_c(t + dt) = X_c(t) + dt V(t + dt/2)
+//! L(t + dt/2) = L(t - dt/2) + dt tau(t)            R(t + dt) = exp(dt w) R(t)
+//! w = R_m I_0^-1 R_m^T L(t + dt/2),  R_m = exp(dt w / 2) R(t)   (implicit midpoint, iterated)
+//! ```
+//!
+//! with `I_0` the inertia tensor about the centre of mass in the body frame (parry's mass
+//! properties, scaled to the body's mass) and `tau = sum (x_i - X_c) x F_i` over the contact
+//! forces on the body, applied where the node is: the force on the node and its reaction act on
+//! one line, so the pair exerts no net torque and the total angular momentum of lattice and
+//! body is conserved. `L` is the state, so a free body keeps its angular momentum exactly
+//! (to round-off: it is not touched). In 2D (plates) a body turns about z only.
+//!
+//! A body that has never turned (orientation exactly the identity) is placed and drawn by the
+//! same arithmetic as before rotation existed, so runs without torque are unchanged bit for
+//! bit.
 //!
 //! parry 0.26+ works in glam types; this module converts `[f64; 3]` at its edges.
 
@@ -300,6 +322,69 @@ pub enum Motion {
     Dynamic { mass: f64 },
 }
 
+/// The rotational inertia of a dynamic body: about its centre of mass, in the body frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Inertia {
+    /// Centre of mass in the body frame, from the reference point (m).
+    pub center: [f64; 3],
+    /// Inertia tensor about the centre of mass, body frame (kg m^2).
+    pub tensor: [[f64; 3]; 3],
+    /// Its inverse (1/(kg m^2)); in 2D only the z-z entry is non-zero (turning about z).
+    pub inverse: [[f64; 3]; 3],
+}
+
+impl Inertia {
+    /// The inertia of `geometry` carrying `mass` (kg), uniform density. `None` for unbounded
+    /// shapes or shapes without volume.
+    pub fn of(geometry: &Geometry, mass: f64) -> Option<Self> {
+        if geometry.is_unbounded() || !(mass > 0.0) {
+            return None;
+        }
+        match geometry {
+            Geometry::D2(s) => {
+                let mp = s.mass_properties(1.0);
+                let scale = mass / mp.mass();
+                let iz = mp.principal_inertia() * scale;
+                if !(iz > 0.0 && iz.is_finite()) {
+                    return None;
+                }
+                let c = mp.local_com;
+                let mut tensor = [[0.0; 3]; 3];
+                tensor[2][2] = iz;
+                let mut inverse = [[0.0; 3]; 3];
+                inverse[2][2] = 1.0 / iz;
+                Some(Inertia {
+                    center: [c.x, c.y, 0.0],
+                    tensor,
+                    inverse,
+                })
+            }
+            Geometry::D3(s, rot) => {
+                let mp = s.mass_properties(1.0);
+                let scale = mass / mp.mass();
+                // The shape's own frame, turned by the geometry's fixed rotation into the body's.
+                let r = parry3d_f64::math::Matrix::from_quat(*rot);
+                let i = r * mp.reconstruct_inertia_matrix() * r.transpose() * scale;
+                let c = *rot * mp.local_com;
+                let inv = i.inverse();
+                let m = |a: parry3d_f64::math::Matrix| -> [[f64; 3]; 3] {
+                    [0, 1, 2].map(|row| [0, 1, 2].map(|col| a.col(col)[row]))
+                };
+                let tensor = m(i);
+                let inverse = m(inv);
+                if !(i.determinant() > 0.0 && inverse.iter().flatten().all(|x| x.is_finite())) {
+                    return None;
+                }
+                Some(Inertia {
+                    center: [c.x, c.y, c.z],
+                    tensor,
+                    inverse,
+                })
+            }
+        }
+    }
+}
+
 /// A rigid body and its history.
 #[derive(Clone, Debug)]
 pub struct RigidBody {
@@ -308,20 +393,148 @@ pub struct RigidBody {
     pub motion: Motion,
     /// Position of the reference point at the current time (m).
     pub position: [f64; 3],
-    /// Velocity at the half step before the current time (leapfrog), m/s.
+    /// Velocity at the half step before the current time (leapfrog), m/s: of the reference
+    /// point for kinematic bodies, of the centre of mass for dynamic ones (the same point for
+    /// the centred primitive shapes).
     pub velocity: [f64; 3],
     /// Coulomb friction coefficient with the lattice.
     pub friction: f64,
     /// Force the lattice exerts on the body at the last step (N).
     pub reaction: [f64; 3],
+    /// Orientation at the current time: the unit quaternion `(w, x, y, z)` that turns the body
+    /// frame into the world frame (the identity at the start).
+    pub orientation: [f64; 4],
+    /// Angular velocity at the half step (rad/s, world frame): prescribed and constant for a
+    /// kinematic body (about its reference point), from the angular momentum for a dynamic one.
+    pub spin: [f64; 3],
+    /// Angular momentum about the centre of mass at the half step (kg m^2/s, world frame);
+    /// dynamic bodies that rotate.
+    pub angular_momentum: [f64; 3],
+    /// Torque of the lattice on the body about its centre of mass at the last step (N m).
+    pub torque: [f64; 3],
+    /// The rotational inertia of a dynamic body that rotates; `None`: it only translates
+    /// (kinematic bodies, and dynamic ones whose rotation is switched off).
+    pub inertia: Option<Inertia>,
 }
 
+/// The identity rotation.
+pub const IDENTITY: [f64; 4] = [1.0, 0.0, 0.0, 0.0];
+
 impl RigidBody {
-    /// Kinetic energy from the half-step velocity (J); zero for kinematic bodies.
+    /// A body at `position` with the half-step `velocity`, not turned, not turning. A dynamic
+    /// body gets its inertia from its shape and mass (it rotates under the contact torques);
+    /// [`RigidBody::without_rotation`] keeps it translating only.
+    pub fn new(
+        name: impl Into<String>,
+        geometry: Geometry,
+        motion: Motion,
+        position: [f64; 3],
+        velocity: [f64; 3],
+        friction: f64,
+    ) -> Self {
+        let inertia = match &motion {
+            Motion::Dynamic { mass } => Inertia::of(&geometry, *mass),
+            Motion::Kinematic(_) => None,
+        };
+        RigidBody {
+            name: name.into(),
+            geometry,
+            motion,
+            position,
+            velocity,
+            friction,
+            reaction: [0.0; 3],
+            orientation: IDENTITY,
+            spin: [0.0; 3],
+            angular_momentum: [0.0; 3],
+            torque: [0.0; 3],
+            inertia,
+        }
+    }
+
+    /// The same body translating only (no inertia, no spin).
+    pub fn without_rotation(mut self) -> Self {
+        self.inertia = None;
+        self.spin = [0.0; 3];
+        self.angular_momentum = [0.0; 3];
+        self
+    }
+
+    /// Start turning at `w` (rad/s, world frame): the prescribed spin of a kinematic body, the
+    /// initial one of a dynamic body (its angular momentum `I w`). In 2D only `w_z` is kept.
+    pub fn with_spin(mut self, w: [f64; 3], dim: usize) -> Self {
+        let w = if dim == 2 { [0.0, 0.0, w[2]] } else { w };
+        self.spin = w;
+        if let Some(inertia) = &self.inertia {
+            let i = world(&inertia.tensor, self.orientation);
+            self.angular_momentum = mat_vec(&i, w);
+        }
+        self
+    }
+
+    /// The spin settings of a case file or a builder: `rotates` (false keeps a dynamic body
+    /// translating) and `angular_velocity` (`[wx, wy, wz]` in 3D, `[wz]` in 2D, rad/s). A
+    /// mistake names its key (`"rotates"` or `"angular_velocity"`) and the fix.
+    pub fn with_spin_settings(
+        mut self,
+        rotates: Option<bool>,
+        angular_velocity: Option<&[f64]>,
+        dim: usize,
+    ) -> Result<Self, (&'static str, &'static str)> {
+        if let Some(r) = rotates {
+            if matches!(self.motion, Motion::Kinematic(_)) {
+                return Err((
+                    "rotates",
+                    "a kinematic body turns only as prescribed: remove rotates and give angular_velocity",
+                ));
+            }
+            if !r {
+                if angular_velocity.is_some() {
+                    return Err((
+                        "angular_velocity",
+                        "a body with rotates = false does not turn: remove angular_velocity or rotates",
+                    ));
+                }
+                self = self.without_rotation();
+            }
+        }
+        if let Some(v) = angular_velocity {
+            let ok = v.iter().all(|x| x.is_finite()) && v.len() == if dim == 3 { 3 } else { 1 };
+            if !ok {
+                return Err((
+                    "angular_velocity",
+                    if dim == 3 {
+                        "expected [wx, wy, wz], finite, in rad/s"
+                    } else {
+                        "a plate body turns about z: expected [wz], finite, in rad/s"
+                    },
+                ));
+            }
+            let w = if dim == 3 {
+                [v[0], v[1], v[2]]
+            } else {
+                [0.0, 0.0, v[0]]
+            };
+            self = self.with_spin(w, dim);
+        }
+        Ok(self)
+    }
+
+    /// Centre of mass at the current time (the reference point for kinematic bodies).
+    pub fn center(&self) -> [f64; 3] {
+        match &self.inertia {
+            Some(i) => add(self.position, rotate(self.orientation, i.center)),
+            None => self.position,
+        }
+    }
+
+    /// Kinetic energy from the half-step velocities (J), translation and rotation
+    /// (`1/2 w . L`); zero for kinematic bodies.
     pub fn kinetic(&self) -> f64 {
         match self.motion {
             Motion::Dynamic { mass } => {
                 0.5 * mass * self.velocity.iter().map(|v| v * v).sum::<f64>()
+                    + 0.5 * dot(self.spin, self.angular_momentum)
             }
             Motion::Kinematic(_) => 0.0,
         }
@@ -335,11 +548,91 @@ impl RigidBody {
         }
     }
 
-    /// Advance by one step under the reaction `r` (N): `V(t + dt/2) = V(t - dt/2) + dt r / M`,
-    /// `X(t + dt) = X(t) + dt V(t + dt/2)`; kinematic bodies take their prescribed velocity at
-    /// `t + dt/2`.
-    pub fn advance(&mut self, r: [f64; 3], t: f64, dt: f64, dim: usize) {
+    /// Angular momentum about the world origin (kg m^2/s): `X_c x M V + L`; zero for kinematic
+    /// bodies.
+    pub fn angular_momentum_about_origin(&self) -> [f64; 3] {
+        match self.motion {
+            Motion::Dynamic { .. } => {
+                add(cross(self.center(), self.momentum()), self.angular_momentum)
+            }
+            Motion::Kinematic(_) => [0.0; 3],
+        }
+    }
+
+    /// Velocity of the body's material point at `x` (m/s, half step): `V + w x (x - X_c)`.
+    pub fn velocity_at(&self, x: [f64; 3]) -> [f64; 3] {
+        if self.spin == [0.0; 3] {
+            return self.velocity;
+        }
+        add(self.velocity, cross(self.spin, sub(x, self.center())))
+    }
+
+    /// Signed distance of `p` from the surface of the body as placed now, and the outward
+    /// normal (see [`Geometry::signed_distance`]).
+    pub fn signed_distance(&self, p: [f64; 3]) -> Option<(f64, [f64; 3])> {
+        if self.orientation == IDENTITY {
+            return self.geometry.signed_distance(self.position, p);
+        }
+        let local = rotate(conj(self.orientation), sub(p, self.position));
+        let (d, n) = self.geometry.signed_distance([0.0; 3], local)?;
+        Some((d, rotate(self.orientation, n)))
+    }
+
+    /// Axis-aligned bounds of the body as placed now (a turned body: the bounds of its turned
+    /// local box, which contain it).
+    pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
+        if self.orientation == IDENTITY {
+            return self.geometry.bounds(self.position);
+        }
+        let (lo, hi) = self.geometry.bounds([0.0; 3]);
+        if lo.iter().chain(&hi).any(|x| !x.is_finite()) {
+            // Unbounded shapes never turn (no inertia), but a kinematic half-space may spin:
+            // it reaches everywhere.
+            return ([f64::NEG_INFINITY; 3], [f64::INFINITY; 3]);
+        }
+        let c = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
+        let h = [0, 1, 2].map(|k| 0.5 * (hi[k] - lo[k]));
+        let r = matrix(self.orientation);
+        let cw = add(self.position, mat_vec(&r, c));
+        let ext = [0, 1, 2].map(|row| (0..3).map(|k| r[row][k].abs() * h[k]).sum::<f64>());
+        (sub(cw, ext), add(cw, ext))
+    }
+
+    /// The surface to draw (see [`Geometry::surface`]), placed and turned.
+    #[allow(clippy::type_complexity)]
+    pub fn surface(&self, size: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>, Vec<[u32; 2]>) {
+        if self.orientation == IDENTITY {
+            return self.geometry.surface(self.position, size);
+        }
+        let (pts, tris, lines) = self.geometry.surface([0.0; 3], size);
+        let pts = pts
+            .into_iter()
+            .map(|p| add(self.position, rotate(self.orientation, p)))
+            .collect();
+        (pts, tris, lines)
+    }
+
+    /// How far any point within `radius` of the reference point has moved through turning since
+    /// the orientation `from` (m): a bound for the contact lists' skin.
+    pub fn turned_since(&self, from: [f64; 4], radius: f64) -> f64 {
+        if self.orientation == from {
+            return 0.0;
+        }
+        // |R x - R0 x| <= |R R0^-1 - 1| |x| = 2 sin(theta/2) |x|, theta the relative angle.
+        let rel = mul(self.orientation, conj(from));
+        let s = (rel[1] * rel[1] + rel[2] * rel[2] + rel[3] * rel[3]).sqrt();
+        2.0 * s.min(1.0) * radius
+    }
+
+    /// Advance by one step under the reaction `r` (N) and the torque `tau` (N m, about the
+    /// centre of mass): leapfrog for translation and rotation (module docs); kinematic bodies
+    /// take their prescribed velocity at `t + dt/2` and turn at their constant spin.
+    pub fn advance(&mut self, r: [f64; 3], tau: [f64; 3], t: f64, dt: f64, dim: usize) {
         self.reaction = r;
+        self.torque = tau;
+        let center = self.inertia.map(|i| i.center);
+        // The centre of mass before the step (dynamic bodies turning about it).
+        let xc = center.map(|c| add(self.position, rotate(self.orientation, c)));
         match &self.motion {
             Motion::Dynamic { mass } => {
                 for c in 0..dim {
@@ -352,8 +645,165 @@ impl RigidBody {
                 }
             }
         }
-        for c in 0..dim {
-            self.position[c] += dt * self.velocity[c];
+        if let Some(inertia) = self.inertia {
+            for c in 0..3 {
+                if dim == 3 || c == 2 {
+                    self.angular_momentum[c] += dt * tau[c];
+                }
+            }
+            self.spin = self.midpoint_spin(&inertia, dt);
+        }
+        let turning = self.spin != [0.0; 3];
+        if turning {
+            self.orientation = normalize(mul(exp(scale(self.spin, dt)), self.orientation));
+        }
+        match (xc, center) {
+            (Some(xc), Some(c)) if turning => {
+                let xc1 = [0, 1, 2].map(|k| {
+                    if k < dim {
+                        xc[k] + dt * self.velocity[k]
+                    } else {
+                        xc[k]
+                    }
+                });
+                self.position = sub(xc1, rotate(self.orientation, c));
+                if dim == 2 {
+                    self.position[2] = 0.0;
+                }
+            }
+            _ => {
+                for c in 0..dim {
+                    self.position[c] += dt * self.velocity[c];
+                }
+            }
         }
     }
+
+    /// `w = R_m I_0^-1 R_m^T L` at the midpoint orientation `R_m = exp(dt w / 2) R(t)`, found
+    /// by fixed-point iteration (exact at once for bodies with isotropic inertia).
+    fn midpoint_spin(&self, inertia: &Inertia, dt: f64) -> [f64; 3] {
+        let l = self.angular_momentum;
+        if l == [0.0; 3] {
+            return [0.0; 3];
+        }
+        let mut w = mat_vec(&world(&inertia.inverse, self.orientation), l);
+        for _ in 0..4 {
+            let rm = mul(exp(scale(w, 0.5 * dt)), self.orientation);
+            let next = mat_vec(&world(&inertia.inverse, rm), l);
+            let change = norm(sub(next, w));
+            w = next;
+            if change <= 1e-15 * norm(w) {
+                break;
+            }
+        }
+        w
+    }
+}
+
+fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+    a.map(|x| x * s)
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn norm(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+
+/// `a x b`.
+pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// Quaternion product `a b` (w, x, y, z).
+fn mul(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
+    [
+        a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+        a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+        a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+        a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0],
+    ]
+}
+
+fn conj(q: [f64; 4]) -> [f64; 4] {
+    [q[0], -q[1], -q[2], -q[3]]
+}
+
+fn normalize(q: [f64; 4]) -> [f64; 4] {
+    let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
+    q.map(|x| x / n)
+}
+
+/// The rotation by the vector `v` (axis times angle, rad).
+fn exp(v: [f64; 3]) -> [f64; 4] {
+    let theta = norm(v);
+    if theta == 0.0 {
+        return IDENTITY;
+    }
+    let (s, c) = (0.5 * theta).sin_cos();
+    let k = s / theta;
+    [c, v[0] * k, v[1] * k, v[2] * k]
+}
+
+/// `q v q*`: `v` turned by `q`.
+pub fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
+    mat_vec(&matrix(q), v)
+}
+
+/// The rotation matrix of the unit quaternion `q`.
+fn matrix(q: [f64; 4]) -> [[f64; 3]; 3] {
+    let [w, x, y, z] = q;
+    [
+        [
+            1.0 - 2.0 * (y * y + z * z),
+            2.0 * (x * y - w * z),
+            2.0 * (x * z + w * y),
+        ],
+        [
+            2.0 * (x * y + w * z),
+            1.0 - 2.0 * (x * x + z * z),
+            2.0 * (y * z - w * x),
+        ],
+        [
+            2.0 * (x * z - w * y),
+            2.0 * (y * z + w * x),
+            1.0 - 2.0 * (x * x + y * y),
+        ],
+    ]
+}
+
+fn mat_vec(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|r| m[r][0] * v[0] + m[r][1] * v[1] + m[r][2] * v[2])
+}
+
+/// `R A R^T` for the rotation `q`.
+fn world(a: &[[f64; 3]; 3], q: [f64; 4]) -> [[f64; 3]; 3] {
+    let r = matrix(q);
+    let mut out = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            let mut s = 0.0;
+            for k in 0..3 {
+                for l in 0..3 {
+                    s += r[i][k] * a[k][l] * r[j][l];
+                }
+            }
+            out[i][j] = s;
+        }
+    }
+    out
 }

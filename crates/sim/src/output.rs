@@ -204,7 +204,7 @@ impl Sink for RigidSink {
             .bodies
             .iter()
             .map(|b| {
-                let (points, triangles, lines) = b.geometry.surface(b.position, self.patch);
+                let (points, triangles, lines) = b.surface(self.patch);
                 hooke_io::RigidPart {
                     points,
                     triangles,
@@ -339,7 +339,7 @@ pub struct ContactHistory {
 
 impl ContactHistory {
     pub const HEADER: &'static str =
-        "time,body,name,reaction_x,reaction_y,reaction_z,x,y,z,vx,vy,vz\n";
+        "time,body,name,reaction_x,reaction_y,reaction_z,x,y,z,vx,vy,vz,wx,wy,wz,qw,qx,qy,qz,torque_x,torque_y,torque_z\n";
 
     /// As [`EnergyHistory::open`]; the rows at the resume time itself are dropped too (the
     /// step that starts there records them again).
@@ -364,7 +364,7 @@ impl ContactHistory {
         for r in &c.history {
             let name = &c.bodies[r.body].name;
             text.push_str(&format!(
-                "{:e},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e}\n",
+                "{:e},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e}\n",
                 r.time,
                 r.body,
                 name,
@@ -376,7 +376,17 @@ impl ContactHistory {
                 r.position[2],
                 r.velocity[0],
                 r.velocity[1],
-                r.velocity[2]
+                r.velocity[2],
+                r.spin[0],
+                r.spin[1],
+                r.spin[2],
+                r.orientation[0],
+                r.orientation[1],
+                r.orientation[2],
+                r.orientation[3],
+                r.torque[0],
+                r.torque[1],
+                r.torque[2]
             ));
         }
         c.history.clear();
