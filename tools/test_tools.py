@@ -133,6 +133,15 @@ def main():
         found = [float(line.split(": ")[-1].split(" degrees")[0]) for line in out.splitlines() if "degrees" in line]
         check(code == 0 and len(found) == 4 and all(abs(f - e) < 2.0 for f, e in zip(found[1:], [60.0, 70.0, 80.0]))
               and abs(found[0] - 70.0) < 3.0, f"crack_angle --slabs: {out.strip()}")
+        # The crack surface: a sheet through the grown damage (not the notch), inside the body,
+        # reaching about as far as the crack (0.3 from the tip at 60 to 80 degrees: y up to 0.8).
+        png = os.path.join(d, "surface.png")
+        code, out = run(os.path.join(HERE, "crack_surface.py"), d, "--out", png, "--cell", "0.025")
+        ok = code == 0 and os.path.getsize(png) > 1000 and "area" in out
+        if ok:
+            ys = out.split(" y ")[1].split(",")[0].split("..")
+            ok = 0.45 < float(ys[0]) < 0.55 and 0.72 < float(ys[1]) < 0.85
+        check(ok, f"crack_surface: {out.strip()[-400:]}")
     with tempfile.TemporaryDirectory() as d:
         synthetic(d, branch=True)
         code, out = run(os.path.join(HERE, "crack_angle.py"), d, "--tip", "0.5,0.5", "--radius", "0.4", "--time", "0.9e-5")

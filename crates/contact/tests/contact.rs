@@ -562,3 +562,127 @@ fn turning_bodies_restart_bit_for_bit() {
     );
     assert!(c.contact.restore(&snap[..snap.len() - 1]).is_err());
 }
+
+/// A kinematic body spinning in place (a roller about x, friction 0.5) drags the free block it
+/// presses on along y, the way its bottom moves, and does not move itself.
+#[test]
+fn a_spinning_kinematic_roller_drags_a_block() {
+    let body = steel_block([9, 9, 5]);
+    let mut state = State::new(&body);
+    let mut it = Integrator::new(
+        &body,
+        &mut state,
+        Loading::default(),
+        &IntegratorOptions::default(),
+    )
+    .unwrap();
+    let opts = ContactOptions::for_body(&body);
+    let r = 3e-3;
+    let geometry = Geometry::D3(
+        parry3d_f64::shape::SharedShape::ball(r),
+        parry3d_f64::math::Rotation::IDENTITY,
+    );
+    let still = [
+        TimeFunction::Constant(0.0),
+        TimeFunction::Constant(0.0),
+        TimeFunction::Constant(0.0),
+    ];
+    // Pressed 0.05 a into the contact range of the top face (z = 4 a).
+    let at = [4.0 * A, 4.0 * A, 4.0 * A + opts.radius + r - 0.05 * A];
+    let roller = RigidBody::new(
+        "roller",
+        geometry,
+        Motion::Kinematic(still),
+        at,
+        [0.0; 3],
+        0.5,
+    )
+    .with_spin([2000.0, 0.0, 0.0], 3);
+    assert!(roller.inertia.is_none() && roller.spin == [2000.0, 0.0, 0.0]);
+    let mut contact = Contact::new(&body, vec![roller], opts);
+    for _ in 0..400 {
+        it.step_with(&body, &mut state, Some(&mut contact));
+    }
+    let p = momentum(&body, &state.v);
+    let b = &contact.bodies[0];
+    println!(
+        "block momentum {p:?}, roller at {:?}, orientation {:?}",
+        b.position, b.orientation
+    );
+    // Bottom of a roller spinning +x moves along +y: the block follows.
+    assert!(p.y > 0.0 && p.y.abs() > 10.0 * p.x.abs(), "{p:?}");
+    assert_eq!(b.position, at);
+    // It turned by 2000 rad/s for 400 steps: the quaternion's angle says so.
+    let angle = 2.0 * b.orientation[1].atan2(b.orientation[0]);
+    let expect = (2000.0 * 400.0 * it.dt) % (2.0 * std::f64::consts::PI);
+    let wrapped = (angle - expect).rem_euclid(2.0 * std::f64::consts::PI);
+    assert!(
+        wrapped.min(2.0 * std::f64::consts::PI - wrapped) < 1e-9,
+        "{angle} vs {expect}"
+    );
+}
+
+/// In 2D (a plate), a disk striking a free plate obliquely with friction turns about z only,
+/// the way it rolls, and the plate and disk conserve angular momentum to round-off.
+#[test]
+fn a_disk_on_a_plate_turns_about_z() {
+    let lat = Lattice::hex_box(21, 11, A, 2e-3).unwrap();
+    let m = Elastic {
+        youngs: 200e9,
+        poisson: 0.3,
+        density: 7800.0,
+    };
+    let body = Body::new(lat, &m, PlaneModel::Stress).unwrap();
+    let mut state = State::new(&body);
+    let it = Integrator::new(
+        &body,
+        &mut state,
+        Loading::default(),
+        &IntegratorOptions::default(),
+    )
+    .unwrap();
+    let opts = ContactOptions::for_body(&body);
+    let top = (0..body.nodes())
+        .map(|i| body.lattice.pos.y()[i])
+        .fold(0.0, Real::max);
+    let r = 3e-3;
+    let geometry = Geometry::ball(2, r);
+    let mass = geometry.mass(7800.0, 2e-3);
+    let disk = RigidBody::new(
+        "disk",
+        geometry,
+        Motion::Dynamic { mass },
+        [10.0 * A, top + opts.radius + r + 0.1 * A, 0.0],
+        [4.0, -5.0, 0.0],
+        0.5,
+    );
+    let i = disk.inertia.expect("a dynamic disk turns");
+    assert!((i.tensor[2][2] / (0.5 * mass * r * r) - 1.0).abs() < 1e-9);
+    assert!(i.inverse[0][0] == 0.0 && i.inverse[1][1] == 0.0);
+    let contact = Contact::new(&body, vec![disk], opts);
+    let mut run = Run {
+        body,
+        state,
+        it,
+        contact,
+    };
+    let l0 = total_angular_momentum(&run);
+    run_until_separated(&mut run, 20_000);
+    let l1 = total_angular_momentum(&run);
+    let b = &run.contact.bodies[0];
+    println!("disk spin {:?} rad/s", b.spin);
+    // Sliding along +x on a face with normal +y: friction on its bottom acts along -x, a
+    // torque about -z.
+    assert!(
+        b.spin[2] < -1.0 && b.spin[0] == 0.0 && b.spin[1] == 0.0,
+        "{:?}",
+        b.spin
+    );
+    assert!(b.position[2] == 0.0 && b.orientation[1] == 0.0 && b.orientation[2] == 0.0);
+    let dl = norm([0, 1, 2].map(|c| l1[c] - l0[c]));
+    assert!(
+        dl <= 1e-9 * norm(l0),
+        "angular momentum changed by {dl:e} of {:e}",
+        norm(l0)
+    );
+}
