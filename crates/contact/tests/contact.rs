@@ -9,14 +9,30 @@ use hooke_core::{Body, Elastic, Lattice, PlaneModel, Real, State};
 
 const A: Real = 1e-3;
 
-fn steel_block(n: [usize; 3]) -> Body {
-    let lat = Lattice::cubic_box(n, A).unwrap();
+fn steel(lat: Lattice) -> Body {
     let m = Elastic {
         youngs: 200e9,
         poisson: 0.3,
         density: 7800.0,
     };
     Body::new(lat, &m, PlaneModel::Stress).unwrap()
+}
+
+fn steel_block(n: [usize; 3]) -> Body {
+    steel(Lattice::cubic_box(n, A).unwrap())
+}
+
+/// At rest, with no loading: what every contact test starts from.
+fn at_rest(body: &Body) -> (State, Integrator) {
+    let mut state = State::new(body);
+    let it = Integrator::new(
+        body,
+        &mut state,
+        Loading::default(),
+        &IntegratorOptions::default(),
+    )
+    .unwrap();
+    (state, it)
 }
 
 fn sphere(radius: Real, at: [Real; 3], v: [Real; 3]) -> RigidBody {
@@ -36,14 +52,7 @@ struct Run {
 /// A 4 mm sphere at 5 m/s onto the top of a free 16 x 16 x 8 mm block.
 fn bounce_setup() -> Run {
     let body = steel_block([17, 17, 9]);
-    let mut state = State::new(&body);
-    let it = Integrator::new(
-        &body,
-        &mut state,
-        Loading::default(),
-        &IntegratorOptions::default(),
-    )
-    .unwrap();
+    let (state, it) = at_rest(&body);
     let opts = ContactOptions::for_body(&body);
     let r = 4e-3;
     let top = 8.0 * A;
@@ -393,14 +402,7 @@ fn spinning_sphere_exchanges_angular_momentum_with_a_block() {
 #[test]
 fn free_body_keeps_its_angular_momentum_exactly() {
     let body = steel_block([3, 3, 3]);
-    let mut state = State::new(&body);
-    let mut it = Integrator::new(
-        &body,
-        &mut state,
-        Loading::default(),
-        &IntegratorOptions::default(),
-    )
-    .unwrap();
+    let (mut state, mut it) = at_rest(&body);
     let geometry = Geometry::D3(
         parry3d_f64::shape::SharedShape::cuboid(3e-3, 2e-3, 1e-3),
         parry3d_f64::math::Rotation::IDENTITY,
@@ -568,14 +570,7 @@ fn turning_bodies_restart_bit_for_bit() {
 #[test]
 fn a_spinning_kinematic_roller_drags_a_block() {
     let body = steel_block([9, 9, 5]);
-    let mut state = State::new(&body);
-    let mut it = Integrator::new(
-        &body,
-        &mut state,
-        Loading::default(),
-        &IntegratorOptions::default(),
-    )
-    .unwrap();
+    let (mut state, mut it) = at_rest(&body);
     let opts = ContactOptions::for_body(&body);
     let r = 3e-3;
     let geometry = Geometry::D3(
@@ -626,21 +621,8 @@ fn a_spinning_kinematic_roller_drags_a_block() {
 /// the way it rolls, and the plate and disk conserve angular momentum to round-off.
 #[test]
 fn a_disk_on_a_plate_turns_about_z() {
-    let lat = Lattice::hex_box(21, 11, A, 2e-3).unwrap();
-    let m = Elastic {
-        youngs: 200e9,
-        poisson: 0.3,
-        density: 7800.0,
-    };
-    let body = Body::new(lat, &m, PlaneModel::Stress).unwrap();
-    let mut state = State::new(&body);
-    let it = Integrator::new(
-        &body,
-        &mut state,
-        Loading::default(),
-        &IntegratorOptions::default(),
-    )
-    .unwrap();
+    let body = steel(Lattice::hex_box(21, 11, A, 2e-3).unwrap());
+    let (state, it) = at_rest(&body);
     let opts = ContactOptions::for_body(&body);
     let top = (0..body.nodes())
         .map(|i| body.lattice.pos.y()[i])
