@@ -367,7 +367,7 @@ class Builder:
               motion: str = "dynamic", mass: Optional[float] = None,
               density: Optional[float] = None, friction: float = 0.0,
               name: Optional[str] = None, angular_velocity: Optional[Any] = None,
-              rotates: Optional[bool] = None) -> "Builder":
+              rotates: Optional[bool] = None, start_gap: Optional[float] = None) -> "Builder":
         """A rigid body in contact with the lattice, as the case file's ``[[rigid]]``:
         ``shape`` one of ``{"sphere": {"radius"}}``, ``{"box": {"size": [...]}}``,
         ``{"cylinder": {"radius", "length", "axis"}}``, ``{"capsule": {...}}``,
@@ -375,7 +375,8 @@ class Builder:
         ``density``) or ``"kinematic"`` (moves at ``velocity``). ``angular_velocity`` (rad/s;
         ``[wx, wy, wz]`` in 3D, ``[wz]`` in 2D) is a kinematic body's constant spin or a dynamic
         body's initial one; a dynamic body turns under the contact torques unless
-        ``rotates=False``."""
+        ``rotates=False``. ``start_gap`` (m) moves the body along its velocity until the nearest
+        node is that far outside its contact range, as in a case file."""
         arg: Dict[str, Any] = {"shape": dict(shape), "position": list(position),
                                "velocity": list(velocity), "motion": motion,
                                "friction": float(friction)}
@@ -389,6 +390,8 @@ class Builder:
             arg["angular_velocity"] = [float(w) for w in angular_velocity]
         if rotates is not None:
             arg["rotates"] = bool(rotates)
+        if start_gap is not None:
+            arg["start_gap"] = float(start_gap)
         return self._call("rigid", arg)
 
     def contact(self, stiffness_factor: float = 0.1, radius: Optional[float] = None,

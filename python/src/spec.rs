@@ -3,13 +3,13 @@
 //! leaves the binding thin: every check and every error message is the library's
 //! (`BuildError` names the item), except the spec's own shape, checked here with the key.
 
-use hooke_contact::{ContactOptions, Geometry, Motion, RigidBody};
+use hooke_contact::{Geometry, Motion, RigidBody};
 use hooke_core::dynamics::TimeStep;
 use hooke_core::loading::TimeFunction;
 use hooke_core::random::{RandomSpec, Sampler};
 use hooke_core::{LatticeKind, PlaneModel, Real, Vector};
 use hooke_fracture::Crack;
-use hooke_sim::{Bc, BreakRule, Builder, Region, Shape, Simulation, Solid};
+use hooke_sim::{Bc, BreakRule, Builder, ContactSpec, Region, RigidSpec, Shape, Simulation, Solid};
 use serde_json::Value;
 
 type R<T> = Result<T, String>;
@@ -313,7 +313,7 @@ pub fn build(spec: &Value) -> R<Simulation> {
     let dim = kind.dim();
     let mut thickness = 1.0;
     let mut rigids = Vec::new();
-    let mut contact: Option<Value> = None;
+    let mut contact: Option<ContactSpec> = None;
     for (k, call) in calls.iter().enumerate() {
         let name = call.get(0).and_then(Value::as_str).unwrap_or("");
         let a = call.get(1).cloned().unwrap_or(Value::Null);
@@ -498,76 +498,42 @@ pub fn build(spec: &Value) -> R<Simulation> {
                 b.breaking(rule)
             }
             "rigid" => {
-                rigids.push(rigid(&a, key, dim, thickness, rigids.len())?);
+                let body = rigid(&a, key, dim, thickness, rigids.len())?;
+                let start_gap = match a.get("start_gap") {
+                    None | Some(Value::Null) => None,
+                    Some(g) => Some(num(g, key)?),
+                };
+                rigids.push(RigidSpec { body, start_gap });
                 b
             }
             "contact" => {
-                contact = Some(a.clone());
+                contact = Some(contact_spec(&a)?);
                 b
             }
             other => return Err(format!("{key}: unknown call \"{other}\"")),
         };
     }
-    let mut sim = b.solid(solid).build().map_err(|e| e.to_string())?;
-    if contact.is_some() || !rigids.is_empty() {
-        if sim.quasi_static.is_some() {
-            return Err("contact runs with the explicit solver; remove the quasi-static solver or the contact".into());
-        }
-        let opts = contact_options(&sim, contact.as_ref())?;
-        for rb in &rigids {
-            starts_clear(&sim, rb, opts.radius)?;
-        }
-        sim.contact = Some(hooke_contact::Contact::new(&sim.body, rigids, opts));
-    }
-    Ok(sim)
+    let b = if contact.is_some() || !rigids.is_empty() {
+        b.contact(contact.unwrap_or_default(), rigids)
+    } else {
+        b
+    };
+    b.solid(solid).build().map_err(|e| e.to_string())
 }
 
-/// Contact options: the lattice's defaults with the given ones (as `[contact]`).
-fn contact_options(sim: &Simulation, c: Option<&Value>) -> R<ContactOptions> {
+/// Contact options as `[contact]` (checked against the body by the library's builder).
+fn contact_spec(c: &Value) -> R<ContactSpec> {
     let key = "contact";
-    let mut o = ContactOptions::for_body(&sim.body);
-    let Some(c) = c else { return Ok(o) };
-    if let Some(v) = c.get("stiffness_factor") {
-        let x = num(v, key)?;
-        if !(x > 0.0 && x <= 1.0) {
-            return Err(format!("contact.stiffness_factor: {x}: give 0 < c <= 1 (k = c m / dt^2; the default 0.1 keeps the step stable)"));
+    let opt = |name: &str| -> R<Option<Real>> {
+        match c.get(name) {
+            None | Some(Value::Null) => Ok(None),
+            Some(v) => Ok(Some(num(v, key)?)),
         }
-        o.stiffness_factor = x;
-    }
-    if let Some(v) = c.get("radius") {
-        o.radius = positive(v, "contact.radius")?;
-    }
-    let fragments = c.get("fragments").and_then(Value::as_bool).unwrap_or(true);
-    if !fragments {
-        o.fragment_distance = None;
-    }
-    if let Some(v) = c.get("fragment_distance") {
-        let d = positive(v, "contact.fragment_distance")?;
-        let shortest = sim.body.lattice.bonds.shortest();
-        if d >= 0.95 * shortest {
-            return Err(format!("contact.fragment_distance: {d:e} m: keep it below 0.95 x the shortest spring ({shortest:e} m), or springs that break would start in contact"));
-        }
-        if !fragments {
-            return Err("contact.fragment_distance: fragments = False turns fragment contact off; remove one of the two".into());
-        }
-        o.fragment_distance = Some(d);
-    }
-    Ok(o)
-}
-
-/// A rigid body must not start inside a node's contact range.
-fn starts_clear(sim: &Simulation, rb: &RigidBody, radius: Real) -> R<()> {
-    let pos = &sim.body.lattice.pos;
-    for i in 0..sim.body.nodes() {
-        let x = [pos.x()[i], pos.y()[i], pos.z()[i]];
-        if let Some((d, _)) = rb.geometry.signed_distance(rb.position, x) {
-            if d < radius {
-                return Err(format!(
-                    "rigid body \"{}\": node {i} at {x:?} starts {d:e} m from its surface, inside the contact radius {radius:e} m: move the body away",
-                    rb.name
-                ));
-            }
-        }
-    }
-    Ok(())
+    };
+    Ok(ContactSpec {
+        stiffness_factor: opt("stiffness_factor")?,
+        radius: opt("radius")?,
+        fragments: c.get("fragments").and_then(Value::as_bool),
+        fragment_distance: opt("fragment_distance")?,
+    })
 }

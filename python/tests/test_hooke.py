@@ -242,6 +242,7 @@ velocity = [0.0, -100.0]
 density = 7800
 friction = 0.3
 angular_velocity = [3000.0]
+start_gap = 20e-6
 
 [contact]
 stiffness_factor = 0.2
@@ -262,7 +263,8 @@ def impact_builder():
             .boundary({"face": "y-"}, fixed=["x", "y"], no_fail=True)
             .boundary({"face": "x+"}, traction=[2e5, 0.0], normal="x")
             .rigid({"sphere": {"radius": 2e-3}}, position=[10e-3, 12.8e-3], velocity=[0.0, -100.0],
-                   density=7800.0, name="striker", friction=0.3, angular_velocity=[3000.0])
+                   density=7800.0, name="striker", friction=0.3, angular_velocity=[3000.0],
+                   start_gap=20e-6)
             .contact(stiffness_factor=0.2)
             .end_time(30e-6).time_step(safety=0.7).output_every(5e-6).reactions_every(1e-6))
 
@@ -288,7 +290,7 @@ def test_builder_refuses_bad_rigid_bodies_and_rules(tmp_path):
     with pytest.raises(hooke.CaseError, match="radius"):
         base().rigid({"sphere": {"radius": -1.0}}, position=[5e-3, 2e-2], mass=1.0).build(
             tmp_path / "b")
-    with pytest.raises(hooke.CaseError, match="inside the contact radius"):
+    with pytest.raises(hooke.CaseError, match="inside the contact range of node"):
         base().rigid({"sphere": {"radius": 2e-3}}, position=[5e-3, 5e-3], mass=1.0).build(
             tmp_path / "c")
     with pytest.raises(hooke.CaseError, match="kinematic"):

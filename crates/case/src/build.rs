@@ -3,15 +3,15 @@
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use hooke_contact::{Contact, ContactOptions, Geometry, MeshShape, RigidBody};
+use hooke_contact::{Geometry, MeshShape, RigidBody};
 use hooke_core::dynamics::TimeStep;
 use hooke_core::loading::TimeFunction;
 use hooke_core::material::PlaneModel;
 use hooke_core::random::{RandomSpec, Sampler};
-use hooke_core::{Body, LatticeKind, Real, Vector};
+use hooke_core::{LatticeKind, Real, Vector};
 use hooke_fracture::Crack;
 use hooke_sim::geometry::{Face, Region, Shape, Solid};
-use hooke_sim::{Bc, BreakRule, BuildError, Builder};
+use hooke_sim::{Bc, BreakRule, BuildError, Builder, ContactSpec, RigidSpec};
 use toml::Spanned;
 
 use crate::error::{line_col, CaseError};
@@ -351,9 +351,8 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
     let builder = precracks(&ctx, &raw, kind.dim(), builder, &mut spans)?;
     let builder = boundaries(&ctx, &raw, kind.dim(), builder, &mut spans)?;
     let builder = schedule(&ctx, &raw, builder, &mut spans)?;
-    let mut sim = builder.build().map_err(|e| spans.error(&ctx, e))?;
-    sim.contact = contact(&ctx, &raw, &sim.body, kind.dim(), h)?;
-    Ok(sim)
+    let builder = contact(&ctx, &raw, kind.dim(), h, builder, &mut spans)?;
+    builder.build().map_err(|e| spans.error(&ctx, e))
 }
 
 /// `[material]`: the elastic constants and the breaking rule.
@@ -926,119 +925,53 @@ fn lattice(
     Ok((b, kind, h))
 }
 
-/// Rigid bodies and contact settings; `None` when the case has neither.
+/// Rigid bodies and contact settings, for the builder (which checks them against the body
+/// and places the bodies); unchanged when the case has neither.
 fn contact(
     ctx: &Ctx,
     raw: &RawCase,
-    body: &Body,
     dim: usize,
     h: Real,
-) -> Result<Option<Contact>, CaseError> {
+    b: Builder,
+    spans: &mut Spans,
+) -> Result<Builder, CaseError> {
     if raw.rigid.is_empty() && raw.contact.is_none() {
-        return Ok(None);
+        return Ok(b);
     }
-    let mut opts = ContactOptions::for_body(body);
-    let shortest = body.lattice.bonds.shortest();
+    let mut spec = ContactSpec::default();
     if let Some(c) = &raw.contact {
+        spans.at("contact", c.span());
         let c = c.get_ref();
         if let Some(v) = &c.stiffness_factor {
-            let x = *v.get_ref();
-            if !(x > 0.0 && x <= 1.0) {
-                return Err(ctx.err(
-                    v.span(),
-                    "contact.stiffness_factor",
-                    format!("{x}: give 0 < c <= 1 (k = c m / dt^2; the default 0.1 keeps the step stable)"),
-                ));
-            }
-            opts.stiffness_factor = x;
+            spans.at("contact.stiffness_factor", v.span());
+            spec.stiffness_factor = Some(*v.get_ref());
         }
         if let Some(v) = &c.radius {
-            opts.radius = ctx.positive(v, "contact.radius", "m")?;
+            spans.at("contact.radius", v.span());
+            spec.radius = Some(*v.get_ref());
         }
-        if c.fragments == Some(false) {
-            opts.fragment_distance = None;
-        }
+        spec.fragments = c.fragments;
         if let Some(v) = &c.fragment_distance {
-            let d = ctx.positive(v, "contact.fragment_distance", "m")?;
-            if d >= 0.95 * shortest {
-                return Err(ctx.err(
-                    v.span(),
-                    "contact.fragment_distance",
-                    format!("{d:e} m: keep it below 0.95 x the shortest spring ({shortest:e} m), or springs that break would start in contact"),
-                ));
-            }
-            if c.fragments == Some(false) {
-                return Err(ctx.err(
-                    v.span(),
-                    "contact.fragment_distance",
-                    "fragments = false turns fragment contact off; remove one of the two",
-                ));
-            }
-            opts.fragment_distance = Some(d);
+            spans.at("contact.fragment_distance", v.span());
+            spec.fragment_distance = Some(*v.get_ref());
         }
     }
     let mut bodies = Vec::new();
     for (k, r) in raw.rigid.iter().enumerate() {
-        let mut rb = rigid(ctx, r, k, dim, h)?;
-        let reach = opts.radius;
-        // Nearest gap between the body and a node's contact range (m), with the node.
-        let nearest = |rb: &RigidBody, limit: Real| -> Option<(usize, Real)> {
-            let (lo, hi) = rb.geometry.bounds(rb.position);
-            let mut worst: Option<(usize, Real)> = None;
-            for i in 0..body.nodes() {
-                let p = body.lattice.pos.get(i);
-                let x = [p.x, p.y, p.z];
-                if (0..dim).any(|c| x[c] < lo[c] - limit || x[c] > hi[c] + limit) {
-                    continue;
-                }
-                if let Some((d, _)) = rb.geometry.signed_distance(rb.position, x) {
-                    let gap = d - reach;
-                    if worst.is_none_or(|w| gap < w.1) {
-                        worst = Some((i, gap));
-                    }
-                }
-            }
-            worst
-        };
+        spans.at(format!("rigid[{k}]"), r.span());
+        spans.at(format!("rigid[{k}].position"), r.get_ref().position.span());
         if let Some(g) = &r.get_ref().start_gap {
-            let want = ctx.positive(g, &format!("rigid[{k}].start_gap"), "m")?;
-            let v = rb.velocity;
-            let speed = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            if speed == 0.0 {
-                return Err(ctx.err(g.span(), format!("rigid[{k}].start_gap"), "the body is moved along its velocity, which is zero: give a velocity or place it by position"));
-            }
-            let dir = v.map(|c| c / speed);
-            // Move along the velocity until the nearest gap is `want` (a few passes: exact for
-            // flat faces, converging for curved ones).
-            let size = body.lattice.spacing * (body.nodes() as Real).powf(1.0 / dim as Real) * 10.0;
-            for _ in 0..20 {
-                let Some((_, gap)) = nearest(&rb, size) else {
-                    break;
-                };
-                if (gap - want).abs() <= 1e-6 * want {
-                    break;
-                }
-                for c in 0..dim {
-                    rb.position[c] += (gap - want) * dir[c];
-                }
-            }
+            spans.at(format!("rigid[{k}].start_gap"), g.span());
         }
-        // A body that starts inside the contact range of a node would hit it with the full
-        // penalty force at the first step: a shock that is never what was meant.
-        if let Some((i, gap)) = nearest(&rb, reach).filter(|w| w.1 < 0.0) {
-            let p = body.lattice.pos.get(i);
-            return Err(ctx.err(
-                r.get_ref().position.span(),
-                format!("rigid[{k}].position"),
-                format!(
-                    "the body starts {:.3e} m inside the contact range of node {i} at [{:e}, {:e}, {:e}] m (node contact radius {:e} m): move it at least that far away",
-                    -gap, p.x, p.y, p.z, reach
-                ),
-            ));
+        if raw.contact.is_none() && k == 0 {
+            spans.at("contact", r.span());
         }
-        bodies.push(rb);
+        bodies.push(RigidSpec {
+            body: rigid(ctx, r, k, dim, h)?,
+            start_gap: r.get_ref().start_gap.as_ref().map(|g| *g.get_ref()),
+        });
     }
-    Ok(Some(Contact::new(body, bodies, opts)))
+    Ok(b.contact(spec, bodies))
 }
 
 fn rigid(

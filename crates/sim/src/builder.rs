@@ -25,7 +25,6 @@
 //! Bad input gives a [`BuildError`] naming the item (with the keys a case file would use, e.g.
 //! `boundary[1].region`) and the fix, never a panic.
 
-use hooke_contact::{Contact, ContactOptions, RigidBody};
 use hooke_core::dynamics::{IntegratorOptions, TimeStep};
 use hooke_core::loading::{Loading, Motion, Prescribed, TimeFunction};
 use hooke_core::material::{self, Elastic, PlaneModel};
@@ -34,6 +33,7 @@ use hooke_core::{Body, LatticeKind, Real, State, Vector};
 use hooke_fracture::{Crack, Criterion, CriticalStretch, Fracture, SpringEnergy};
 
 use crate::geometry::{fill_lattice, traction_loads, Region, Solid};
+use crate::rigid::{ContactSpec, RigidSpec};
 use crate::simulation::{Boundary, Simulation};
 
 /// What is wrong with a simulation being built: the item (a case file's key) and the fix.
@@ -146,7 +146,7 @@ pub struct Builder {
     time_step: TimeStep,
     damping: Real,
     quasi_static: Option<usize>,
-    contact: Option<(Option<ContactOptions>, Vec<RigidBody>)>,
+    contact: Option<(ContactSpec, Vec<RigidSpec>)>,
 }
 
 impl Builder {
@@ -276,8 +276,8 @@ impl Builder {
         self
     }
     /// Rigid bodies and contact (explicit runs); `None`: the lattice's default options.
-    pub fn contact(mut self, opts: Option<ContactOptions>, bodies: Vec<RigidBody>) -> Self {
-        self.contact = Some((opts, bodies));
+    pub fn contact(mut self, spec: ContactSpec, bodies: Vec<RigidSpec>) -> Self {
+        self.contact = Some((spec, bodies));
         self
     }
 
@@ -289,19 +289,12 @@ impl Builder {
         let (loading, regions, boundaries) = self.loading(&body, &mut state, &mut fracture)?;
         let (end_time, output_every, checkpoint_every, reactions_every) = self.times()?;
         let q = body.q;
-        let contact = match self.contact {
+        let contact = match &self.contact {
             None => None,
             Some(_) if self.quasi_static.is_some() => {
                 return Err(BuildError::new("contact", "contact runs with the explicit solver; remove the quasi-static solver or the contact"))
             }
-            Some((opts, bodies)) => {
-                // Defaults from the lattice: radius a/2, fragments below 0.8 of the shortest spring.
-                let opts = opts.unwrap_or_else(|| ContactOptions::for_body(&body));
-                if !(opts.stiffness_factor > 0.0 && opts.stiffness_factor <= 1.0) {
-                    return Err(BuildError::new("contact.stiffness_factor", "give 0 < c <= 1 (the default 0.1 keeps the step stable)"));
-                }
-                Some(Contact::new(&body, bodies, opts))
-            }
+            Some((spec, bodies)) => Some(crate::rigid::contact(&body, spec, bodies)?),
         };
         loading
             .validate(body.nodes())

@@ -19,6 +19,7 @@ mod observer;
 pub mod output;
 mod provenance;
 mod quasi_static;
+pub mod rigid;
 mod run;
 mod simulation;
 
@@ -28,5 +29,6 @@ pub use geometry::{fill_lattice, Face, Region, Shape, Solid};
 pub use observer::{Observer, Progress, Silent, StopFlag};
 pub use output::{EnergyRow, Frame, RegionReaction, Sink};
 pub use provenance::{utc_now, GIT_COMMIT};
+pub use rigid::{ContactSpec, RigidSpec};
 pub use run::{free_space, run, run_keeping, seconds, write_probe, Run, RunOptions, Summary};
 pub use simulation::{Boundary, Schedule, Simulation};

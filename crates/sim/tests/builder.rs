@@ -38,7 +38,9 @@ fn bad_input_names_the_item_and_the_fix() {
     assert_eq!(e.key, "boundary[0].fixed");
     assert!(e.message.contains("2D body"), "{e}");
 
-    let e = err(plate().quasi_static(4).contact(None, Vec::new()));
+    let e = err(plate()
+        .quasi_static(4)
+        .contact(hooke_sim::ContactSpec::default(), Vec::new()));
     assert_eq!(e.key, "contact");
     assert!(e.message.contains("explicit"), "{e}");
 
