@@ -227,3 +227,64 @@ fn q_range_covers_the_admissible_nu() {
     assert!((nu_from_q(LatticeKind::Hex, 1e9) - 1.0).abs() < 1e-8);
     let _ = Coords::zeros(0);
 }
+
+/// With each spring and node weighted by the share of the bulk's cells it stands for
+/// (`BlockTest::cell_weights`), the paper's Ladd block has no surface layer: a uniform strain is
+/// an exact equilibrium, and the block reads the target nu and E (nominal section) to the
+/// solver's tolerance over the whole admissible range, where the unweighted block is off by up
+/// to +0.025 in nu and +13 % in E. The hexagonal strip gains most of it: E within 0.5 % and nu
+/// within 0.002 from nu = 0 up; at nu = -0.9 nu is still 0.018 too negative (the edge rows'
+/// pools; recorded, not hidden).
+#[test]
+fn cell_weights_remove_the_surface_bias() {
+    for nu in [-0.9, -0.5, 0.0, 0.25, 0.45, 0.49] {
+        let mut t = BlockTest::paper(LatticeKind::Cubic, nu);
+        t.cell_weights = true;
+        let r = block_test(&t).unwrap();
+        let (dnu, de) = (r.nu_measured - nu, r.e_measured / r.e_target - 1.0);
+        println!("cubic nu {nu}: nu error {dnu:+.2e}, E error {de:+.2e}");
+        assert!(
+            dnu.abs() < 1e-5 && de.abs() < 1e-4,
+            "cubic nu {nu}: {dnu:e}, {de:e}"
+        );
+    }
+    for nu in [0.0, 0.3, 0.45] {
+        let mut t = BlockTest::paper(LatticeKind::Hex, nu);
+        t.cell_weights = true;
+        let r = block_test(&t).unwrap();
+        let (dnu, de) = (r.nu_measured - nu, r.e_measured / r.e_target - 1.0);
+        println!("hex nu {nu}: nu error {dnu:+.2e}, E error {de:+.2e}");
+        assert!(
+            dnu.abs() < 2e-3 && de.abs() < 5e-3,
+            "hex nu {nu}: {dnu:e}, {de:e}"
+        );
+    }
+    // Random lattices are weighted by volume already. A cube's corner node stands for 1/8 of a
+    // bulk node, its edge springs for 1/4 of a bulk spring, its face diagonals for 1/2.
+    let e = tests_body(LatticeKind::Random3d, 0.0, 6)
+        .with_cell_weights()
+        .unwrap_err();
+    assert!(e.to_string().contains("random lattices already are"), "{e}");
+    let cube = tests_body(LatticeKind::Cubic, 0.0, 4)
+        .with_cell_weights()
+        .unwrap();
+    assert_eq!(cube.mass[0], 1.0 / 8.0);
+    let (x, y) = (cube.lattice.pos.x(), cube.lattice.pos.y());
+    let z = cube.lattice.pos.z();
+    for (s, e) in cube.lattice.bonds.ends.iter().enumerate() {
+        let (i, j) = (e[0] as usize, e[1] as usize);
+        let d = [x[j] - x[i], y[j] - y[i], z[j] - z[i]];
+        let on_edge = |p: [Real; 3]| p.iter().filter(|&&c| c == 0.0 || c == 3.0).count() >= 2;
+        let (pi, pj) = ([x[i], y[i], z[i]], [x[j], y[j], z[j]]);
+        let axis = d.iter().filter(|&&c| c != 0.0).count() == 1;
+        // An axis spring along a cube edge of the body: one of its four cubes.
+        if axis
+            && on_edge(pi)
+            && on_edge(pj)
+            && (0..3).all(|c| d[c] != 0.0 || pi[c] == 0.0 || pi[c] == 3.0)
+        {
+            assert_eq!(cube.k[s], 0.25, "spring {s}");
+        }
+    }
+    assert!(cube.k.iter().all(|&k| k == 1.0 || k == 0.5 || k == 0.25));
+}

@@ -414,7 +414,8 @@ def moduli(lattice: str = "cubic", nu: float = 0.3, **flags: Any) -> Dict[str, A
     """The paper's block test, as ``hooke moduli --lattice LATTICE --nu NU ... --json``: the
     same keys and numbers. Other flags by name (``size=[21, 6, 6]``, ``samples=4``,
     ``sampler="jitter"``; ``bulk=True``: the exact bulk test's 6x6 ``C_measured`` and
-    ``C_target``)."""
+    ``C_target``; ``cell_weights=True``: springs and nodes weighted by their cells, no surface
+    bias)."""
     return json.loads(_hooke.command_json("moduli", _flags(lattice, nu, flags)))
 
 

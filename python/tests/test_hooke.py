@@ -41,6 +41,14 @@ def test_bulk_moduli_match_the_command_line_exactly():
     assert c.shape == (6, 6) and np.allclose(c, t, rtol=0, atol=1e-9 * abs(t).max())
 
 
+def test_cell_weights_remove_the_surface_bias():
+    plain = hooke.moduli(lattice="cubic", nu=0.3)
+    weighted = hooke.moduli(lattice="cubic", nu=0.3, cell_weights=True)
+    assert weighted["cell_weights"] and not plain["cell_weights"]
+    assert abs(plain["nu_error"]) > 5e-3 and abs(weighted["nu_error"]) < 1e-5
+    assert abs(weighted["E_relative_error"]) < 1e-4
+
+
 def test_toughness_matches_the_command_line_exactly():
     mine = hooke.toughness(lattice="hex", nu=0.25, height=10, window=3)
     theirs = json.loads(cli("toughness", "--lattice", "hex", "--nu", "0.25", "--height", "10",

@@ -107,6 +107,12 @@ pub struct ModuliArgs {
     /// `C_target` with --json). Regular lattices.
     #[arg(long)]
     pub bulk: bool,
+    /// Regular lattices: weight each spring and node by the share of the bulk's cells (cubes,
+    /// triangles) it stands for, as random lattices weight theirs by volume: the free faces'
+    /// bias in nu and E disappears (E is then measured on the nominal section between the
+    /// outer node planes, which is the body's material).
+    #[arg(long)]
+    pub cell_weights: bool,
     /// Random lattices: measure the calibration table (nu and E/E_affine against q over the
     /// samples) that `hooke_core::random::calibration` holds, and print it as Rust source.
     #[arg(long)]
@@ -127,6 +133,16 @@ impl From<LatticeArg> for LatticeKind {
 fn test_for(args: &ModuliArgs, nu: Real) -> Result<BlockTest> {
     let kind = LatticeKind::from(args.lattice);
     let mut t = BlockTest::paper(kind, nu);
+    if args.cell_weights {
+        if kind.is_random() {
+            return Err(InputError(
+                "--cell-weights: random lattices already weight their springs and nodes by volume; remove it"
+                    .into(),
+            )
+            .into());
+        }
+        t.cell_weights = true;
+    }
     if let Some(s) = &args.size {
         t.size = match (kind.dim(), s.as_slice()) {
             (3, &[x, y, z]) => [x, y, z],
@@ -210,6 +226,8 @@ pub struct ModuliJson {
     pub residual: Real,
     pub strain: Real,
     pub seconds: f64,
+    /// Springs and nodes weighted by their cells (`--cell-weights`).
+    pub cell_weights: bool,
     /// Random lattices: the sampler, load axis, first seed and number of samples.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sampler: Option<&'static str>,
@@ -258,6 +276,7 @@ fn to_json(t: &BlockTest, r: &BlockResult, seconds: f64) -> ModuliJson {
         residual: r.solve.residual,
         strain: t.strain,
         seconds,
+        cell_weights: t.cell_weights,
         sampler: None,
         axis: None,
         seed: None,

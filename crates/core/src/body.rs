@@ -70,6 +70,43 @@ impl Body {
         }
     }
 
+    /// Weight each spring's stiffness and each node's mass by the share of the bulk's cells
+    /// that hold it and lie in the body ([`Lattice::cell_fractions`]: cubes of the Ladd lattice,
+    /// triangles of the hexagonal one). A face spring of the Ladd lattice then stands for half
+    /// the material of a bulk one, an edge spring for a quarter, as a random lattice's springs
+    /// stand for their volumes; the dispersion normalisers `S_n = sum k_t L_t^2` follow from the
+    /// weighted `k`. The body's material is then exactly the box between its outer node planes,
+    /// and a uniform strain is an exact equilibrium of the whole body (no surface layer).
+    /// Refused for random and periodic lattices (nothing to weight) and where a spring or node
+    /// lies in no cell (a body one cell thin).
+    pub fn with_cell_weights(mut self) -> Result<Self> {
+        let Some((springs, nodes)) = self.lattice.cell_fractions() else {
+            return Err(Error::InvalidInput {
+                what: "cell weights",
+                why: "only regular, non-periodic lattices are weighted by cells (random lattices already are)".into(),
+            });
+        };
+        if let Some(s) = springs.iter().position(|&f| f <= 0.0) {
+            return Err(Error::InvalidInput {
+                what: "cell weights",
+                why: format!("spring {s} lies in no cell of the lattice: the body is too thin to weight by cells (two node planes at least along each axis)"),
+            });
+        }
+        if let Some(n) = nodes.iter().position(|&f| f <= 0.0) {
+            return Err(Error::InvalidInput {
+                what: "cell weights",
+                why: format!("node {n} lies in no cell of the lattice: the body is too thin to weight by cells"),
+            });
+        }
+        for (k, f) in self.k.iter_mut().zip(springs) {
+            *k *= f;
+        }
+        for (m, f) in self.mass.iter_mut().zip(nodes) {
+            *m *= f;
+        }
+        Ok(self)
+    }
+
     /// Check the constants are usable (positive stiffness and mass, q above the stability limit).
     pub fn validate(&self) -> Result<()> {
         if !(self.q.is_finite() && self.q > -0.5) {
