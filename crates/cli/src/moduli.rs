@@ -602,14 +602,19 @@ fn sweep(args: &ModuliArgs) -> Result<()> {
         rows.push((m.nu_target, m.nu_measured));
     }
     write_atomic(&csv_path, csv.as_bytes())?;
+    let weights = if args.cell_weights {
+        ", cell weights"
+    } else {
+        ""
+    };
     let title = if three_d {
         format!(
-            "Poisson's ratio, cubic (Ladd) lattice {}",
+            "Poisson's ratio, cubic (Ladd) lattice {}{weights}",
             size_label(args, "71x16x16")
         )
     } else {
         format!(
-            "in-plane Poisson's ratio, hexagonal lattice {}",
+            "in-plane Poisson's ratio, hexagonal lattice {}{weights}",
             size_label(args, "71x16")
         )
     };
