@@ -423,6 +423,12 @@ pub fn value(args: &ModuliArgs) -> Result<serde_json::Value> {
 /// `--bulk`: the exact stiffness tensor of the infinite lattice against the isotropic target.
 fn bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
     use hooke_core::material::{q_from_nu, youngs_from_k};
+    if args.cell_weights {
+        return Err(InputError(
+            "--cell-weights: the bulk test has no faces, every spring is a bulk spring; remove one of the two".into(),
+        )
+        .into());
+    }
     use hooke_core::moduli::{bulk_stiffness, isotropic_stiffness};
     let kind = LatticeKind::from(args.lattice);
     if kind.is_random() {

@@ -109,6 +109,20 @@ fn moduli_bulk_gives_the_full_stiffness_tensor() {
     let o = hooke(&["moduli", "--bulk", "--lattice", "random3d", "--nu", "0.3"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("block test"), "{}", stderr(&o));
+    // Cell weights concern faces; the bulk has none, and a random lattice is weighted already.
+    let o = hooke(&["moduli", "--bulk", "--cell-weights", "--nu", "0.3"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("no faces"), "{}", stderr(&o));
+    let o = hooke(&[
+        "moduli",
+        "--cell-weights",
+        "--lattice",
+        "random2d",
+        "--nu",
+        "0.3",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("by volume"), "{}", stderr(&o));
 }
 
 /// Random lattices: the cubic test's keys with nu_measured and E_measured the ensemble means,
