@@ -2,6 +2,8 @@
 
 mod bench;
 mod moduli;
+#[cfg(feature = "mpi")]
+mod mpi;
 mod plot;
 mod run;
 mod toughness;
@@ -13,7 +15,8 @@ use clap::{Parser, Subcommand};
 #[derive(Debug, Parser)]
 #[command(name = "hooke", version, about, long_about = None)]
 pub struct Cli {
-    /// Worker threads (default: all cores). Results do not depend on it.
+    /// Worker threads (default: all cores, shared among the MPI ranks of a machine). Results do
+    /// not depend on it.
     #[arg(long, global = true)]
     pub threads: Option<usize>,
     #[command(subcommand)]
@@ -73,12 +76,37 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
     1
 }
 
+static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// This process is an MPI rank other than 0: rank 0 prints for the run (messages, errors and
+/// the summary would otherwise appear once per rank).
+pub fn quiet() -> bool {
+    QUIET.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+fn set_quiet() {
+    QUIET.store(true, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Processes per machine when started by an MPI launcher (Open MPI, MPICH), so that ranks on
+/// one machine share its cores rather than each taking all of them.
+fn local_ranks() -> Option<usize> {
+    ["OMPI_COMM_WORLD_LOCAL_SIZE", "MPI_LOCALNRANKS"]
+        .iter()
+        .find_map(|k| std::env::var(k).ok()?.parse().ok())
+        .filter(|&n: &usize| n > 0)
+}
+
 /// Run a parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     let threads = match cli.threads {
         Some(0) => return Err(InputError("--threads 0: give at least 1 thread".into()).into()),
         Some(t) => t,
-        None => 0, // rayon's default: one per core
+        // Under an MPI launcher: the machine's cores shared by its ranks.
+        None => local_ranks().map_or(0, |ranks| {
+            let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+            (cores / ranks).max(1)
+        }),
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)

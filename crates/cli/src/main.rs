@@ -26,7 +26,10 @@ fn main() -> ExitCode {
     match hooke_cli::run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            // Every rank of an MPI run fails alike; rank 0 says why.
+            if !hooke_cli::quiet() {
+                eprintln!("error: {e:#}");
+            }
             ExitCode::from(hooke_cli::exit_code(&e))
         }
     }

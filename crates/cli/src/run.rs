@@ -254,6 +254,18 @@ pub fn check(args: CheckArgs) -> Result<()> {
 }
 
 pub fn run(args: RunArgs) -> Result<()> {
+    // Under `mpirun -np N` (feature `mpi`), N processes run this same function; each builds the
+    // same simulation, rank 0 alone writes and prints (`docs/mpi.md`).
+    #[cfg(feature = "mpi")]
+    let mpi = crate::mpi::start()?;
+    #[cfg(feature = "mpi")]
+    let team = mpi.team.clone();
+    #[cfg(not(feature = "mpi"))]
+    let team: Option<Arc<dyn hooke_core::team::Team>> = None;
+    let processes = team.as_ref().map_or(1, |t| t.size());
+    if team.as_ref().is_some_and(|t| t.rank() != 0) {
+        crate::set_quiet();
+    }
     let (sim, base) = load(&args.case, args.scale, &args.set)?;
     let name = stem(&args.case);
     let out = args.out.clone().unwrap_or_else(|| {
@@ -276,6 +288,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         name,
         resume: args.resume.clone(),
         command: std::env::args().collect(),
+        team,
         ..base
     };
     let stop = Arc::new(AtomicBool::new(false));
@@ -285,7 +298,12 @@ pub fn run(args: RunArgs) -> Result<()> {
         let _ = ctrlc::set_handler(move || stop.store(true, Ordering::SeqCst));
     }
     let quasi = sim.quasi_static;
-    let mut obs = CliObserver::new(stop, args.progress_every, quasi);
+    let every = if crate::quiet() {
+        0.0
+    } else {
+        args.progress_every
+    };
+    let mut obs = CliObserver::new(stop, every, quasi);
     let summary = match hooke_sim::run(sim, opts, &mut obs) {
         Ok(s) => s,
         Err(e) => {
@@ -313,9 +331,13 @@ pub fn run(args: RunArgs) -> Result<()> {
         }
     };
     obs.bar.finish_and_clear();
+    if crate::quiet() {
+        return Ok(());
+    }
     let peak = crate::bench::peak_memory();
     if args.json {
         let mut v = serde_json::to_value(&summary)?;
+        v["processes"] = serde_json::json!(processes);
         v["case"] = serde_json::json!(args.case.display().to_string());
         v["output_dir"] = serde_json::json!(out.display().to_string());
         v["peak_memory_bytes"] = serde_json::json!(peak);
@@ -323,6 +345,9 @@ pub fn run(args: RunArgs) -> Result<()> {
         return Ok(());
     }
     print_summary(&args.case, &summary);
+    if processes > 1 {
+        println!("  processes   {processes} (MPI ranks; rank 0 wrote the output)");
+    }
     if let Some(b) = peak {
         println!("  peak memory {:.0} MiB", b as f64 / (1 << 20) as f64);
     }

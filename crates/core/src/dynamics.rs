@@ -29,6 +29,7 @@ use crate::loading::{Loading, Motion};
 use crate::math::{Coords, Real, Vector};
 use crate::stability::{self, StableStep, DEFAULT_SAFETY};
 use crate::state::State;
+use crate::team::{Share, Team};
 
 /// How the time step is chosen.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -179,6 +180,8 @@ pub struct Integrator {
     synced: u64,
     /// Springs broken through [`Integrator::break_spring`] since the step began.
     killed: Vec<u32>,
+    /// The processes sharing the sweeps, and this one's share (`None`: one process does all).
+    team: Option<(std::sync::Arc<dyn Team>, Share)>,
 }
 
 impl Integrator {
@@ -347,6 +350,7 @@ impl Integrator {
             f_before: Vec::with_capacity(sparse),
             v_kernel: Vec::with_capacity(sparse),
             partials: vec![Default::default(); crate::kernel::partials_len(body.nodes())],
+            team: None,
             contact: Vec::new(),
             v_contact: Vec::new(),
             synced: 0,
@@ -478,6 +482,76 @@ impl Integrator {
         self.synced = state.breaks();
     }
 
+    /// Share the sweeps of every following step with the other members of `team` (each
+    /// process then holds and runs the same simulation; see [`crate::team`]). Every member
+    /// calls it, with the same body; a team of one changes nothing. Results stay the bits of
+    /// one process.
+    pub fn distribute(&mut self, body: &Body, team: std::sync::Arc<dyn Team>) {
+        self.team = (team.size() > 1).then(|| {
+            let share = Share::new(body, team.size(), team.rank());
+            (team, share)
+        });
+    }
+
+    /// The team this integrator shares its steps with, if any.
+    pub fn team(&self) -> Option<&dyn Team> {
+        self.team.as_ref().map(|(t, _)| &**t)
+    }
+
+    /// Sweep 1 on this process's share, then every rank's pools (and with a screen, the
+    /// screen flags) everywhere.
+    fn pools_everywhere(&self, body: &Body, state: &mut State, screen: Real) {
+        match &self.team {
+            None => self.kernel.pools_screened(body, state, screen),
+            Some((team, share)) => {
+                self.kernel.pools_shared(body, state, screen, Some(share));
+                team.gather(&mut state.pool, &share.nodes);
+                if screen.is_finite() {
+                    team.any(&mut state.hot);
+                }
+            }
+        }
+    }
+
+    /// Sweep 2 on this process's share, then every rank's new displacements, velocities and
+    /// partial sums everywhere; the total in chunk order (the bits of one process).
+    fn sweep_everywhere(
+        &mut self,
+        body: &Body,
+        state: &mut State,
+        params: &StepParams,
+    ) -> crate::kernel::SweepSums {
+        let all = 0..body.nodes().div_ceil(crate::kernel::CHUNK);
+        let chunks = self.team.as_ref().map_or(all, |(_, s)| s.chunks());
+        let own = self.kernel.force_kick_drift_chunks(
+            body,
+            state,
+            &self.inv_mass,
+            params,
+            &mut self.u_next,
+            &mut self.partials,
+            chunks,
+        );
+        let Some((team, share)) = &self.team else {
+            return own;
+        };
+        for c in self.u_next.xyz_mut().into_iter().chain(state.v.xyz_mut()) {
+            team.gather(c, &share.nodes);
+        }
+        let parts = share.chunk_parts(2);
+        let p = &mut self.partials;
+        // SAFETY: `SweepSums` is `repr(C)` with two `Real` fields and no padding, so `p` is
+        // `2 p.len()` initialised reals; the view lives only for this call.
+        let flat =
+            unsafe { std::slice::from_raw_parts_mut(p.as_mut_ptr() as *mut Real, 2 * p.len()) };
+        team.gather(flat, &parts);
+        let mut total = crate::kernel::SweepSums::default();
+        for &s in &self.partials[..body.nodes().div_ceil(crate::kernel::CHUNK)] {
+            total += s;
+        }
+        total
+    }
+
     /// Book energy released by springs broken outside the integrator (fracture).
     pub fn add_released(&mut self, e: Real) {
         self.ledger.released += e;
@@ -535,7 +609,7 @@ impl Integrator {
         } else {
             s
         };
-        self.kernel.pools_screened(body, state, screen);
+        self.pools_everywhere(body, state, screen);
         b.break_in_step(body, state, self);
         if self.synced != state.breaks() {
             self.sync(body, state);
@@ -543,6 +617,11 @@ impl Integrator {
         }
         let killed = std::mem::take(&mut self.killed);
         self.kernel.repair(body, state, &killed);
+        if let (Some((team, share)), false) = (&self.team, killed.is_empty()) {
+            // Every rank repaired the pools of the broken springs' ends, but only the ends it
+            // owns have their rows' shares at hand: take those from their owners.
+            team.gather(&mut state.pool, &share.nodes);
+        }
         self.killed = killed;
         true
     }
@@ -574,7 +653,7 @@ impl Integrator {
             }
         }
         if !swept {
-            self.kernel.pools(body, state);
+            self.pools_everywhere(body, state, Real::INFINITY);
         }
         // Sparse bookkeeping before the sweep overwrites v: the half-step velocity and the
         // internal force at u(t) of every loaded or prescribed node.
@@ -602,14 +681,7 @@ impl Integrator {
             damping: self.damping,
             accel: self.loading.body_acceleration.into(),
         };
-        let sums = self.kernel.force_kick_drift(
-            body,
-            state,
-            &self.inv_mass,
-            &params,
-            &mut self.u_next,
-            &mut self.partials,
-        );
+        let sums = self.sweep_everywhere(body, state, &params);
         self.ledger.dissipated += sums.dissipated;
         self.ledger.body_work += sums.body_work;
         // External loads: the sweep kicked without them; add their share of the kick (linear in

@@ -31,6 +31,7 @@ pub mod stability;
 pub mod state;
 pub mod statics;
 pub mod tangent;
+pub mod team;
 
 pub use body::Body;
 pub use error::{Error, Result};

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use hooke_core::dynamics::{Integrator, Interaction};
+use hooke_core::team::Team;
 use hooke_core::{Coords, Real};
 use hooke_io::{Checkpoint, VtkSeries};
 
@@ -34,6 +35,10 @@ pub struct RunOptions {
     /// The case's physics as `key = value` lines (what the digest covers), kept in `run.json`
     /// so that a resume with other physics can name the key that differs.
     pub physics: String,
+    /// Processes that share the run (MPI ranks, [`hooke_core::team`]): each builds the same
+    /// simulation and runs it with this option; the sweeps are split, rank 0 alone writes, and
+    /// the results are the bits of one process. `None`: this process alone.
+    pub team: Option<std::sync::Arc<dyn Team>>,
 }
 
 impl RunOptions {
@@ -48,6 +53,33 @@ impl RunOptions {
     /// The checkpoint the run writes.
     pub fn checkpoint_path(&self) -> PathBuf {
         self.out.join(format!("{}.ckpt", self.name))
+    }
+
+    /// Whether this process writes the outputs: rank 0 of a team, or a process alone.
+    pub fn writes(&self) -> bool {
+        self.team.as_ref().is_none_or(|t| t.rank() == 0)
+    }
+
+    /// Whether any member of the team (this process alone: this one) says `flag`. Every member
+    /// must call it at the same point.
+    fn anyone(&self, flag: bool) -> bool {
+        let mut f = [flag];
+        if let Some(t) = &self.team {
+            t.any(&mut f);
+        }
+        f[0]
+    }
+}
+
+/// What a process that did not fail reports when another member of its team did (that one
+/// prints the reason); `input`: the failure was the user's input (a folder that holds a run, a
+/// format this build lacks), so that every rank exits with the same code.
+fn elsewhere(input: bool) -> Error {
+    let msg = "another process of this run failed (rank 0 names the reason)".to_string();
+    if input {
+        Error::Input(msg)
+    } else {
+        Error::Failed(msg)
     }
 }
 
@@ -269,7 +301,15 @@ impl Run {
                 "a quasi-static simulation runs to its end through hooke_sim::run".into(),
             ));
         }
-        preflight(&sim, &opts)?;
+        let checked = if opts.writes() {
+            preflight(&sim, &opts)
+        } else {
+            Ok(())
+        };
+        if opts.anyone(checked.is_err()) {
+            checked?;
+            return Err(elsewhere(true));
+        }
         let it = match &opts.resume {
             None => Integrator::new(&sim.body, &mut sim.state, sim.loading.clone(), &sim.options)
                 .map_err(|e| Error::Input(e.to_string()))?,
@@ -310,19 +350,36 @@ impl Run {
                 )?
             }
         };
+        let mut it = it;
+        if let Some(team) = &opts.team {
+            it.distribute(&sim.body, team.clone());
+        }
         let resuming = opts.resume.is_some();
         let until = sim.state.time;
-        let sinks = open_sinks(&sim, &opts.out, &opts.name, resuming, until)?;
-        let contact_history = if sim.has_rigid_bodies() {
-            Some(ContactHistory::open(
-                &opts.out,
-                &opts.name,
-                resuming.then_some(until),
-            )?)
+        // Only the writer opens files; a failure there stops every member.
+        let opened = if opts.writes() {
+            (|| -> Result<_> {
+                let sinks = open_sinks(&sim, &opts.out, &opts.name, resuming, until)?;
+                let contact_history = if sim.has_rigid_bodies() {
+                    Some(ContactHistory::open(
+                        &opts.out,
+                        &opts.name,
+                        resuming.then_some(until),
+                    )?)
+                } else {
+                    None
+                };
+                let provenance = Provenance::start(&sim, &opts, Some(&it))?;
+                Ok((sinks, contact_history, Some(provenance)))
+            })()
         } else {
-            None
+            Ok((Vec::new(), None, None))
         };
-        let provenance = Provenance::start(&sim, &opts, Some(&it))?;
+        if opts.anyone(opened.is_err()) {
+            opened?;
+            return Err(elsewhere(true));
+        }
+        let (sinks, contact_history, provenance) = opened?;
         // The next output times after t. A frame is taken at the first step within half a step
         // of its time, so one due just after t may already have been taken just before it (a
         // resumed run): count t + dt/2 as passed.
@@ -344,10 +401,14 @@ impl Run {
             next_reactions,
             started: Instant::now(),
             last_report: Instant::now(),
-            provenance: Some(provenance),
+            provenance,
         };
         if !resuming {
-            run.write_frame()?;
+            let first = run.write_frame();
+            if run.opts.anyone(first.is_err()) {
+                first?;
+                return Err(elsewhere(false));
+            }
         }
         Ok(run)
     }
@@ -428,31 +489,29 @@ impl Run {
             None => self.it.step_with(body, &mut sim.state, contact),
         }
         if sim.state.step % 64 == 0 {
+            // Every member holds the same state: an instability stops all of them alike.
             self.it.check(body, &sim.state)?;
         }
-        let half = 0.5 * self.it.dt;
-        let done = sim.state.time >= sim.end_time - half;
-        let time = sim.state.time;
-        let reactions_due = self.next_reactions.is_some_and(|n| time >= n - half);
-        if reactions_due {
-            let every = self.sim.reactions_every.unwrap_or(Real::INFINITY);
-            self.next_reactions = self.next_reactions.map(|n| n + every);
+        let written = self.write_due();
+        // What only one member may know (a failed write, Ctrl-C, the progress clock) becomes
+        // every member's decision, so that all of them take the same path.
+        let progress_due = obs
+            .progress_interval()
+            .is_some_and(|every| self.last_report.elapsed() >= every);
+        let mut flags = [written.is_err(), obs.interrupted(), progress_due];
+        if let Some(t) = &self.opts.team {
+            t.any(&mut flags);
         }
-        if time >= self.next_frame - half || done {
-            self.it.check(&self.sim.body, &self.sim.state)?;
-            self.write_frame()?;
-            self.next_frame += self.sim.output_every;
-        } else if reactions_due {
-            let r = self.reactions();
-            for s in &mut self.sinks {
-                s.reactions(time, &r)?;
+        if let Err(e) = written {
+            if let Some(p) = self.provenance.as_mut() {
+                p.end(&format!("failed: {e}"), &self.opts.out);
             }
+            return Err(e);
         }
-        if time >= self.next_ckpt - half || done {
-            self.save()?;
-            self.next_ckpt += self.sim.checkpoint_every;
+        if flags[0] {
+            return Err(elsewhere(false));
         }
-        if obs.interrupted() {
+        if flags[1] {
             self.write_frame()?;
             self.save()?;
             self.flush_outputs()?;
@@ -467,12 +526,39 @@ impl Run {
             }
             return Err(e);
         }
-        if let Some(every) = obs.progress_interval() {
-            if self.last_report.elapsed() >= every {
-                self.last_report = Instant::now();
-                let p = self.progress();
+        if flags[2] {
+            self.last_report = Instant::now();
+            let p = self.progress();
+            if self.opts.writes() {
                 obs.progress(&p);
             }
+        }
+        Ok(())
+    }
+
+    /// Frames, reactions and checkpoints that are due after the step just taken.
+    fn write_due(&mut self) -> Result<()> {
+        let half = 0.5 * self.it.dt;
+        let done = self.sim.state.time >= self.sim.end_time - half;
+        let time = self.sim.state.time;
+        let reactions_due = self.next_reactions.is_some_and(|n| time >= n - half);
+        if reactions_due {
+            let every = self.sim.reactions_every.unwrap_or(Real::INFINITY);
+            self.next_reactions = self.next_reactions.map(|n| n + every);
+        }
+        if time >= self.next_frame - half || done {
+            self.it.check(&self.sim.body, &self.sim.state)?;
+            self.next_frame += self.sim.output_every;
+            self.write_frame()?;
+        } else if reactions_due {
+            let r = self.reactions();
+            for s in &mut self.sinks {
+                s.reactions(time, &r)?;
+            }
+        }
+        if time >= self.next_ckpt - half || done {
+            self.next_ckpt += self.sim.checkpoint_every;
+            self.save()?;
         }
         Ok(())
     }
@@ -631,14 +717,20 @@ impl Run {
         for s in &mut self.sinks {
             s.frame(&frame)?;
         }
-        if let (Some(c), Some(h)) = (self.sim.contact.as_mut(), &self.contact_history) {
-            h.flush(c)?;
+        match (self.sim.contact.as_mut(), &self.contact_history) {
+            (Some(c), Some(h)) => h.flush(c)?,
+            // A member that does not write drops the rows the writer writes.
+            (Some(c), None) => c.history.clear(),
+            _ => {}
         }
         Ok(())
     }
 
     fn save(&mut self) -> Result<()> {
         self.settle();
+        if !self.opts.writes() {
+            return Ok(());
+        }
         let (broken, released) = self.sim.broken();
         Checkpoint {
             digest: self.opts.digest,
@@ -670,6 +762,9 @@ pub fn run_keeping(
     obs: &mut dyn Observer,
 ) -> Result<(Summary, Simulation)> {
     match sim.quasi_static {
+        Some(_) if opts.team.as_ref().is_some_and(|t| t.size() > 1) => Err(Error::Input(
+            "quasi-static runs (solver.type = \"quasi-static\") run in one process: their static solves are not shared between processes yet; run without mpirun (or with -np 1)".into(),
+        )),
         Some(steps) => {
             preflight(&sim, &opts)?;
             let s = crate::quasi_static::run(&mut sim, steps, &opts, obs)?;

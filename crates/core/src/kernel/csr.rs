@@ -35,6 +35,7 @@ use crate::body::Body;
 use crate::lattice::{reference_vector, Lattice};
 use crate::math::{Coords, Real};
 use crate::state::State;
+use crate::team::Share;
 
 /// Reals per spring record: `k dL`, `q k L`, and the unit vector's `D` components.
 pub(crate) const fn stride(dim: usize) -> usize {
@@ -45,14 +46,18 @@ pub(crate) const fn stride(dim: usize) -> usize {
 /// 0`). With a finite `screen` s, it also flags each block of [`BLOCK`] springs holding an
 /// intact spring with `dL > s L` in `state.hot` (the fracture check then looks at those blocks
 /// only); pass infinity for no screen.
-pub fn pools(body: &Body, state: &mut State, plain: bool, screen: Real) {
+///
+/// With a `share` (a rank's part of a distributed run, [`crate::team`]), only the records of
+/// its springs and the pools of its nodes are computed, and the screen flags of all other
+/// blocks are cleared (the ranks then combine them).
+pub fn pools(body: &Body, state: &mut State, plain: bool, screen: Real, share: Option<&Share>) {
     let lat = &body.lattice;
     let q = if plain { 0.0 } else { body.q };
     match (lat.dim(), lat.is_periodic()) {
-        (2, false) => pools_impl::<2, false>(body, state, q, screen),
-        (2, true) => pools_impl::<2, true>(body, state, q, screen),
-        (_, false) => pools_impl::<3, false>(body, state, q, screen),
-        (_, true) => pools_impl::<3, true>(body, state, q, screen),
+        (2, false) => pools_impl::<2, false>(body, state, q, screen, share),
+        (2, true) => pools_impl::<2, true>(body, state, q, screen, share),
+        (_, false) => pools_impl::<3, false>(body, state, q, screen, share),
+        (_, true) => pools_impl::<3, true>(body, state, q, screen, share),
     }
 }
 
@@ -68,6 +73,7 @@ fn pools_impl<const D: usize, const P: bool>(
     state: &mut State,
     q: Real,
     screen: Real,
+    share: Option<&Share>,
 ) {
     let bonds = &body.lattice.bonds;
     let springs = bonds.len();
@@ -83,14 +89,19 @@ fn pools_impl<const D: usize, const P: bool>(
     let (u, alive) = (&state.u, &state.alive);
     let lat = &body.lattice;
     let wide = wide_available();
-    state
-        .spring
+    // This rank's springs (all of them in one process); `first` is a multiple of BLOCK.
+    let mine = share.map_or(0..springs, |s| s.springs.clone());
+    let first = mine.start;
+    if share.is_some() {
+        state.hot.fill(false);
+    }
+    state.spring[w * mine.start..w * mine.end]
         .par_chunks_mut(w * CHUNK)
-        .zip(state.spring_pi.par_chunks_mut(CHUNK))
-        .zip(state.hot.par_chunks_mut(CHUNK / BLOCK))
+        .zip(state.spring_pi[mine.clone()].par_chunks_mut(CHUNK))
+        .zip(state.hot[first / BLOCK..mine.end.div_ceil(BLOCK)].par_chunks_mut(CHUNK / BLOCK))
         .enumerate()
         .for_each(|(c, ((rec, pis), hot))| {
-            let start = c * CHUNK;
+            let start = first + c * CHUNK;
             let n = pis.len();
             let springs = Springs {
                 ends: &bonds.ends[start..start + n],
@@ -107,21 +118,67 @@ fn pools_impl<const D: usize, const P: bool>(
             let _ = wide;
             spring_chunk::<D, P>(lat, u, q, screen, &springs, rec, pis, hot);
         });
+    if let Some(s) = share {
+        for &b in &s.foreign {
+            let b = b as usize;
+            let (rec, pi) = (&mut state.spring[w * b..w * b + w], &mut state.spring_pi[b]);
+            spring_one::<D, P>(lat, u, q, body.k[b], bonds, alive[b], b, rec, pi);
+        }
+    }
     if q == 0.0 {
         state.pool.fill(0.0);
         return;
     }
+    let nodes = share.map_or(0..body.nodes(), |s| s.mine());
     let (norm, pis) = (&state.norm, &state.spring_pi);
-    state
-        .pool
+    let start = nodes.start;
+    state.pool[nodes]
         .par_chunks_mut(CHUNK)
         .enumerate()
         .for_each(|(c, pool)| {
-            let first = c * CHUNK;
+            let first = start + c * CHUNK;
             for (k, p) in pool.iter_mut().enumerate() {
                 *p = node_pool(body, norm, pis, first + k);
             }
         });
+}
+
+/// One spring's record and pool share, by the operations [`spring_chunk`] applies to it (a
+/// broken spring goes through them with zero stiffness and a zero vector, as there), so the
+/// bits are the same: what a rank uses for the springs of its rows that another rank's range
+/// holds.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn spring_one<const D: usize, const P: bool>(
+    lat: &Lattice,
+    u: &Coords,
+    q: Real,
+    k: Real,
+    bonds: &crate::lattice::Bonds,
+    alive: bool,
+    b: usize,
+    rec: &mut [Real],
+    pi: &mut Real,
+) {
+    let rest = bonds.rest[b];
+    let (k, l2, num) = if alive {
+        let [i, j] = bonds.ends[b].map(|v| v as usize);
+        let (d, d2, nm) = vector::<D, P>(lat, u, i, j);
+        rec[2..].copy_from_slice(&d[..D]);
+        (k, d2, nm)
+    } else {
+        rec[2..].fill(0.0);
+        (0.0, 1.0, 0.0)
+    };
+    let l = l2.sqrt();
+    let inv = 1.0 / l;
+    let dl = num / (l + rest);
+    rec[0] = k * dl;
+    rec[1] = q * k * rest;
+    for c in 0..D {
+        rec[2 + c] *= inv;
+    }
+    *pi = k * rest * dl;
 }
 
 /// `p_n = sum_t pi_t / S_n` over node n's row (broken springs' shares are zeros).
@@ -325,11 +382,12 @@ pub fn force_kick_drift(
     p: &StepParams,
     u_next: &mut Coords,
     partials: &mut [SweepSums],
+    chunks: std::ops::Range<usize>,
 ) -> SweepSums {
     if body.lattice.dim() == 2 {
-        fkd::<2>(body, state, inv_mass, p, u_next, partials)
+        fkd::<2>(body, state, inv_mass, p, u_next, partials, chunks)
     } else {
-        fkd::<3>(body, state, inv_mass, p, u_next, partials)
+        fkd::<3>(body, state, inv_mass, p, u_next, partials, chunks)
     }
 }
 
@@ -340,43 +398,51 @@ fn fkd<const D: usize>(
     p: &StepParams,
     u_next: &mut Coords,
     partials: &mut [SweepSums],
+    chunks: std::ops::Range<usize>,
 ) -> SweepSums {
     let (u, pool, rec) = (&state.u, &state.pool, &state.spring);
     let bonds = &body.lattice.bonds;
     let w = stride(D);
-    sweep_chunks(body.nodes(), &mut state.v, u_next, partials, |r, o| {
-        let ChunkOut {
-            v: [vx, vy, vz],
-            u_next: [nx, ny, nz],
-        } = o;
-        let mut sums = SweepSums::default();
-        for (k, i) in r.enumerate() {
-            let mut f = [0.0; 3];
-            let pi = pool[i];
-            let row = bonds.row(i);
-            for (&j, &b) in bonds.nbr[row.clone()].iter().zip(&bonds.bond[row]) {
-                let (j, b) = (j as usize, b as usize);
-                let r = &rec[w * b..w * b + w];
-                let t = r[0] + r[1] * (pi + pool[j]);
-                // The record's vector points from the lower end to the upper end.
-                let t = if j > i { t } else { -t };
-                for c in 0..D {
-                    f[c] += t * r[2 + c];
+    sweep_chunks(
+        body.nodes(),
+        chunks,
+        &mut state.v,
+        u_next,
+        partials,
+        |r, o| {
+            let ChunkOut {
+                v: [vx, vy, vz],
+                u_next: [nx, ny, nz],
+            } = o;
+            let mut sums = SweepSums::default();
+            for (k, i) in r.enumerate() {
+                let mut f = [0.0; 3];
+                let pi = pool[i];
+                let row = bonds.row(i);
+                for (&j, &b) in bonds.nbr[row.clone()].iter().zip(&bonds.bond[row]) {
+                    let (j, b) = (j as usize, b as usize);
+                    let r = &rec[w * b..w * b + w];
+                    let t = r[0] + r[1] * (pi + pool[j]);
+                    // The record's vector points from the lower end to the upper end.
+                    let t = if j > i { t } else { -t };
+                    for c in 0..D {
+                        f[c] += t * r[2 + c];
+                    }
                 }
+                let (d, w) = kick_drift(
+                    f,
+                    inv_mass[i],
+                    p,
+                    [&mut vx[k], &mut vy[k], &mut vz[k]],
+                    [u.x()[i], u.y()[i], u.z()[i]],
+                    [&mut nx[k], &mut ny[k], &mut nz[k]],
+                );
+                sums.dissipated += d;
+                sums.body_work += w;
             }
-            let (d, w) = kick_drift(
-                f,
-                inv_mass[i],
-                p,
-                [&mut vx[k], &mut vy[k], &mut vz[k]],
-                [u.x()[i], u.y()[i], u.z()[i]],
-                [&mut nx[k], &mut ny[k], &mut nz[k]],
-            );
-            sums.dissipated += d;
-            sums.body_work += w;
-        }
-        sums
-    })
+            sums
+        },
+    )
 }
 
 #[cfg(test)]

@@ -231,7 +231,16 @@ impl CubicStencil {
     /// Sweep 1, and with a finite `screen` s the break screen: `state.hot` flags each block of
     /// [`SCREEN`] nodes with an intact spring of `dL > s L` (seen from either end: both ends
     /// compute the same length).
-    pub fn pools(&self, _body: &Body, state: &mut State, screen: Real) {
+    ///
+    /// With `chunks` (one rank's share of a distributed run), only those node chunks, and every
+    /// other screen flag cleared.
+    pub fn pools(
+        &self,
+        _body: &Body,
+        state: &mut State,
+        screen: Real,
+        chunks: Option<std::ops::Range<usize>>,
+    ) {
         if self.q == 0.0 && !screen.is_finite() {
             state.pool.fill(0.0);
             return;
@@ -240,13 +249,21 @@ impl CubicStencil {
         if state.hot.len() != blocks {
             state.hot = vec![false; blocks];
         }
+        let all = 0..self.n.div_ceil(CHUNK);
+        let shared = chunks.is_some();
+        let chunks = chunks.unwrap_or(all);
+        if shared {
+            state.hot.fill(false);
+        }
         let u = &state.u;
-        state
-            .pool
+        let (first, per) = (chunks.start, CHUNK / SCREEN);
+        let nodes = (first * CHUNK).min(self.n)..(chunks.end * CHUNK).min(self.n);
+        let flags = (first * per).min(blocks)..(chunks.end * per).min(blocks);
+        state.pool[nodes]
             .par_chunks_mut(CHUNK)
-            .zip(state.hot.par_chunks_mut(CHUNK / SCREEN))
+            .zip(state.hot[flags].par_chunks_mut(per))
             .enumerate()
-            .for_each(|(c, (out, hot))| self.pool_chunk(u, c, out, hot, screen));
+            .for_each(|(c, (out, hot))| self.pool_chunk(u, first + c, out, hot, screen));
     }
 
     /// Sweep 1 over chunk `c` (its pools `out` and screen flags `hot`).
@@ -306,7 +323,8 @@ impl CubicStencil {
         }
     }
 
-    /// Sweep 2.
+    /// Sweep 2 over the node chunks `chunks`.
+    #[allow(clippy::too_many_arguments)]
     pub fn force_kick_drift(
         &self,
         _body: &Body,
@@ -315,9 +333,10 @@ impl CubicStencil {
         p: &StepParams,
         u_next: &mut Coords,
         partials: &mut [SweepSums],
+        chunks: std::ops::Range<usize>,
     ) -> SweepSums {
         let (u, pool) = (&state.u, &state.pool);
-        sweep_chunks(self.n, &mut state.v, u_next, partials, |r, o| {
+        sweep_chunks(self.n, chunks, &mut state.v, u_next, partials, |r, o| {
             let ChunkOut {
                 v: [vx, vy, vz],
                 u_next: [nx, ny, nz],

@@ -46,8 +46,10 @@ pub struct StepParams {
     pub accel: [Real; 3],
 }
 
-/// Sums over all nodes gathered during sweep 2.
+/// Sums over all nodes gathered during sweep 2 (two reals, in this order: ranks exchange them
+/// as such).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C)]
 pub struct SweepSums {
     /// Energy removed by damping over the step: `sum c m |v_mid|^2 dt` with `v_mid` the mean of
     /// the half-step velocities before and after (J).
@@ -104,9 +106,22 @@ impl Kernel {
     /// springs a stretch-type criterion has to look at, instead of a separate pass over all of
     /// them. Infinity: no screen.
     pub fn pools_screened(&self, body: &Body, state: &mut State, screen: Real) {
+        self.pools_shared(body, state, screen, None);
+    }
+
+    /// Sweep 1 of one rank's share of a distributed run ([`crate::team`]): the pools of its
+    /// nodes (and the CSR records of its springs); every other screen flag cleared. `None`:
+    /// the whole body.
+    pub fn pools_shared(
+        &self,
+        body: &Body,
+        state: &mut State,
+        screen: Real,
+        share: Option<&crate::team::Share>,
+    ) {
         match self {
-            Kernel::Csr { plain } => csr::pools(body, state, *plain, screen),
-            Kernel::Cubic(s) => s.pools(body, state, screen),
+            Kernel::Csr { plain } => csr::pools(body, state, *plain, screen, share),
+            Kernel::Cubic(s) => s.pools(body, state, screen, share.map(|s| s.chunks())),
         }
     }
 
@@ -153,9 +168,30 @@ impl Kernel {
         u_next: &mut Coords,
         partials: &mut [SweepSums],
     ) -> SweepSums {
+        let all = 0..body.nodes().div_ceil(CHUNK);
+        self.force_kick_drift_chunks(body, state, inv_mass, p, u_next, partials, all)
+    }
+
+    /// Sweep 2 over the node chunks `chunks` only (one rank's share): their velocities, next
+    /// displacements and partial sums; returns the sum of those partials.
+    #[allow(clippy::too_many_arguments)]
+    pub fn force_kick_drift_chunks(
+        &self,
+        body: &Body,
+        state: &mut State,
+        inv_mass: &[Real],
+        p: &StepParams,
+        u_next: &mut Coords,
+        partials: &mut [SweepSums],
+        chunks: std::ops::Range<usize>,
+    ) -> SweepSums {
         match self {
-            Kernel::Csr { .. } => csr::force_kick_drift(body, state, inv_mass, p, u_next, partials),
-            Kernel::Cubic(s) => s.force_kick_drift(body, state, inv_mass, p, u_next, partials),
+            Kernel::Csr { .. } => {
+                csr::force_kick_drift(body, state, inv_mass, p, u_next, partials, chunks)
+            }
+            Kernel::Cubic(s) => {
+                s.force_kick_drift(body, state, inv_mass, p, u_next, partials, chunks)
+            }
         }
     }
 
@@ -219,11 +255,13 @@ pub(crate) struct ChunkOut<'a> {
     pub u_next: [&'a mut [Real]; 3],
 }
 
-/// Run sweep 2 over the fixed chunks of `n` nodes in parallel: `chunk(range, out)` handles the
-/// nodes of one chunk and returns their sums, which are added in chunk order into `partials`
-/// (one entry per chunk, owned by the caller so that nothing is allocated) and the total.
+/// Run sweep 2 over the fixed chunks `chunks` of `n` nodes in parallel: `chunk(range, out)`
+/// handles the nodes of one chunk and returns their sums, which are stored per chunk in
+/// `partials` (one entry per chunk, owned by the caller so that nothing is allocated) and
+/// added in chunk order into the total.
 pub(crate) fn sweep_chunks<F>(
     n: usize,
+    chunks: std::ops::Range<usize>,
     v: &mut Coords,
     u_next: &mut Coords,
     partials: &mut [SweepSums],
@@ -233,13 +271,15 @@ where
     F: Fn(std::ops::Range<usize>, ChunkOut<'_>) -> SweepSums + Sync,
 {
     use rayon::prelude::*;
-    let chunks = n.div_ceil(CHUNK);
+    let chunks = chunks.start..chunks.end.min(n.div_ceil(CHUNK));
     let vs = v.xyz_mut().map(Disjoint::new);
     let us = u_next.xyz_mut().map(Disjoint::new);
-    partials[..chunks]
+    let first = chunks.start;
+    partials[chunks.clone()]
         .par_iter_mut()
         .enumerate()
         .for_each(|(c, out)| {
+            let c = first + c;
             let r = c * CHUNK..((c + 1) * CHUNK).min(n);
             // SAFETY: chunk ranges are disjoint, each task takes only its own, and the slices do
             // not outlive this call, during which `v` and `u_next` are borrowed mutably.
@@ -252,7 +292,7 @@ where
             *out = chunk(r, o);
         });
     let mut total = SweepSums::default();
-    for &s in &partials[..chunks] {
+    for &s in &partials[chunks] {
         total += s;
     }
     total

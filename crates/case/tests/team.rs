@@ -1,0 +1,212 @@
+//! A run shared between processes gives the bits of one process: the shipped cases, run by
+//! teams of 2, 3 and 4 members (threads standing in for MPI ranks, `hooke_core::team::Threads`)
+//! and alone, end in the same state bit for bit on every member, and the writer's histories and
+//! frames are byte for byte those of the lone run. The cases cover both kernels (CSR on random
+//! lattices, the stencil on Ladd blocks), 2D and 3D, pre-cracks, breaking, rigid-body and
+//! fragment contact, prescribed motion and loads. The same holds through MPI (`.ci/run` runs
+//! `mpirun -np N hooke run` and compares with `tools/compare_runs.py`).
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use hooke_core::team::{Team, Threads};
+use hooke_core::State;
+
+struct Ended {
+    state: State,
+    broken: usize,
+    out: PathBuf,
+}
+
+fn scratch(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("hooke_team_{}_{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+/// Run `case` (shipped, at `scale`, with `set` overrides) into `out`, as member `team` of a
+/// team or alone.
+fn run(case: &str, scale: f64, set: &[&str], out: &Path, team: Option<Arc<dyn Team>>) -> Ended {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../cases")
+        .join(case);
+    let text = std::fs::read_to_string(&path).unwrap();
+    let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
+    let overrides = hooke_case::parse_overrides(&set).unwrap();
+    let (sim, mut opts) = hooke_case::prepare(&path, &text, scale, &overrides).unwrap();
+    opts.out = out.to_path_buf();
+    opts.name = "run".into();
+    opts.team = team;
+    let (_, sim) = hooke_sim::run_keeping(sim, opts, &mut hooke_sim::Silent).unwrap();
+    Ended {
+        broken: sim.broken().0,
+        state: sim.state,
+        out: out.to_path_buf(),
+    }
+}
+
+fn same_bits(a: &[f64], b: &[f64]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+}
+
+fn same_state(a: &State, b: &State) -> bool {
+    same_bits(a.u.as_flat(), b.u.as_flat())
+        && same_bits(a.v.as_flat(), b.v.as_flat())
+        && a.alive() == b.alive()
+        && a.step == b.step
+        && a.time.to_bits() == b.time.to_bits()
+}
+
+/// The files a run writes whose bytes depend only on the physics (not run.json, whose clock
+/// and command line differ).
+fn physics_files(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            let name = p.file_name().unwrap().to_string_lossy().to_string();
+            p.is_file() && name != "run.json"
+        })
+        .map(|p| {
+            (
+                p.file_name().unwrap().to_string_lossy().to_string(),
+                std::fs::read(&p).unwrap(),
+            )
+        })
+        .collect();
+    files.sort();
+    files
+}
+
+fn check(case: &str, scale: f64, set: &[&str], sizes: &[usize]) {
+    let tag = case.trim_end_matches(".toml");
+    let alone = run(case, scale, set, &scratch(&format!("{tag}_1")), None);
+    let reference = physics_files(&alone.out);
+    // Each member must own nodes: whole chunks of nodes are what is shared.
+    let chunks = alone.state.u.len().div_ceil(hooke_core::kernel::CHUNK);
+    assert!(
+        chunks >= *sizes.iter().max().unwrap(),
+        "{case}: {chunks} chunks"
+    );
+    eprintln!(
+        "{case}: {} nodes ({chunks} chunks), {} springs broken, {} steps",
+        alone.state.u.len(),
+        alone.broken,
+        alone.state.step
+    );
+    assert!(reference.iter().any(|(n, _)| n.ends_with(".vtu")));
+    assert!(reference.iter().any(|(n, _)| n.ends_with(".ckpt")));
+    for &size in sizes {
+        let out = scratch(&format!("{tag}_{size}"));
+        let members: Vec<Ended> = std::thread::scope(|s| {
+            let handles: Vec<_> = Threads::team(size)
+                .into_iter()
+                .map(|t| {
+                    let out = out.clone();
+                    s.spawn(move || run(case, scale, set, &out, Some(Arc::new(t))))
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        for (r, m) in members.iter().enumerate() {
+            assert!(
+                same_state(&alone.state, &m.state),
+                "{case}: member {r} of {size} ends in another state than the lone run"
+            );
+            assert_eq!(alone.broken, m.broken, "{case}: broken springs, member {r}");
+        }
+        let written = physics_files(&out);
+        let names = |f: &[(String, Vec<u8>)]| f.iter().map(|x| x.0.clone()).collect::<Vec<_>>();
+        assert_eq!(names(&reference), names(&written), "{case}, {size} members");
+        for ((name, a), (_, b)) in reference.iter().zip(&written) {
+            assert!(a == b, "{case}: {name} differs with {size} members");
+        }
+        let _ = std::fs::remove_dir_all(&out);
+    }
+    let _ = std::fs::remove_dir_all(&alone.out);
+}
+
+/// A random plate with a pre-crack, loaded until springs break (CSR kernel, screened criterion).
+#[test]
+fn mode_one_plate_is_bit_identical_for_any_team() {
+    check(
+        "mode1_plate.toml",
+        1.5,
+        &["solver.end_time=50e-6", "output.every=25e-6"],
+        &[2, 3, 4],
+    );
+}
+
+/// A Ladd block hit by a rigid sphere, breaking, with fragment contact (stencil kernel, 3D).
+#[test]
+fn sphere_impact_is_bit_identical_for_any_team() {
+    check(
+        "sphere_impact_glass.toml",
+        0.8,
+        &["solver.end_time=8e-6", "output.every=4e-6"],
+        &[2, 3],
+    );
+}
+
+/// Kalthoff-Winkler: a projectile, notches and running cracks on a random plate.
+#[test]
+fn kalthoff_winkler_is_bit_identical_for_any_team() {
+    check(
+        "kalthoff_winkler.toml",
+        0.3,
+        &["solver.end_time=20e-6", "output.every=10e-6"],
+        &[2, 3],
+    );
+}
+
+/// The Brazilian disk between two kinematic platens, and the compression block (stencil kernel,
+/// prescribed motion, no fracture).
+#[test]
+fn platens_and_blocks_are_bit_identical_for_any_team() {
+    check(
+        "brazilian_disk.toml",
+        1.0,
+        &["solver.end_time=40e-6", "output.every=20e-6"],
+        &[2],
+    );
+    check(
+        "compression_block.toml",
+        1.0,
+        &["solver.end_time=10e-6", "output.every=5e-6"],
+        &[2, 3],
+    );
+}
+
+/// Quasi-static runs are refused with the reason when shared.
+#[test]
+fn quasi_static_runs_are_refused_in_a_team() {
+    let text = include_str!("data/quasi_static.toml");
+    let path = Path::new("qs.toml");
+    let r = std::thread::scope(|s| {
+        let handles: Vec<_> = Threads::team(2)
+            .into_iter()
+            .map(|t| {
+                s.spawn(move || {
+                    let (sim, mut opts) = hooke_case::prepare(path, text, 1.0, &[]).unwrap();
+                    opts.out = scratch("qs");
+                    opts.name = "qs".into();
+                    opts.team = Some(Arc::new(t));
+                    hooke_sim::run(sim, opts, &mut hooke_sim::Silent)
+                        .err()
+                        .map(|e| e.to_string())
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap())
+            .collect::<Vec<_>>()
+    });
+    for e in r {
+        let e = e.expect("refused");
+        assert!(
+            e.contains("quasi-static") && e.contains("one process"),
+            "{e}"
+        );
+    }
+}

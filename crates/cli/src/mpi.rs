@@ -1,0 +1,112 @@
+//! MPI ranks as a [`Team`] (feature `mpi`): `mpirun -np N hooke run CASE.toml`.
+//!
+//! The library does the sharing (`hooke_core::team`); this module only carries its two
+//! collectives over MPI: an in-place all-gather of doubles (`MPI_Allgatherv`) and a logical or
+//! of flags (`MPI_Allreduce` with `MPI_LOR`).
+
+use std::ops::Range;
+use std::sync::{Arc, Mutex};
+
+use hooke_core::team::Team;
+use hooke_core::Real;
+use mpi::collective::SystemOperation;
+use mpi::datatype::PartitionMut;
+use mpi::topology::SimpleCommunicator;
+use mpi::traits::*;
+use mpi::Count;
+
+/// MPI_COMM_WORLD of a run, with the scratch its collectives reuse (nothing is allocated per
+/// step once the first step has sized it).
+pub struct MpiTeam {
+    world: SimpleCommunicator,
+    rank: usize,
+    size: usize,
+    scratch: Mutex<Scratch>,
+}
+
+#[derive(Default)]
+struct Scratch {
+    send: Vec<Real>,
+    flags: Vec<bool>,
+    /// Counts and displacements of the part lists seen so far (a run uses three).
+    layouts: Vec<(Vec<Range<usize>>, Vec<Count>, Vec<Count>)>,
+}
+
+// SAFETY: the communicator is a handle that MPI itself owns. hooke calls the collectives from
+// the run's driver only, one at a time (rayon's workers never reach them), which is the
+// `MPI_THREAD_SERIALIZED` contract asked for at initialisation.
+unsafe impl Send for MpiTeam {}
+// SAFETY: as above; the scratch is behind a mutex.
+unsafe impl Sync for MpiTeam {}
+
+impl std::fmt::Debug for MpiTeam {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "MpiTeam {{ rank: {}, size: {} }}", self.rank, self.size)
+    }
+}
+
+impl Team for MpiTeam {
+    fn rank(&self) -> usize {
+        self.rank
+    }
+
+    fn size(&self) -> usize {
+        self.size
+    }
+
+    fn gather(&self, data: &mut [Real], parts: &[Range<usize>]) {
+        let mut guard = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
+        let s = &mut *guard;
+        let k = match s.layouts.iter().position(|l| l.0 == parts) {
+            Some(k) => k,
+            None => {
+                let counts = parts.iter().map(|p| p.len() as Count).collect();
+                let displs = parts.iter().map(|p| p.start as Count).collect();
+                s.layouts.push((parts.to_vec(), counts, displs));
+                s.layouts.len() - 1
+            }
+        };
+        let mine = parts[self.rank].clone();
+        s.send.clear();
+        s.send.extend_from_slice(&data[mine]);
+        let (_, counts, displs) = &s.layouts[k];
+        let mut recv = PartitionMut::new(data, &counts[..], &displs[..]);
+        self.world.all_gather_varcount_into(&s.send[..], &mut recv);
+    }
+
+    fn any(&self, flags: &mut [bool]) {
+        let mut guard = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
+        let s = &mut *guard;
+        s.flags.clear();
+        s.flags.extend_from_slice(flags);
+        self.world
+            .all_reduce_into(&s.flags[..], flags, SystemOperation::logical_or());
+    }
+}
+
+/// MPI for one `hooke run`: the universe (MPI is finalised when it is dropped) and the team,
+/// `None` for a single process.
+pub struct Mpi {
+    _universe: mpi::environment::Universe,
+    pub team: Option<Arc<dyn Team>>,
+}
+
+/// Initialise MPI. Started by `mpirun -np N`, the team has N members; started alone, none.
+pub fn start() -> anyhow::Result<Mpi> {
+    let (universe, _) = mpi::initialize_with_threading(mpi::Threading::Serialized)
+        .ok_or_else(|| anyhow::anyhow!("MPI was already initialised in this process"))?;
+    let world = universe.world();
+    let (rank, size) = (world.rank() as usize, world.size() as usize);
+    let team: Option<Arc<dyn Team>> = (size > 1).then(|| {
+        Arc::new(MpiTeam {
+            world,
+            rank,
+            size,
+            scratch: Mutex::new(Scratch::default()),
+        }) as Arc<dyn Team>
+    });
+    Ok(Mpi {
+        _universe: universe,
+        team,
+    })
+}

@@ -1,0 +1,277 @@
+//! Sharing a run's work between processes (MPI ranks) with results bit-identical to one process.
+//!
+//! Every rank holds the whole body and state and runs the same control flow: loads, boundary
+//! conditions, contact, the fracture decisions, the energy ledger and the output all see the
+//! same data on every rank, so they give the same bits on every rank and as in one process.
+//! What is split are the two sweeps of a step, which are nearly all of its cost: rank r owns
+//! a contiguous range of whole node chunks ([`crate::kernel::CHUNK`] nodes each) and
+//!
+//! - sweep 1: computes the records of the springs in its nodes' rows and its nodes' pools
+//!   `p_n`, which the ranks then exchange (the pools of a spring's far end are read by sweep 2
+//!   and by the fracture criteria);
+//! - sweep 2: forces, kick and drift of its own nodes, after which the ranks exchange the new
+//!   displacements, the half-step velocities and the per-chunk partial sums (damping,
+//!   body-force work).
+//!
+//! Each value is computed by exactly the operations one process would use, and the partial
+//! sums are added in chunk order on every rank, so any number of ranks gives the bits of one.
+//! A spring that crosses two ranks is computed by both from the same displacements, and its
+//! fate (broken or not) is decided by the same replicated criterion: identically on both.
+//!
+//! This is a replicated-data decomposition: the memory per rank does not shrink with the
+//! number of ranks, and each rank receives every other rank's `7 n` values per step
+//! (`docs/mpi.md` says what that costs and where it stops scaling). The transport is behind
+//! [`Team`]: MPI in the `hooke` binary (feature `mpi`), threads in the tests.
+
+use std::ops::Range;
+
+use crate::body::Body;
+use crate::kernel::CHUNK;
+use crate::math::Real;
+
+/// The processes sharing a run, and the two collective operations a step needs.
+///
+/// Every rank calls the operations in the same order with the same `parts`.
+pub trait Team: Send + Sync + std::fmt::Debug {
+    /// This process's rank, `0..size`.
+    fn rank(&self) -> usize;
+    /// Number of processes.
+    fn size(&self) -> usize;
+    /// All-gather in place: on entry, rank r's values of `data[parts[r].clone()]` are valid on
+    /// rank r; on return every rank holds every rank's values there. `parts` are ascending,
+    /// disjoint and the same on every rank (one per rank, possibly empty).
+    fn gather(&self, data: &mut [Real], parts: &[Range<usize>]);
+    /// Logical or of `flags` over the ranks, in place.
+    fn any(&self, flags: &mut [bool]);
+}
+
+/// One process's share of the sweeps of a body (see the module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Share {
+    /// Every rank's nodes: whole chunks, ascending, covering `0..n`.
+    pub nodes: Vec<Range<usize>>,
+    /// This rank.
+    pub rank: usize,
+    /// Springs whose lower end is one of this rank's nodes, widened to whole blocks of the CSR
+    /// kernel's sweep 1 (so that a block's break-screen flag is computed whole).
+    pub springs: Range<usize>,
+    /// Springs of this rank's rows outside `springs` (upper end here, lower end on a rank
+    /// before): their records are computed one by one. Ascending.
+    pub foreign: Vec<u32>,
+}
+
+impl Share {
+    /// Split the node chunks of `body` into `size` contiguous ranges of about equal spring
+    /// count (each spring counted from both ends), and describe rank `rank`'s share.
+    pub fn new(body: &Body, size: usize, rank: usize) -> Share {
+        let n = body.nodes();
+        let bonds = &body.lattice.bonds;
+        let chunks = n.div_ceil(CHUNK);
+        // Work of a chunk: its row entries plus one per node (the kick and drift).
+        let work: Vec<usize> = (0..chunks)
+            .map(|c| {
+                let r = c * CHUNK..((c + 1) * CHUNK).min(n);
+                bonds.offsets[r.end] as usize - bonds.offsets[r.start] as usize + r.len()
+            })
+            .collect();
+        let total: usize = work.iter().sum();
+        let mut nodes = Vec::with_capacity(size);
+        let (mut c, mut done) = (0, 0usize);
+        for r in 0..size {
+            let first = c;
+            // Take chunks while the running total stays at or below rank r's fair end.
+            let goal = (total as u128 * (r as u128 + 1) / size.max(1) as u128) as usize;
+            while c < chunks && (r + 1 == size || done + work[c] / 2 < goal) {
+                done += work[c];
+                c += 1;
+            }
+            nodes.push((first * CHUNK).min(n)..(c * CHUNK).min(n));
+        }
+        let mine = nodes[rank.min(size - 1)].clone();
+        let block = crate::kernel::csr::BLOCK;
+        let m = bonds.len();
+        // Springs are sorted by (lower end, upper end): those with the lower end here are one
+        // range.
+        let first = bonds.ends.partition_point(|e| (e[0] as usize) < mine.start);
+        let last = bonds.ends.partition_point(|e| (e[0] as usize) < mine.end);
+        let springs = if first < last {
+            (first / block * block)..(last.div_ceil(block) * block).min(m)
+        } else {
+            0..0
+        };
+        let mut foreign: Vec<u32> = mine
+            .clone()
+            .flat_map(|i| bonds.row(i).map(|e| bonds.bond[e]))
+            .filter(|&b| !springs.contains(&(b as usize)))
+            .collect();
+        foreign.sort_unstable();
+        foreign.dedup();
+        Share {
+            nodes,
+            rank,
+            springs,
+            foreign,
+        }
+    }
+
+    /// This rank's nodes.
+    pub fn mine(&self) -> Range<usize> {
+        self.nodes[self.rank].clone()
+    }
+
+    /// This rank's node chunks.
+    pub fn chunks(&self) -> Range<usize> {
+        let r = self.mine();
+        r.start / CHUNK..r.end.div_ceil(CHUNK)
+    }
+
+    /// Every rank's node chunks, in units of `per` values per chunk (the partial sums).
+    pub fn chunk_parts(&self, per: usize) -> Vec<Range<usize>> {
+        self.nodes
+            .iter()
+            .map(|r| per * (r.start / CHUNK)..per * r.end.div_ceil(CHUNK))
+            .collect()
+    }
+}
+
+/// A team of one: the default (no exchange).
+#[derive(Debug, Default)]
+pub struct Alone;
+
+impl Team for Alone {
+    fn rank(&self) -> usize {
+        0
+    }
+    fn size(&self) -> usize {
+        1
+    }
+    fn gather(&self, _data: &mut [Real], _parts: &[Range<usize>]) {}
+    fn any(&self, _flags: &mut [bool]) {}
+}
+
+/// Ranks as threads of one process, for tests: each rank is a thread with its own body and
+/// state, and the collectives go through shared buffers and a barrier.
+#[derive(Debug)]
+pub struct Threads {
+    rank: usize,
+    shared: std::sync::Arc<ThreadsShared>,
+}
+
+#[derive(Debug)]
+struct ThreadsShared {
+    size: usize,
+    barrier: std::sync::Barrier,
+    reals: std::sync::Mutex<Vec<Real>>,
+    flags: std::sync::Mutex<Vec<bool>>,
+}
+
+impl Threads {
+    /// `size` team members, one per thread, rank i at index i.
+    pub fn team(size: usize) -> Vec<Threads> {
+        let shared = std::sync::Arc::new(ThreadsShared {
+            size,
+            barrier: std::sync::Barrier::new(size),
+            reals: Default::default(),
+            flags: Default::default(),
+        });
+        (0..size)
+            .map(|rank| Threads {
+                rank,
+                shared: shared.clone(),
+            })
+            .collect()
+    }
+}
+
+impl Team for Threads {
+    fn rank(&self) -> usize {
+        self.rank
+    }
+    fn size(&self) -> usize {
+        self.shared.size
+    }
+    fn gather(&self, data: &mut [Real], parts: &[Range<usize>]) {
+        let s = &self.shared;
+        {
+            let mut buf = s.reals.lock().unwrap();
+            if buf.len() < data.len() {
+                buf.resize(data.len(), 0.0);
+            }
+            let mine = parts[self.rank].clone();
+            buf[mine.clone()].copy_from_slice(&data[mine]);
+        }
+        s.barrier.wait();
+        {
+            let buf = s.reals.lock().unwrap();
+            for (r, p) in parts.iter().enumerate() {
+                if r != self.rank {
+                    data[p.clone()].copy_from_slice(&buf[p.clone()]);
+                }
+            }
+        }
+        s.barrier.wait();
+    }
+    fn any(&self, flags: &mut [bool]) {
+        let s = &self.shared;
+        if self.rank == 0 {
+            let mut buf = s.flags.lock().unwrap();
+            buf.clear();
+            buf.resize(flags.len(), false);
+        }
+        s.barrier.wait();
+        {
+            let mut buf = s.flags.lock().unwrap();
+            for (b, &f) in buf.iter_mut().zip(flags.iter()) {
+                *b |= f;
+            }
+        }
+        s.barrier.wait();
+        flags.copy_from_slice(&s.flags.lock().unwrap());
+        s.barrier.wait();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::random::RandomSpec;
+    use crate::Lattice;
+
+    /// The shares cover every node once, in whole chunks, and every spring of a rank's rows
+    /// is in its range or in its foreign list.
+    #[test]
+    fn shares_cover_nodes_and_rows() {
+        let lat = Lattice::random(
+            3,
+            [0.0; 3],
+            [40.0, 20.0, 20.0],
+            1.0,
+            1.0,
+            RandomSpec::default(),
+            &|_| true,
+        )
+        .unwrap();
+        let body = Body::uniform(lat, 1.0, 0.3, 1.0);
+        let n = body.nodes();
+        assert!(n > 3 * CHUNK, "{n} nodes");
+        for size in 1..=4 {
+            let shares: Vec<Share> = (0..size).map(|r| Share::new(&body, size, r)).collect();
+            let mut next = 0;
+            for s in &shares {
+                assert_eq!(s.nodes, shares[0].nodes);
+                let m = s.mine();
+                assert_eq!(m.start, next);
+                assert!(m.start % CHUNK == 0);
+                next = m.end;
+                let bonds = &body.lattice.bonds;
+                for i in m {
+                    for e in bonds.row(i) {
+                        let b = bonds.bond[e];
+                        assert!(s.springs.contains(&(b as usize)) || s.foreign.contains(&b));
+                    }
+                }
+            }
+            assert_eq!(next, n);
+        }
+    }
+}

@@ -1,0 +1,64 @@
+#!/usr/bin/env bash
+# The MPI build's promises, checked on shipped cases (CI; needs tools/install-mpi.sh first):
+#   - `mpirun -np N hooke run` for N = 1..4 (oversubscribed on small machines) writes frames,
+#     histories and a checkpoint identical bit for bit to the build without MPI, with breaking,
+#     rigid-body contact and fragment contact;
+#   - a run checkpointed with one N resumes with another and still gives those bits;
+#   - bad input stops every rank with one message and exit code 2.
+# Usage: tools/mpi_check.sh SCRATCH_DIR
+set -euo pipefail
+cd "$(dirname "$0")/.."
+work=${1:?usage: tools/mpi_check.sh SCRATCH_DIR}
+rm -rf "$work" && mkdir -p "$work"
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+mpirun="mpirun --oversubscribe --bind-to none"
+
+cargo build --release -q -p hooke-cli
+cp target/release/hooke "$work/hooke"
+cargo build --release -q -p hooke-cli --features mpi
+cp target/release/hooke "$work/hooke-mpi"
+
+check() { # name case scale end_time sizes...
+  local name=$1 case=$2 scale=$3 end=$4
+  shift 4
+  "$work/hooke" run "$case" --scale "$scale" --set solver.end_time="$end" --out "$work/$name.alone" > /dev/null
+  for np in "$@"; do
+    $mpirun -np "$np" "$work/hooke-mpi" run "$case" --scale "$scale" --set solver.end_time="$end" \
+      --out "$work/$name.np$np" > "$work/$name.np$np.log"
+    python3 tools/compare_runs.py "$work/$name.alone" "$work/$name.np$np" | tail -1
+    cmp "$work/$name.alone/"*.ckpt "$work/$name.np$np/"*.ckpt
+    echo "$name: -np $np bit-identical to the build without MPI (frames, histories, checkpoint)"
+  done
+}
+check kalthoff_winkler cases/kalthoff_winkler.toml 0.3 20e-6 1 2 3 4
+check sphere_impact cases/sphere_impact_glass.toml 0.8 8e-6 2 3
+check mode1_plate cases/mode1_plate.toml 1.5 50e-6 2 4
+check compression_block cases/compression_block.toml 1.0 10e-6 3
+
+# Checkpointed with 2 ranks, resumed with 3.
+$mpirun -np 2 "$work/hooke-mpi" run cases/kalthoff_winkler.toml --scale 0.3 --set solver.end_time=10e-6 \
+  --out "$work/resumed" > /dev/null
+$mpirun -np 3 "$work/hooke-mpi" run cases/kalthoff_winkler.toml --scale 0.3 --set solver.end_time=20e-6 \
+  --out "$work/resumed" --resume "$work/resumed/kalthoff_winkler.ckpt" > /dev/null
+python3 tools/compare_runs.py "$work/kalthoff_winkler.alone" "$work/resumed" | tail -1
+cmp "$work/kalthoff_winkler.alone/kalthoff_winkler.ckpt" "$work/resumed/kalthoff_winkler.ckpt"
+echo "kalthoff_winkler: checkpointed with -np 2, resumed with -np 3: bit-identical"
+
+# Bad input: every rank stops, one message, exit code 2.
+printf '[lattice]\nkind = "hex"\nspacing = -1e-3\n' > "$work/bad.toml"
+set +e
+$mpirun -np 3 "$work/hooke-mpi" run "$work/bad.toml" --out "$work/bad" > "$work/bad.out" 2> "$work/bad.err"
+rc=$?
+set -e
+n=$(grep -c '^error:' "$work/bad.err" || true)
+if [ "$rc" -eq 0 ] || [ "$n" -ne 1 ]; then
+  echo "bad input under mpirun: exit $rc, $n error lines (want non-zero and 1)"; cat "$work/bad.err"; exit 1
+fi
+echo "bad input under mpirun -np 3: exit $rc, one message: $(grep '^error:' "$work/bad.err")"
+# Quasi-static runs are refused with the reason.
+set +e
+$mpirun -np 2 "$work/hooke-mpi" run crates/case/tests/data/quasi_static.toml --out "$work/qs" > /dev/null 2> "$work/qs.err"
+rc=$?
+set -e
+grep -q "one process" "$work/qs.err" || { echo "quasi-static under mpirun not refused (exit $rc)"; cat "$work/qs.err"; exit 1; }
+echo "quasi-static under mpirun: refused (exit $rc): $(grep '^error:' "$work/qs.err")"
