@@ -117,6 +117,12 @@ struct BenchJson {
     /// windows).
     #[serde(skip_serializing_if = "Option::is_none")]
     contact_overhead: Option<f64>,
+    /// MPI ranks sharing each step (`mpirun -np N hooke bench`, feature `mpi`), 1 alone.
+    processes: usize,
+    /// Bytes each rank receives per step (rank 0's figure), and the collective operations per
+    /// step; zero alone.
+    halo_bytes_per_step: usize,
+    collectives_per_step: usize,
 }
 
 /// Peak resident memory of this process (Linux), in bytes.
@@ -147,6 +153,17 @@ pub fn run(args: BenchArgs) -> Result<()> {
         ))
         .into());
     }
+    // Under `mpirun -np N` (feature `mpi`) the ranks share every step, as `hooke run` does;
+    // rank 0 times and prints.
+    #[cfg(feature = "mpi")]
+    let mpi = crate::mpi::start()?;
+    #[cfg(feature = "mpi")]
+    let team = mpi.team.clone();
+    #[cfg(not(feature = "mpi"))]
+    let team: Option<std::sync::Arc<dyn hooke_core::team::Team>> = None;
+    if team.as_ref().is_some_and(|t| t.rank() != 0) {
+        crate::set_quiet();
+    }
     let setup = Instant::now();
     let lattice = bench_lattice(&args)?;
     let kind = lattice.kind;
@@ -156,6 +173,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
         (LawArg::Dispersive, LatticeKind::Hex | LatticeKind::Random2d) => 0.45,
     };
     let (body, mut state, mut it) = bench_run(&args, lattice, q_from_nu(kind, nu)?)?;
+    if let Some(t) = &team {
+        it.distribute(&body, t.clone());
+    }
     let setup_seconds = setup.elapsed().as_secs_f64();
     if let Some(path) = &args.export_lammps {
         write_lammps(path, &body, &state, it.dt)
@@ -218,7 +238,19 @@ pub fn run(args: BenchArgs) -> Result<()> {
         peak_memory_bytes: peak_memory(),
         setup_seconds,
         contact_overhead,
+        processes: team.as_ref().map_or(1, |t| t.size()),
+        halo_bytes_per_step: it
+            .share()
+            .map_or(0, |s| s.received_per_step(1 + body.lattice.dim())),
+        collectives_per_step: if it.share().is_some() {
+            hooke_core::team::Share::collectives_per_step(body.lattice.dim())
+        } else {
+            0
+        },
     };
+    if crate::quiet() {
+        return Ok(());
+    }
     if args.json {
         println!("{}", serde_json::to_string(&out)?);
     } else {
@@ -236,6 +268,14 @@ pub fn run(args: BenchArgs) -> Result<()> {
             out.seconds_per_step * 1e3,
             out.peak_memory_bytes.map_or("unknown".into(), |b| format!("{:.2} GiB", b as f64 / (1u64 << 30) as f64)),
         );
+        if out.processes > 1 {
+            println!(
+                "  {} MPI ranks: {:.2} MB received per rank and step in {} collectives",
+                out.processes,
+                out.halo_bytes_per_step as f64 / 1e6,
+                out.collectives_per_step
+            );
+        }
         if let Some(r) = out.contact_overhead {
             println!("  with contact switched on (no fragments yet): {r:.3} x the step time");
         }

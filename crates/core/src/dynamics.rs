@@ -181,7 +181,24 @@ pub struct Integrator {
     /// Springs broken through [`Integrator::break_spring`] since the step began.
     killed: Vec<u32>,
     /// The processes sharing the sweeps, and this one's share (`None`: one process does all).
-    team: Option<(std::sync::Arc<dyn Team>, Share)>,
+    team: Option<Shared>,
+}
+
+/// What a shared integrator keeps besides its share (see [`Integrator::distribute`]).
+#[derive(Debug)]
+struct Shared {
+    team: std::sync::Arc<dyn Team>,
+    share: Share,
+    /// Nodes whose velocities the sparse bookkeeping reads after sweep 2 (loaded and prescribed
+    /// ones), ascending, so grouped by owner; `parts` indexes them per rank.
+    special: Vec<usize>,
+    parts: Vec<std::ops::Range<usize>>,
+    buf: Vec<Real>,
+    /// Whether `state.v` holds other ranks' stale values (only this rank's nodes and the
+    /// special ones are current): velocities are gathered in full only when something reads
+    /// them all (output, checks, contact, breaking), which saves three of the seven values per
+    /// node a step would otherwise move.
+    v_partial: bool,
 }
 
 impl Integrator {
@@ -489,13 +506,52 @@ impl Integrator {
     pub fn distribute(&mut self, body: &Body, team: std::sync::Arc<dyn Team>) {
         self.team = (team.size() > 1).then(|| {
             let share = Share::new(body, team.size(), team.rank());
-            (team, share)
+            let mut special: Vec<usize> = self.loaded.iter().map(|l| l.0).collect();
+            special.extend(self.dofs.iter().map(|d| d.node));
+            special.sort_unstable();
+            special.dedup();
+            let parts = share
+                .nodes
+                .iter()
+                .map(|r| {
+                    special.partition_point(|&i| i < r.start)
+                        ..special.partition_point(|&i| i < r.end)
+                })
+                .collect();
+            Shared {
+                team,
+                share,
+                buf: vec![0.0; special.len()],
+                special,
+                parts,
+                v_partial: false,
+            }
         });
     }
 
     /// The team this integrator shares its steps with, if any.
     pub fn team(&self) -> Option<&dyn Team> {
-        self.team.as_ref().map(|(t, _)| &**t)
+        self.team.as_ref().map(|t| &*t.team)
+    }
+
+    /// This process's share of the steps, if shared.
+    pub fn share(&self) -> Option<&Share> {
+        self.team.as_ref().map(|t| &t.share)
+    }
+
+    /// Make every node's velocity current on this process (a shared integrator's steps keep only
+    /// its own nodes' and the loaded and prescribed ones'). Whatever reads `state.v` as a whole
+    /// calls it first: output, checkpoints, checks, breaking. Collective: every member calls it
+    /// at the same point. Alone, or when current, it does nothing.
+    pub fn gather_velocities(&mut self, state: &mut State) {
+        if let Some(t) = self.team.as_mut() {
+            if t.v_partial {
+                for c in state.v.xyz_mut() {
+                    t.team.gather(c, &t.share.nodes);
+                }
+                t.v_partial = false;
+            }
+        }
     }
 
     /// Sweep 1 on this process's share, then every rank's pools (and with a screen, the
@@ -503,7 +559,7 @@ impl Integrator {
     fn pools_everywhere(&self, body: &Body, state: &mut State, screen: Real) {
         match &self.team {
             None => self.kernel.pools_screened(body, state, screen),
-            Some((team, share)) => {
+            Some(Shared { team, share, .. }) => {
                 self.kernel.pools_shared(body, state, screen, Some(share));
                 team.gather(&mut state.pool, &share.nodes);
                 if screen.is_finite() {
@@ -513,16 +569,19 @@ impl Integrator {
         }
     }
 
-    /// Sweep 2 on this process's share, then every rank's new displacements, velocities and
-    /// partial sums everywhere; the total in chunk order (the bits of one process).
+    /// Sweep 2 on this process's share, then every rank's new displacements and partial sums
+    /// everywhere, and the velocities the step goes on to read (all of them with `contact`,
+    /// else the loaded and prescribed nodes'); the total in chunk order (the bits of one
+    /// process).
     fn sweep_everywhere(
         &mut self,
         body: &Body,
         state: &mut State,
         params: &StepParams,
+        contact: bool,
     ) -> crate::kernel::SweepSums {
         let all = 0..body.nodes().div_ceil(crate::kernel::CHUNK);
-        let chunks = self.team.as_ref().map_or(all, |(_, s)| s.chunks());
+        let chunks = self.team.as_ref().map_or(all, |t| t.share.chunks());
         let own = self.kernel.force_kick_drift_chunks(
             body,
             state,
@@ -532,11 +591,36 @@ impl Integrator {
             &mut self.partials,
             chunks,
         );
-        let Some((team, share)) = &self.team else {
+        let Some(t) = self.team.as_mut() else {
             return own;
         };
-        for c in self.u_next.xyz_mut().into_iter().chain(state.v.xyz_mut()) {
+        let (team, share) = (&t.team, &t.share);
+        // A plate's z components stay exact zeros on every rank (no force, load or
+        // acceleration acts along z), so they need no exchange.
+        let dims = if body.lattice.dim() == 2 && params.accel[2] == 0.0 {
+            2
+        } else {
+            3
+        };
+        for c in self.u_next.xyz_mut().into_iter().take(dims) {
             team.gather(c, &share.nodes);
+        }
+        if contact {
+            for c in state.v.xyz_mut().into_iter().take(dims) {
+                team.gather(c, &share.nodes);
+            }
+            t.v_partial = false;
+        } else {
+            for c in state.v.xyz_mut().into_iter().take(dims) {
+                for (b, &i) in t.buf.iter_mut().zip(&t.special) {
+                    *b = c[i];
+                }
+                team.gather(&mut t.buf, &t.parts);
+                for (&b, &i) in t.buf.iter().zip(&t.special) {
+                    c[i] = b;
+                }
+            }
+            t.v_partial = true;
         }
         let parts = share.chunk_parts(2);
         let p = &mut self.partials;
@@ -617,10 +701,10 @@ impl Integrator {
         }
         let killed = std::mem::take(&mut self.killed);
         self.kernel.repair(body, state, &killed);
-        if let (Some((team, share)), false) = (&self.team, killed.is_empty()) {
+        if let (Some(t), false) = (&self.team, killed.is_empty()) {
             // Every rank repaired the pools of the broken springs' ends, but only the ends it
             // owns have their rows' shares at hand: take those from their owners.
-            team.gather(&mut state.pool, &share.nodes);
+            t.team.gather(&mut state.pool, &t.share.nodes);
         }
         self.killed = killed;
         true
@@ -644,6 +728,10 @@ impl Integrator {
         let t = state.time;
         self.contact.clear();
         self.v_contact.clear();
+        if interaction.is_some() {
+            // Contact reads the velocities of whichever nodes come near.
+            self.gather_velocities(state);
+        }
         if let Some(it) = interaction.as_mut() {
             it.forces(body, state, dt, &mut self.contact);
             for &(i, _) in &self.contact {
@@ -681,7 +769,7 @@ impl Integrator {
             damping: self.damping,
             accel: self.loading.body_acceleration.into(),
         };
-        let sums = self.sweep_everywhere(body, state, &params);
+        let sums = self.sweep_everywhere(body, state, &params, interaction.is_some());
         self.ledger.dissipated += sums.dissipated;
         self.ledger.body_work += sums.body_work;
         // External loads: the sweep kicked without them; add their share of the kick (linear in
@@ -786,6 +874,7 @@ impl Integrator {
         for s in 0..steps {
             self.step(body, state);
             if (s + 1) % 64 == 0 || s + 1 == steps {
+                self.gather_velocities(state);
                 self.check(body, state)?;
             }
         }

@@ -125,6 +125,25 @@ impl Share {
         r.start / CHUNK..r.end.div_ceil(CHUNK)
     }
 
+    /// Bytes this rank receives per step of the explicit integrator when every other rank sends
+    /// `per_node` values per node of its own (the pools and `dim` displacement components:
+    /// `1 + dim`; with contact, also `dim` velocity components) and 2 partial sums per chunk.
+    /// The loaded and prescribed nodes' velocities and the gathers that breaking, output and
+    /// checks add are not counted.
+    pub fn received_per_step(&self, per_node: usize) -> usize {
+        let n = self.nodes.last().map_or(0, |r| r.end);
+        let chunks = n.div_ceil(CHUNK);
+        8 * (per_node * (n - self.mine().len()) + 2 * (chunks - self.chunks().len()))
+    }
+
+    /// Collective operations per step in `dim` dimensions: the all-gathers of the pools, of the
+    /// displacement components, of the velocity components (the loaded and prescribed nodes'
+    /// only, or all with contact) and of the partial sums; a screened fracture criterion adds
+    /// a logical or of the screen flags.
+    pub fn collectives_per_step(dim: usize) -> usize {
+        2 + 2 * dim
+    }
+
     /// Every rank's node chunks, in units of `per` values per chunk (the partial sums).
     pub fn chunk_parts(&self, per: usize) -> Vec<Range<usize>> {
         self.nodes

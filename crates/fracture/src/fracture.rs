@@ -194,6 +194,11 @@ impl Fracture {
             return BreakReport::default();
         }
         let bonds = &body.lattice.bonds;
+        if let Some(it) = integrator.as_deref_mut() {
+            // The released energy reads the touched nodes' velocities (a shared run keeps only
+            // its own current between outputs).
+            it.gather_velocities(state);
+        }
         let back = integrator.as_deref().map(|it| it.dt);
         self.touched.clear();
         for list in &self.found {

@@ -439,6 +439,9 @@ impl Run {
     /// [`Run::step`] the state may still hold springs that the next step breaks first.
     pub fn settle(&mut self) {
         let sim = &mut self.sim;
+        // Everything that settles goes on to read the whole state (output, energy, reactions):
+        // a shared run's velocities are made current here.
+        self.it.gather_velocities(&mut sim.state);
         if let Some(fr) = sim.fracture.as_mut() {
             fr.settle(&sim.body, &mut sim.state, &mut self.it);
         }
@@ -490,7 +493,8 @@ impl Run {
         }
         if sim.state.step % 64 == 0 {
             // Every member holds the same state: an instability stops all of them alike.
-            self.it.check(body, &sim.state)?;
+            self.it.gather_velocities(&mut sim.state);
+            self.it.check(&sim.body, &sim.state)?;
         }
         let written = self.write_due();
         // What only one member may know (a failed write, Ctrl-C, the progress clock) becomes
@@ -547,6 +551,7 @@ impl Run {
             self.next_reactions = self.next_reactions.map(|n| n + every);
         }
         if time >= self.next_frame - half || done {
+            self.it.gather_velocities(&mut self.sim.state);
             self.it.check(&self.sim.body, &self.sim.state)?;
             self.next_frame += self.sim.output_every;
             self.write_frame()?;
