@@ -36,6 +36,7 @@
 //! count.
 
 use hooke_core::dynamics::Interaction;
+use hooke_core::team::Team;
 use hooke_core::{Body, Coords, Real, State};
 use rayon::prelude::*;
 
@@ -119,9 +120,28 @@ pub struct Contact {
     /// Record every `record_every` steps (1: every step).
     pub record_every: u64,
     steps: u64,
+    /// Processes sharing the evaluation of the candidates (see [`Contact::distribute`]).
+    team: Option<std::sync::Arc<dyn Team>>,
+    /// Per candidate of one body: the force on the node and its potential energy, and its
+    /// penetration (NaN when not in contact); and the ranks' parts of the candidates.
+    hits: Vec<Real>,
+    parts: Vec<std::ops::Range<usize>>,
 }
 
+/// Reals per candidate in `Contact::hits`.
+const HIT: usize = 5;
+
 impl Contact {
+    /// Share the evaluation of the rigid bodies' candidate nodes with the other members of
+    /// `team` (each process holds the same contact, see `hooke_core::team`): each evaluates a
+    /// contiguous part of every body's candidates and the results are gathered, then every
+    /// process sums them in candidate order, so the forces, reactions and energies are the bits
+    /// of one process. Needs every node's velocity current on every process when friction
+    /// acts (a shared integrator gathers them on steps with contact).
+    pub fn distribute(&mut self, team: std::sync::Arc<dyn Team>) {
+        self.team = (team.size() > 1).then_some(team);
+    }
+
     pub fn new(body: &Body, bodies: Vec<RigidBody>, opts: ContactOptions) -> Self {
         let n = body.nodes();
         let shortest = body
@@ -178,6 +198,9 @@ impl Contact {
             max_penetration: 0.0,
             history: Vec::new(),
             record_every: 1,
+            team: None,
+            hits: Vec::new(),
+            parts: Vec::new(),
             steps: 0,
         }
     }
@@ -457,8 +480,22 @@ impl Interaction for Contact {
                 let b = &self.bodies[k];
                 (b.friction, b.center(), b.inertia.is_some())
             };
-            for idx in 0..self.candidates[k].len() {
+            // What each candidate feels (the costly part: a distance query per node), shared
+            // between the processes of a run; then the sums in candidate order, alike on every
+            // process and as in one.
+            let nc = self.candidates[k].len();
+            let size = self.team.as_ref().map_or(1, |t| t.size());
+            let rank = self.team.as_ref().map_or(0, |t| t.rank());
+            self.parts.clear();
+            self.parts
+                .extend((0..size).map(|r| HIT * (nc * r / size)..HIT * (nc * (r + 1) / size)));
+            if self.hits.len() < HIT * nc {
+                self.hits.resize(HIT * nc, 0.0);
+            }
+            let mine = self.parts[rank].start / HIT..self.parts[rank].end / HIT;
+            for idx in mine {
                 let i = self.candidates[k][idx] as usize;
+                self.hits[HIT * idx + 4] = Real::NAN;
                 let x = Self::position(body, &state.u, i);
                 let Some((d, nrm)) = self.bodies[k].signed_distance(x) else {
                     continue;
@@ -467,10 +504,8 @@ impl Interaction for Contact {
                 if gap >= 0.0 {
                     continue;
                 }
-                self.max_penetration = self.max_penetration.max(-gap);
                 let m = body.mass[i];
                 let kc = self.stiffness(m, dt);
-                potential += 0.5 * kc * gap * gap;
                 let fn_mag = -kc * gap;
                 let mut f = [0.0; 3];
                 for c in 0..dim {
@@ -491,12 +526,30 @@ impl Interaction for Contact {
                         }
                     }
                 }
+                let hit = &mut self.hits[HIT * idx..HIT * idx + HIT];
+                hit[..3].copy_from_slice(&f);
+                hit[3] = 0.5 * kc * gap * gap;
+                hit[4] = -gap;
+            }
+            if let Some(t) = &self.team {
+                t.gather(&mut self.hits[..HIT * nc], &self.parts);
+            }
+            for idx in 0..nc {
+                let hit = &self.hits[HIT * idx..HIT * idx + HIT];
+                if hit[4].is_nan() {
+                    continue;
+                }
+                let i = self.candidates[k][idx] as usize;
+                let f = [hit[0], hit[1], hit[2]];
+                self.max_penetration = self.max_penetration.max(hit[4]);
+                potential += hit[3];
                 for c in 0..dim {
                     self.acc[i][c] += f[c];
                     reaction[c] -= f[c];
                 }
                 if rotates {
                     // The reaction acts where the node is, on the force's own line.
+                    let x = Self::position(body, &state.u, i);
                     let arm = [0, 1, 2].map(|c| x[c] - xc[c]);
                     let t = crate::rigid::cross(arm, f);
                     for c in 0..3 {

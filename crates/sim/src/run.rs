@@ -353,6 +353,9 @@ impl Run {
         let mut it = it;
         if let Some(team) = &opts.team {
             it.distribute(&sim.body, team.clone());
+            if let Some(c) = sim.contact.as_mut() {
+                c.distribute(team.clone());
+            }
         }
         let resuming = opts.resume.is_some();
         let until = sim.state.time;
