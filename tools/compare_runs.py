@@ -3,7 +3,8 @@
 
     python3 tools/compare_runs.py A B [--ignore FIELD ...] [--node-order]
 
-Every frame the two .pvd series list (same times, same files) is read with meshio; every point
+Every frame the two .pvd series list (same times, same files) is read with meshio (a .pvtu of a
+run on several MPI ranks piece by piece, the pieces joined in order); every point
 array both frames carry must be identical to the bit, as must the points. The energy, contact and
 reaction histories (CSV) must be identical byte for byte where both runs wrote them. Arrays only
 one run writes are listed, not failed (a newer hooke writes more fields). --ignore skips fields
@@ -14,6 +15,7 @@ non-zero on any difference.
 import argparse
 import glob
 import os
+import re
 import sys
 
 import meshio
@@ -21,6 +23,22 @@ import numpy as np
 
 from checks import Checks
 from hooke_output import frames
+
+
+def read_frame(path):
+    """A frame as one meshio mesh (points and point data): a .vtu, or the pieces a .pvtu lists
+    (written by several MPI ranks), read one by one with meshio and joined in piece order."""
+    if not path.endswith(".pvtu"):
+        return meshio.read(path)
+    text = open(path).read()
+    pieces = [meshio.read(os.path.join(os.path.dirname(path), f))
+              for f in re.findall(r'<Piece Source="([^"]+)"', text)]
+    if not pieces:
+        raise ValueError(f"{path} lists no pieces")
+    points = np.concatenate([p.points for p in pieces])
+    data = {k: np.concatenate([p.point_data[k] for p in pieces])
+            for k in pieces[0].point_data}
+    return meshio.Mesh(points, [("vertex", np.arange(len(points)).reshape(-1, 1))], point_data=data)
 
 
 def main():
@@ -36,7 +54,7 @@ def main():
     only = set()
     for (ta, pa), (tb, pb) in zip(fa, fb):
         check(ta == tb, f"frame times {ta} vs {tb}")
-        ma, mb = meshio.read(pa), meshio.read(pb)
+        ma, mb = read_frame(pa), read_frame(pb)
         ia = ib = slice(None)
         if args.node_order:
             ia = np.argsort(ma.point_data["node_id"].ravel())

@@ -63,6 +63,21 @@ pub struct VtkSeries {
     frames: Vec<(Real, String)>,
     background: bool,
     pending: Option<(PathBuf, std::thread::JoinHandle<Result<(), IoError>>)>,
+    /// Written as pieces by several processes (see [`VtkSeries::set_pieces`]).
+    pieces: Option<Pieces>,
+}
+
+/// This process's part of a series written in pieces.
+#[derive(Debug)]
+struct Pieces {
+    rank: usize,
+    /// Every process's nodes.
+    nodes: Vec<std::ops::Range<usize>>,
+    /// The point arrays of the last piece (name, VTK type, components), for the `.pvtu`.
+    arrays: Vec<(String, &'static str, usize)>,
+    /// The last frame's piece files and time, until it is published.
+    step: u64,
+    time: Real,
 }
 
 /// The frames (time, file) a `.pvd` collection lists up to time `until`; none if it is missing.
@@ -132,6 +147,7 @@ impl VtkSeries {
             frames: Vec::new(),
             background: false,
             pending: None,
+            pieces: None,
         })
     }
 
@@ -139,6 +155,51 @@ impl VtkSeries {
     /// frame is on disk when [`VtkSeries::write`] returns.
     pub fn set_background(&mut self, on: bool) {
         self.background = on;
+    }
+
+    /// Write each frame as pieces, one per process, as `STEM_STEP_RANK.vtu`: this process
+    /// (`rank`) writes the nodes `nodes[rank]` (nodes keep their `node_id`; springs whose ends
+    /// lie in two pieces are in neither). Once every process has written its piece, process 0
+    /// calls [`VtkSeries::publish`], which writes `STEM_STEP.pvtu` and lists it in the `.pvd`:
+    /// ParaView and pyvista read the `.pvtu` as one dataset, other readers its pieces.
+    pub fn set_pieces(&mut self, rank: usize, nodes: Vec<std::ops::Range<usize>>) {
+        self.pieces = Some(Pieces {
+            rank,
+            nodes,
+            arrays: Vec::new(),
+            step: 0,
+            time: 0.0,
+        });
+        self.background = false;
+    }
+
+    /// Process 0 of a series in pieces: the last frame's `.pvtu`, then the `.pvd` listing it
+    /// (call once every process's piece of it is on disk). Nothing to do otherwise.
+    pub fn publish(&mut self) -> Result<(), IoError> {
+        let Some(p) = self.pieces.as_ref().filter(|p| p.rank == 0) else {
+            return Ok(());
+        };
+        let name = format!("{}_{:06}.pvtu", self.stem, p.step);
+        let path = self.dir.join(&name);
+        let mut text = String::from("<?xml version=\"1.0\"?>\n<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n  <PUnstructuredGrid GhostLevel=\"0\">\n    <PPointData>\n");
+        for (a, ty, nc) in &p.arrays {
+            text.push_str(&format!(
+                "      <PDataArray type=\"{ty}\" Name=\"{a}\" NumberOfComponents=\"{nc}\"/>\n"
+            ));
+        }
+        text.push_str("    </PPointData>\n    <PPoints>\n      <PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n    </PPoints>\n");
+        for r in 0..p.nodes.len() {
+            text.push_str(&format!(
+                "    <Piece Source=\"{}\"/>\n",
+                piece_name(&self.stem, p.step, r)
+            ));
+        }
+        text.push_str("  </PUnstructuredGrid>\n</VTKFile>\n");
+        write_atomic(&path, |w| w.write_all(text.as_bytes()).map_err(io(&path)))?;
+        let time = p.time;
+        self.frames.retain(|(_, f)| f != &name);
+        self.frames.push((time, name));
+        write_pvd(&self.pvd_path(), &self.frames)
     }
 
     /// Wait for the frame in flight, if any, and return its outcome.
@@ -179,6 +240,14 @@ impl VtkSeries {
         state: &State,
         extras: FrameExtras,
     ) -> Result<PathBuf, IoError> {
+        if let Some(p) = self.pieces.as_mut() {
+            let path = self.dir.join(piece_name(&self.stem, state.step, p.rank));
+            let vtk = frame_vtk_nodes(body, state, extras, self.springs, p.nodes[p.rank].clone());
+            p.arrays = point_arrays(&vtk);
+            (p.step, p.time) = (state.step, state.time);
+            write_vtu(&path, vtk)?;
+            return Ok(path);
+        }
         let name = format!("{}_{:06}.vtu", self.stem, state.step);
         let path = self.dir.join(&name);
         let vtk = frame_vtk(body, state, extras, self.springs);
@@ -340,9 +409,9 @@ impl RigidSeries {
     }
 }
 
-fn vectors(name: &str, c: &Coords) -> Attribute {
-    let mut data = Vec::with_capacity(3 * c.len());
-    for i in 0..c.len() {
+fn vectors(name: &str, c: &Coords, nodes: std::ops::Range<usize>) -> Attribute {
+    let mut data = Vec::with_capacity(3 * nodes.len());
+    for i in nodes {
         data.extend([c.x()[i], c.y()[i], c.z()[i]]);
     }
     Attribute::DataArray(DataArray {
@@ -363,12 +432,62 @@ fn scalars(name: &str, data: Vec<Real>) -> Attribute {
     })
 }
 
+/// File name of process `rank`'s piece of the frame at `step`.
+fn piece_name(stem: &str, step: u64, rank: usize) -> String {
+    format!("{stem}_{step:06}_{rank}.vtu")
+}
+
+/// The point arrays of a frame: name, VTK type name, components (what a `.pvtu` declares).
+fn point_arrays(vtk: &Vtk) -> Vec<(String, &'static str, usize)> {
+    let DataSet::UnstructuredGrid { pieces, .. } = &vtk.data else {
+        return Vec::new();
+    };
+    let Some(vtkio::model::Piece::Inline(p)) = pieces.first() else {
+        return Vec::new();
+    };
+    p.data
+        .point
+        .iter()
+        .filter_map(|a| match a {
+            Attribute::DataArray(d) => {
+                let ty = match &d.data {
+                    vtkio::IOBuffer::F64(_) => "Float64",
+                    vtkio::IOBuffer::U64(_) => "UInt64",
+                    vtkio::IOBuffer::U32(_) => "UInt32",
+                    _ => "Float64",
+                };
+                let nc = match d.elem {
+                    ElementType::Vectors => 3,
+                    ElementType::Tensors => 9,
+                    ElementType::Scalars { num_comp, .. } => num_comp as usize,
+                    _ => 1,
+                };
+                Some((d.name.clone(), ty, nc))
+            }
+            _ => None,
+        })
+        .collect()
+}
+
 /// The VTK model of one frame.
 pub fn frame_vtk(body: &Body, state: &State, extras: FrameExtras, springs: bool) -> Vtk {
-    let n = body.nodes();
+    frame_vtk_nodes(body, state, extras, springs, 0..body.nodes())
+}
+
+/// The VTK model of the nodes `nodes` of one frame (a piece; all of them: the frame), with the
+/// springs between two of them.
+pub fn frame_vtk_nodes(
+    body: &Body,
+    state: &State,
+    extras: FrameExtras,
+    springs: bool,
+    nodes: std::ops::Range<usize>,
+) -> Vtk {
+    let n = nodes.len();
+    let first = nodes.start;
     let x = state.positions(body);
     let mut points = Vec::with_capacity(3 * n);
-    for i in 0..n {
+    for i in nodes.clone() {
         points.extend([x.x()[i], x.y()[i], x.z()[i]]);
     }
     // One vertex cell per node, so that every reader shows the nodes; intact springs as lines
@@ -378,22 +497,28 @@ pub fn frame_vtk(body: &Body, state: &State, extras: FrameExtras, springs: bool)
     let mut types = vec![CellType::Vertex; n];
     if springs {
         for (b, &[i, j]) in body.lattice.bonds.ends.iter().enumerate() {
-            if state.alive()[b] {
-                connectivity.extend([i as u64, j as u64]);
+            let inside = nodes.contains(&(i as usize)) && nodes.contains(&(j as usize));
+            if state.alive()[b] && inside {
+                connectivity.extend([(i as usize - first) as u64, (j as usize - first) as u64]);
                 offsets.push(connectivity.len() as u64);
                 types.push(CellType::Line);
             }
         }
     }
     let d = extras.derived_or_compute(body, state);
-    let mut point = vec![vectors("displacement", &state.u)];
-    point.push(vectors("velocity", extras.velocity.unwrap_or(&state.v)));
+    let part = |v: &[Real]| v[nodes.clone()].to_vec();
+    let mut point = vec![vectors("displacement", &state.u, nodes.clone())];
+    point.push(vectors(
+        "velocity",
+        extras.velocity.unwrap_or(&state.v),
+        nodes.clone(),
+    ));
     if let Some(dmg) = extras.damage {
-        point.push(scalars("damage", dmg.to_vec()));
+        point.push(scalars("damage", part(dmg)));
     }
-    point.push(scalars("pool_ratio", d.pool.clone()));
-    point.push(scalars("strain_energy_density", d.energy_density.clone()));
-    let stress: Vec<Real> = d.stress.iter().flatten().copied().collect();
+    point.push(scalars("pool_ratio", part(&d.pool)));
+    point.push(scalars("strain_energy_density", part(&d.energy_density)));
+    let stress: Vec<Real> = d.stress[nodes.clone()].iter().flatten().copied().collect();
     point.push(Attribute::DataArray(DataArray {
         name: "stress".into(),
         elem: ElementType::Tensors,
@@ -401,7 +526,7 @@ pub fn frame_vtk(body: &Body, state: &State, extras: FrameExtras, springs: bool)
     }));
     point.push(scalars(
         "node_volume",
-        (0..n).map(|i| body.lattice.node_volume(i)).collect(),
+        nodes.clone().map(|i| body.lattice.node_volume(i)).collect(),
     ));
     point.push(Attribute::DataArray(DataArray {
         name: "node_id".into(),
@@ -409,7 +534,9 @@ pub fn frame_vtk(body: &Body, state: &State, extras: FrameExtras, springs: bool)
             num_comp: 1,
             lookup_table: None,
         },
-        data: (0..n as u64).collect::<Vec<u64>>().into(),
+        data: (nodes.start as u64..nodes.end as u64)
+            .collect::<Vec<u64>>()
+            .into(),
     }));
     if let Some(r) = extras.region {
         point.push(Attribute::DataArray(DataArray {
@@ -418,7 +545,7 @@ pub fn frame_vtk(body: &Body, state: &State, extras: FrameExtras, springs: bool)
                 num_comp: 1,
                 lookup_table: None,
             },
-            data: r.to_vec().into(),
+            data: r[nodes.clone()].to_vec().into(),
         }));
     }
     Vtk {

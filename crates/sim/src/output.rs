@@ -114,6 +114,11 @@ pub trait Sink: Send {
     fn describe(&self) -> Option<(String, PathBuf)> {
         None
     }
+    /// A frame written in pieces by several processes is complete (every process wrote its
+    /// piece): list it (the `.pvtu` and the `.pvd` of VTK output, on rank 0).
+    fn publish(&mut self) -> Result<()> {
+        Ok(())
+    }
 }
 
 fn append(path: &Path, text: &str) -> Result<()> {
@@ -166,6 +171,10 @@ impl Sink for VtkSink {
             format!("{} frames", self.0.frames().len()),
             self.0.pvd_path(),
         ))
+    }
+    fn publish(&mut self) -> Result<()> {
+        self.0.publish()?;
+        Ok(())
     }
 }
 

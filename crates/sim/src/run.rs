@@ -190,18 +190,38 @@ pub(crate) fn open_sinks(
     resuming: bool,
     until: Real,
 ) -> Result<Vec<Box<dyn Sink>>> {
+    open_sinks_in_pieces(sim, out, name, resuming, until, None)
+}
+
+/// The sinks of process `pieces.0` of a run whose VTK frames are written in pieces, one per
+/// process (`pieces.1`: every process's nodes); a process other than 0 writes only its pieces.
+pub(crate) fn open_sinks_in_pieces(
+    sim: &Simulation,
+    out: &Path,
+    name: &str,
+    resuming: bool,
+    until: Real,
+    pieces: Option<(usize, Vec<std::ops::Range<usize>>)>,
+) -> Result<Vec<Box<dyn Sink>>> {
     let mut sinks: Vec<Box<dyn Sink>> = Vec::new();
     let input = |e: hooke_io::IoError| Error::Input(e.to_string());
+    let rank = pieces.as_ref().map_or(0, |p| p.0);
     if sim.vtk {
-        let series = if resuming {
+        let series = if resuming && rank == 0 {
             VtkSeries::reopen(out, name, sim.springs, until).map_err(input)?
         } else {
             VtkSeries::create(out, name, sim.springs).map_err(input)?
         };
         let mut series = series;
-        // Frames are encoded and written while the run goes on.
-        series.set_background(true);
+        match pieces {
+            Some((rank, nodes)) => series.set_pieces(rank, nodes),
+            // Frames are encoded and written while the run goes on.
+            None => series.set_background(true),
+        }
         sinks.push(Box::new(VtkSink(series)));
+    }
+    if rank != 0 {
+        return Ok(sinks);
     }
     #[cfg(feature = "hdf5")]
     if sim.hdf5 {
@@ -359,10 +379,20 @@ impl Run {
         }
         let resuming = opts.resume.is_some();
         let until = sim.state.time;
-        // Only the writer opens files; a failure there stops every member.
+        // VTK frames in pieces, one per process, when shared.
+        let pieces = it.share().map(|s| (s.rank, s.nodes.clone()));
+        // Only the writer opens files (and the other processes their frames' pieces); a
+        // failure there stops every member.
         let opened = if opts.writes() {
             (|| -> Result<_> {
-                let sinks = open_sinks(&sim, &opts.out, &opts.name, resuming, until)?;
+                let sinks = open_sinks_in_pieces(
+                    &sim,
+                    &opts.out,
+                    &opts.name,
+                    resuming,
+                    until,
+                    pieces.clone(),
+                )?;
                 let contact_history = if sim.has_rigid_bodies() {
                     Some(ContactHistory::open(
                         &opts.out,
@@ -376,7 +406,8 @@ impl Run {
                 Ok((sinks, contact_history, Some(provenance)))
             })()
         } else {
-            Ok((Vec::new(), None, None))
+            open_sinks_in_pieces(&sim, &opts.out, &opts.name, resuming, until, pieces.clone())
+                .map(|s| (s, None, None))
         };
         if opts.anyone(opened.is_err()) {
             opened?;
@@ -722,9 +753,18 @@ impl Run {
             reactions: &reactions,
             contact: sim.contact.as_ref(),
         };
-        for s in &mut self.sinks {
-            s.frame(&frame)?;
+        let written: Result<()> = self.sinks.iter_mut().try_for_each(|s| s.frame(&frame));
+        if self.it.share().is_some() {
+            // Pieces: listed once every process has written its own.
+            if self.opts.anyone(written.is_err()) {
+                written?;
+                return Err(elsewhere(false));
+            }
+            for s in &mut self.sinks {
+                s.publish()?;
+            }
         }
+        written?;
         match (self.sim.contact.as_mut(), &self.contact_history) {
             (Some(c), Some(h)) => h.flush(c)?,
             // A member that does not write drops the rows the writer writes.
