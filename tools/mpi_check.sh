@@ -36,7 +36,8 @@ check() { # name case scale end_time sizes...
 }
 check kalthoff_winkler cases/kalthoff_winkler.toml 0.3 20e-6 1 2 3 4
 check sphere_impact cases/sphere_impact_glass.toml 0.8 8e-6 2 3
-check mode1_plate cases/mode1_plate.toml 1.5 50e-6 2 4
+# (The mode-I plate, with its pre-crack and prescribed velocities, is checked by 2, 3 and 4
+# threads standing in for ranks in `cargo test`: crates/case/tests/team.rs.)
 check compression_block cases/compression_block.toml 1.0 10e-6 3
 
 # Checkpointed with 2 ranks, resumed with 3.
