@@ -3,11 +3,11 @@
 
 use hooke_core::dynamics::{momentum, Integrator, IntegratorOptions, TimeStep};
 use hooke_core::law;
-use hooke_core::loading::{Loading, Motion, Prescribed, TimeFunction};
+use hooke_core::loading::Loading;
 use hooke_core::material::q_from_nu;
 use hooke_core::{Body, Lattice, LatticeKind, Real, State, Vector};
 use hooke_fracture::{Crack, CriticalStretch, Fracture, SpringEnergy};
-use hooke_tests::{random_displacement, Rng};
+use hooke_tests::{pull_ends, random_displacement, Rng};
 
 fn bar(kind: LatticeKind, nu: Real, n: [usize; 3]) -> Body {
     let lattice = match kind {
@@ -144,43 +144,7 @@ fn pulled_bar(kind: LatticeKind, nu: Real, speed: Real) -> (Body, Loading) {
         _ => [30, 10, 1],
     };
     let body = bar(kind, nu, n);
-    let xmax = body.lattice.pos.x().iter().cloned().fold(0.0, Real::max);
-    let xmin = body
-        .lattice
-        .pos
-        .x()
-        .iter()
-        .cloned()
-        .fold(Real::INFINITY, Real::min);
-    let left: Vec<u32> = (0..body.nodes() as u32)
-        .filter(|&i| body.lattice.pos.x()[i as usize] < xmin + 0.6)
-        .collect();
-    let right: Vec<u32> = (0..body.nodes() as u32)
-        .filter(|&i| body.lattice.pos.x()[i as usize] > xmax - 0.6)
-        .collect();
-    let ramp = |to: Real| {
-        Motion::Velocity(TimeFunction::SmoothRamp {
-            t0: 0.0,
-            t1: 20.0,
-            from: 0.0,
-            to,
-        })
-    };
-    let loading = Loading {
-        prescribed: vec![
-            Prescribed {
-                nodes: left,
-                axis: 0,
-                motion: ramp(-speed),
-            },
-            Prescribed {
-                nodes: right,
-                axis: 0,
-                motion: ramp(speed),
-            },
-        ],
-        ..Default::default()
-    };
+    let loading = pull_ends(&body, speed);
     (body, loading)
 }
 

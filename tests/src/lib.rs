@@ -95,3 +95,84 @@ pub fn dofs(body: &Body) -> Vec<(usize, usize)> {
         .flat_map(|i| (0..d).map(move |c| (i, c)))
         .collect()
 }
+
+/// The dense stiffness (tangent) matrix over [`dofs`], by columns of `Tangent::apply`; with
+/// `over_mass`, `M^-1/2 K M^-1/2`, whose eigenvalues the stable step depends on.
+pub fn dense_tangent(body: &Body, state: &State, over_mass: bool) -> nalgebra::DMatrix<Real> {
+    let d = dofs(body);
+    let mut t = hooke_core::Tangent::new(body, state);
+    let mut k = nalgebra::DMatrix::zeros(d.len(), d.len());
+    let mut v = Coords::zeros(body.nodes());
+    let mut kv = Coords::zeros(body.nodes());
+    for (col, &(i, c)) in d.iter().enumerate() {
+        v.fill_zero();
+        v.comp_mut(c)[i] = 1.0;
+        t.apply(body, &v, &mut kv);
+        for (row, &(j, r)) in d.iter().enumerate() {
+            let scale = if over_mass {
+                (body.mass[i] * body.mass[j]).sqrt()
+            } else {
+                1.0
+            };
+            k[(row, col)] = kv.comp(r)[j] / scale;
+        }
+    }
+    k
+}
+
+/// The forces `kernel` computes for `state` (its velocities are ignored), read from one sweep
+/// with dt = 1, no damping and unit inverse masses from rest, where the kicked velocity is the
+/// force itself.
+pub fn kernel_forces(kernel: &hooke_core::kernel::Kernel, body: &Body, state: &State) -> Coords {
+    use hooke_core::kernel::{partials_len, StepParams};
+    let mut s = state.clone();
+    s.v = Coords::zeros(body.nodes());
+    let inv = vec![1.0; body.nodes()];
+    let p = StepParams {
+        dt: 1.0,
+        damping: 0.0,
+        accel: [0.0; 3],
+    };
+    let mut u_next = Coords::zeros(body.nodes());
+    let mut partials = vec![Default::default(); partials_len(body.nodes())];
+    kernel.pools(body, &mut s);
+    kernel.force_kick_drift(body, &mut s, &inv, &p, &mut u_next, &mut partials);
+    s.v
+}
+
+/// Supports that pull a bar apart along x: the nodes within 0.6 of either end move outwards at
+/// `speed`, reached along a smooth ramp over 20 time units.
+pub fn pull_ends(body: &Body, speed: Real) -> hooke_core::loading::Loading {
+    use hooke_core::loading::{Loading, Motion, Prescribed, TimeFunction};
+    let x = body.lattice.pos.x();
+    let lo = x.iter().cloned().fold(Real::INFINITY, Real::min);
+    let hi = x.iter().cloned().fold(Real::NEG_INFINITY, Real::max);
+    let ends = |f: &dyn Fn(Real) -> bool| -> Vec<u32> {
+        (0..body.nodes() as u32)
+            .filter(|&i| f(x[i as usize]))
+            .collect()
+    };
+    let ramp = |to: Real| {
+        Motion::Velocity(TimeFunction::SmoothRamp {
+            t0: 0.0,
+            t1: 20.0,
+            from: 0.0,
+            to,
+        })
+    };
+    Loading {
+        prescribed: vec![
+            Prescribed {
+                nodes: ends(&|v| v < lo + 0.6),
+                axis: 0,
+                motion: ramp(-speed),
+            },
+            Prescribed {
+                nodes: ends(&|v| v > hi - 0.6),
+                axis: 0,
+                motion: ramp(speed),
+            },
+        ],
+        ..Default::default()
+    }
+}

@@ -9,7 +9,7 @@ use hooke_core::loading::TimeFunction;
 use hooke_core::material::PlaneModel;
 use hooke_core::random::{RandomSpec, Sampler};
 use hooke_core::{LatticeKind, Real, Vector};
-use hooke_fracture::Crack;
+use hooke_fracture::{Crack, SofteningShape};
 use hooke_sim::geometry::{Face, Region, Shape, Solid};
 use hooke_sim::{Bc, BreakRule, BuildError, Builder, ContactSpec, RigidSpec};
 use toml::Spanned;
@@ -372,6 +372,40 @@ fn material(
         *m.poisson.get_ref(),
         *m.density.get_ref(),
     );
+    let softening = m
+        .criterion
+        .as_ref()
+        .is_some_and(|c| c.get_ref() == "softening");
+    if softening {
+        return softening_rule(ctx, m, b, spans);
+    }
+    for (key, span) in [
+        ("material.softening", m.softening.as_ref().map(|v| v.span())),
+        (
+            "material.tensile_strength",
+            m.tensile_strength.as_ref().map(|v| v.span()),
+        ),
+        (
+            "material.characteristic_length",
+            m.characteristic_length.as_ref().map(|v| v.span()),
+        ),
+        (
+            "material.peak_stretch",
+            m.peak_stretch.as_ref().map(|v| v.span()),
+        ),
+        (
+            "material.final_stretch",
+            m.final_stretch.as_ref().map(|v| v.span()),
+        ),
+    ] {
+        if let Some(span) = span {
+            return Err(ctx.err(
+                span,
+                key,
+                "this key belongs to softening springs; add criterion = \"softening\" or remove it",
+            ));
+        }
+    }
     let given = match (&m.fracture_energy, &m.critical_stretch) {
         (Some(g), None) => {
             spans.at("material.fracture_energy", g.span());
@@ -414,7 +448,9 @@ fn material(
                     return Err(ctx.err(
                         c.span(),
                         "material.criterion",
-                        format!("unknown criterion \"{other}\"; use \"stretch\" or \"energy\""),
+                        format!(
+                            "unknown criterion \"{other}\"; use \"stretch\", \"energy\" or \"softening\""
+                        ),
                     ))
                 }
             }
@@ -434,6 +470,128 @@ fn material(
         Some((false, s)) if energy => b.breaking(BreakRule::SpringEnergyFromStretch(s)),
         Some((false, s)) => b.breaking(BreakRule::Stretch(s)),
     })
+}
+
+/// `material.criterion = "softening"`: the curve's shape, then G_f with the tensile strength or
+/// the characteristic length, or the peak and final stretches.
+fn softening_rule(
+    ctx: &Ctx,
+    m: &RawMaterial,
+    b: Builder,
+    spans: &mut Spans,
+) -> Result<Builder, CaseError> {
+    let shape = match &m.softening {
+        None => SofteningShape::Linear,
+        Some(v) => {
+            spans.at("material.softening", v.span());
+            match v.get_ref().as_str() {
+                "linear" => SofteningShape::Linear,
+                "bilinear" => SofteningShape::Bilinear,
+                other => {
+                    return Err(ctx.err(
+                        v.span(),
+                        "material.softening",
+                        format!("unknown softening \"{other}\"; use \"linear\" or \"bilinear\""),
+                    ))
+                }
+            }
+        }
+    };
+    if let Some(c) = &m.critical_stretch {
+        return Err(ctx.err(
+            c.span(),
+            "material.critical_stretch",
+            "softening springs take peak_stretch and final_stretch (or fracture_energy with \
+             tensile_strength); remove critical_stretch",
+        ));
+    }
+    if let Some(c) = &m.criterion {
+        spans.at("material.criterion", c.span());
+    }
+    match (&m.fracture_energy, &m.peak_stretch, &m.final_stretch) {
+        (Some(g), None, None) => {
+            spans.at("material.fracture_energy", g.span());
+            let g_f = ctx.positive(g, "material.fracture_energy", "J/m^2")?;
+            let youngs = *m.youngs.get_ref();
+            let strength = match (&m.tensile_strength, &m.characteristic_length) {
+                (Some(f), None) => {
+                    spans.at("material.tensile_strength", f.span());
+                    ctx.positive(f, "material.tensile_strength", "Pa")?
+                }
+                (None, Some(l)) => {
+                    // l_ch = E G_f / f_t^2; errors about the strength it gives name this key.
+                    spans.at("material.tensile_strength", l.span());
+                    let l = ctx.positive(l, "material.characteristic_length", "m")?;
+                    (youngs * g_f / l).sqrt()
+                }
+                (Some(f), Some(_)) => {
+                    return Err(ctx.err(
+                        f.span(),
+                        "material.tensile_strength",
+                        "give tensile_strength or characteristic_length, not both",
+                    ))
+                }
+                (None, None) => {
+                    return Err(ctx.err(
+                        g.span(),
+                        "material.fracture_energy",
+                        "softening springs need a strength too: add tensile_strength (Pa) or \
+                         characteristic_length (m, E G_f / f_t^2)",
+                    ))
+                }
+            };
+            Ok(b.breaking(BreakRule::Softening {
+                fracture_energy: g_f,
+                strength,
+                shape,
+            }))
+        }
+        (None, Some(p), Some(f)) => {
+            spans.at("material.peak_stretch", p.span());
+            spans.at("material.final_stretch", f.span());
+            let peak = ctx.positive(p, "material.peak_stretch", "(dimensionless)")?;
+            let last = ctx.positive(f, "material.final_stretch", "(dimensionless)")?;
+            if last <= peak {
+                return Err(ctx.err(
+                    f.span(),
+                    "material.final_stretch",
+                    format!(
+                        "{last} is not above peak_stretch = {peak}: a softening spring cannot \
+                         snap back; give a final stretch above the peak"
+                    ),
+                ));
+            }
+            if let Some(t) = m.tensile_strength.as_ref().or(m.characteristic_length.as_ref()) {
+                return Err(ctx.err(
+                    t.span(),
+                    "material.tensile_strength",
+                    "peak_stretch and final_stretch already fix the curve; remove this key",
+                ));
+            }
+            Ok(b.breaking(BreakRule::SofteningStretch { peak, last, shape }))
+        }
+        (Some(g), _, _) => Err(ctx.err(
+            g.span(),
+            "material.fracture_energy",
+            "give fracture_energy (with tensile_strength) or peak_stretch and final_stretch, not both",
+        )),
+        (None, Some(p), None) => Err(ctx.err(
+            p.span(),
+            "material.peak_stretch",
+            "add final_stretch (the stretch at which a spring is broken)",
+        )),
+        (None, None, Some(f)) => Err(ctx.err(
+            f.span(),
+            "material.final_stretch",
+            "add peak_stretch (the stretch at which a spring starts to soften)",
+        )),
+        (None, None, None) => Err(ctx.err(
+            m.criterion.as_ref().map(|c| c.span()).unwrap_or_else(|| m.youngs.span()),
+            "material.criterion",
+            "softening springs need fracture_energy with tensile_strength (or \
+             characteristic_length), or peak_stretch with final_stretch",
+        )),
+    }
 }
 
 /// `[[precrack]]`: segments cut 2D bodies, planar polygons 3D ones.

@@ -135,8 +135,18 @@ pub struct RawMaterial {
     pub density: Spanned<Real>,
     pub fracture_energy: Option<Spanned<Real>>,
     pub critical_stretch: Option<Spanned<Real>>,
-    /// `"stretch"` (default) or `"energy"`.
+    /// `"stretch"` (default), `"energy"` or `"softening"`.
     pub criterion: Option<Spanned<String>>,
+    /// Softening springs: `"linear"` (default) or `"bilinear"`.
+    pub softening: Option<Spanned<String>>,
+    /// Softening springs: tensile strength f_t (Pa), with `fracture_energy`.
+    pub tensile_strength: Option<Spanned<Real>>,
+    /// Softening springs: characteristic length `E G_f / f_t^2` (m), instead of the strength.
+    pub characteristic_length: Option<Spanned<Real>>,
+    /// Softening springs given directly: the peak stretch ...
+    pub peak_stretch: Option<Spanned<Real>>,
+    /// ... and the final stretch, where the spring is broken.
+    pub final_stretch: Option<Spanned<Real>>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -85,3 +85,99 @@ fn energy_criterion_errors_name_the_key_and_the_fix() {
         );
     }
 }
+
+/// `criterion = "softening"`: from G_f with the tensile strength or the characteristic length,
+/// or from the two stretches; linear by default, bilinear on demand.
+#[test]
+fn softening_springs_are_built_from_g_f_and_the_strength() {
+    for (name, extra, shape) in [
+        (
+            "soft-ft",
+            "fracture_energy = 3.8\ncriterion = \"softening\"\ntensile_strength = 4e6",
+            "Linear",
+        ),
+        (
+            "soft-lch",
+            "fracture_energy = 3.8\ncriterion = \"softening\"\nsoftening = \"bilinear\"\ncharacteristic_length = 17.1e-3",
+            "Bilinear",
+        ),
+        (
+            "soft-stretch",
+            "criterion = \"softening\"\npeak_stretch = 5e-4\nfinal_stretch = 4e-3",
+            "Linear",
+        ),
+    ] {
+        let p = case(name, "random2d", extra);
+        let sim = hooke_case::load(&p, 1.0).unwrap();
+        let fr = sim.fracture.expect("fracture is on");
+        assert_eq!(fr.criterion().name(), "softening");
+        let text = format!("{:?}", fr.criterion());
+        assert!(text.contains(shape), "{name}: {text}");
+        // 4 MPa on 72 GPa: the peak at f_t / E (the characteristic length gives the same f_t).
+        if name != "soft-stretch" {
+            assert!(text.contains("peak: 5.55"), "{name}: {text}");
+        }
+    }
+}
+
+/// Inconsistent softening parameters are refused with the file, line, key and fix.
+#[test]
+fn softening_errors_name_the_key_and_the_fix() {
+    for (name, extra, key, want) in [
+        (
+            "snap",
+            "criterion = \"softening\"\npeak_stretch = 5e-4\nfinal_stretch = 4e-4",
+            "material.final_stretch",
+            "cannot snap back",
+        ),
+        (
+            "strong",
+            "fracture_energy = 0.01\ncriterion = \"softening\"\ntensile_strength = 2e9",
+            "material.tensile_strength",
+            "snap back",
+        ),
+        (
+            "nostrength",
+            "fracture_energy = 3.8\ncriterion = \"softening\"",
+            "material.fracture_energy",
+            "add tensile_strength",
+        ),
+        (
+            "both",
+            "fracture_energy = 3.8\ncriterion = \"softening\"\ntensile_strength = 4e7\ncharacteristic_length = 1e-3",
+            "material.tensile_strength",
+            "not both",
+        ),
+        (
+            "shape",
+            "fracture_energy = 3.8\ncriterion = \"softening\"\ntensile_strength = 4e7\nsoftening = \"exponential\"",
+            "material.softening",
+            "use \"linear\" or \"bilinear\"",
+        ),
+        (
+            "stray",
+            "fracture_energy = 3.8\ntensile_strength = 4e7",
+            "material.tensile_strength",
+            "add criterion = \"softening\"",
+        ),
+        (
+            "half",
+            "criterion = \"softening\"\npeak_stretch = 5e-4",
+            "material.peak_stretch",
+            "add final_stretch",
+        ),
+        (
+            "negative",
+            "fracture_energy = 3.8\ncriterion = \"softening\"\ntensile_strength = -4e7",
+            "material.tensile_strength",
+            "not a positive number",
+        ),
+    ] {
+        let p = case(name, "random2d", extra);
+        let e = hooke_case::load(&p, 1.0).unwrap_err().to_string();
+        assert!(
+            e.contains(key) && e.contains(want) && e.contains("plate.toml:"),
+            "{name}: {e}"
+        );
+    }
+}

@@ -9,6 +9,7 @@ use hooke_core::material::q_from_nu;
 use hooke_core::{LatticeKind, Real};
 use hooke_fracture::stretch::{nominal_toughness, table_nu};
 use hooke_fracture::toughness::{strip_test, StripResult, StripTest};
+use hooke_fracture::SofteningShape;
 
 use crate::moduli::LatticeArg;
 use crate::InputError;
@@ -19,6 +20,14 @@ pub enum CriterionArg {
     Stretch,
     /// Spring energy matching the critical stretch under uniform stretch.
     Energy,
+    /// Softening springs whose equivalent stretch is the critical stretch (G_f calibration).
+    Softening,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum ShapeArg {
+    Linear,
+    Bilinear,
 }
 
 #[derive(Debug, Args)]
@@ -43,6 +52,13 @@ pub struct ToughnessArgs {
     /// Failure criterion.
     #[arg(long, value_enum, default_value = "stretch")]
     pub criterion: CriterionArg,
+    /// --criterion softening: the shape of the softening branch.
+    #[arg(long, value_enum, default_value = "linear")]
+    pub softening: ShapeArg,
+    /// --criterion softening: the peak stretch over the equivalent stretch (0 < f < 1; small:
+    /// a long softening tail, near 1: nearly brittle).
+    #[arg(long, default_value_t = 0.5)]
+    pub peak_fraction: Real,
     /// Print one JSON object per nu.
     #[arg(long)]
     pub json: bool,
@@ -64,6 +80,11 @@ pub struct ToughnessArgs {
 pub struct ToughnessJson {
     pub lattice: &'static str,
     pub criterion: &'static str,
+    /// Softening springs: their shape and peak fraction (absent for brittle criteria).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub softening: Option<&'static str>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub peak_fraction: Option<Real>,
     pub nu: Real,
     pub q: Real,
     pub height: usize,
@@ -105,6 +126,14 @@ fn measure(args: &ToughnessArgs, nu: Real) -> Result<ToughnessJson> {
     let mut t = StripTest::new(kind, q, height, args.window);
     t.depth = args.depth;
     t.energy = matches!(args.criterion, CriterionArg::Energy);
+    let shape = match args.softening {
+        ShapeArg::Linear => SofteningShape::Linear,
+        ShapeArg::Bilinear => SofteningShape::Bilinear,
+    };
+    if matches!(args.criterion, CriterionArg::Softening) {
+        t.softening = Some((shape, args.peak_fraction));
+        t.max_solves = 200_000;
+    }
     let start = Instant::now();
     let samples = if kind.is_random() {
         args.samples.max(1)
@@ -130,7 +159,13 @@ fn measure(args: &ToughnessArgs, nu: Real) -> Result<ToughnessJson> {
     r.solves = runs.iter().map(|x| x.solves).sum();
     Ok(ToughnessJson {
         lattice: kind.name(),
-        criterion: if t.energy { "energy" } else { "stretch" },
+        criterion: match args.criterion {
+            CriterionArg::Stretch => "stretch",
+            CriterionArg::Energy => "energy",
+            CriterionArg::Softening => "softening",
+        },
+        softening: t.softening.map(|(s, _)| s.name()),
+        peak_fraction: t.softening.map(|(_, f)| f),
         nu,
         q,
         height,
@@ -154,6 +189,14 @@ fn check_args(args: &ToughnessArgs) -> Result<()> {
         return Err(InputError(format!(
             "--height {}: give an even number of rows, 6 or more",
             args.height.unwrap()
+        ))
+        .into());
+    }
+    if !(args.peak_fraction > 0.0 && args.peak_fraction < 1.0) {
+        return Err(InputError(format!(
+            "--peak-fraction {}: give a number between 0 and 1 (the peak stretch over the \
+             equivalent stretch)",
+            args.peak_fraction
         ))
         .into());
     }

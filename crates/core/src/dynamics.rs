@@ -290,7 +290,7 @@ impl Integrator {
         }
         law::update_forces(body, state);
         it.initial = kinetic(body, &state.v)
-            + law::energy(body, &state.u, &state.alive, &state.norm).total();
+            + law::energy(body, &state.u, state.springs(body), &state.norm).total();
         let v0 = state.v.clone();
         it.initial_power = it.power(body, state, &v0);
         // v(t - dt/2) = v(t) - dt/2 a(t) for free DOFs (prescribed ones take their own).
@@ -482,6 +482,29 @@ impl Integrator {
         true
     }
 
+    /// Soften spring `b` to damage weight `w` (a softening material; [`State::soften`]): the
+    /// state's weight, stiffness and both normalisers change, and the kernel follows (the
+    /// stencil, which has one stiffness, hands the body to the general kernel at the first
+    /// damage). `w = 0` breaks it ([`Integrator::break_spring`]). Returns false if nothing
+    /// changed (the weight was not lower).
+    pub fn soften_spring(&mut self, body: &Body, state: &mut State, b: usize, w: Real) -> bool {
+        if w <= 0.0 {
+            return self.break_spring(body, state, b);
+        }
+        let in_sync = state.breaks() == self.synced;
+        if !state.soften(body, b, w) {
+            return false;
+        }
+        if matches!(self.kernel, Kernel::Csr { .. }) {
+            self.killed.push(b as u32);
+            if in_sync {
+                self.synced = state.breaks();
+            }
+        }
+        // On the stencil `synced` stays behind: the next `sync` switches kernels.
+        true
+    }
+
     /// Bring the kernel's spring masks in line with the state if springs were changed without
     /// [`Integrator::break_spring`] (a caller's `State::kill_bond` or `set_alive`): cheap when
     /// nothing changed, one pass over the springs when something did.
@@ -491,10 +514,14 @@ impl Integrator {
         }
         if let Kernel::Cubic(old) = &self.kernel {
             let simd = old.simd();
-            if let Kernel::Cubic(mut s) = Kernel::for_body(body, state) {
-                s.set_simd(simd);
-                self.kernel = Kernel::Cubic(s);
-            }
+            self.kernel = match Kernel::for_body(body, state) {
+                Kernel::Cubic(mut s) => {
+                    s.set_simd(simd);
+                    Kernel::Cubic(s)
+                }
+                // Softened springs: the stencil cannot hold their stiffnesses.
+                csr => csr,
+            };
         }
         self.synced = state.breaks();
     }
@@ -759,7 +786,7 @@ impl Integrator {
                 body,
                 body.q,
                 &state.u,
-                &state.alive,
+                state.springs(body),
                 &state.pool,
                 i,
             ));
@@ -936,7 +963,7 @@ impl Integrator {
         body: &Body,
         state: &mut State,
     ) -> (Coords, EnergyBalance, law::FrameFields) {
-        let fields = law::frame_fields(body, &state.u, &state.alive, &state.norm);
+        let fields = law::frame_fields(body, &state.u, state.springs(body), &state.norm);
         state.pool.copy_from_slice(&fields.pool);
         state.f.clone_from(&fields.force);
         let v = self.velocity_from_forces(body, state);
@@ -1047,7 +1074,7 @@ impl Integrator {
     /// Without it the balance would carry an O(dt) error that grows with the load.
     pub fn energy(&self, body: &Body, state: &mut State) -> EnergyBalance {
         let v = self.full_velocity(body, state);
-        let strain = law::energy(body, &state.u, &state.alive, &state.norm);
+        let strain = law::energy(body, &state.u, state.springs(body), &state.norm);
         self.balance(body, state, &v, strain)
     }
 

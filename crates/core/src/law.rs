@@ -13,6 +13,10 @@
 //! T_s  = dU/d(dL_s) = k_s dL_s + q k_s L_s (p_i + p_j)
 //! ```
 //!
+//! A softening material's damaged spring enters all of this with its current stiffness
+//! `w_s k_s` (`w_s` its damage weight, [`crate::state::Springs`]): every `k` above is read from
+//! the state's springs, not from the body.
+//!
 //! The first term of `T_s` is the direct force `F^mu` of the paper, the second the dispersed
 //! force `F^*`: each node spreads `q` times its collected flow back over all its springs in
 //! proportion to their length. `T_s` acts along the spring on both ends, equal and opposite, so
@@ -28,7 +32,7 @@ use rayon::prelude::*;
 use crate::body::Body;
 use crate::lattice::Lattice;
 use crate::math::{Coords, Matrix, Real, Vector};
-use crate::state::State;
+use crate::state::{Springs, State};
 
 /// Below this many nodes a pass runs on one thread: rayon's fork cost is larger than the work.
 const MIN_NODES_PER_TASK: usize = 1024;
@@ -110,14 +114,14 @@ pub fn spring_vector(lat: &Lattice, u: &Coords, i: usize, j: usize) -> (Real, Re
 
 /// Pool `Pi_n` of node `n` over its intact springs.
 #[inline]
-fn node_pool(body: &Body, u: &Coords, alive: &[bool], n: usize) -> Real {
+fn node_pool(body: &Body, u: &Coords, sp: Springs<'_>, n: usize) -> Real {
     let bonds = &body.lattice.bonds;
     let mut pi = 0.0;
     for e in bonds.row(n) {
         let b = bonds.bond[e] as usize;
-        if alive[b] {
+        if sp.alive[b] {
             let rest = bonds.rest[b];
-            pi += body.k[b]
+            pi += sp.k[b]
                 * rest
                 * spring_geometry(&body.lattice, u, n, bonds.nbr[e] as usize, rest).dl;
         }
@@ -126,7 +130,7 @@ fn node_pool(body: &Body, u: &Coords, alive: &[bool], n: usize) -> Real {
 }
 
 /// Node pre-pass: `pool[n] = Pi_n / S_n` for every node.
-pub fn compute_pools(body: &Body, u: &Coords, alive: &[bool], norm: &[Real], pool: &mut [Real]) {
+pub fn compute_pools(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real], pool: &mut [Real]) {
     if body.q == 0.0 {
         // The plain lattice: no dispersion, no pre-pass.
         pool.fill(0.0);
@@ -138,7 +142,7 @@ pub fn compute_pools(body: &Body, u: &Coords, alive: &[bool], norm: &[Real], poo
         .for_each(|(n, p)| {
             let s = norm[n];
             *p = if s > 0.0 {
-                node_pool(body, u, alive, n) / s
+                node_pool(body, u, sp, n) / s
             } else {
                 0.0
             };
@@ -151,7 +155,7 @@ pub fn node_force(
     body: &Body,
     q: Real,
     u: &Coords,
-    alive: &[bool],
+    sp: Springs<'_>,
     pool: &[Real],
     n: usize,
 ) -> [Real; 3] {
@@ -160,13 +164,13 @@ pub fn node_force(
     let mut f = [0.0; 3];
     for e in bonds.row(n) {
         let b = bonds.bond[e] as usize;
-        if !alive[b] {
+        if !sp.alive[b] {
             continue;
         }
         let j = bonds.nbr[e] as usize;
         let rest = bonds.rest[b];
         let g = spring_geometry(lat, u, n, j, rest);
-        let s = tension(body.k[b], rest, g.dl, q, pool[n], pool[j]) / g.l;
+        let s = tension(sp.k[b], rest, g.dl, q, pool[n], pool[j]) / g.l;
         f[0] += s * g.d[0];
         f[1] += s * g.d[1];
         f[2] += s * g.d[2];
@@ -175,7 +179,7 @@ pub fn node_force(
 }
 
 /// Spring pass: internal force on every node from the current pools.
-pub fn compute_forces(body: &Body, u: &Coords, alive: &[bool], pool: &[Real], f: &mut Coords) {
+pub fn compute_forces(body: &Body, u: &Coords, sp: Springs<'_>, pool: &[Real], f: &mut Coords) {
     let [x, y, z] = f.xyz_mut();
     x.par_iter_mut()
         .zip(y.par_iter_mut())
@@ -183,14 +187,15 @@ pub fn compute_forces(body: &Body, u: &Coords, alive: &[bool], pool: &[Real], f:
         .with_min_len(MIN_NODES_PER_TASK)
         .enumerate()
         .for_each(|(n, ((fx, fy), fz))| {
-            [*fx, *fy, *fz] = node_force(body, body.q, u, alive, pool, n);
+            [*fx, *fy, *fz] = node_force(body, body.q, u, sp, pool, n);
         });
 }
 
 /// Both passes on a state: refreshes `state.pool` and `state.f`.
 pub fn update_forces(body: &Body, state: &mut State) {
-    compute_pools(body, &state.u, &state.alive, &state.norm, &mut state.pool);
-    compute_forces(body, &state.u, &state.alive, &state.pool, &mut state.f);
+    let sp = Springs::of(body, &state.alive, &state.k_eff);
+    compute_pools(body, &state.u, sp, &state.norm, &mut state.pool);
+    compute_forces(body, &state.u, sp, &state.pool, &mut state.f);
 }
 
 /// `sum_{i < n} f(i)` in parallel, in an order that does not depend on the thread count or on
@@ -207,15 +212,15 @@ pub fn ordered_sum(n: usize, f: impl Fn(usize) -> Real + Sync) -> Real {
 }
 
 /// Strain energy `U` of displacements `u` (computed from scratch; not on the hot path).
-pub fn energy(body: &Body, u: &Coords, alive: &[bool], norm: &[Real]) -> Energy {
+pub fn energy(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> Energy {
     let bonds = &body.lattice.bonds;
     let direct = ordered_sum(bonds.len(), |b| {
-        if !alive[b] {
+        if !sp.alive[b] {
             return 0.0;
         }
         let [i, j] = bonds.ends[b];
         let dl = spring_geometry(&body.lattice, u, i as usize, j as usize, bonds.rest[b]).dl;
-        0.5 * body.k[b] * dl * dl
+        0.5 * sp.k[b] * dl * dl
     });
     let dispersive = if body.q == 0.0 {
         0.0
@@ -223,7 +228,7 @@ pub fn energy(body: &Body, u: &Coords, alive: &[bool], norm: &[Real]) -> Energy 
         ordered_sum(body.nodes(), |n| {
             let s = norm[n];
             if s > 0.0 {
-                let pi = node_pool(body, u, alive, n);
+                let pi = node_pool(body, u, sp, n);
                 0.5 * body.q * pi * pi / s
             } else {
                 0.0
@@ -236,21 +241,21 @@ pub fn energy(body: &Body, u: &Coords, alive: &[bool], norm: &[Real]) -> Energy 
 /// Current tension of every spring (0 for broken ones), from the state's pools. For output and
 /// measurements, not the hot path.
 pub fn tensions(body: &Body, state: &State) -> Vec<Real> {
-    spring_tensions(body, &state.u, &state.alive, &state.pool)
+    spring_tensions(body, &state.u, state.springs(body), &state.pool)
 }
 
 /// Tension of every spring (0 for broken ones) for displacements `u` and pool ratios `pool`.
-pub fn spring_tensions(body: &Body, u: &Coords, alive: &[bool], pool: &[Real]) -> Vec<Real> {
+pub fn spring_tensions(body: &Body, u: &Coords, sp: Springs<'_>, pool: &[Real]) -> Vec<Real> {
     let bonds = &body.lattice.bonds;
     (0..bonds.len())
         .map(|b| {
-            if !alive[b] {
+            if !sp.alive[b] {
                 return 0.0;
             }
             let [i, j] = bonds.ends[b].map(|v| v as usize);
             let rest = bonds.rest[b];
             tension(
-                body.k[b],
+                sp.k[b],
                 rest,
                 spring_geometry(&body.lattice, u, i, j, rest).dl,
                 body.q,
@@ -283,7 +288,7 @@ pub struct FrameFields {
 
 /// See [`FrameFields`]. Parallel over nodes (each writes its own entries) and bit-identical for
 /// any thread count.
-pub fn frame_fields(body: &Body, u: &Coords, alive: &[bool], norm: &[Real]) -> FrameFields {
+pub fn frame_fields(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> FrameFields {
     let n = body.nodes();
     let lat = &body.lattice;
     let bonds = &lat.bonds;
@@ -293,7 +298,7 @@ pub fn frame_fields(body: &Body, u: &Coords, alive: &[bool], norm: &[Real]) -> F
         .into_par_iter()
         .with_min_len(MIN_NODES_PER_TASK)
         .map(|b| {
-            if !alive[b] {
+            if !sp.alive[b] {
                 return 0.0;
             }
             let [i, j] = bonds.ends[b].map(|v| v as usize);
@@ -312,10 +317,10 @@ pub fn frame_fields(body: &Body, u: &Coords, alive: &[bool], norm: &[Real]) -> F
             let (mut s, mut d) = (0.0, 0.0);
             for e in bonds.row(i) {
                 let b = bonds.bond[e] as usize;
-                if alive[b] {
+                if sp.alive[b] {
                     let (rest, x) = (bonds.rest[b], dl[b]);
-                    d += 0.25 * body.k[b] * x * x;
-                    s += body.k[b] * rest * x;
+                    d += 0.25 * sp.k[b] * x * x;
+                    s += sp.k[b] * rest * x;
                 }
             }
             (*p, *e4) = (s, d);
@@ -348,14 +353,14 @@ pub fn frame_fields(body: &Body, u: &Coords, alive: &[bool], norm: &[Real]) -> F
             let mut m = [0.0; 9];
             for e in bonds.row(i) {
                 let b = bonds.bond[e] as usize;
-                if !alive[b] {
+                if !sp.alive[b] {
                     continue;
                 }
                 let j = bonds.nbr[e] as usize;
                 let (dx, dy, dz) = spring_vector(lat, u, i, j);
                 let d = [dx, dy, dz];
                 let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                let t = tension(body.k[b], bonds.rest[b], dl[b], q, pool[i], pool[j]);
+                let t = tension(sp.k[b], bonds.rest[b], dl[b], q, pool[i], pool[j]);
                 let s = t / l;
                 for c in 0..3 {
                     f[c] += s * d[c];
@@ -380,7 +385,7 @@ pub fn frame_fields(body: &Body, u: &Coords, alive: &[bool], norm: &[Real]) -> F
             *st = m.map(|x| x / v);
         });
     // The energy, summed in the order of `energy`.
-    let direct = ordered_sum(bonds.len(), |b| 0.5 * body.k[b] * dl[b] * dl[b]);
+    let direct = ordered_sum(bonds.len(), |b| 0.5 * sp.k[b] * dl[b] * dl[b]);
     let dispersive = if q == 0.0 {
         0.0
     } else {

@@ -22,6 +22,13 @@ pub struct State {
     pub f: Coords,
     /// Whether each spring is intact.
     pub(crate) alive: Vec<bool>,
+    /// Damage weight `w_t` in (0, 1] of each intact spring of a softening material: the spring
+    /// acts with stiffness `w_t k_t` everywhere (its force, its pool share, its node's
+    /// normaliser). Empty while no spring has softened (every weight 1), so brittle runs keep
+    /// neither this nor `k_eff`.
+    pub(crate) weight: Vec<Real>,
+    /// `w_t k_t` per spring (N/m), kept with `weight` (empty with it): what the kernels read.
+    pub(crate) k_eff: Vec<Real>,
     /// Normaliser `S_n = sum_t k_t L_t^2` over node n's intact springs (N m). Kept in step with
     /// `alive` by [`State::kill_bond`].
     pub(crate) norm: Vec<Real>,
@@ -52,6 +59,8 @@ impl Clone for State {
             v: Coords::default(),
             f: Coords::default(),
             alive: Vec::new(),
+            weight: Vec::new(),
+            k_eff: Vec::new(),
             norm: Vec::new(),
             pool: Vec::new(),
             time: 0.0,
@@ -72,6 +81,8 @@ impl Clone for State {
         self.v.clone_from(&o.v);
         self.f.clone_from(&o.f);
         self.alive.clone_from(&o.alive);
+        self.weight.clone_from(&o.weight);
+        self.k_eff.clone_from(&o.k_eff);
         self.norm.clone_from(&o.norm);
         self.pool.clone_from(&o.pool);
         self.time = o.time;
@@ -91,6 +102,7 @@ impl PartialEq for State {
             && self.v == o.v
             && self.f == o.f
             && self.alive == o.alive
+            && self.weights_equal(o)
             && self.norm == o.norm
             && self.pool == o.pool
             && self.time == o.time
@@ -107,6 +119,8 @@ impl State {
             v: Coords::zeros(n),
             f: Coords::zeros(n),
             alive: vec![true; body.springs()],
+            weight: Vec::new(),
+            k_eff: Vec::new(),
             norm: vec![0.0; n],
             pool: vec![0.0; n],
             time: 0.0,
@@ -117,9 +131,91 @@ impl State {
             hot: Vec::new(),
         };
         for i in 0..n {
-            s.norm[i] = node_norm(body, &s.alive, i);
+            s.norm[i] = node_norm(body, s.springs(body), i);
         }
         s
+    }
+
+    /// The springs as the force law sees them: which are intact and their current stiffness.
+    #[inline]
+    pub fn springs<'a>(&'a self, body: &'a Body) -> Springs<'a> {
+        Springs::of(body, &self.alive, &self.k_eff)
+    }
+
+    /// Damage weight `w_t` of every spring (1 intact and undamaged, 0 broken): allocated.
+    pub fn weights(&self) -> Vec<Real> {
+        (0..self.alive.len()).map(|b| self.weight_of(b)).collect()
+    }
+
+    /// Damage weight of spring `b` (see [`State::weights`]).
+    #[inline]
+    pub fn weight_of(&self, b: usize) -> Real {
+        if !self.alive[b] {
+            0.0
+        } else if self.weight.is_empty() {
+            1.0
+        } else {
+            self.weight[b]
+        }
+    }
+
+    /// Whether some intact spring has a weight below 1 (a softening material has damaged it).
+    pub fn is_softened(&self) -> bool {
+        !self.weight.is_empty()
+    }
+
+    fn weights_equal(&self, o: &Self) -> bool {
+        (0..self.alive.len()).all(|b| self.weight_of(b) == o.weight_of(b))
+    }
+
+    /// Soften spring `b` to weight `w` (irreversible damage: `w` must not exceed its present
+    /// weight). `w = 0` removes it exactly as [`State::kill_bond`] does, so a fully softened
+    /// spring is a broken one. Both nodes' normalisers follow. Returns false if nothing changed.
+    pub fn soften(&mut self, body: &Body, b: usize, w: Real) -> bool {
+        if !self.alive[b] || w.is_nan() || w >= self.weight_of(b) {
+            return false;
+        }
+        if w <= 0.0 {
+            return self.kill_bond(body, b);
+        }
+        if self.weight.is_empty() {
+            self.weight = vec![1.0; self.alive.len()];
+            self.k_eff = body.k.clone();
+        }
+        self.weight[b] = w;
+        self.k_eff[b] = w * body.k[b];
+        self.breaks += 1;
+        for n in body.lattice.bonds.ends[b] {
+            let n = n as usize;
+            self.norm[n] = node_norm(body, self.springs(body), n);
+        }
+        true
+    }
+
+    /// Set every spring's weight (e.g. from a checkpoint; 0 is broken) and recompute every
+    /// normaliser. All ones leaves the state without weights.
+    pub fn set_weights(&mut self, body: &Body, weights: &[Real]) {
+        assert_eq!(weights.len(), body.springs(), "one weight per spring");
+        self.alive = weights.iter().map(|&w| w > 0.0).collect();
+        if weights.iter().all(|&w| w == 0.0 || w == 1.0) {
+            self.weight.clear();
+            self.k_eff.clear();
+        } else {
+            self.weight = weights
+                .iter()
+                .map(|&w| if w > 0.0 { w } else { 1.0 })
+                .collect();
+            self.k_eff = self
+                .weight
+                .iter()
+                .zip(&body.k)
+                .map(|(w, k)| w * k)
+                .collect();
+        }
+        for n in 0..body.nodes() {
+            self.norm[n] = node_norm(body, self.springs(body), n);
+        }
+        self.breaks += 1;
     }
 
     /// Current position of node `i`.
@@ -147,7 +243,7 @@ impl State {
             let n = n as usize;
             // Recomputed from scratch rather than decremented: the sum then does not depend on
             // the order in which springs broke, which keeps runs bit-reproducible.
-            self.norm[n] = node_norm(body, &self.alive, n);
+            self.norm[n] = node_norm(body, self.springs(body), n);
         }
         true
     }
@@ -173,7 +269,7 @@ impl State {
         assert_eq!(alive.len(), body.springs(), "one flag per spring");
         self.alive = alive;
         for n in 0..body.nodes() {
-            self.norm[n] = node_norm(body, &self.alive, n);
+            self.norm[n] = node_norm(body, self.springs(body), n);
         }
         self.breaks += 1;
     }
@@ -184,15 +280,43 @@ impl State {
     }
 }
 
-/// `S_n` of node `n` over its intact springs.
-pub fn node_norm(body: &Body, alive: &[bool], n: usize) -> Real {
+/// `S_n` of node `n` over its intact springs, each with its current stiffness.
+pub fn node_norm(body: &Body, springs: Springs<'_>, n: usize) -> Real {
     let bonds = &body.lattice.bonds;
     let mut s = 0.0;
     for e in bonds.row(n) {
         let b = bonds.bond[e] as usize;
-        if alive[b] {
-            s += body.k[b] * bonds.rest[b] * bonds.rest[b];
+        if springs.alive[b] {
+            s += springs.k[b] * bonds.rest[b] * bonds.rest[b];
         }
     }
     s
+}
+
+/// The springs as the force law reads them: which are intact, and each one's current stiffness
+/// `w_t k_t` (the body's `k_t` unless a softening material damaged some,
+/// [`State::soften`]). A damaged spring enters everything with `w_t k_t`: its force, its pool
+/// share `w_t k_t L_t dL_t` and its nodes' normalisers `S_n = sum_t w_t k_t L_t^2`, so the law
+/// stays the gradient of `U = 1/2 sum w k dL^2 + q/2 sum Pi^2/S` and a spring at `w = 0` is a
+/// broken one.
+#[derive(Clone, Copy, Debug)]
+pub struct Springs<'a> {
+    pub alive: &'a [bool],
+    pub k: &'a [Real],
+}
+
+impl<'a> Springs<'a> {
+    /// Intact flags with the body's own stiffnesses (no damage weights).
+    pub fn intact(body: &'a Body, alive: &'a [bool]) -> Self {
+        Springs { alive, k: &body.k }
+    }
+
+    /// From a state's fields (for borrows that keep the state's other fields free).
+    #[inline]
+    pub(crate) fn of(body: &'a Body, alive: &'a [bool], k_eff: &'a [Real]) -> Self {
+        Springs {
+            alive,
+            k: if k_eff.is_empty() { &body.k } else { k_eff },
+        }
+    }
 }

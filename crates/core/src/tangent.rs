@@ -44,6 +44,7 @@ impl Tangent {
     /// [`crate::law::update_forces`] first).
     pub fn new(body: &Body, state: &State) -> Self {
         let bonds = &body.lattice.bonds;
+        let kk = state.springs(body).k;
         let data = (0..bonds.len())
             .into_par_iter()
             .with_min_len(4096)
@@ -54,14 +55,14 @@ impl Tangent {
                 let e = [g.d[0] / g.l, g.d[1] / g.l, g.d[2] / g.l];
                 if state.alive[b] {
                     let t = crate::law::tension(
-                        body.k[b],
+                        kk[b],
                         rest,
                         g.dl,
                         body.q,
                         state.pool[i],
                         state.pool[j],
                     );
-                    [e[0], e[1], e[2], body.k[b], body.k[b] * rest, t / g.l]
+                    [e[0], e[1], e[2], kk[b], kk[b] * rest, t / g.l]
                 } else {
                     [e[0], e[1], e[2], 0.0, 0.0, 0.0]
                 }

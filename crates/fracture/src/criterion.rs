@@ -60,4 +60,15 @@ pub trait Criterion: Send + Sync + std::fmt::Debug {
     fn screen(&self) -> Option<Real> {
         None
     }
+    /// The spring's damage weight after this state, given its weight `w` so far (1 undamaged):
+    /// at most `w` (damage is irreversible), 0 to break it. Brittle criteria break or leave
+    /// it; a softening law ([`crate::Softening`]) lowers it gradually. The screen, if any,
+    /// must still hold: below it the weight stays `w`.
+    fn weight(&self, s: &SpringState, w: Real) -> Real {
+        if self.breaks(s) {
+            0.0
+        } else {
+            w
+        }
+    }
 }

@@ -16,6 +16,8 @@ use crate::precrack::{springs_cut, Crack};
 pub struct BreakReport {
     /// Springs broken.
     pub broken: usize,
+    /// Springs softened without breaking (a softening criterion: their damage weight fell).
+    pub softened: usize,
     /// Energy released, `U(before) - U(after)` (J). Usually positive; it can be negative with a
     /// large q when neighbouring springs are in opposite states.
     pub released: Real,
@@ -29,8 +31,9 @@ pub struct Fracture {
     no_fail: Vec<bool>,
     /// Springs each node had at set-up (for damage).
     initial: Vec<u32>,
-    /// Per-chunk lists of springs that fail, reused between checks.
-    found: Vec<Vec<u32>>,
+    /// Per-chunk lists of springs that fail or soften, with their new damage weight (0:
+    /// broken), reused between checks.
+    found: Vec<Vec<(u32, Real)>>,
     /// Scratch: nodes touched by a commit.
     touched: Vec<u32>,
     /// Scratch: the springs sweep 1's screen flagged.
@@ -39,6 +42,8 @@ pub struct Fracture {
     last: BreakReport,
     /// Total springs broken by checks (pre-cracks not counted).
     pub broken_total: usize,
+    /// Total softening events (a spring's weight lowered without breaking it).
+    pub softened_total: usize,
     /// Total energy released by checks (J).
     pub released_total: Real,
 }
@@ -58,6 +63,7 @@ impl Fracture {
             hot: Vec::new(),
             last: BreakReport::default(),
             broken_total: 0,
+            softened_total: 0,
             released_total: 0.0,
         }
     }
@@ -168,18 +174,21 @@ impl Fracture {
                     if j < i || !state.alive()[b] || no_fail[j] {
                         continue;
                     }
-                    if fails(crit, body, state, b, i, j) {
-                        list.push(b as u32);
+                    if let Some(w) = new_weight(crit, body, state, b, i, j) {
+                        list.push((b as u32, w));
                     }
                 }
             }
         });
     }
 
-    /// Commit the decided breaks, in chunk (so node, then spring) order.
+    /// Commit the decided breaks and softenings, in chunk (so node, then spring) order.
     ///
     /// The energy released, `R(u) = U_before(u) - U_after(u)`, is exact at the current
-    /// displacements. In a run, the springs go between two steps, and leapfrog's discrete energy
+    /// displacements: a broken spring takes its direct energy and changes its nodes' pools, a
+    /// softened one (weight `w -> w'`) gives up `1/2 (w - w') k dL^2` of its direct energy and
+    /// changes its nodes' pools and normalisers; both are counted over the touched springs and
+    /// nodes. In a run, the springs change between two steps, and leapfrog's discrete energy
     /// identity then charges the mean of R at the two positions that share the step, `u(t)` and
     /// `u(t - dt) = u(t) - dt v(t - dt/2)`; booking R(u(t)) alone would leave an O(dt) error per
     /// event in the energy balance. With an integrator we book that mean; without one, R(u).
@@ -202,7 +211,7 @@ impl Fracture {
         let back = integrator.as_deref().map(|it| it.dt);
         self.touched.clear();
         for list in &self.found {
-            for &b in list {
+            for &(b, _) in list {
                 self.touched.extend(bonds.ends[b as usize]);
             }
         }
@@ -210,81 +219,110 @@ impl Fracture {
         self.touched.dedup();
         // R at u (shift 0) and, in a run, at u - dt v.
         let shifts: &[Real] = if back.is_some() { &[0.0, 1.0] } else { &[0.0] };
-        let mut before = [0.0; 2];
-        for (k, &s) in shifts.iter().enumerate() {
-            let h = s * back.unwrap_or(0.0);
-            for list in &self.found {
-                for &b in list {
+        let energy = |state: &State, touched: &[u32], found: &[Vec<(u32, Real)>], h: Real| {
+            let k = state.springs(body).k;
+            let mut e = 0.0;
+            for list in found {
+                for &(b, _) in list {
                     let b = b as usize;
-                    let [i, j] = bonds.ends[b].map(|v| v as usize);
-                    let dl = shifted_extension(body, state, h, i, j, bonds.rest[b]);
-                    before[k] += 0.5 * body.k[b] * dl * dl;
+                    if state.alive()[b] {
+                        let [i, j] = bonds.ends[b].map(|v| v as usize);
+                        let dl = shifted_extension(body, state, h, i, j, bonds.rest[b]);
+                        e += 0.5 * k[b] * dl * dl;
+                    }
                 }
             }
-            before[k] += self
-                .touched
+            e + touched
                 .iter()
                 .map(|&n| shifted_dispersive_energy(body, state, h, n as usize))
-                .sum::<Real>();
+                .sum::<Real>()
+        };
+        let mut before = [0.0; 2];
+        for (k, &s) in shifts.iter().enumerate() {
+            before[k] = energy(state, &self.touched, &self.found, s * back.unwrap_or(0.0));
         }
+        let (mut broken, mut softened) = (0, 0);
         for list in &self.found {
-            for &b in list {
-                match integrator.as_deref_mut() {
-                    Some(it) => it.break_spring(body, state, b as usize),
-                    None => state.kill_bond(body, b as usize),
+            for &(b, w) in list {
+                let b = b as usize;
+                let changed = match integrator.as_deref_mut() {
+                    Some(it) => it.soften_spring(body, state, b, w),
+                    None => state.soften(body, b, w),
                 };
+                if changed && !state.alive()[b] {
+                    broken += 1;
+                } else if changed {
+                    softened += 1;
+                }
             }
         }
         let mut released = 0.0;
         for (k, &s) in shifts.iter().enumerate() {
-            let h = s * back.unwrap_or(0.0);
-            let after: Real = self
-                .touched
-                .iter()
-                .map(|&n| shifted_dispersive_energy(body, state, h, n as usize))
-                .sum();
+            let after = energy(state, &self.touched, &self.found, s * back.unwrap_or(0.0));
             released += (before[k] - after) / shifts.len() as Real;
         }
-        self.broken_total += count;
+        self.broken_total += broken;
+        self.softened_total += softened;
         self.released_total += released;
         BreakReport {
-            broken: count,
+            broken,
+            softened,
             released,
         }
     }
 
     /// Damage of every node: the fraction of the springs it had at set-up that are broken
-    /// (pre-cracks included).
+    /// (pre-cracks included), a softened spring counting by its lost weight `1 - w`.
     pub fn damage(&self, body: &Body, state: &State) -> Vec<Real> {
         let bonds = &body.lattice.bonds;
         (0..body.nodes())
             .map(|n| {
-                let alive = bonds
-                    .row(n)
-                    .filter(|&e| state.alive()[bonds.bond[e] as usize])
-                    .count();
+                let left: Real = if state.is_softened() {
+                    bonds
+                        .row(n)
+                        .map(|e| state.weight_of(bonds.bond[e] as usize))
+                        .sum()
+                } else {
+                    bonds
+                        .row(n)
+                        .filter(|&e| state.alive()[bonds.bond[e] as usize])
+                        .count() as Real
+                };
                 if self.initial[n] == 0 {
                     0.0
                 } else {
-                    1.0 - alive as Real / self.initial[n] as Real
+                    1.0 - left / self.initial[n] as Real
                 }
             })
             .collect()
     }
 }
 
-/// Whether intact spring `b` from `i` to `j` fails now.
+/// The new damage weight of intact spring `b` from `i` to `j` if the criterion lowers it now
+/// (0: it breaks); `None` if it stays as it is.
 #[inline]
-fn fails(crit: &dyn Criterion, body: &Body, state: &State, b: usize, i: usize, j: usize) -> bool {
+fn new_weight(
+    crit: &dyn Criterion,
+    body: &Body,
+    state: &State,
+    b: usize,
+    i: usize,
+    j: usize,
+) -> Option<Real> {
     let rest = body.lattice.bonds.rest[b];
     let g = spring_geometry(&body.lattice, &state.u, i, j, rest);
-    crit.breaks(&SpringState {
-        k: body.k[b],
-        rest,
-        dl: g.dl,
-        pool: [state.pool[i], state.pool[j]],
-        q: body.q,
-    })
+    let w = state.weight_of(b);
+    let next = crit.weight(
+        &SpringState {
+            k: state.springs(body).k[b],
+            rest,
+            dl: g.dl,
+            pool: [state.pool[i], state.pool[j]],
+            q: body.q,
+        },
+        w,
+    );
+    (next < w).then_some(next.max(0.0))
 }
 
 /// The screened check inside a step (see [`Fracture::step`]).
@@ -309,8 +347,8 @@ impl Breaker for Fracture {
                 if !state.alive()[b] || no_fail[i] || no_fail[j] {
                     continue;
                 }
-                if fails(crit, body, state, b, i, j) {
-                    list.push(b as u32);
+                if let Some(w) = new_weight(crit, body, state, b, i, j) {
+                    list.push((b as u32, w));
                 }
             }
         }
@@ -351,14 +389,13 @@ fn shifted_dispersive_energy(body: &Body, state: &State, h: Real, n: usize) -> R
         return 0.0;
     }
     let bonds = &body.lattice.bonds;
+    let k = state.springs(body).k;
     let mut pi = 0.0;
     for e in bonds.row(n) {
         let b = bonds.bond[e] as usize;
         if state.alive()[b] {
             let rest = bonds.rest[b];
-            pi += body.k[b]
-                * rest
-                * shifted_extension(body, state, h, n, bonds.nbr[e] as usize, rest);
+            pi += k[b] * rest * shifted_extension(body, state, h, n, bonds.nbr[e] as usize, rest);
         }
     }
     0.5 * body.q * pi * pi / s

@@ -13,13 +13,18 @@
 //!   energy a commit releases is `U(before) - U(after)` over the springs and nodes it touches
 //!   (the direct energy of the springs plus the change of their nodes' dispersive energy), and
 //!   goes into the integrator's energy ledger.
+//! * [`Softening`]: a cohesive spring law for quasi-brittle materials, linear or bilinear, whose
+//!   springs lose stiffness gradually (a damage weight in the pools and normalisers) and break
+//!   at their final stretch; calibrated from G_f and the tensile strength ([`softening`]).
 //! * [`precrack`]: springs crossing segments (2D) or planar polygons (3D) removed at set-up.
-//! * Damage per node: the fraction of its springs that are broken.
+//! * Damage per node: the fraction of its springs that are broken (softened springs count by
+//!   their lost weight).
 
 pub mod criterion;
 pub mod energy;
 pub mod error;
 pub mod precrack;
+pub mod softening;
 pub mod stretch;
 pub mod toughness;
 
@@ -30,4 +35,5 @@ pub use energy::SpringEnergy;
 pub use error::FractureError;
 pub use fracture::{node_dispersive_energy, BreakReport, Fracture};
 pub use precrack::Crack;
+pub use softening::{Softening, SofteningShape};
 pub use stretch::CriticalStretch;

@@ -41,6 +41,7 @@ use crate::criterion::SpringState;
 use crate::energy::SpringEnergy;
 use crate::error::FractureError;
 use crate::precrack::{springs_cut, Crack};
+use crate::softening::{Softening, SofteningShape};
 use crate::stretch::CriticalStretch;
 
 /// A strip experiment, in lattice units (`k = 1`, `a = 1`, plate thickness 1).
@@ -65,6 +66,11 @@ pub struct StripTest {
     /// Break on the spring energy ([`crate::SpringEnergy`] matching `s_c`) instead of the
     /// stretch.
     pub energy: bool,
+    /// Softening springs ([`crate::softening`]) instead of brittle ones: the curve's shape and
+    /// its peak stretch as a fraction of `s_c`, which then is the law's equivalent stretch (what
+    /// a softening spring dissipates equals a brittle spring at `s_c`: the builder's G_f
+    /// calibration).
+    pub softening: Option<(SofteningShape, Real)>,
     /// Equilibrium solves allowed.
     pub max_solves: usize,
     /// Random lattices: the seed of the node set.
@@ -85,6 +91,7 @@ impl StripTest {
             window,
             s_c: 1e-4,
             energy: false,
+            softening: None,
             max_solves: 20_000,
             seed: 1,
         }
@@ -237,8 +244,37 @@ fn solve(body: &Body, state: &mut State, cons: &Constraints) -> Result<(), Fract
         .map_err(|e| FractureError::Experiment(format!("strip equilibrium: {e}")))
 }
 
+/// Open the grips by the factor `f`, the whole field scaled as the initial guess (the strip is
+/// linear at fixed springs), solve, and return the grips' work: exact, since the reaction is
+/// linear in the opening between the two equilibria.
+fn open_grips(
+    body: &Body,
+    state: &mut State,
+    cons: &Constraints,
+    (grip, sign): (&[usize], &[Real]),
+    top: Real,
+    f: Real,
+    eps: &mut Real,
+) -> Result<Real, FractureError> {
+    // Force the grips exert along y, weighted by their direction of motion.
+    let reaction = |state: &State| -> Real {
+        grip.iter()
+            .zip(sign)
+            .map(|(&i, &s)| -state.f.y()[i] * s)
+            .sum()
+    };
+    let r0 = reaction(state);
+    let d0 = 0.5 * *eps * top;
+    for c in 0..3 {
+        state.u.comp_mut(c).iter_mut().for_each(|v| *v *= f);
+    }
+    *eps *= f;
+    solve(body, state, cons)?;
+    Ok(0.5 * (r0 + reaction(state)) * (0.5 * *eps * top - d0))
+}
+
 fn stored(body: &Body, state: &State) -> Real {
-    let e = law::energy(body, &state.u, &state.alive(), &state.norm());
+    let e = law::energy(body, &state.u, state.springs(body), &state.norm());
     e.direct + e.dispersive
 }
 
@@ -354,13 +390,75 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
     let mut tip = tip0;
     // (tip, dissipated, eps) after each round of breaks.
     let mut history: Vec<(Real, Real, Real)> = Vec::new();
-    let reaction = |state: &State| -> Real {
-        // Force the grips exert along y, weighted by their direction of motion.
-        grip.iter()
-            .zip(&sign)
-            .map(|(&i, &s)| -state.f.y()[i] * s)
-            .sum()
-    };
+    if let Some((shape, peak_fraction)) = t.softening {
+        // Softening springs: a sequence of secant equilibria. At fixed weights the strip is
+        // linear; at each equilibrium the weights are lowered to the envelope of the stretch
+        // each spring has reached, and the strip is solved again at the same grips, until the
+        // weights hold; then the grips open (scaled to bring the most stretched spring to its
+        // peak while all are elastic, by LOAD_STEP after). The work of the grips is exact
+        // (linear between the solves), the stored energy is the secant one, and W - U is what
+        // the softening took.
+        const LOAD_STEP: Real = 2e-3;
+        let law = Softening::from_strength(1.0, peak_fraction * t.s_c, t.s_c, shape)?;
+        let mut changes: Vec<(usize, Real)> = Vec::new();
+        while tip < x2 {
+            if solves >= t.max_solves {
+                return Err(FractureError::Experiment(format!(
+                    "strip: {} solves without the crack crossing the strip (tip at {tip:.1})",
+                    t.max_solves
+                )));
+            }
+            let mut worst = 0.0 as Real;
+            changes.clear();
+            for b in 0..bonds.len() {
+                let [i, j] = bonds.ends[b].map(|v| v as usize);
+                if !state.alive()[b] || !breakable[i] || !breakable[j] {
+                    continue;
+                }
+                let stretch = spring_geometry(&body.lattice, &state.u, i, j, bonds.rest[b]).dl
+                    / bonds.rest[b];
+                worst = worst.max(stretch / law.peak);
+                let w = state.weight_of(b);
+                let next = law.weight_at(stretch).min(w);
+                // Changes below a part in 1e4 of the weight wait for the next load step.
+                if next == 0.0 || next < w * (1.0 - 1e-4) {
+                    changes.push((b, next));
+                }
+            }
+            if changes.is_empty() {
+                let f = if worst < 1.0 {
+                    (1.0 + 1e-6) / worst.max(1e-300)
+                } else {
+                    1.0 + LOAD_STEP
+                };
+                work += open_grips(&body, &mut state, &cons, (&grip, &sign), top, f, &mut eps)?;
+                solves += 1;
+                continue;
+            }
+            for &(b, w) in &changes {
+                state.soften(&body, b, w);
+                if state.alive()[b] {
+                    continue;
+                }
+                broken += 1;
+                if crosses(b) {
+                    let [i, j] = bonds.ends[b].map(|v| v as usize);
+                    tip = tip.max(0.5 * (body.lattice.pos.x()[i] + body.lattice.pos.x()[j]));
+                } else {
+                    off_plane += 1;
+                }
+            }
+            solve(&body, &mut state, &cons)?;
+            solves += 1;
+            history.push((tip, work - stored(&body, &state), eps));
+            if std::env::var_os("HOOKE_STRIP_TRACE").is_some() {
+                eprintln!(
+                    "solve {solves}: softened {}, broken {broken} (off-plane {off_plane}), tip {tip:.2}, eps {eps:.4e}",
+                    changes.len()
+                );
+            }
+        }
+    }
     while tip < x2 {
         if solves >= t.max_solves {
             return Err(FractureError::Experiment(format!(
@@ -406,16 +504,8 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
             // Scale the opening (and, as the initial guess, the whole field) so that the most
             // stretched spring just passes the criterion.
             let f = (1.0 + 1e-6) / worst.max(1e-300);
-            let r0 = reaction(&state);
-            let d0 = 0.5 * eps * top;
-            for c in 0..3 {
-                state.u.comp_mut(c).iter_mut().for_each(|v| *v *= f);
-            }
-            eps *= f;
-            solve(&body, &mut state, &cons)?;
+            work += open_grips(&body, &mut state, &cons, (&grip, &sign), top, f, &mut eps)?;
             solves += 1;
-            let r1 = reaction(&state);
-            work += 0.5 * (r0 + r1) * (0.5 * eps * top - d0);
             continue;
         }
         for &(b, _) in &over {

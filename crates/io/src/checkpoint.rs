@@ -1,6 +1,6 @@
 //! Checkpoints: everything needed to continue a run bit for bit.
 //!
-//! Little-endian binary, version 2:
+//! Little-endian binary, version 3:
 //!
 //! ```text
 //! "HOOKECK1"  u32 version  u64 case digest  u64 nodes  u64 springs  u64 step  f64 time
@@ -10,10 +10,13 @@
 //! f64 x 3n displacements (x..., y..., z...)  f64 x 3n half-step velocities  u8 x springs alive
 //! u64 extra count k, f64 x k extra values (version 2: what the caller keeps beside the lattice,
 //! e.g. the rigid bodies and contact counters)
+//! u64 weight count w (0, or springs once a softening material damaged a spring), f64 x w
+//! damage weights (version 3; 0 for a broken spring)
 //! u64 FNV-1a checksum of everything before it
 //! ```
 //!
-//! Version 1 files (without the extra values) still load.
+//! Version 1 files (without the extra values) and version 2 files (without the weights) still
+//! load.
 //!
 //! The normalisers `S_n` are not stored: they follow from the intact springs. A checkpoint names
 //! the case it belongs to by a digest, and [`Checkpoint::load`] refuses another case, another
@@ -29,7 +32,7 @@ use crate::error::{io, IoError};
 use crate::vtk::write_atomic;
 
 const MAGIC: &[u8; 8] = b"HOOKECK1";
-const VERSION: u32 = 2;
+const VERSION: u32 = 3;
 
 /// A run's state at one step.
 #[derive(Clone, Debug)]
@@ -101,6 +104,15 @@ impl Checkpoint {
         for v in &self.extra {
             b.extend_from_slice(&v.to_le_bytes());
         }
+        let weights = if s.is_softened() {
+            s.weights()
+        } else {
+            Vec::new()
+        };
+        b.extend_from_slice(&(weights.len() as u64).to_le_bytes());
+        for v in &weights {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
         let sum = fnv1a(&b);
         b.extend_from_slice(&sum.to_le_bytes());
         write_atomic(path, |w| w.write_all(&b).map_err(io(path)))
@@ -130,7 +142,7 @@ impl Checkpoint {
             at: 8,
         };
         let version = u32::from_le_bytes(r.take(4).try_into().unwrap());
-        if version != VERSION && version != 1 {
+        if !(1..=VERSION).contains(&version) {
             return Err(bad(format!(
                 "version {version}, this hooke reads version {VERSION}"
             )));
@@ -157,11 +169,18 @@ impl Checkpoint {
         } else {
             0
         };
-        let expected = if version >= 2 {
+        let mut expected = if version >= 2 {
             fixed + 8 + 8 * extra_len
         } else {
             fixed
         };
+        if version >= 3 && body_bytes.len() >= expected + 8 {
+            let w = u64::from_le_bytes(body_bytes[expected..expected + 8].try_into().unwrap());
+            if w != 0 && w as usize != springs {
+                return Err(bad(format!("{w} spring weights for {springs} springs")));
+            }
+            expected += 8 + 8 * w as usize;
+        }
         if body_bytes.len() != expected {
             return Err(bad(format!(
                 "{} bytes where {expected} were expected",
@@ -191,6 +210,16 @@ impl Checkpoint {
         } else {
             Vec::new()
         };
+        if version >= 3 {
+            let w = r.u64() as usize;
+            if w > 0 {
+                let weights: Vec<Real> = (0..w).map(|_| r.f64()).collect();
+                if weights.iter().any(|v| !(0.0..=1.0).contains(v)) {
+                    return Err(bad("a spring weight outside [0, 1]".into()));
+                }
+                state.set_weights(body, &weights);
+            }
+        }
         state.step = step;
         state.time = f[0];
         let integrator = IntegratorCheckpoint {

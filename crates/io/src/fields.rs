@@ -18,7 +18,7 @@ pub struct Derived {
 
 /// Compute the derived fields of `state` ([`law::frame_fields`]).
 pub fn derived(body: &Body, state: &State) -> Derived {
-    law::frame_fields(body, &state.u, state.alive(), state.norm()).into()
+    law::frame_fields(body, &state.u, state.springs(body), state.norm()).into()
 }
 
 impl From<law::FrameFields> for Derived {

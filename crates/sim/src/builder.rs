@@ -30,7 +30,9 @@ use hooke_core::loading::{Loading, Motion, Prescribed, TimeFunction};
 use hooke_core::material::{self, Elastic, PlaneModel};
 use hooke_core::random::RandomSpec;
 use hooke_core::{Body, LatticeKind, Real, State, Vector};
-use hooke_fracture::{Crack, Criterion, CriticalStretch, Fracture, SpringEnergy};
+use hooke_fracture::{
+    Crack, Criterion, CriticalStretch, Fracture, Softening, SofteningShape, SpringEnergy,
+};
 
 use crate::geometry::{fill_lattice, traction_loads, Region, Solid};
 use crate::rigid::{ContactSpec, RigidSpec};
@@ -120,6 +122,19 @@ pub enum BreakRule {
     SpringEnergy(Real),
     /// The spring-energy criterion matching a given critical stretch (regular lattices).
     SpringEnergyFromStretch(Real),
+    /// Softening springs ([`hooke_fracture::softening`]) from the fracture energy G_f (J/m^2)
+    /// and the tensile strength f_t (Pa).
+    Softening {
+        fracture_energy: Real,
+        strength: Real,
+        shape: SofteningShape,
+    },
+    /// Softening springs from their peak and final stretches.
+    SofteningStretch {
+        peak: Real,
+        last: Real,
+        shape: SofteningShape,
+    },
 }
 
 /// A simulation under construction. See the module docs.
@@ -435,6 +450,23 @@ impl Builder {
                     SpringEnergy::matching(c.s_c, k, q, a).map_err(fr("material.criterion"))?,
                 ))
             }
+            Some(BreakRule::Softening {
+                fracture_energy: g,
+                strength,
+                shape,
+            }) => {
+                let s_eq = CriticalStretch::from_fracture_energy(kind, k, a, q, h, g)
+                    .map_err(fr("material.fracture_energy"))?
+                    .s_c;
+                let e = self.material.map_or(Real::NAN, |m| m.youngs);
+                Some(Box::new(
+                    Softening::from_strength(e, strength, s_eq, shape)
+                        .map_err(fr("material.tensile_strength"))?,
+                ))
+            }
+            Some(BreakRule::SofteningStretch { peak, last, shape }) => Some(Box::new(
+                Softening::new(peak, last, shape).map_err(fr("material.final_stretch"))?,
+            )),
         };
         let mut fracture = criterion.map(|c| Fracture::new(body, c));
         let mut precracked = 0;

@@ -156,7 +156,7 @@ fn drive(
         }
         // Then breaking rounds at fixed supports and loads (see the module's docs).
         let potential = |state: &State| {
-            let e = law::energy(body, &state.u, &state.alive(), &state.norm()).total();
+            let e = law::energy(body, &state.u, state.springs(body), &state.norm()).total();
             let mut w = 0.0;
             for c in 0..3 {
                 for i in 0..n {
@@ -213,7 +213,7 @@ fn drive(
                 let e = law::energy(
                     &sim.body,
                     &sim.state.u,
-                    &sim.state.alive(),
+                    sim.state.springs(&sim.body),
                     &sim.state.norm(),
                 );
                 obs.progress(&Progress {
@@ -294,7 +294,12 @@ fn write(
         forces.comp_mut(c)[i] += -sim.state.f.comp(c)[i] - fext.comp(c)[i];
     }
     let reactions = region_reactions(sim, &forces);
-    let e = law::energy(body, &sim.state.u, &sim.state.alive(), &sim.state.norm());
+    let e = law::energy(
+        body,
+        &sim.state.u,
+        sim.state.springs(body),
+        &sim.state.norm(),
+    );
     let released = sim.broken().1;
     let energy = EnergyRow {
         time: sim.state.time,

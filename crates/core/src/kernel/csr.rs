@@ -87,6 +87,8 @@ fn pools_impl<const D: usize, const P: bool>(
         state.hot = vec![false; springs.div_ceil(BLOCK)];
     }
     let (u, alive) = (&state.u, &state.alive);
+    // The current stiffnesses: the body's, or those a softening material left.
+    let kk = crate::state::Springs::of(body, alive, &state.k_eff).k;
     let lat = &body.lattice;
     let wide = wide_available();
     // This rank's springs (all of them in one process); `first` is a multiple of BLOCK.
@@ -105,7 +107,7 @@ fn pools_impl<const D: usize, const P: bool>(
             let n = pis.len();
             let springs = Springs {
                 ends: &bonds.ends[start..start + n],
-                k: &body.k[start..start + n],
+                k: &kk[start..start + n],
                 rest: &bonds.rest[start..start + n],
                 alive: &alive[start..start + n],
             };
@@ -122,7 +124,7 @@ fn pools_impl<const D: usize, const P: bool>(
         for &b in &s.foreign {
             let b = b as usize;
             let (rec, pi) = (&mut state.spring[w * b..w * b + w], &mut state.spring_pi[b]);
-            spring_one::<D, P>(lat, u, q, body.k[b], bonds, alive[b], b, rec, pi);
+            spring_one::<D, P>(lat, u, q, kk[b], bonds, alive[b], b, rec, pi);
         }
     }
     if q == 0.0 {
@@ -197,23 +199,40 @@ fn node_pool(body: &Body, norm: &[Real], pis: &[Real], n: usize) -> Real {
     }
 }
 
-/// After springs `killed` broke between sweep 1 and sweep 2: zero their records and shares and
-/// recompute their ends' pools, exactly as sweep 1 would have with them broken (the same
-/// gather over the same values), so breaking mid-step gives the bits of breaking before it.
-pub(crate) fn repair(body: &Body, state: &mut State, plain: bool, killed: &[u32]) {
-    let w = stride(body.lattice.dim());
+/// After springs `changed` broke or softened between sweep 1 and sweep 2: zero the broken
+/// ones' records and shares, recompute the softened ones' with their new stiffness, and
+/// recompute their ends' pools, exactly as sweep 1 would have with the springs already changed
+/// (the same operations on the same values), so changing them mid-step gives the bits of
+/// changing them before it.
+pub(crate) fn repair(body: &Body, state: &mut State, plain: bool, changed: &[u32]) {
+    let lat = &body.lattice;
+    let w = stride(lat.dim());
     if state.spring_pi.len() != body.springs() {
         return;
     }
-    for &b in killed {
+    let q = if plain { 0.0 } else { body.q };
+    let (u, alive) = (&state.u, &state.alive);
+    let kk = crate::state::Springs::of(body, alive, &state.k_eff).k;
+    let bonds = &lat.bonds;
+    for &b in changed {
         let b = b as usize;
-        state.spring[w * b..w * b + w].fill(0.0);
-        state.spring_pi[b] = 0.0;
+        let (rec, pi) = (&mut state.spring[w * b..w * b + w], &mut state.spring_pi[b]);
+        if !alive[b] {
+            rec.fill(0.0);
+            *pi = 0.0;
+            continue;
+        }
+        match (lat.dim(), lat.is_periodic()) {
+            (2, false) => spring_one::<2, false>(lat, u, q, kk[b], bonds, true, b, rec, pi),
+            (2, true) => spring_one::<2, true>(lat, u, q, kk[b], bonds, true, b, rec, pi),
+            (_, false) => spring_one::<3, false>(lat, u, q, kk[b], bonds, true, b, rec, pi),
+            (_, true) => spring_one::<3, true>(lat, u, q, kk[b], bonds, true, b, rec, pi),
+        }
     }
-    if plain || body.q == 0.0 {
+    if q == 0.0 {
         return;
     }
-    for &b in killed {
+    for &b in changed {
         for n in body.lattice.bonds.ends[b as usize] {
             let n = n as usize;
             state.pool[n] = node_pool(body, &state.norm, &state.spring_pi, n);

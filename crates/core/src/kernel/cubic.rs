@@ -80,7 +80,9 @@ impl CubicStencil {
             return None;
         }
         let k = *body.k.first()?;
-        if body.k.iter().any(|&v| v != k) {
+        // Damaged (softened) springs have stiffnesses of their own: the general kernel runs
+        // them.
+        if body.k.iter().any(|&v| v != k) || state.is_softened() {
             return None;
         }
         let (sy, sz) = (g[0] as isize, (g[0] * g[1]) as isize);
