@@ -336,6 +336,23 @@ class Builder:
             arg["fracture_energy"] = float(fracture_energy)  # type: ignore[arg-type]
         return self._call("breaking", arg)
 
+    def softening(self, fracture_energy: Optional[float] = None,
+                  tensile_strength: Optional[float] = None,
+                  characteristic_length: Optional[float] = None,
+                  peak_stretch: Optional[float] = None, final_stretch: Optional[float] = None,
+                  shape: str = "linear") -> "Builder":
+        """Softening (cohesive) springs, as ``criterion = "softening"`` in a case file: a
+        ``fracture_energy`` G_f (J/m^2) with a ``tensile_strength`` f_t (Pa) or a
+        ``characteristic_length`` E G_f / f_t^2 (m), or the curve's ``peak_stretch`` and
+        ``final_stretch``; ``shape`` is ``"linear"`` or ``"bilinear"``."""
+        arg: Dict[str, Any] = {"shape": shape}
+        for k, v in (("fracture_energy", fracture_energy), ("tensile_strength", tensile_strength),
+                     ("characteristic_length", characteristic_length),
+                     ("peak_stretch", peak_stretch), ("final_stretch", final_stretch)):
+            if v is not None:
+                arg[k] = float(v)
+        return self._call("softening", arg)
+
     def time_step(self, safety: Optional[float] = None, dt: Optional[float] = None,
                   force: bool = False) -> "Builder":
         """The explicit step: a ``safety`` factor on the stable step (default 0.8), or a fixed

@@ -9,7 +9,10 @@ use hooke_core::loading::TimeFunction;
 use hooke_core::random::{RandomSpec, Sampler};
 use hooke_core::{LatticeKind, PlaneModel, Real, Vector};
 use hooke_fracture::Crack;
-use hooke_sim::{Bc, BreakRule, Builder, ContactSpec, Region, RigidSpec, Shape, Simulation, Solid};
+use hooke_fracture::SofteningShape;
+use hooke_sim::{
+    Bc, BreakRule, Builder, ContactSpec, Region, RigidSpec, Shape, Simulation, Solid, Strength,
+};
 use serde_json::Value;
 
 type R<T> = Result<T, String>;
@@ -494,6 +497,48 @@ pub fn build(spec: &Value) -> R<Simulation> {
                     (None, Some(g), false) => BreakRule::FractureEnergy(num(g, key)?),
                     (None, Some(g), true) => BreakRule::SpringEnergy(num(g, key)?),
                     _ => return Err(format!("{key}: give stretch or fracture_energy")),
+                };
+                b.breaking(rule)
+            }
+            "softening" => {
+                let shape = match a.get("shape").and_then(Value::as_str).unwrap_or("linear") {
+                    "linear" => SofteningShape::Linear,
+                    "bilinear" => SofteningShape::Bilinear,
+                    other => {
+                        return Err(format!(
+                            "{key}: shape \"{other}\": give \"linear\" or \"bilinear\""
+                        ))
+                    }
+                };
+                let get = |k: &str| a.get(k).filter(|v| !v.is_null());
+                let rule = match (
+                    get("fracture_energy"),
+                    get("tensile_strength"),
+                    get("characteristic_length"),
+                    get("peak_stretch"),
+                    get("final_stretch"),
+                ) {
+                    (Some(g), Some(f), None, None, None) => BreakRule::Softening {
+                        fracture_energy: num(g, key)?,
+                        strength: Strength::Tensile(num(f, key)?),
+                        shape,
+                    },
+                    (Some(g), None, Some(l), None, None) => BreakRule::Softening {
+                        fracture_energy: num(g, key)?,
+                        strength: Strength::CharacteristicLength(num(l, key)?),
+                        shape,
+                    },
+                    (None, None, None, Some(p), Some(f)) => BreakRule::SofteningStretch {
+                        peak: num(p, key)?,
+                        last: num(f, key)?,
+                        shape,
+                    },
+                    _ => {
+                        return Err(format!(
+                            "{key}: give fracture_energy with tensile_strength or \
+                             characteristic_length, or peak_stretch with final_stretch"
+                        ))
+                    }
                 };
                 b.breaking(rule)
             }

@@ -359,3 +359,65 @@ end_time = 1.0
     cli("run", str(tmp_path / "qs.toml"), "--out", str(tmp_path / "cli"))
     subprocess.run([sys.executable, str(ROOT / "tools" / "compare_runs.py"), str(tmp_path / "qs"),
                     str(tmp_path / "cli")], check=True)
+
+
+SOFT_TOML = """
+[lattice]
+kind = "random2d"
+spacing = 1e-3
+thickness = 2e-3
+seed = 5
+
+[material]
+youngs = 3e9
+poisson = 0.3
+density = 1200
+criterion = "softening"
+softening = "bilinear"
+fracture_energy = 300
+tensile_strength = 5e6
+
+[geometry]
+box = { min = [0.0, 0.0], max = [20e-3, 10e-3] }
+
+[[boundary]]
+region = { face = "x-" }
+velocity = [{ axis = "x", value = -5.0 }]
+no_fail = true
+
+[[boundary]]
+region = { face = "x+" }
+velocity = [{ axis = "x", value = 5.0 }]
+no_fail = true
+
+[solver]
+end_time = 20e-6
+
+[output]
+every = 5e-6
+"""
+
+
+def test_softening_springs_from_the_builder_are_the_case_files(tmp_path):
+    """Softening springs built in Python run the case file's simulation bit for bit; the bar
+    softens and breaks, and bad softening parameters raise CaseError with the reason."""
+    case = hooke.load_case(SOFT_TOML, out=tmp_path / "case", name="soft")
+    s1 = case.finish()
+    built = (hooke.Builder("random2d", spacing=1e-3).thickness(2e-3).random(seed=5)
+             .box([0.0, 0.0], [20e-3, 10e-3]).material(3e9, 0.3, 1200.0)
+             .softening(fracture_energy=300, tensile_strength=5e6, shape="bilinear")
+             .boundary({"face": "x-"}, velocity={"x": -5.0}, no_fail=True)
+             .boundary({"face": "x+"}, velocity={"x": 5.0}, no_fail=True)
+             .end_time(20e-6).output_every(5e-6).build(tmp_path / "built", "soft"))
+    s2 = built.finish()
+    assert s1["broken_springs"] == s2["broken_springs"] > 0
+    subprocess.run([sys.executable, str(ROOT / "tools" / "compare_runs.py"), str(tmp_path / "built"),
+                    str(tmp_path / "case")], check=True)
+    base = lambda: (hooke.Builder("random2d", spacing=1e-3).thickness(2e-3)
+                    .box([0, 0], [1e-2, 1e-2]).material(3e9, 0.3, 1000).end_time(1e-6))
+    with pytest.raises(hooke.CaseError, match="snap back"):
+        base().softening(fracture_energy=1.0, tensile_strength=2e9).build(tmp_path / "a")
+    with pytest.raises(hooke.CaseError, match="peak_stretch with final_stretch"):
+        base().softening(fracture_energy=300).build(tmp_path / "b")
+    with pytest.raises(hooke.CaseError, match="final stretch must exceed"):
+        base().softening(peak_stretch=1e-3, final_stretch=5e-4).build(tmp_path / "c")

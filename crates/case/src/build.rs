@@ -11,7 +11,7 @@ use hooke_core::random::{RandomSpec, Sampler};
 use hooke_core::{LatticeKind, Real, Vector};
 use hooke_fracture::{Crack, SofteningShape};
 use hooke_sim::geometry::{Face, Region, Shape, Solid};
-use hooke_sim::{Bc, BreakRule, BuildError, Builder, ContactSpec, RigidSpec};
+use hooke_sim::{Bc, BreakRule, BuildError, Builder, ContactSpec, RigidSpec, Strength};
 use toml::Spanned;
 
 use crate::error::{line_col, CaseError};
@@ -512,17 +512,18 @@ fn softening_rule(
         (Some(g), None, None) => {
             spans.at("material.fracture_energy", g.span());
             let g_f = ctx.positive(g, "material.fracture_energy", "J/m^2")?;
-            let youngs = *m.youngs.get_ref();
             let strength = match (&m.tensile_strength, &m.characteristic_length) {
                 (Some(f), None) => {
                     spans.at("material.tensile_strength", f.span());
-                    ctx.positive(f, "material.tensile_strength", "Pa")?
+                    Strength::Tensile(ctx.positive(f, "material.tensile_strength", "Pa")?)
                 }
                 (None, Some(l)) => {
-                    // l_ch = E G_f / f_t^2; errors about the strength it gives name this key.
-                    spans.at("material.tensile_strength", l.span());
-                    let l = ctx.positive(l, "material.characteristic_length", "m")?;
-                    (youngs * g_f / l).sqrt()
+                    spans.at("material.characteristic_length", l.span());
+                    Strength::CharacteristicLength(ctx.positive(
+                        l,
+                        "material.characteristic_length",
+                        "m",
+                    )?)
                 }
                 (Some(f), Some(_)) => {
                     return Err(ctx.err(

@@ -53,6 +53,7 @@ fn same_state(a: &State, b: &State) -> bool {
     same_bits(a.u.as_flat(), b.u.as_flat())
         && same_bits(a.v.as_flat(), b.v.as_flat())
         && a.alive() == b.alive()
+        && same_bits(&a.weights(), &b.weights())
         && a.step == b.step
         && a.time.to_bits() == b.time.to_bits()
 }
@@ -213,6 +214,36 @@ fn platens_and_blocks_are_bit_identical_for_any_team() {
         1.0,
         &["solver.end_time=10e-6", "output.every=5e-6"],
         &[2, 3],
+    );
+}
+
+/// Softening springs (damage weights in the pools and normalisers, the stencil handing the
+/// block to the general kernel at the first damage): the sphere impact on the Ladd block and the
+/// random mode-I plate, bilinear.
+#[test]
+fn softening_is_bit_identical_for_any_team() {
+    check(
+        "sphere_impact_glass.toml",
+        0.8,
+        &[
+            "solver.end_time=8e-6",
+            "output.every=4e-6",
+            "material.criterion=\"softening\"",
+            "material.tensile_strength=5e6",
+        ],
+        &[2, 3],
+    );
+    check(
+        "mode1_plate.toml",
+        1.5,
+        &[
+            "solver.end_time=50e-6",
+            "output.every=25e-6",
+            "material.criterion=\"softening\"",
+            "material.softening=\"bilinear\"",
+            "material.tensile_strength=5e6",
+        ],
+        &[3],
     );
 }
 

@@ -219,6 +219,32 @@ pub fn check(args: CheckArgs) -> Result<()> {
             hooke_core::material::nu_from_q(kind, sim.q)
         );
     }
+    if let Some(law) = sim
+        .fracture
+        .as_ref()
+        .and_then(|f| f.criterion().as_softening())
+    {
+        let nu = hooke_core::material::nu_from_q(kind, sim.q);
+        let rho = law.peak / law.equivalent_stretch();
+        println!(
+            "  softening    {}: peak stretch {:e}, final stretch {:e} ({:.1} x the peak), \
+             equivalent stretch {:e} (peak fraction {rho:.3}), measured toughness factor F = {:.3}",
+            law.shape.name(),
+            law.peak,
+            law.last,
+            law.last / law.peak,
+            law.equivalent_stretch(),
+            hooke_fracture::softening::toughness_factor(kind, nu, rho, law.shape)
+        );
+        if !hooke_fracture::softening::calibrated(kind, nu, rho) {
+            println!(
+                "  note         softening springs are calibrated for nu in [-0.5, 0.25] and peak \
+                 fractions in [0.35, 0.9] on hex, random2d and cubic lattices (random3d takes the \
+                 cubic table); here (nu = {nu:.3}, peak fraction {rho:.3}) the table's edge \
+                 values are used and G_f is met only roughly"
+            );
+        }
+    }
     if let Some(f) = &sim.fracture {
         let nu = hooke_core::material::nu_from_q(kind, sim.q);
         if f.criterion().name() == "spring-energy"

@@ -126,11 +126,7 @@ fn measure(args: &ToughnessArgs, nu: Real) -> Result<ToughnessJson> {
     let mut t = StripTest::new(kind, q, height, args.window);
     t.depth = args.depth;
     t.energy = matches!(args.criterion, CriterionArg::Energy);
-    let shape = match args.softening {
-        ShapeArg::Linear => SofteningShape::Linear,
-        ShapeArg::Bilinear => SofteningShape::Bilinear,
-    };
-    if matches!(args.criterion, CriterionArg::Softening) {
+    if let Some(shape) = t_shape(args) {
         t.softening = Some((shape, args.peak_fraction));
         t.max_solves = 200_000;
     }
@@ -184,6 +180,14 @@ fn measure(args: &ToughnessArgs, nu: Real) -> Result<ToughnessJson> {
     })
 }
 
+/// The softening shape when the criterion is softening.
+fn t_shape(args: &ToughnessArgs) -> Option<SofteningShape> {
+    matches!(args.criterion, CriterionArg::Softening).then_some(match args.softening {
+        ShapeArg::Linear => SofteningShape::Linear,
+        ShapeArg::Bilinear => SofteningShape::Bilinear,
+    })
+}
+
 fn check_args(args: &ToughnessArgs) -> Result<()> {
     if args.height.is_some_and(|h| h < 6 || h % 2 == 1) {
         return Err(InputError(format!(
@@ -225,6 +229,7 @@ pub fn run(args: ToughnessArgs) -> Result<()> {
     check_args(&args)?;
     let kind = LatticeKind::from(args.lattice);
     let list: Vec<Real> = match (args.table, args.nu) {
+        (true, _) if t_shape(&args).is_some() => hooke_fracture::softening::TABLE_NU.to_vec(),
         (true, _) => table_nu(kind).to_vec(),
         (false, Some(nu)) => vec![nu],
         (false, None) => {
@@ -259,7 +264,10 @@ pub fn run(args: ToughnessArgs) -> Result<()> {
         }
         rows.push((
             nu,
-            if j.criterion == "energy" {
+            if let (Some(rho), Some(shape)) = (j.peak_fraction, t_shape(&args)) {
+                // Softening springs tabulate F, the factor over the brittle calibration.
+                j.ratio * hooke_fracture::softening::toughness_factor(kind, j.nu, rho, shape)
+            } else if j.criterion == "energy" {
                 // The energy criterion tabulates its toughness over the stretch calibration.
                 j.ratio * hooke_fracture::energy::energy_toughness_factor(kind, j.nu)
             } else if kind.is_random() {
@@ -269,6 +277,20 @@ pub fn run(args: ToughnessArgs) -> Result<()> {
                 j.gamma
             },
         ));
+    }
+    if let (true, Some(shape)) = (args.table, t_shape(&args)) {
+        // One column of the softening tables (`hooke_fracture::softening`).
+        println!(
+            "// F of {} {} softening at peak fraction {} over nu = {:?}",
+            kind.name(),
+            shape.name(),
+            args.peak_fraction,
+            hooke_fracture::softening::TABLE_NU
+        );
+        for (nu, f) in &rows {
+            println!("    ({nu:?}, {f:.4}),");
+        }
+        return Ok(());
     }
     if args.table {
         let energy = matches!(args.criterion, CriterionArg::Energy);

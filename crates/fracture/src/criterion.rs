@@ -64,6 +64,10 @@ pub trait Criterion: Send + Sync + std::fmt::Debug {
     /// at most `w` (damage is irreversible), 0 to break it. Brittle criteria break or leave
     /// it; a softening law ([`crate::Softening`]) lowers it gradually. The screen, if any,
     /// must still hold: below it the weight stays `w`.
+    /// The softening law, if this criterion is one (for reports).
+    fn as_softening(&self) -> Option<&crate::Softening> {
+        None
+    }
     fn weight(&self, s: &SpringState, w: Real) -> Real {
         if self.breaks(s) {
             0.0

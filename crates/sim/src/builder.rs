@@ -123,10 +123,10 @@ pub enum BreakRule {
     /// The spring-energy criterion matching a given critical stretch (regular lattices).
     SpringEnergyFromStretch(Real),
     /// Softening springs ([`hooke_fracture::softening`]) from the fracture energy G_f (J/m^2)
-    /// and the tensile strength f_t (Pa).
+    /// and the tensile strength f_t (Pa) or the characteristic length.
     Softening {
         fracture_energy: Real,
-        strength: Real,
+        strength: Strength,
         shape: SofteningShape,
     },
     /// Softening springs from their peak and final stretches.
@@ -135,6 +135,15 @@ pub enum BreakRule {
         last: Real,
         shape: SofteningShape,
     },
+}
+
+/// How a softening material's strength is given.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Strength {
+    /// The tensile strength f_t (Pa).
+    Tensile(Real),
+    /// The characteristic length `l_ch = E G_f / f_t^2` (m).
+    CharacteristicLength(Real),
 }
 
 /// A simulation under construction. See the module docs.
@@ -455,13 +464,25 @@ impl Builder {
                 strength,
                 shape,
             }) => {
-                let s_eq = CriticalStretch::from_fracture_energy(kind, k, a, q, h, g)
-                    .map_err(fr("material.fracture_energy"))?
-                    .s_c;
+                // The stretch calibration validates G_f first (its errors name the key).
+                CriticalStretch::from_fracture_energy(kind, k, a, q, h, g)
+                    .map_err(fr("material.fracture_energy"))?;
                 let e = self.material.map_or(Real::NAN, |m| m.youngs);
+                let (f_t, key) = match strength {
+                    Strength::Tensile(f) => (f, "material.tensile_strength"),
+                    Strength::CharacteristicLength(l) if l.is_finite() && l > 0.0 => {
+                        ((e * g / l).sqrt(), "material.characteristic_length")
+                    }
+                    Strength::CharacteristicLength(l) => {
+                        return Err(BuildError::new(
+                            "material.characteristic_length",
+                            format!("{l} is not a positive length (m)"),
+                        ))
+                    }
+                };
                 Some(Box::new(
-                    Softening::from_strength(e, strength, s_eq, shape)
-                        .map_err(fr("material.tensile_strength"))?,
+                    Softening::from_fracture_energy(kind, k, a, q, h, g, e, f_t, shape)
+                        .map_err(fr(key))?,
                 ))
             }
             Some(BreakRule::SofteningStretch { peak, last, shape }) => Some(Box::new(

@@ -23,7 +23,7 @@ pub mod rigid;
 mod run;
 mod simulation;
 
-pub use builder::{Bc, BreakRule, BuildError, Builder};
+pub use builder::{Bc, BreakRule, BuildError, Builder, Strength};
 pub use error::{Error, Result};
 pub use geometry::{fill_lattice, Face, Region, Shape, Solid};
 pub use observer::{Observer, Progress, Silent, StopFlag};
