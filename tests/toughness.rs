@@ -526,3 +526,35 @@ fn softening_springs_dissipate_g_f_on_other_strips() {
     }
     assert!(worst < 0.07, "worst |G / G_f - 1| = {worst:.3}");
 }
+
+/// The random3d calibration (slabs 16 spacings high, 7 across, free faces) holds on a node set
+/// it was not measured with (seed 11) at nu = 0, 0.25 and 0.35. Each slab takes 40-60 minutes
+/// (a 3D equilibrium per broken spring), so this is run one nu at a time:
+/// `HOOKE_R3_NU=0.25 cargo test --release -p hooke-tests --test toughness random3d -- --ignored`.
+#[test]
+#[ignore = "slow: 40-60 minutes per nu"]
+fn random3d_crack_dissipates_g_c_on_an_unseen_node_set() {
+    let kind = LatticeKind::Random3d;
+    let nus: Vec<Real> = match std::env::var("HOOKE_R3_NU") {
+        Ok(v) => vec![v.parse().expect("HOOKE_R3_NU: a Poisson's ratio")],
+        Err(_) => vec![0.0, 0.25, 0.35],
+    };
+    for nu in nus {
+        let mut t = StripTest::new(kind, q_from_nu(kind, nu).unwrap(), 16, 8);
+        t.depth = 8;
+        t.seed = 11;
+        let r = strip_test(&t).unwrap();
+        eprintln!(
+            "random3d nu = {nu}: G / G_c = {:.3} ({} broken, {} off the plane)",
+            r.ratio(),
+            r.broken,
+            r.off_plane
+        );
+        // The goal is 5 %; single node sets of this size scatter (see the table's notes).
+        assert!(
+            (r.ratio() - 1.0).abs() < 0.1,
+            "nu = {nu}: ratio {}",
+            r.ratio()
+        );
+    }
+}

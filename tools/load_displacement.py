@@ -3,6 +3,7 @@
 
     python3 tools/load_displacement.py OUTDIR [--axis y] [--region NAME ...] [--body NAME ...]
                                              [--title TEXT] [--out PNG]
+                                             [--reference N[:LABEL] ...] [--band LO,HI]
 
 For every boundary region (CASE_reactions.csv: the force the region exerts on the body and its mean
 displacement) and every rigid body (CASE_contact.csv: the force the lattice exerts on the body
@@ -65,6 +66,10 @@ def main():
     ap.add_argument("--region", nargs="*", default=None, help="boundary regions or rigid bodies to plot (default: all that move)")
     ap.add_argument("--body", nargs="*", default=None, help="same as --region")
     ap.add_argument("--title", default=None)
+    ap.add_argument("--reference", action="append", default=[], metavar="N[:LABEL]",
+                    help="a reference load (N) drawn as a horizontal line, e.g. an experiment's peak")
+    ap.add_argument("--band", default=None, metavar="LO,HI",
+                    help="a shaded load band (N), e.g. a tolerance around the reference")
     ap.add_argument("--out", default=None)
     args = ap.parse_args()
     data = curves(args.outdir, AXES[args.axis])
@@ -85,6 +90,19 @@ def main():
         k = int(np.argmax(f))
         print(f"load_displacement: {n}: peak {f[k]:.4e} N at {abs(d[k]) * 1e3:.4f} mm")
         rows += [(n, dd, ff) for dd, ff in zip(d, f)]
+    for r in args.reference:
+        load, _, label = r.partition(":")
+        try:
+            load = float(load)
+        except ValueError:
+            raise SystemExit(f"--reference {r}: give a load in N, optionally :LABEL (e.g. 7e3:experiment)")
+        ax.axhline(load * 1e-3, color="k", ls="--", lw=1, label=label or f"{load * 1e-3:g} kN")
+    if args.band:
+        try:
+            lo, hi = (float(v) for v in args.band.split(","))
+        except ValueError:
+            raise SystemExit(f"--band {args.band}: give two loads in N, LO,HI (e.g. 5.95e3,8.05e3)")
+        ax.axhspan(lo * 1e-3, hi * 1e-3, color="0.85", zorder=0)
     ax.set_xlabel(f"displacement along {args.axis} (mm)")
     ax.set_ylabel("load (kN)")
     if args.title:

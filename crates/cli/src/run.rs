@@ -204,14 +204,7 @@ pub fn check(args: CheckArgs) -> Result<()> {
             );
         }
     }
-    if sim.fracture.is_some() && kind == hooke_core::LatticeKind::Random3d {
-        println!(
-            "  note         the lattice toughness of random3d lattices is not measured: G_c sets \
-             the critical stretch of the cubic lattice with the same E, nu and spacing, so \
-             the crack's G is matched only roughly"
-        );
-    } else if sim.fracture.is_some() && !hooke_fracture::stretch::toughness_calibrated(kind, sim.q)
-    {
+    if sim.fracture.is_some() && !hooke_fracture::stretch::toughness_calibrated(kind, sim.q) {
         println!(
             "  note         nu = {:.3} lies outside the range where the lattice toughness was \
              measured (hooke toughness): cracks leave their plane there and G_c is matched \
@@ -228,13 +221,18 @@ pub fn check(args: CheckArgs) -> Result<()> {
         let rho = law.peak / law.equivalent_stretch();
         println!(
             "  softening    {}: peak stretch {:e}, final stretch {:e} ({:.1} x the peak), \
-             equivalent stretch {:e} (peak fraction {rho:.3}), measured toughness factor F = {:.3}",
+             equivalent stretch {:e} (peak fraction {rho:.3}), measured toughness factor F = {:.3}, \
+             strength factor S = {}",
             law.shape.name(),
             law.peak,
             law.last,
             law.last / law.peak,
             law.equivalent_stretch(),
-            hooke_fracture::softening::toughness_factor(kind, nu, rho, law.shape)
+            hooke_fracture::softening::toughness_factor(kind, nu, rho, law.shape),
+            match hooke_fracture::softening::strength_factor(kind, nu, rho, law.shape) {
+                Some(s) => format!("{s:.3} (a body's tensile strength is S E times the peak stretch)"),
+                None => "not measured on this lattice (the springs peak at f_t / E)".into(),
+            }
         );
         if !hooke_fracture::softening::calibrated(kind, nu, rho) {
             println!(

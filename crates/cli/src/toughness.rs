@@ -46,9 +46,10 @@ pub struct ToughnessArgs {
     /// Crack growth to measure over (spacings).
     #[arg(long, default_value_t = 10)]
     pub window: usize,
-    /// Cubic lattice: nodes across the periodic front.
-    #[arg(long, default_value_t = 3)]
-    pub depth: usize,
+    /// 3D lattices: nodes across the front (cubic: periodic, default 3; random3d: a slab with
+    /// free faces, default 8).
+    #[arg(long)]
+    pub depth: Option<usize>,
     /// Failure criterion.
     #[arg(long, value_enum, default_value = "stretch")]
     pub criterion: CriterionArg,
@@ -66,11 +67,11 @@ pub struct ToughnessArgs {
     /// constant `hooke_fracture::stretch` holds.
     #[arg(long)]
     pub table: bool,
-    /// random2d: seed of the first node set; --samples strips are run (seeds S, S+1, ...) and
-    /// their G averaged.
+    /// Random lattices: seed of the first node set; --samples strips are run (seeds S, S+1, ...)
+    /// and their G averaged.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// random2d: number of strips to average.
+    /// Random lattices: number of strips to average.
     #[arg(long, default_value_t = 1)]
     pub samples: usize,
 }
@@ -112,19 +113,16 @@ pub struct ToughnessJson {
 
 fn measure(args: &ToughnessArgs, nu: Real) -> Result<ToughnessJson> {
     let kind = LatticeKind::from(args.lattice);
-    if kind == LatticeKind::Random3d {
-        return Err(InputError(
-            "--lattice random3d: the strip experiment runs on cubic, hex and random2d".into(),
-        )
-        .into());
-    }
     let q = q_from_nu(kind, nu).map_err(|e| InputError(format!("--nu {nu}: {e}")))?;
     let height = args.height.unwrap_or(match kind.dim() {
         2 => 40,
         _ => 20,
     });
     let mut t = StripTest::new(kind, q, height, args.window);
-    t.depth = args.depth;
+    t.depth = args.depth.unwrap_or(match kind {
+        LatticeKind::Random3d => 8,
+        _ => 3,
+    });
     t.energy = matches!(args.criterion, CriterionArg::Energy);
     if let Some(shape) = t_shape(args) {
         t.softening = Some((shape, args.peak_fraction));
@@ -204,11 +202,12 @@ fn check_args(args: &ToughnessArgs) -> Result<()> {
         ))
         .into());
     }
-    if args.window < 2 || args.depth < 3 {
+    let depth = args.depth.unwrap_or(3);
+    if args.window < 2 || depth < 3 {
         return Err(InputError(format!(
-            "--window {} --depth {}: give a window of 2 or more spacings and a depth of 3 or \
-             more nodes",
-            args.window, args.depth
+            "--window {} --depth {depth}: give a window of 2 or more spacings and a depth of 3 \
+             or more nodes",
+            args.window
         ))
         .into());
     }
@@ -299,6 +298,7 @@ pub fn run(args: ToughnessArgs) -> Result<()> {
             (_, true) => "HEX_ENERGY_FACTOR",
             (LatticeKind::Cubic, false) => "CUBIC_TOUGHNESS",
             (LatticeKind::Random2d, false) => "RANDOM2D_TOUGHNESS",
+            (LatticeKind::Random3d, false) => "RANDOM3D_TOUGHNESS",
             _ => "HEX_TOUGHNESS",
         };
         println!("const {name}: &[(Real, Real)] = &[");

@@ -51,8 +51,14 @@
 //!
 //! # Calibration from G_f and f_t
 //!
-//! The peak stretch is the uniaxial strain at the tensile strength, `s_p = f_t / E` (an axial
-//! spring of a uniaxially stressed body stretches by exactly `sigma / E`). The final stretch
+//! In an affinely strained body an axial spring of a uniaxially stressed bar stretches by
+//! exactly `sigma / E`, so `s_p = f_t / E` would be the natural peak stretch. A lattice body is
+//! not that: its springs soften one by one, and a bar whose springs peak at `s_p` carries a
+//! peak stress `S E s_p`, with `S` from 1.6 (long softening tails: damage spreads while the bar
+//! still hardens) to 0.8 (nearly brittle springs: the first to fail, stretched past the affine
+//! value by the network's scatter, start a crack). Where `S` is measured ([`strength_factor`]:
+//! random3d and random2d) the springs peak at `s_p = f_t / (E S)` and the body's strength is
+//! f_t; elsewhere `S = 1`. The final stretch
 //! comes from the fracture energy. A spring taken through its whole curve dissipates what a
 //! brittle spring breaking at the *equivalent stretch* `s_eq` takes with it,
 //! `s_eq^2 = s_p^2 + 2 c s_p (s_f - s_p)`. A brittle crack dissipates
@@ -68,8 +74,9 @@
 //! 1; the jumps between equilibria still trap) and falls to 0.3-0.7 for `rho` <= 0.7, where the
 //! softening springs release their energy gradually and the lattice no longer traps: a softening
 //! crack dissipates 1.2-1.4 times the uniform-stretch count of the springs across it at nu >= 0,
-//! more on auxetic lattices. The builder solves `F(nu, s_p / s_eq) G_brittle(s_eq) = G_f` for
-//! `s_eq` (bisection: G rises with s_eq) and sets `s_f = s_p + (s_eq^2 - s_p^2) / (2 c s_p)`.
+//! more on auxetic lattices. The builder solves `F(nu, rho) G_brittle(s_eq) = G_f` with
+//! `s_eq = f_t / (E S(nu, rho) rho)` for the peak fraction `rho` (bisection), and sets
+//! `s_f = s_p + (s_eq^2 - s_p^2) / (2 c s_p)`.
 //!
 //! **Range.** The tables span nu (nu_2D in 2D) in [-0.5, 0.25] and `rho` in [0.35, 0.9].
 //! Longer tails (`rho` < 0.35, a characteristic length many spacings long) have process zones
@@ -111,6 +118,18 @@ impl SofteningShape {
             SofteningShape::Linear => "linear",
             SofteningShape::Bilinear => "bilinear",
         }
+    }
+}
+
+/// The refusal of a strength too high for the toughness at the lattice spacing.
+fn snap_back(f_t: Real) -> FractureError {
+    FractureError::BadParameter {
+        what: "tensile strength f_t (Pa)",
+        value: f_t,
+        fix: "it is too high for the fracture energy at this lattice spacing (the springs \
+              would snap back: the peak stretch f_t/E reaches the stretch that alone \
+              dissipates G_f); lower f_t, raise G_f, or refine the lattice until the spacing \
+              is well below the characteristic length E G_f / f_t^2",
     }
 }
 
@@ -166,14 +185,7 @@ impl Softening {
         }
         let peak = f_t / e;
         if s_eq.is_nan() || s_eq <= peak {
-            return Err(FractureError::BadParameter {
-                what: "tensile strength f_t (Pa)",
-                value: f_t,
-                fix: "it is too high for the fracture energy at this lattice spacing (the \
-                      springs would snap back: the peak stretch f_t/E reaches the stretch that \
-                      alone dissipates G_f); lower f_t, raise G_f, or refine the lattice until \
-                      the spacing is well below the characteristic length E G_f / f_t^2",
-            });
+            return Err(snap_back(f_t));
         }
         let c = shape.area_factor();
         let last = peak + (s_eq * s_eq - peak * peak) / (2.0 * c * peak);
@@ -182,9 +194,10 @@ impl Softening {
 
     /// The law whose cracks dissipate `g_f` (J/m^2) on a lattice of kind `kind`, stiffness `k`,
     /// spacing `a`, dispersion ratio `q` and (2D) thickness `h`, for a material of Young's
-    /// modulus `e` and tensile strength `f_t` (see the module docs: the equivalent stretch
-    /// `s_eq` solves `G(s_eq) F(nu, s_p / s_eq) = g_f`, `G` the brittle calibration and `F` the
-    /// measured [`toughness_factor`], by bisection).
+    /// modulus `e` and tensile strength `f_t` (see the module docs: the peak fraction `rho`
+    /// solves `G(s_eq) F(nu, rho) = g_f` with `s_eq = f_t / (E S(nu, rho) rho)`, `G` the brittle
+    /// calibration, `F` the measured [`toughness_factor`] and `S` the measured
+    /// [`strength_factor`], by bisection).
     #[allow(clippy::too_many_arguments)]
     pub fn from_fracture_energy(
         kind: LatticeKind,
@@ -206,23 +219,30 @@ impl Softening {
                 fix: "give a positive number",
             });
         }
-        let (peak, nu) = (f_t / e, nu_from_q(kind, q));
-        // G scales as s^2 at a fixed peak fraction: s_eq = s0 / sqrt(F(nu, s_p / s_eq)).
-        let excess = |s: Real| s - s0 / toughness_factor(kind, nu, peak / s, shape).sqrt();
-        let (mut lo, mut hi) = (peak, s0 / 0.05_f64.sqrt());
-        if !(excess(lo) < 0.0) {
-            // No equivalent stretch above the peak: leave the refusal to `from_strength`.
-            return Self::from_strength(e, f_t, s0.min(peak), shape);
+        let (sigma, nu) = (f_t / e, nu_from_q(kind, q));
+        let strength = |rho: Real| strength_factor(kind, nu, rho, shape).unwrap_or(1.0);
+        // The springs peak at s_p = sigma / S(rho), and s_eq = s_p / rho must be the stretch
+        // that dissipates G_f, s0 / sqrt(F(rho)) (G scales as s^2 at a fixed peak fraction).
+        // The excess falls from +inf at rho -> 0; a root below rho = 1 exists unless the
+        // springs would snap back.
+        let excess = |rho: Real| {
+            sigma / (strength(rho) * rho) - s0 / toughness_factor(kind, nu, rho, shape).sqrt()
+        };
+        if !(excess(1.0) < 0.0) {
+            return Err(snap_back(f_t));
         }
+        let (mut lo, mut hi): (Real, Real) = (1e-6, 1.0);
         for _ in 0..200 {
             let mid = 0.5 * (lo + hi);
-            if excess(mid) < 0.0 {
+            if excess(mid) > 0.0 {
                 lo = mid;
             } else {
                 hi = mid;
             }
         }
-        Self::from_strength(e, f_t, 0.5 * (lo + hi), shape)
+        let rho = 0.5 * (lo + hi);
+        let f_spring = f_t / strength(rho);
+        Self::from_strength(e, f_spring, f_spring / e / rho, shape).map_err(|_| snap_back(f_t))
     }
 
     /// The envelope `g(kappa)` of the module docs (1 at the peak, 0 at the end).
@@ -328,6 +348,18 @@ pub fn toughness_factor(kind: LatticeKind, nu: Real, rho: Real, shape: Softening
         (_, SofteningShape::Linear) => &CUBIC_LINEAR,
         (_, SofteningShape::Bilinear) => &CUBIC_BILINEAR,
     };
+    interpolate(t, &TABLE_NU, &TABLE_RHO, nu, rho)
+}
+
+/// Bilinear interpolation in a table over sorted axes `nus` (rows) and `rhos` (columns), held at
+/// the edges.
+fn interpolate<const N: usize, const M: usize>(
+    t: &[[Real; M]; N],
+    nus: &[Real; N],
+    rhos: &[Real; M],
+    nu: Real,
+    rho: Real,
+) -> Real {
     // Position in a sorted axis: the cell's first index and the weight of the next point.
     let locate = |axis: &[Real], x: Real| -> (usize, Real) {
         if x.is_nan() || x <= axis[0] {
@@ -340,9 +372,9 @@ pub fn toughness_factor(kind: LatticeKind, nu: Real, rho: Real, shape: Softening
         let i = axis.partition_point(|&v| v <= x) - 1;
         (i, (x - axis[i]) / (axis[i + 1] - axis[i]))
     };
-    let (i, u) = locate(&TABLE_NU, nu);
-    let (j, v) = locate(&TABLE_RHO, rho);
-    let row = |r: &[Real; 4]| r[j] + v * (r[j + 1] - r[j]);
+    let (i, u) = locate(nus, nu);
+    let (j, v) = locate(rhos, rho);
+    let row = |r: &[Real; M]| r[j] + v * (r[j + 1] - r[j]);
     row(&t[i]) + u * (row(&t[i + 1]) - row(&t[i]))
 }
 
@@ -353,6 +385,65 @@ pub fn calibrated(kind: LatticeKind, nu: Real, rho: Real) -> bool {
     kind != LatticeKind::Random3d
         && (TABLE_NU[0] - 1e-9..=TABLE_NU[2] + 1e-9).contains(&nu)
         && (TABLE_RHO[0] - 1e-9..=TABLE_RHO[3] + 1e-9).contains(&rho)
+}
+
+/// The peak fractions of the strength tables.
+pub const STRENGTH_RHO: [Real; 6] = [0.1, 0.2, 0.35, 0.5, 0.7, 0.9];
+
+/// Measured strength factor `S = sigma_max / (E s_p)`: the peak stress of a bar in uniaxial
+/// tension whose springs peak at the stretch `s_p`, over the stress at which an axial spring of
+/// an affinely strained body would reach it. Rows over [`TABLE_NU`], columns over
+/// [`STRENGTH_RHO`]. A bar 10 spacings square and 40 long, grips on its ends (axial motion and
+/// the lateral ones held), pulled at a strain rate of 0.1/s with damping 2000/s (halving the
+/// rate moves S by 0.5 %); one node set, a second one within 0.5 %. S > 1 where the springs
+/// soften gradually (`rho` small: the bar keeps hardening while damage spreads), S < 1 for
+/// nearly brittle springs (the first springs to fail, stretched beyond the affine value by the
+/// network's non-affine scatter, start a crack that runs). The values are those of a bar of this
+/// size: for nearly brittle springs strength falls with the stressed volume (weakest link).
+const RANDOM3D_STRENGTH_LINEAR: [[Real; 6]; 3] = [
+    [1.509, 1.482, 1.411, 1.259, 1.031, 0.904],
+    [1.760, 1.524, 1.289, 1.110, 0.932, 0.832],
+    [1.566, 1.406, 1.208, 1.048, 0.905, 0.824],
+];
+const RANDOM3D_STRENGTH_BILINEAR: [[Real; 6]; 3] = [
+    [1.502, 1.461, 1.337, 1.170, 1.013, 0.919],
+    [1.681, 1.427, 1.184, 1.032, 0.919, 0.818],
+    [1.517, 1.328, 1.116, 0.977, 0.893, 0.827],
+];
+
+/// Random2d (nu_2D rows; the default sampler, plane stress): a bar 10 spacings wide and 40
+/// long, otherwise as random3d; the mean of two node sets, which differ by up to 5 %.
+const RANDOM2D_STRENGTH_LINEAR: [[Real; 6]; 3] = [
+    [1.344, 1.315, 1.241, 1.102, 0.960, 0.893],
+    [1.254, 1.130, 1.008, 0.903, 0.817, 0.805],
+    [1.083, 1.013, 0.917, 0.821, 0.792, 0.785],
+];
+const RANDOM2D_STRENGTH_BILINEAR: [[Real; 6]; 3] = [
+    [1.337, 1.292, 1.166, 1.040, 0.922, 0.887],
+    [1.212, 1.082, 0.947, 0.859, 0.810, 0.803],
+    [1.060, 0.986, 0.862, 0.809, 0.783, 0.786],
+];
+
+/// The measured strength factor `S(nu, rho)` of softening springs (`None` where it has not been
+/// measured: the regular hex and cubic lattices, whose strength also depends on the load's
+/// direction; their springs peak at f_t / E), bilinear in
+/// nu and `rho` between the table's points and held at its edges. Given a tensile strength f_t,
+/// [`Softening::from_fracture_energy`] sets `s_p = f_t / (E S)`, so that a body's tensile
+/// strength is f_t.
+pub fn strength_factor(
+    kind: LatticeKind,
+    nu: Real,
+    rho: Real,
+    shape: SofteningShape,
+) -> Option<Real> {
+    let t = match (kind, shape) {
+        (LatticeKind::Random3d, SofteningShape::Linear) => &RANDOM3D_STRENGTH_LINEAR,
+        (LatticeKind::Random3d, SofteningShape::Bilinear) => &RANDOM3D_STRENGTH_BILINEAR,
+        (LatticeKind::Random2d, SofteningShape::Linear) => &RANDOM2D_STRENGTH_LINEAR,
+        (LatticeKind::Random2d, SofteningShape::Bilinear) => &RANDOM2D_STRENGTH_BILINEAR,
+        _ => return None,
+    };
+    Some(interpolate(t, &TABLE_NU, &STRENGTH_RHO, nu, rho))
 }
 
 impl Criterion for Softening {
@@ -423,6 +514,61 @@ mod tests {
         assert!(err.to_string().contains("snap back"), "{err}");
         assert!(Softening::new(2e-4, 1e-4, SofteningShape::Linear).is_err());
         assert!(Softening::new(0.0, 1e-4, SofteningShape::Linear).is_err());
+    }
+
+    /// The law built from G_f and f_t satisfies both equations it solves: the body's strength
+    /// `E S(rho) s_p = f_t` and `F(rho) G_brittle(s_eq) = G_f`, at the peak fraction it lands
+    /// on; a lattice without a strength table peaks at f_t / E.
+    #[test]
+    fn calibration_meets_strength_and_fracture_energy() {
+        use hooke_core::material::q_from_nu;
+        let (e, f_t, g_f, a) = (25.85e9, 2.7e6, 65.0, 5e-3);
+        for (kind, nu) in [
+            (LatticeKind::Random3d, 0.18),
+            (LatticeKind::Random2d, -0.2),
+            (LatticeKind::Cubic, 0.1),
+        ] {
+            let q = q_from_nu(kind, nu).unwrap();
+            // A spring stiffness of the right order (k ~ E a); the equations hold for any.
+            let k = e * a;
+            for shape in [SofteningShape::Linear, SofteningShape::Bilinear] {
+                let law = Softening::from_fracture_energy(kind, k, a, q, 1.0, g_f, e, f_t, shape)
+                    .unwrap();
+                let rho = law.peak / law.equivalent_stretch();
+                let s = strength_factor(kind, nu, rho, shape);
+                assert_eq!(s.is_some(), kind != LatticeKind::Cubic);
+                let strength = e * s.unwrap_or(1.0) * law.peak;
+                assert!(
+                    (strength / f_t - 1.0).abs() < 1e-9,
+                    "{kind:?} {shape:?}: {strength}"
+                );
+                let g = toughness_factor(kind, nu, rho, shape)
+                    * CriticalStretch::fracture_energy(
+                        kind,
+                        k,
+                        a,
+                        q,
+                        1.0,
+                        law.equivalent_stretch(),
+                    );
+                assert!((g / g_f - 1.0).abs() < 1e-6, "{kind:?} {shape:?}: G = {g}");
+            }
+        }
+        // Snap-back is still refused, naming the user's f_t.
+        let q = q_from_nu(LatticeKind::Random3d, 0.18).unwrap();
+        let err = Softening::from_fracture_energy(
+            LatticeKind::Random3d,
+            25.85e9 * 5e-3,
+            5e-3,
+            q,
+            1.0,
+            0.01,
+            25.85e9,
+            2e9,
+            SofteningShape::Linear,
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("snap back") && err.to_string().contains("2000000000"));
     }
 
     #[test]
