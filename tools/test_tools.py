@@ -22,6 +22,34 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
+def synthetic_y(outdir):
+    """A crack along the notch line from (0.5, 0.5) to (0.7, 0.5) that branches there into two
+    cracks at +25 and -20 degrees, 0.25 long; written in a second frame, 1e-5 s later."""
+    n = 161
+    xs, ys = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n))
+    pts = np.column_stack([xs.ravel(), ys.ravel(), np.zeros(n * n)])
+    h = 1.0 / (n - 1)
+    notch = (np.abs(pts[:, 1] - 0.5) < 0.6 * h) & (pts[:, 0] <= 0.5 + 1e-9)
+    stem = (pts[:, 0] > 0.5) & (pts[:, 0] <= 0.7) & (np.abs(pts[:, 1] - 0.5) < 0.6 * h)
+    dmg = notch | stem
+    for deg in (25.0, -20.0):
+        a = math.radians(deg)
+        rel = pts[:, :2] - [0.7, 0.5]
+        along = rel @ [math.cos(a), math.sin(a)]
+        dmg |= (along > 0) & (along <= 0.25) & (np.abs(rel @ [-math.sin(a), math.cos(a)]) < 0.6 * h)
+    names = []
+    for k, (t, d) in enumerate([(0.0, notch), (1e-5, dmg)]):
+        name = f"y_{k:06}.vtu"
+        meshio.Mesh(pts, [("vertex", np.arange(n * n).reshape(-1, 1))],
+                    point_data={"damage": d.astype(float), "displacement": np.zeros((n * n, 3))}).write(os.path.join(outdir, name))
+        names.append((t, name))
+    with open(os.path.join(outdir, "y.pvd"), "w") as f:
+        f.write('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n<Collection>\n')
+        for t, name in names:
+            f.write(f'<DataSet timestep="{t:.17e}" group="" part="0" file="{name}"/>\n')
+        f.write("</Collection>\n</VTKFile>\n")
+
+
 def synthetic(outdir, branch=False, kink=False, edge=False):
     n = 81
     xs, ys = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n))
@@ -166,6 +194,21 @@ def main():
         code, out = run(os.path.join(HERE, "crack_angle.py"), d, "--tip", "0.5,0.5", "--radius", "0.4")
         angle = float(out.split("tip 0.5,0.5: ")[1].split(" degrees")[0]) if "degrees" in out else float("nan")
         check(code == 0 and angle < 65.0, f"crack_angle through the tip averages the straight stretch in: {out.strip()}")
+    with tempfile.TemporaryDirectory() as d:
+        # A Y-shaped crack: the branching point (0.7, 0.5) and the two directions.
+        synthetic_y(d)
+        code, out = run(os.path.join(HERE, "crack_branch.py"), d)
+        ok = code == 0 and "branches at x" in out
+        if ok:
+            line = out.split("branches at x = ")[1]
+            xb = float(line.split(" m")[0])
+            angles = [float(v) for v in line.split("branches at ")[1].split(" degrees")[0].split(" and ")]
+            ok = abs(xb - 0.7) < 0.02 and abs(angles[0] - 25.0) < 3.0 and abs(angles[1] + 20.0) < 3.0
+        check(ok, f"crack_branch: {out.strip()}")
+        os.makedirs(d + "/straight")
+        synthetic(d + "/straight")
+        code, out = run(os.path.join(HERE, "crack_branch.py"), d + "/straight")
+        check(code == 0 and "no branching" in out, f"crack_branch on one crack: {out.strip()}")
     with tempfile.TemporaryDirectory() as d:
         # A grip pulled along +y with a known peak, and a rigid platen moving along -y.
         with open(os.path.join(d, "c_reactions.csv"), "w") as f:
