@@ -117,7 +117,10 @@ fn bars_peak_at_f_t(kind: &str) {
         let f = bar_strength(&format!("{kind}-{shape}-{g_f}"), kind, shape, g_f, 7);
         let ratio = f / 2.7e6;
         eprintln!("{kind} {shape}, G_f = {g_f}: peak stress / f_t = {ratio:.3}");
-        assert!((ratio - 1.0).abs() < 0.06, "{kind} {shape}, G_f = {g_f}: {ratio:.3}");
+        assert!(
+            (ratio - 1.0).abs() < 0.06,
+            "{kind} {shape}, G_f = {g_f}: {ratio:.3}"
+        );
     }
 }
 
