@@ -531,6 +531,9 @@ fn softening_springs_dissipate_g_f_on_other_strips() {
 /// it was not measured with (seed 11) at nu = 0, 0.25 and 0.35. Each slab takes 40-60 minutes
 /// (a 3D equilibrium per broken spring), so this is run one nu at a time:
 /// `HOOKE_R3_NU=0.25 cargo test --release -p hooke-tests --test toughness random3d -- --ignored`.
+/// Measured (the same strips through `hooke toughness --seed 11`): 0.975 at nu = 0.25, 1.245 at
+/// 0.35 (15 breaks off the plane): it fails there, the node sets' scatter at this slab size
+/// being larger than the goal.
 #[test]
 #[ignore = "slow: 40-60 minutes per nu"]
 fn random3d_crack_dissipates_g_c_on_an_unseen_node_set() {
