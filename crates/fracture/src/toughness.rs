@@ -396,6 +396,16 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
             tip.max(x)
         }
     };
+    // The front after spring b broke, or None when b is off the crack plane.
+    let grown = |tip: Real, b: usize| -> Option<Real> {
+        let [i, j] = bonds.ends[b].map(|v| v as usize);
+        crosses(b).then(|| {
+            advance(
+                tip,
+                0.5 * (body.lattice.pos.x()[i] + body.lattice.pos.x()[j]),
+            )
+        })
+    };
     let per_length = strip_energy_per_length(t)?;
     // Critical energy of a unit-length spring (the energy criterion's w_c / L_ref^2), with the
     // energy criterion's measured toughness divided out as `SpringEnergy::from_fracture_energy`
@@ -487,14 +497,9 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
                     continue;
                 }
                 broken += 1;
-                if crosses(b) {
-                    let [i, j] = bonds.ends[b].map(|v| v as usize);
-                    tip = advance(
-                        tip,
-                        0.5 * (body.lattice.pos.x()[i] + body.lattice.pos.x()[j]),
-                    );
-                } else {
-                    off_plane += 1;
+                match grown(tip, b) {
+                    Some(t) => tip = t,
+                    None => off_plane += 1,
                 }
             }
             solve(&body, &mut state, &cons)?;
@@ -560,14 +565,9 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
         for &(b, _) in &over {
             state.kill_bond(&body, b);
             broken += 1;
-            if crosses(b) {
-                let [i, j] = bonds.ends[b].map(|v| v as usize);
-                tip = advance(
-                    tip,
-                    0.5 * (body.lattice.pos.x()[i] + body.lattice.pos.x()[j]),
-                );
-            } else {
-                off_plane += 1;
+            match grown(tip, b) {
+                Some(t) => tip = t,
+                None => off_plane += 1,
             }
         }
         solve(&body, &mut state, &cons)?;
