@@ -3,12 +3,11 @@
 //! stays positive semidefinite after heavy damage.
 
 use hooke_core::material::q_from_nu;
-use hooke_core::{law, Body, Coords, LatticeKind, Real, State, Tangent, Vector};
-use hooke_tests::{dense_tangent, dofs, kill_random, random_displacement, small_body, Rng};
-
-fn energy(body: &Body, state: &State, u: &Coords) -> Real {
-    law::energy(body, u, state.springs(&body), &state.norm()).total()
-}
+use hooke_core::{law, LatticeKind, Real, State, Vector};
+use hooke_tests::{
+    assert_force_is_minus_energy_gradient, assert_tangent_is_force_jacobian, dense_tangent,
+    kill_random, random_displacement, small_body, Rng,
+};
 
 /// force = -grad U by central differences on a randomly deformed body with 20 % of its springs
 /// removed; the relative error is bounded by the O(h^2) truncation.
@@ -30,24 +29,13 @@ fn force_is_minus_energy_gradient() {
         kill_random(&body, &mut state, &mut rng, 0.2);
         state.u = random_displacement(&body, &mut rng, 0.05);
         law::update_forces(&body, &mut state);
-        let h = 1e-6;
-        let fmax = dofs(&body)
-            .iter()
-            .map(|&(i, c)| state.f.comp(c)[i].abs())
-            .fold(0.0, Real::max);
-        for (i, c) in dofs(&body) {
-            let mut up = state.u.clone();
-            up.comp_mut(c)[i] += h;
-            let mut dn = state.u.clone();
-            dn.comp_mut(c)[i] -= h;
-            let grad = (energy(&body, &state, &up) - energy(&body, &state, &dn)) / (2.0 * h);
-            let f = state.f.comp(c)[i];
-            assert!(
-                (f + grad).abs() < 1e-7 * fmax,
-                "{kind:?} nu={nu} node {i} axis {c}: f={f}, -dU={}",
-                -grad
-            );
-        }
+        assert_force_is_minus_energy_gradient(
+            &body,
+            &state,
+            1e-6,
+            1e-7,
+            &format!("{kind:?} nu={nu}"),
+        );
     }
 }
 
@@ -67,26 +55,14 @@ fn tangent_is_the_force_jacobian() {
         kill_random(&body, &mut state, &mut rng, 0.15);
         state.u = random_displacement(&body, &mut rng, 0.05);
         law::update_forces(&body, &mut state);
-        let mut tangent = Tangent::new(&body, &state);
         let v = random_displacement(&body, &mut rng, 1.0);
-        let mut kv = Coords::zeros(body.nodes());
-        tangent.apply(&body, &v, &mut kv);
-        let h = 1e-6;
-        let mut fp = state.clone();
-        fp.u.axpy(h, &v);
-        law::update_forces(&body, &mut fp);
-        let mut fm = state.clone();
-        fm.u.axpy(-h, &v);
-        law::update_forces(&body, &mut fm);
-        let mut fd = fp.f.clone();
-        fd.axpy(-1.0, &fm.f);
-        let mut diff = kv.clone();
-        diff.axpy(1.0 / (2.0 * h), &fd);
-        assert!(
-            diff.norm() < 1e-7 * kv.norm(),
-            "{kind:?} nu={nu}: |Kv + df/dv| = {} vs |Kv| = {}",
-            diff.norm(),
-            kv.norm()
+        assert_tangent_is_force_jacobian(
+            &body,
+            &state,
+            &v,
+            1e-6,
+            1e-7,
+            &format!("{kind:?} nu={nu}"),
         );
     }
 }

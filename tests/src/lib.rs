@@ -176,3 +176,63 @@ pub fn pull_ends(body: &Body, speed: Real) -> hooke_core::loading::Loading {
         ..Default::default()
     }
 }
+
+/// Asserts force = -grad U at `state` (its forces current) by central differences of step `h`:
+/// every component within `tol` of the largest force (the O(h^2) truncation).
+pub fn assert_force_is_minus_energy_gradient(
+    body: &Body,
+    state: &State,
+    h: Real,
+    tol: Real,
+    what: &str,
+) {
+    let energy =
+        |u: &Coords| hooke_core::law::energy(body, u, state.springs(body), state.norm()).total();
+    let fmax = dofs(body)
+        .iter()
+        .map(|&(i, c)| state.f.comp(c)[i].abs())
+        .fold(0.0, Real::max);
+    for (i, c) in dofs(body) {
+        let mut up = state.u.clone();
+        up.comp_mut(c)[i] += h;
+        let mut dn = state.u.clone();
+        dn.comp_mut(c)[i] -= h;
+        let grad = (energy(&up) - energy(&dn)) / (2.0 * h);
+        let f = state.f.comp(c)[i];
+        assert!(
+            (f + grad).abs() < tol * fmax,
+            "{what}: node {i} axis {c}: f={f}, -dU={}",
+            -grad
+        );
+    }
+}
+
+/// Asserts the tangent at `state` (its pools current) is the force Jacobian along `v`:
+/// `K v = -(f(u + h v) - f(u - h v)) / 2h` within `tol` of `|K v|`.
+pub fn assert_tangent_is_force_jacobian(
+    body: &Body,
+    state: &State,
+    v: &Coords,
+    h: Real,
+    tol: Real,
+    what: &str,
+) {
+    let mut tangent = hooke_core::Tangent::new(body, state);
+    let mut kv = Coords::zeros(body.nodes());
+    tangent.apply(body, v, &mut kv);
+    let mut fp = state.clone();
+    fp.u.axpy(h, v);
+    hooke_core::law::update_forces(body, &mut fp);
+    let mut fm = state.clone();
+    fm.u.axpy(-h, v);
+    hooke_core::law::update_forces(body, &mut fm);
+    let mut diff = kv.clone();
+    diff.axpy(1.0 / (2.0 * h), &fp.f);
+    diff.axpy(-1.0 / (2.0 * h), &fm.f);
+    assert!(
+        diff.norm() < tol * kv.norm(),
+        "{what}: |Kv + df/dv| = {} vs |Kv| = {}",
+        diff.norm(),
+        kv.norm()
+    );
+}

@@ -16,6 +16,12 @@ pub struct Body {
     pub q: Real,
     /// Lumped mass of each node (kg): density times the node's cell volume.
     pub mass: Vec<Real>,
+    /// Dispersion levers `lambda_s = w_s L_s` of a direction-weighted (anisotropic) material
+    /// (`docs/anisotropy.md`), or `None` for the isotropic law, where every lever is the rest
+    /// length. A spring's lever replaces its rest length wherever the law pools or disperses:
+    /// `Pi_n = sum_t k_t lambda_t dL_t`, `S_n = sum_t k_t lambda_t^2` and
+    /// `T_s = k_s dL_s + q k_s lambda_s (p_i + p_j)`; its extension still runs from `L_s`.
+    pub lever: Option<Vec<Real>>,
 }
 
 impl Body {
@@ -54,6 +60,7 @@ impl Body {
             k,
             q,
             mass,
+            lever: None,
         }
     }
 
@@ -67,6 +74,7 @@ impl Body {
             k: vec![k; nb],
             q,
             mass: vec![node_mass; nn],
+            lever: None,
         }
     }
 
@@ -122,6 +130,21 @@ impl Body {
                 why: format!("spring {b} has k = {}", self.k[b]),
             });
         }
+        if let Some(lever) = &self.lever {
+            if lever.len() != self.springs() {
+                return Err(Error::InvalidInput {
+                    what: "dispersion levers",
+                    why: format!("{} levers for {} springs", lever.len(), self.springs()),
+                });
+            }
+            // Any real lever keeps the law stable (Cauchy-Schwarz holds for signed weights).
+            if let Some(b) = lever.iter().position(|&v| !v.is_finite()) {
+                return Err(Error::InvalidInput {
+                    what: "dispersion lever",
+                    why: format!("spring {b} has lever {}", lever[b]),
+                });
+            }
+        }
         if let Some(n) = self.mass.iter().position(|&m| !(m.is_finite() && m > 0.0)) {
             return Err(Error::InvalidInput {
                 what: "node mass",
@@ -129,6 +152,13 @@ impl Body {
             });
         }
         Ok(())
+    }
+
+    /// Each spring's dispersion lever: [`Body::lever`] for a direction-weighted material, the
+    /// rest lengths otherwise.
+    #[inline]
+    pub fn levers(&self) -> &[Real] {
+        self.lever.as_deref().unwrap_or(&self.lattice.bonds.rest)
     }
 
     /// Number of nodes.

@@ -38,10 +38,11 @@ use crate::state::{Springs, State};
 const MIN_NODES_PER_TASK: usize = 1024;
 
 /// Tension of one spring (N): the one-spring evaluation of the law, for tests and for
-/// per-spring output.
+/// per-spring output. `lever` is the spring's dispersion lever ([`Body::levers`]): its rest
+/// length `L` for an isotropic material.
 #[inline]
-pub fn tension(k: Real, rest: Real, dl: Real, q: Real, p_i: Real, p_j: Real) -> Real {
-    k * dl + q * k * rest * (p_i + p_j)
+pub fn tension(k: Real, lever: Real, dl: Real, q: Real, p_i: Real, p_j: Real) -> Real {
+    k * dl + q * k * lever * (p_i + p_j)
 }
 
 /// Strain energy split into the direct springs and the dispersive pools (J).
@@ -122,7 +123,7 @@ fn node_pool(body: &Body, u: &Coords, sp: Springs<'_>, n: usize) -> Real {
         if sp.alive[b] {
             let rest = bonds.rest[b];
             pi += sp.k[b]
-                * rest
+                * sp.lever[b]
                 * spring_geometry(&body.lattice, u, n, bonds.nbr[e] as usize, rest).dl;
         }
     }
@@ -170,7 +171,7 @@ pub fn node_force(
         let j = bonds.nbr[e] as usize;
         let rest = bonds.rest[b];
         let g = spring_geometry(lat, u, n, j, rest);
-        let s = tension(sp.k[b], rest, g.dl, q, pool[n], pool[j]) / g.l;
+        let s = tension(sp.k[b], sp.lever[b], g.dl, q, pool[n], pool[j]) / g.l;
         f[0] += s * g.d[0];
         f[1] += s * g.d[1];
         f[2] += s * g.d[2];
@@ -256,7 +257,7 @@ pub fn spring_tensions(body: &Body, u: &Coords, sp: Springs<'_>, pool: &[Real]) 
             let rest = bonds.rest[b];
             tension(
                 sp.k[b],
-                rest,
+                sp.lever[b],
                 spring_geometry(&body.lattice, u, i, j, rest).dl,
                 body.q,
                 pool[i],
@@ -318,9 +319,9 @@ pub fn frame_fields(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> 
             for e in bonds.row(i) {
                 let b = bonds.bond[e] as usize;
                 if sp.alive[b] {
-                    let (rest, x) = (bonds.rest[b], dl[b]);
+                    let (lever, x) = (sp.lever[b], dl[b]);
                     d += 0.25 * sp.k[b] * x * x;
-                    s += sp.k[b] * rest * x;
+                    s += sp.k[b] * lever * x;
                 }
             }
             (*p, *e4) = (s, d);
@@ -360,7 +361,7 @@ pub fn frame_fields(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> 
                 let (dx, dy, dz) = spring_vector(lat, u, i, j);
                 let d = [dx, dy, dz];
                 let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                let t = tension(sp.k[b], bonds.rest[b], dl[b], q, pool[i], pool[j]);
+                let t = tension(sp.k[b], sp.lever[b], dl[b], q, pool[i], pool[j]);
                 let s = t / l;
                 for c in 0..3 {
                     f[c] += s * d[c];

@@ -11,7 +11,8 @@
 //! immutable), [`material`] ((E, nu) to (k, q)), [`body`] (a lattice with its constants),
 //! [`state`] (everything that changes), [`law`] (the force law and its energy), [`tangent`] (its
 //! exact stiffness, matrix-free), [`statics`] (Newton-CG equilibrium), [`moduli`] (the paper's
-//! block test and the exact bulk test).
+//! block test and the exact bulk test), [`transverse`] (transversely isotropic materials by
+//! direction-weighted dispersion).
 //!
 //! Units: SI throughout. No I/O here.
 
@@ -32,6 +33,7 @@ pub mod state;
 pub mod statics;
 pub mod tangent;
 pub mod team;
+pub mod transverse;
 
 pub use body::Body;
 pub use error::{Error, Result};
@@ -40,3 +42,4 @@ pub use material::{Elastic, PlaneModel, SpringConstants};
 pub use math::{Coords, Matrix, Real, Vector};
 pub use state::State;
 pub use tangent::Tangent;
+pub use transverse::Transverse;

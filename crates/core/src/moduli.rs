@@ -449,20 +449,37 @@ pub struct BulkModuli {
 /// # Panics
 /// For random lattices, which have no affine equilibrium: measure them with [`block_test`].
 pub fn bulk_stress(kind: LatticeKind, k: Real, a: Real, q: Real, eps: &Matrix) -> Matrix {
+    bulk_stress_of(kind, a, eps, &|lattice| {
+        Ok(Body::uniform(lattice, k, q, 1.0))
+    })
+    .expect("a uniform body on a fixed, valid box")
+}
+
+/// [`bulk_stress`] for the body that `make` builds on the test's box (e.g. a direction-weighted
+/// material, [`Body::transverse`]): exact for the infinite lattice of that body.
+pub fn bulk_stress_of(
+    kind: LatticeKind,
+    a: Real,
+    eps: &Matrix,
+    make: &dyn Fn(Lattice) -> crate::Result<Body>,
+) -> crate::Result<Matrix> {
     // 7 nodes across: the centre node, its neighbours and their neighbours all have full stars.
     let lattice = match kind {
         LatticeKind::Cubic => Lattice::cubic_box([7, 7, 7], a),
         LatticeKind::Hex => Lattice::hex_box(7, 7, a, 1.0),
         LatticeKind::Random2d | LatticeKind::Random3d => {
-            panic!("bulk_stress needs a regular lattice; measure random ones with block_test")
+            return Err(crate::Error::InvalidInput {
+                what: "bulk test",
+                why: "random lattices have no affine equilibrium; measure them with the block test"
+                    .into(),
+            })
         }
-    }
-    .expect("a fixed, valid box");
+    }?;
     let centre = match kind.dim() {
         3 => lattice.grid_index(3, 3, 3),
         _ => lattice.grid_index(3, 3, 0),
     };
-    let body = Body::uniform(lattice, k, q, 1.0);
+    let body = make(lattice)?;
     let state = State::new(&body);
     let mut v = Coords::zeros(body.nodes());
     for i in 0..body.nodes() {
@@ -470,7 +487,12 @@ pub fn bulk_stress(kind: LatticeKind, k: Real, a: Real, q: Real, eps: &Matrix) -
     }
     let mut tangent = Tangent::new(&body, &state);
     let dt = tangent.tension_changes(&body, &v);
-    law::node_virial(&body, &Coords::zeros(body.nodes()), &dt, centre)
+    Ok(law::node_virial(
+        &body,
+        &Coords::zeros(body.nodes()),
+        &dt,
+        centre,
+    ))
 }
 
 /// Voigt order of the 6x6 stiffness: xx, yy, zz, yz, xz, xy.
@@ -484,6 +506,16 @@ pub const VOIGT: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), 
 /// # Panics
 /// For random lattices (see [`bulk_stress`]).
 pub fn bulk_stiffness(kind: LatticeKind, k: Real, a: Real, q: Real) -> [[Real; 6]; 6] {
+    bulk_stiffness_of(kind, a, &|lattice| Ok(Body::uniform(lattice, k, q, 1.0)))
+        .expect("a uniform body on a fixed, valid box")
+}
+
+/// [`bulk_stiffness`] of the body that `make` builds on the test's box ([`bulk_stress_of`]).
+pub fn bulk_stiffness_of(
+    kind: LatticeKind,
+    a: Real,
+    make: &dyn Fn(Lattice) -> crate::Result<Body>,
+) -> crate::Result<[[Real; 6]; 6]> {
     let mut c = [[0.0; 6]; 6];
     for (j, &(r, s)) in VOIGT.iter().enumerate() {
         if kind.dim() == 2 && (r == 2 || s == 2) {
@@ -494,12 +526,12 @@ pub fn bulk_stiffness(kind: LatticeKind, k: Real, a: Real, q: Real) -> [[Real; 6
         let e = if r == s { 1.0 } else { 0.5 };
         eps[(r, s)] = e;
         eps[(s, r)] = e;
-        let sigma = bulk_stress(kind, k, a, q, &eps);
+        let sigma = bulk_stress_of(kind, a, &eps, make)?;
         for (i, &(p, t)) in VOIGT.iter().enumerate() {
             c[i][j] = sigma[(p, t)];
         }
     }
-    c
+    Ok(c)
 }
 
 /// The isotropic stiffness in Voigt order for Young's modulus `e` and Poisson's ratio `nu`: in

@@ -56,6 +56,7 @@ pub struct RelaxReport {
 fn fictitious_mass(body: &Body, state: &State) -> Vec<Real> {
     let bonds = &body.lattice.bonds;
     let kk = state.springs(body).k;
+    let lever = body.levers();
     let n = body.nodes();
     let a: Vec<Real> = (0..n)
         .map(|m| {
@@ -64,7 +65,7 @@ fn fictitious_mass(body: &Body, state: &State) -> Vec<Real> {
                 .filter(|&e| state.alive[bonds.bond[e] as usize])
                 .map(|e| {
                     let b = bonds.bond[e] as usize;
-                    kk[b] * bonds.rest[b]
+                    kk[b] * lever[b]
                 })
                 .sum()
         })
@@ -88,9 +89,9 @@ fn fictitious_mass(body: &Body, state: &State) -> Vec<Real> {
                 let j = bonds.nbr[e] as usize;
                 let rest = bonds.rest[b];
                 let g = law::spring_geometry(&body.lattice, &state.u, i, j, rest);
-                let t = law::tension(kk[b], rest, g.dl, body.q, state.pool[i], state.pool[j]);
+                let t = law::tension(kk[b], lever[b], g.dl, body.q, state.pool[i], state.pool[j]);
                 direct += kk[b] + (t / g.l).abs();
-                disp += kk[b] * rest * a[j] * inv_s(j);
+                disp += kk[b] * lever[b] * a[j] * inv_s(j);
             }
             let row = 2.0 * (3.0 as Real).sqrt() * (direct + body.q.abs() * disp);
             // A node with no intact spring gets a unit mass: it has no stiffness to bound.

@@ -287,7 +287,7 @@ pub fn node_norm(body: &Body, springs: Springs<'_>, n: usize) -> Real {
     for e in bonds.row(n) {
         let b = bonds.bond[e] as usize;
         if springs.alive[b] {
-            s += springs.k[b] * bonds.rest[b] * bonds.rest[b];
+            s += springs.k[b] * springs.lever[b] * springs.lever[b];
         }
     }
     s
@@ -303,12 +303,19 @@ pub fn node_norm(body: &Body, springs: Springs<'_>, n: usize) -> Real {
 pub struct Springs<'a> {
     pub alive: &'a [bool],
     pub k: &'a [Real],
+    /// Each spring's dispersion lever ([`Body::levers`]): its rest length for an isotropic
+    /// material.
+    pub lever: &'a [Real],
 }
 
 impl<'a> Springs<'a> {
     /// Intact flags with the body's own stiffnesses (no damage weights).
     pub fn intact(body: &'a Body, alive: &'a [bool]) -> Self {
-        Springs { alive, k: &body.k }
+        Springs {
+            alive,
+            k: &body.k,
+            lever: body.levers(),
+        }
     }
 
     /// From a state's fields (for borrows that keep the state's other fields free).
@@ -317,6 +324,7 @@ impl<'a> Springs<'a> {
         Springs {
             alive,
             k: if k_eff.is_empty() { &body.k } else { k_eff },
+            lever: body.levers(),
         }
     }
 }

@@ -45,6 +45,7 @@ impl Tangent {
     pub fn new(body: &Body, state: &State) -> Self {
         let bonds = &body.lattice.bonds;
         let kk = state.springs(body).k;
+        let lever = body.levers();
         let data = (0..bonds.len())
             .into_par_iter()
             .with_min_len(4096)
@@ -56,13 +57,13 @@ impl Tangent {
                 if state.alive[b] {
                     let t = crate::law::tension(
                         kk[b],
-                        rest,
+                        lever[b],
                         g.dl,
                         body.q,
                         state.pool[i],
                         state.pool[j],
                     );
-                    [e[0], e[1], e[2], kk[b], kk[b] * rest, t / g.l]
+                    [e[0], e[1], e[2], kk[b], kk[b] * lever[b], t / g.l]
                 } else {
                     [e[0], e[1], e[2], 0.0, 0.0, 0.0]
                 }

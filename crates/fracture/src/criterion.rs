@@ -9,6 +9,9 @@ pub struct SpringState {
     pub k: Real,
     /// Rest length L (m).
     pub rest: Real,
+    /// Dispersion lever (m): the rest length for an isotropic material,
+    /// [`hooke_core::Body::levers`] for a direction-weighted one.
+    pub lever: Real,
     /// Extension dL = l - L (m).
     pub dl: Real,
     /// Pool ratios p of its two end nodes (from the last force evaluation).
@@ -27,7 +30,7 @@ impl SpringState {
     pub fn tension(&self) -> Real {
         hooke_core::law::tension(
             self.k,
-            self.rest,
+            self.lever,
             self.dl,
             self.q,
             self.pool[0],
@@ -42,7 +45,7 @@ impl SpringState {
     /// uniform stretch s every spring carries `1/2 k s^2 L^2 (1 + 2q)`.
     pub fn energy(&self) -> Real {
         0.5 * self.k * self.dl * self.dl
-            + 0.5 * self.q * self.k * self.rest * self.dl * (self.pool[0] + self.pool[1])
+            + 0.5 * self.q * self.k * self.lever * self.dl * (self.pool[0] + self.pool[1])
     }
 }
 

@@ -168,6 +168,7 @@ mod tests {
             let st = SpringState {
                 k,
                 rest,
+                lever: rest,
                 dl: s * rest,
                 pool: [s, s],
                 q,

@@ -316,6 +316,7 @@ fn new_weight(
         &SpringState {
             k: state.springs(body).k[b],
             rest,
+            lever: body.levers()[b],
             dl: g.dl,
             pool: [state.pool[i], state.pool[j]],
             q: body.q,
@@ -389,13 +390,14 @@ fn shifted_dispersive_energy(body: &Body, state: &State, h: Real, n: usize) -> R
         return 0.0;
     }
     let bonds = &body.lattice.bonds;
-    let k = state.springs(body).k;
+    let (k, lever) = (state.springs(body).k, body.levers());
     let mut pi = 0.0;
     for e in bonds.row(n) {
         let b = bonds.bond[e] as usize;
         if state.alive()[b] {
             let rest = bonds.rest[b];
-            pi += k[b] * rest * shifted_extension(body, state, h, n, bonds.nbr[e] as usize, rest);
+            pi +=
+                k[b] * lever[b] * shifted_extension(body, state, h, n, bonds.nbr[e] as usize, rest);
         }
     }
     0.5 * body.q * pi * pi / s

@@ -577,6 +577,7 @@ mod tests {
         let at = |stretch: Real| SpringState {
             k: 1.0,
             rest: 1.0,
+            lever: 1.0,
             dl: stretch,
             pool: [0.0; 2],
             q: 0.0,

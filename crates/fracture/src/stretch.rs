@@ -333,6 +333,7 @@ mod tests {
         let s = SpringState {
             k: 1.0,
             rest: 1.0,
+            lever: 1.0,
             dl: -0.5,
             pool: [0.0; 2],
             q: 0.0,

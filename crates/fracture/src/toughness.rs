@@ -532,6 +532,7 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
             let s = SpringState {
                 k: body.k[b],
                 rest: bonds.rest[b],
+                lever: body.levers()[b],
                 dl: g.dl,
                 pool: [state.pool[i], state.pool[j]],
                 q: body.q,

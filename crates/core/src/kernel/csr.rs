@@ -11,6 +11,10 @@
 //! pi_s     = k_s L_s dL_s                               (its share of both ends' pools)
 //! ```
 //!
+//! (For a direction-weighted material the `L_s` of `r1` and `pi_s` is the spring's dispersion
+//! lever, [`Body::levers`]; for an isotropic one the lever slice *is* the rest lengths, so the
+//! extra read hits the same cache lines.)
+//!
 //! A broken spring's record and share are zeros, so neither later sweep tests `alive`: a zero
 //! adds nothing to a sum, bit for bit. Then each node's pool `p_n = sum_t pi_t / S_n` (a gather
 //! over its row). Sweep 2 gathers each node's force over its row,
@@ -89,6 +93,7 @@ fn pools_impl<const D: usize, const P: bool>(
     let (u, alive) = (&state.u, &state.alive);
     // The current stiffnesses: the body's, or those a softening material left.
     let kk = crate::state::Springs::of(body, alive, &state.k_eff).k;
+    let levers = body.levers();
     let lat = &body.lattice;
     let wide = wide_available();
     // This rank's springs (all of them in one process); `first` is a multiple of BLOCK.
@@ -109,6 +114,7 @@ fn pools_impl<const D: usize, const P: bool>(
                 ends: &bonds.ends[start..start + n],
                 k: &kk[start..start + n],
                 rest: &bonds.rest[start..start + n],
+                lever: &levers[start..start + n],
                 alive: &alive[start..start + n],
             };
             #[cfg(target_arch = "x86_64")]
@@ -124,7 +130,7 @@ fn pools_impl<const D: usize, const P: bool>(
         for &b in &s.foreign {
             let b = b as usize;
             let (rec, pi) = (&mut state.spring[w * b..w * b + w], &mut state.spring_pi[b]);
-            spring_one::<D, P>(lat, u, q, kk[b], bonds, alive[b], b, rec, pi);
+            spring_one::<D, P>(lat, u, q, kk[b], bonds, levers, alive[b], b, rec, pi);
         }
     }
     if q == 0.0 {
@@ -157,12 +163,14 @@ fn spring_one<const D: usize, const P: bool>(
     q: Real,
     k: Real,
     bonds: &crate::lattice::Bonds,
+    lev: &[Real],
     alive: bool,
     b: usize,
     rec: &mut [Real],
     pi: &mut Real,
 ) {
     let rest = bonds.rest[b];
+    let lever = lev[b];
     let (k, l2, num) = if alive {
         let [i, j] = bonds.ends[b].map(|v| v as usize);
         let (d, d2, nm) = vector::<D, P>(lat, u, i, j);
@@ -176,11 +184,11 @@ fn spring_one<const D: usize, const P: bool>(
     let inv = 1.0 / l;
     let dl = num / (l + rest);
     rec[0] = k * dl;
-    rec[1] = q * k * rest;
+    rec[1] = q * k * lever;
     for c in 0..D {
         rec[2 + c] *= inv;
     }
-    *pi = k * rest * dl;
+    *pi = k * lever * dl;
 }
 
 /// `p_n = sum_t pi_t / S_n` over node n's row (broken springs' shares are zeros).
@@ -213,6 +221,7 @@ pub(crate) fn repair(body: &Body, state: &mut State, plain: bool, changed: &[u32
     let q = if plain { 0.0 } else { body.q };
     let (u, alive) = (&state.u, &state.alive);
     let kk = crate::state::Springs::of(body, alive, &state.k_eff).k;
+    let levers = body.levers();
     let bonds = &lat.bonds;
     for &b in changed {
         let b = b as usize;
@@ -223,10 +232,10 @@ pub(crate) fn repair(body: &Body, state: &mut State, plain: bool, changed: &[u32
             continue;
         }
         match (lat.dim(), lat.is_periodic()) {
-            (2, false) => spring_one::<2, false>(lat, u, q, kk[b], bonds, true, b, rec, pi),
-            (2, true) => spring_one::<2, true>(lat, u, q, kk[b], bonds, true, b, rec, pi),
-            (_, false) => spring_one::<3, false>(lat, u, q, kk[b], bonds, true, b, rec, pi),
-            (_, true) => spring_one::<3, true>(lat, u, q, kk[b], bonds, true, b, rec, pi),
+            (2, false) => spring_one::<2, false>(lat, u, q, kk[b], bonds, levers, true, b, rec, pi),
+            (2, true) => spring_one::<2, true>(lat, u, q, kk[b], bonds, levers, true, b, rec, pi),
+            (_, false) => spring_one::<3, false>(lat, u, q, kk[b], bonds, levers, true, b, rec, pi),
+            (_, true) => spring_one::<3, true>(lat, u, q, kk[b], bonds, levers, true, b, rec, pi),
         }
     }
     if q == 0.0 {
@@ -252,6 +261,7 @@ struct Springs<'a> {
     ends: &'a [[u32; 2]],
     k: &'a [Real],
     rest: &'a [Real],
+    lever: &'a [Real],
     alive: &'a [bool],
 }
 
@@ -312,12 +322,18 @@ fn spring_chunk<const D: usize, const P: bool>(
         // Gather: the current vector (straight into the record), |d|^2, the numerator of dL,
         // and the stiffness, zero for a broken spring (whose record is then all zeros: `l2 =
         // 1` keeps its square root finite).
-        let (mut l2, mut num, mut k, mut rest) =
-            ([1.0; BLOCK], [0.0; BLOCK], [0.0; BLOCK], [0.0; BLOCK]);
+        let (mut l2, mut num, mut k, mut rest, mut lever) = (
+            [1.0; BLOCK],
+            [0.0; BLOCK],
+            [0.0; BLOCK],
+            [0.0; BLOCK],
+            [0.0; BLOCK],
+        );
         for s in 0..m {
             let b = b0 + s;
             let r = &mut rec[w * b..w * b + w];
             rest[s] = sp.rest[b];
+            lever[s] = sp.lever[b];
             if !sp.alive[b] {
                 r[2..].fill(0.0);
                 continue;
@@ -347,11 +363,11 @@ fn spring_chunk<const D: usize, const P: bool>(
             let b = b0 + s;
             let r = &mut rec[w * b..w * b + w];
             r[0] = k[s] * dl[s];
-            r[1] = q * k[s] * rest[s];
+            r[1] = q * k[s] * lever[s];
             for c in 0..D {
                 r[2 + c] *= inv[s];
             }
-            pis[b] = k[s] * rest[s] * dl[s];
+            pis[b] = k[s] * lever[s] * dl[s];
         }
         b0 += m;
     }
@@ -498,6 +514,7 @@ mod tests {
                 ends: &body.lattice.bonds.ends,
                 k: &body.k,
                 rest: &body.lattice.bonds.rest,
+                lever: body.levers(),
                 alive: &state.alive,
             };
             let dl: Vec<Real> = (0..n)

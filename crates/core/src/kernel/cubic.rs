@@ -82,7 +82,8 @@ impl CubicStencil {
         let k = *body.k.first()?;
         // Damaged (softened) springs have stiffnesses of their own: the general kernel runs
         // them.
-        if body.k.iter().any(|&v| v != k) || state.is_softened() {
+        // Direction-weighted (anisotropic) materials have levers of their own: also general.
+        if body.k.iter().any(|&v| v != k) || state.is_softened() || body.lever.is_some() {
             return None;
         }
         let (sy, sz) = (g[0] as isize, (g[0] * g[1]) as isize);

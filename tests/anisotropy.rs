@@ -1,0 +1,178 @@
+//! The direction-weighted (anisotropic) law: each spring's dispersion lever `lambda = w L`
+//! replaces its rest length in the pools, the normalisers and the dispersed force
+//! (`hooke_core::transverse`). These are the isotropic law's own checks, repeated with levers:
+//! levers equal to the rest lengths change no bit; forces are minus the energy gradient; the
+//! tangent is their Jacobian; momentum is conserved; every kernel matches the reference law;
+//! and the damaged stiffness stays positive semidefinite for any (even signed) weights.
+
+use hooke_core::kernel::Kernel;
+use hooke_core::transverse::Transverse;
+use hooke_core::{law, Body, Coords, Lattice, LatticeKind, Real, State, Vector};
+use hooke_tests::{
+    assert_force_is_minus_energy_gradient, assert_tangent_is_force_jacobian, dense_tangent,
+    kernel_forces, kill_random, random_displacement, small_body, Rng,
+};
+
+/// A carbon-fibre-like target (E_t / E_p = 2.5, nu_tp above nu_p) on a small Ladd box, the
+/// fibre along `fibre`.
+fn fibre_body(n: [usize; 3], fibre: [Real; 3]) -> Body {
+    let t = Transverse {
+        youngs_plane: 10e9,
+        youngs_fibre: 25e9,
+        poisson_plane: 0.35,
+        poisson_fibre: 0.28,
+        shear_fibre: 4e9,
+        density: 1500.0,
+        fibre,
+    };
+    Body::transverse(Lattice::cubic_box(n, 1e-3).unwrap(), &t).unwrap()
+}
+
+/// Random signed weights on a body of any lattice: levers `w L` with w in (-1.5, 1.5).
+fn random_levers(mut body: Body, seed: u64) -> Body {
+    let mut rng = Rng::new(seed);
+    body.lever = Some(
+        body.lattice
+            .bonds
+            .rest
+            .iter()
+            .map(|&l| rng.sym(1.5) * l)
+            .collect(),
+    );
+    body
+}
+
+/// The bodies every check below runs on: the fibre body along each axis, and random signed
+/// levers on every lattice kind, at q < 0 and q > 0.
+fn bodies() -> Vec<(String, Body)> {
+    let mut out = vec![
+        (
+            "cubic fibre z".into(),
+            fibre_body([4, 4, 4], [0.0, 0.0, 1.0]),
+        ),
+        (
+            "cubic fibre x".into(),
+            fibre_body([4, 4, 4], [-1.0, 0.0, 0.0]),
+        ),
+    ];
+    for (kind, q, seed) in [
+        (LatticeKind::Cubic, -0.4, 1),
+        (LatticeKind::Cubic, 2.0, 2),
+        (LatticeKind::Hex, 0.8, 3),
+        (LatticeKind::Random3d, -0.45, 4),
+        (LatticeKind::Random2d, 1.5, 5),
+    ] {
+        out.push((
+            format!("{kind:?} q={q} random levers"),
+            random_levers(small_body(kind, q, 4), seed),
+        ));
+    }
+    out
+}
+
+fn energy(body: &Body, state: &State, u: &Coords) -> Real {
+    law::energy(body, u, state.springs(body), state.norm()).total()
+}
+
+#[test]
+fn levers_equal_to_the_rest_lengths_change_no_bit() {
+    for kind in [LatticeKind::Random3d, LatticeKind::Hex] {
+        let plain = small_body(kind, 0.7, 5);
+        let mut weighted = plain.clone();
+        weighted.lever = Some(plain.lattice.bonds.rest.clone());
+        let mut rng = Rng::new(9);
+        let mut state = State::new(&plain);
+        kill_random(&plain, &mut state, &mut rng, 0.2);
+        state.u = random_displacement(&plain, &mut rng, 0.05);
+        let kernel = Kernel::Csr { plain: false };
+        let (a, b) = (
+            kernel_forces(&kernel, &plain, &state),
+            kernel_forces(&kernel, &weighted, &state),
+        );
+        for i in 0..plain.nodes() {
+            assert_eq!(a.get(i), b.get(i), "{kind:?} node {i}");
+        }
+        assert_eq!(
+            energy(&plain, &state, &state.u),
+            energy(&weighted, &state, &state.u)
+        );
+    }
+}
+
+#[test]
+fn weighted_force_is_minus_the_energy_gradient_and_the_tangent_its_jacobian() {
+    for (name, body) in bodies() {
+        let mut rng = Rng::new(21);
+        let mut state = State::new(&body);
+        kill_random(&body, &mut state, &mut rng, 0.2);
+        let a = body.lattice.spacing;
+        state.u = random_displacement(&body, &mut rng, 0.05 * a);
+        law::update_forces(&body, &mut state);
+        let h = 1e-6 * a;
+        assert_force_is_minus_energy_gradient(&body, &state, h, 1e-6, &name);
+        let v = random_displacement(&body, &mut rng, 1.0);
+        assert_tangent_is_force_jacobian(&body, &state, &v, h, 1e-6, &name);
+    }
+}
+
+#[test]
+fn weighted_forces_conserve_momentum_and_every_kernel_matches_the_reference_law() {
+    for (name, body) in bodies() {
+        let mut rng = Rng::new(33);
+        let mut state = State::new(&body);
+        kill_random(&body, &mut state, &mut rng, 0.25);
+        state.u = random_displacement(&body, &mut rng, 0.08 * body.lattice.spacing);
+        let mut reference = state.clone();
+        law::update_forces(&body, &mut reference);
+        let (mut sum, mut torque, mut fmax) = (Vector::zeros(), Vector::zeros(), 0.0 as Real);
+        for i in 0..body.nodes() {
+            let f = reference.f.get(i);
+            sum += f;
+            torque += reference.position(&body, i).cross(&f);
+            fmax = fmax.max(f.norm());
+        }
+        let n = body.nodes() as Real;
+        let size = body.lattice.spacing * n.cbrt();
+        assert!(sum.norm() < 1e-13 * fmax * n, "{name}: net force {sum:?}");
+        assert!(
+            torque.norm() < 1e-12 * fmax * size * n,
+            "{name}: net torque {torque:?}"
+        );
+        // A weighted body runs on the general kernel: the stencil declines it.
+        let kernel = Kernel::for_body(&body, &state);
+        assert_eq!(kernel.name(), "csr", "{name}");
+        let f = kernel_forces(&kernel, &body, &state);
+        for i in 0..body.nodes() {
+            let (a, b) = (f.get(i), reference.f.get(i));
+            assert!(
+                (a - b).norm() <= 1e-12 * fmax,
+                "{name}: node {i}: {a:?} vs {b:?}"
+            );
+        }
+    }
+}
+
+/// Half the springs removed at random: no negative eigenvalue, whatever the signs of the
+/// weights (Cauchy-Schwarz holds for signed levers).
+#[test]
+fn weighted_damaged_stiffness_stays_positive_semidefinite() {
+    for (name, body) in bodies() {
+        for seed in 0..2 {
+            let mut rng = Rng::new(200 + seed);
+            let mut state = State::new(&body);
+            kill_random(&body, &mut state, &mut rng, 0.5);
+            law::update_forces(&body, &mut state);
+            let k = dense_tangent(&body, &state, false);
+            let asym = (&k - k.transpose()).abs().max();
+            let kmax = k.abs().max();
+            assert!(asym < 1e-12 * kmax, "{name}: tangent not symmetric: {asym}");
+            let eig = k.symmetric_eigen().eigenvalues;
+            assert!(
+                eig.min() > -1e-12 * eig.max(),
+                "{name} seed {seed}: eigenvalue {} (max {})",
+                eig.min(),
+                eig.max()
+            );
+        }
+    }
+}
