@@ -7,7 +7,8 @@ use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use hooke_core::moduli::{block_test, BlockResult, BlockTest, Ends};
 use hooke_core::random::{calibration, Sampler};
-use hooke_core::{LatticeKind, Real};
+use hooke_core::transverse::Transverse;
+use hooke_core::{Body, LatticeKind, Real};
 
 use crate::InputError;
 
@@ -113,6 +114,16 @@ pub struct ModuliArgs {
     /// outer node planes, which is the body's material).
     #[arg(long)]
     pub cell_weights: bool,
+    /// A transversely isotropic material instead of the isotropic one (cubic lattice, fibre
+    /// along a lattice axis, `docs/anisotropy.md`): E_p,E_t,nu_p,nu_tp,G_t (Pa, -, -, Pa), with
+    /// p the plane of isotropy and t the fibre; nu_tp is the contraction across the fibre under
+    /// tension along it. Replaces --nu and --stiffness. With --bulk, `C_target` is this
+    /// material's stiffness; the block test reports the lateral ratios along y and z.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub transverse: Option<Vec<Real>>,
+    /// The fibre direction of --transverse: x, y, z, or three numbers X,Y,Z.
+    #[arg(long, default_value = "z", allow_hyphen_values = true)]
+    pub fibre: String,
     /// Random lattices: measure the calibration table (nu and E/E_affine against q over the
     /// samples) that `hooke_core::random::calibration` holds, and print it as Rust source.
     #[arg(long)]
@@ -128,6 +139,54 @@ impl From<LatticeArg> for LatticeKind {
             LatticeArg::Random3d => LatticeKind::Random3d,
         }
     }
+}
+
+/// `--transverse` and `--fibre` as a material (density 1: the moduli do not depend on it).
+pub fn transverse(args: &ModuliArgs) -> Result<Option<Transverse>> {
+    let Some(v) = &args.transverse else {
+        return Ok(None);
+    };
+    let &[ep, et, np, ntp, gt] = v.as_slice() else {
+        return Err(InputError(format!(
+            "--transverse {v:?}: give five numbers, E_p,E_t,nu_p,nu_tp,G_t (e.g. 10e9,25e9,0.35,0.28,4e9)"
+        ))
+        .into());
+    };
+    let fibre = match args.fibre.as_str() {
+        "x" => [1.0, 0.0, 0.0],
+        "y" => [0.0, 1.0, 0.0],
+        "z" => [0.0, 0.0, 1.0],
+        other => {
+            let parts: Vec<Real> = other
+                .split(',')
+                .map(|x| x.trim().parse::<Real>())
+                .collect::<std::result::Result<_, _>>()
+                .map_err(|_| {
+                    InputError(format!(
+                        "--fibre {other}: give x, y, z or three numbers X,Y,Z"
+                    ))
+                })?;
+            let &[x, y, z] = parts.as_slice() else {
+                return Err(InputError(format!(
+                    "--fibre {other}: give x, y, z or three numbers X,Y,Z"
+                ))
+                .into());
+            };
+            [x, y, z]
+        }
+    };
+    let m = Transverse {
+        youngs_plane: ep,
+        youngs_fibre: et,
+        poisson_plane: np,
+        poisson_fibre: ntp,
+        shear_fibre: gt,
+        density: 1.0,
+        fibre,
+    };
+    m.validate()
+        .map_err(|e| InputError(format!("--transverse: {e}")))?;
+    Ok(Some(m))
 }
 
 fn test_for(args: &ModuliArgs, nu: Real) -> Result<BlockTest> {
@@ -193,6 +252,14 @@ fn test_for(args: &ModuliArgs, nu: Real) -> Result<BlockTest> {
     t.strain = args.strain;
     t.spacing = args.spacing;
     t.stiffness = args.stiffness;
+    t.transverse = transverse(args)?;
+    if t.transverse.is_some() && kind != LatticeKind::Cubic {
+        return Err(InputError(format!(
+            "--transverse: transversely isotropic materials are built on the cubic lattice (fibre along a lattice axis); the {} lattice is not supported yet",
+            kind.name()
+        ))
+        .into());
+    }
     for (name, v) in [("--spacing", t.spacing), ("--stiffness", t.stiffness)] {
         if !(v.is_finite() && v > 0.0) {
             return Err(InputError(format!("{name} {v}: give a positive number")).into());
@@ -247,6 +314,15 @@ pub struct ModuliJson {
     pub nu_samples: Option<Vec<Real>>,
     #[serde(rename = "E_samples", skip_serializing_if = "Option::is_none")]
     pub e_samples: Option<Vec<Real>>,
+    /// The cubic lattice: the lateral strain ratios `-eps_yy/eps` and `-eps_zz/eps` of the
+    /// middle section (`nu_measured` is their mean) and their targets.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lateral_target: Option<[Real; 2]>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lateral_measured: Option<[Real; 2]>,
+    /// `--transverse`: the material (E_p, E_t, nu_p, nu_tp, G_t and the fibre).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub transverse: Option<serde_json::Value>,
 }
 
 fn to_json(t: &BlockTest, r: &BlockResult, seconds: f64) -> ModuliJson {
@@ -285,7 +361,18 @@ fn to_json(t: &BlockTest, r: &BlockResult, seconds: f64) -> ModuliJson {
         e_spread: None,
         nu_samples: None,
         e_samples: None,
+        lateral_target: r.lateral_target,
+        lateral_measured: r.lateral_measured,
+        transverse: t.transverse.as_ref().map(transverse_json),
     }
+}
+
+/// A transverse material as JSON (its engineering constants and unit fibre).
+fn transverse_json(m: &Transverse) -> serde_json::Value {
+    serde_json::json!({
+        "E_p": m.youngs_plane, "E_t": m.youngs_fibre, "nu_p": m.poisson_plane,
+        "nu_tp": m.poisson_fibre, "G_t": m.shear_fibre, "fibre": m.axis().unwrap_or(m.fibre),
+    })
 }
 
 fn measure(args: &ModuliArgs, nu: Real) -> Result<ModuliJson> {
@@ -411,13 +498,28 @@ pub fn value(args: &ModuliArgs) -> Result<serde_json::Value> {
     if args.table || args.sweep {
         return Err(InputError("--table and --sweep print tables: give --nu NU".into()).into());
     }
-    let nu = args
-        .nu
-        .ok_or_else(|| InputError("give --nu NU (the Poisson's ratio to build)".into()))?;
+    let nu = nu_of(args)?;
     if args.bulk {
         return bulk(args, nu);
     }
     Ok(serde_json::to_value(measure(args, nu)?)?)
+}
+
+/// `--nu`, required unless `--transverse` gives the material (then it is unused: NaN).
+fn nu_of(args: &ModuliArgs) -> Result<Real> {
+    match (args.nu, &args.transverse) {
+        (Some(_), Some(_)) => Err(InputError(
+            "--nu and --transverse both give the material: keep one".into(),
+        )
+        .into()),
+        (Some(nu), None) => Ok(nu),
+        (None, Some(_)) => Ok(Real::NAN),
+        (None, None) => Err(InputError(
+            "give --nu NU (the Poisson's ratio to build), --transverse E_p,E_t,nu_p,nu_tp,G_t, or --sweep"
+                .into(),
+        )
+        .into()),
+    }
 }
 
 /// `--bulk`: the exact stiffness tensor of the infinite lattice against the isotropic target.
@@ -443,21 +545,37 @@ fn bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
             return Err(InputError(format!("{what} {v}: give a positive number")).into());
         }
     }
+    if let Some(m) = transverse(args)? {
+        if kind != LatticeKind::Cubic {
+            return Err(InputError(format!(
+                "--transverse: transversely isotropic materials are built on the cubic lattice; the {} lattice is not supported yet",
+                kind.name()
+            ))
+            .into());
+        }
+        let a = args.spacing;
+        let f = hooke_core::transverse::cubic_families(&m, a)
+            .map_err(|e| InputError(format!("--transverse: {e}")))?;
+        let measured =
+            hooke_core::moduli::bulk_stiffness_of(kind, a, &|l| Body::transverse(l, &m))?;
+        let target = m.stiffness()?;
+        return Ok(serde_json::json!({
+            "test": "bulk", "lattice": kind.name(), "q": f.q, "spacing": a,
+            "transverse": transverse_json(&m),
+            "family_stiffness": f.k, "family_weights": f.w,
+            "families": ["axis along the fibre", "axes across", "diagonals across", "diagonals with a fibre component"],
+            "units": "Pa",
+            "voigt": ["xx", "yy", "zz", "yz", "xz", "xy"],
+            "C_target": target, "C_measured": measured,
+            "max_relative_difference": max_relative_difference(&measured, &target),
+        }));
+    }
     let q = q_from_nu(kind, nu).map_err(|e| InputError(format!("--nu {nu}: {e}")))?;
     let (k, a) = (args.stiffness, args.spacing);
     let youngs = youngs_from_k(kind, k, a, q);
     let measured = bulk_stiffness(kind, k, a, q);
     let target = isotropic_stiffness(kind.dim(), youngs, nu);
-    let scale = target
-        .iter()
-        .flatten()
-        .fold(0.0 as Real, |m, x| m.max(x.abs()));
-    let worst = measured
-        .iter()
-        .flatten()
-        .zip(target.iter().flatten())
-        .fold(0.0 as Real, |m, (x, y)| m.max((x - y).abs()))
-        / scale;
+    let worst = max_relative_difference(&measured, &target);
     Ok(serde_json::json!({
         "test": "bulk", "lattice": kind.name(), "nu": nu, "q": q, "stiffness": k, "spacing": a,
         "youngs": youngs,
@@ -468,6 +586,20 @@ fn bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
     }))
 }
 
+/// Largest entry difference over the largest target entry.
+fn max_relative_difference(measured: &[[Real; 6]; 6], target: &[[Real; 6]; 6]) -> Real {
+    let scale = target
+        .iter()
+        .flatten()
+        .fold(0.0 as Real, |m, x| m.max(x.abs()));
+    measured
+        .iter()
+        .flatten()
+        .zip(target.iter().flatten())
+        .fold(0.0 as Real, |m, (x, y)| m.max((x - y).abs()))
+        / scale
+}
+
 pub fn run(args: ModuliArgs) -> Result<()> {
     if args.table {
         return random_table(&args);
@@ -475,9 +607,7 @@ pub fn run(args: ModuliArgs) -> Result<()> {
     if args.sweep {
         return sweep(&args);
     }
-    let nu = args.nu.ok_or_else(|| {
-        InputError("give --nu NU (the Poisson's ratio to build), or --sweep".into())
-    })?;
+    let nu = nu_of(&args)?;
     if args.bulk {
         let v = bulk(&args, nu)?;
         if args.json {
@@ -497,11 +627,25 @@ pub fn run(args: ModuliArgs) -> Result<()> {
 }
 
 fn print_bulk(v: &serde_json::Value) {
-    println!(
-        "bulk (affine) test: {} lattice, nu = {}, q = {:.6}, E = {:.6e} ({}); Voigt xx yy zz yz xz xy",
-        v["lattice"].as_str().unwrap_or(""), v["nu"], v["q"].as_f64().unwrap_or(0.0),
-        v["youngs"].as_f64().unwrap_or(0.0), v["units"].as_str().unwrap_or("")
-    );
+    if v["transverse"].is_object() {
+        println!(
+            "bulk (affine) test: {} lattice, transversely isotropic {}, q = {:.6} ({}); Voigt xx yy zz yz xz xy",
+            v["lattice"].as_str().unwrap_or(""),
+            v["transverse"],
+            v["q"].as_f64().unwrap_or(0.0),
+            v["units"].as_str().unwrap_or("")
+        );
+        println!(
+            "spring families (along, across, diagonals across, diagonals along): k = {} N/m, w = {}",
+            v["family_stiffness"], v["family_weights"]
+        );
+    } else {
+        println!(
+            "bulk (affine) test: {} lattice, nu = {}, q = {:.6}, E = {:.6e} ({}); Voigt xx yy zz yz xz xy",
+            v["lattice"].as_str().unwrap_or(""), v["nu"], v["q"].as_f64().unwrap_or(0.0),
+            v["youngs"].as_f64().unwrap_or(0.0), v["units"].as_str().unwrap_or("")
+        );
+    }
     for name in ["C_measured", "C_target"] {
         println!("{name}:");
         for row in v[name].as_array().into_iter().flatten() {

@@ -71,6 +71,11 @@ pub struct BlockTest {
     /// Regular lattices: weight each spring and node by the share of the bulk's cells it stands
     /// for ([`Body::with_cell_weights`]), which removes the free-surface bias.
     pub cell_weights: bool,
+    /// The cubic lattice only: build this transversely isotropic material
+    /// ([`Body::transverse`]) instead of the isotropic one (`nu`, `q` and `stiffness` are then
+    /// unused). The targets are the compliance's: `E = 1/S_xx`, and the lateral ratios
+    /// `-S_yx/S_xx`, `-S_zx/S_xx` ([`BlockResult::lateral_target`]).
+    pub transverse: Option<crate::transverse::Transverse>,
 }
 
 impl BlockTest {
@@ -93,6 +98,7 @@ impl BlockTest {
             axis: 0,
             q: None,
             cell_weights: false,
+            transverse: None,
         }
     }
 }
@@ -112,6 +118,10 @@ pub struct BlockResult {
     pub nodes: usize,
     pub springs: usize,
     pub solve: StaticReport,
+    /// The cubic lattice: the lateral strain ratios `-eps_yy/eps`, `-eps_zz/eps` of the middle
+    /// cross-section separately (`nu_measured` is their mean), and their targets.
+    pub lateral_measured: Option<[Real; 2]>,
+    pub lateral_target: Option<[Real; 2]>,
 }
 
 /// Run the block test.
@@ -126,9 +136,40 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
         });
     }
     if t.kind.is_random() {
+        if t.transverse.is_some() {
+            return Err(Error::InvalidInput {
+                what: "transverse material",
+                why: "the block test builds transversely isotropic materials on the cubic lattice only".into(),
+            });
+        }
         return random_block_test(t);
     }
-    let q = q_from_nu(t.kind, t.nu)?;
+    // The targets: E and the lateral ratios under uniaxial stress along x.
+    let (q, e_target, lateral_target) = match &t.transverse {
+        Some(m) => {
+            let c = m.stiffness()?;
+            let c = nalgebra::Matrix6::from_fn(|i, j| c[i][j]);
+            let s = c.try_inverse().ok_or_else(|| Error::InvalidInput {
+                what: "transverse material",
+                why: "its stiffness is singular".into(),
+            })?;
+            let f = crate::transverse::cubic_families(m, t.spacing)?;
+            (
+                f.q,
+                1.0 / s[(0, 0)],
+                [-s[(1, 0)] / s[(0, 0)], -s[(2, 0)] / s[(0, 0)]],
+            )
+        }
+        None => {
+            let q = q_from_nu(t.kind, t.nu)?;
+            (
+                q,
+                youngs_from_k(t.kind, t.stiffness, t.spacing, q),
+                [t.nu; 2],
+            )
+        }
+    };
+    let nu_target = 0.5 * (lateral_target[0] + lateral_target[1]);
     let a = t.spacing;
     let lattice = match t.kind {
         LatticeKind::Random2d | LatticeKind::Random3d => unreachable!("handled above"),
@@ -149,7 +190,10 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
             why: "the bar needs at least 3 nodes along x".into(),
         });
     }
-    let mut body = Body::uniform(lattice, t.stiffness, q, 1.0);
+    let mut body = match &t.transverse {
+        Some(m) => Body::transverse(lattice, m)?,
+        None => Body::uniform(lattice, t.stiffness, q, 1.0),
+    };
     if t.cell_weights {
         body = body.with_cell_weights()?;
     }
@@ -181,8 +225,8 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
         let p = pos.get(i);
         let mut u = Vector::new(
             t.strain * (p.x - xc),
-            -t.nu * t.strain * (p.y - yc),
-            -t.nu * t.strain * (p.z - zc),
+            -lateral_target[0] * t.strain * (p.y - yc),
+            -lateral_target[1] * t.strain * (p.z - zc),
         );
         if t.kind.dim() == 2 {
             u.z = 0.0;
@@ -223,7 +267,7 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
         .filter(|&i| end_of(i) == Some(1.0))
         .map(|i| -state.f.x()[i])
         .sum();
-    let (area, area_cell, w_change) = match t.kind {
+    let (area, area_cell, w_change, lateral) = match t.kind {
         LatticeKind::Cubic => {
             let w = (ny - 1) as Real * a;
             let h = (nz - 1) as Real * a;
@@ -246,7 +290,12 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
                 }
             }
             dz /= (mids.len() * ny) as Real;
-            (w * h, (ny * nz) as Real * a * a, 0.5 * (dy + dz))
+            (
+                w * h,
+                (ny * nz) as Real * a * a,
+                0.5 * (dy + dz),
+                Some([-dy / t.strain, -dz / t.strain]),
+            )
         }
         LatticeKind::Hex => {
             let dyr = a * (3.0 as Real).sqrt() / 2.0;
@@ -264,13 +313,17 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
                     .collect();
                 sel.iter().map(|&i| state.u.y()[i]).sum::<Real>() / sel.len() as Real
             };
-            (w, ny as Real * dyr, (row_mean(ny - 1) - row_mean(0)) / w)
+            (
+                w,
+                ny as Real * dyr,
+                (row_mean(ny - 1) - row_mean(0)) / w,
+                None,
+            )
         }
         LatticeKind::Random2d | LatticeKind::Random3d => unreachable!("handled above"),
     };
-    let e_target = youngs_from_k(t.kind, t.stiffness, a, q);
     Ok(BlockResult {
-        nu_target: t.nu,
+        nu_target,
         nu_measured: -w_change / t.strain,
         e_target,
         e_measured: force / area / t.strain,
@@ -279,6 +332,8 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
         nodes: n,
         springs: body.springs(),
         solve,
+        lateral_measured: lateral,
+        lateral_target: (t.kind == LatticeKind::Cubic).then_some(lateral_target),
     })
 }
 
@@ -407,6 +462,8 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
         nodes: n,
         springs: body.springs(),
         solve,
+        lateral_measured: None,
+        lateral_target: None,
     })
 }
 
