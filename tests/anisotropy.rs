@@ -5,8 +5,8 @@
 //! tangent is their Jacobian; momentum is conserved; every kernel matches the reference law;
 //! and the damaged stiffness stays positive semidefinite for any (even signed) weights.
 
+use hooke_core::anisotropy::{tensor_component, Transverse};
 use hooke_core::kernel::Kernel;
-use hooke_core::transverse::Transverse;
 use hooke_core::{law, Body, Coords, Lattice, LatticeKind, Real, State, Vector};
 use hooke_tests::{
     assert_force_is_minus_energy_gradient, assert_tangent_is_force_jacobian, dense_tangent,
@@ -177,19 +177,6 @@ fn weighted_damaged_stiffness_stays_positive_semidefinite() {
     }
 }
 
-/// `C_ijkl` from a Voigt stiffness (engineering shears: the entries are the tensor's).
-fn tensor(c: &[[Real; 6]; 6], i: usize, j: usize, k: usize, l: usize) -> Real {
-    let v = |a: usize, b: usize| match (a.min(b), a.max(b)) {
-        (0, 0) => 0,
-        (1, 1) => 1,
-        (2, 2) => 2,
-        (1, 2) => 3,
-        (0, 2) => 4,
-        _ => 5,
-    };
-    c[v(i, j)][v(k, l)]
-}
-
 /// Plane waves on a periodic Ladd box of the fibre material run at the speeds of the
 /// Christoffel equation `det(C_ijkl n_j n_l - rho c^2 delta_ik) = 0`: along the fibre, across
 /// it, and at 45 degrees to it (where the quasi-longitudinal and quasi-shear waves couple through
@@ -233,7 +220,7 @@ fn wave_speeds_along_and_across_the_fibre_match_christoffel() {
             let mut g = 0.0;
             for j in 0..3 {
                 for l in 0..3 {
-                    g += tensor(&c, i, j, k, l) * nd[j] * nd[l];
+                    g += tensor_component(&c, i, j, k, l) * nd[j] * nd[l];
                 }
             }
             g

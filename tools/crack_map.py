@@ -2,12 +2,14 @@
 """Crack map of a 2D hooke run: the damaged nodes at their reference positions, at chosen times.
 
     python3 tools/crack_map.py OUTDIR [--times T1,T2,...] [--threshold 0.2] [--out PNG] [--dpi 80]
+                                      [--slice-z Z] [--marker 2]
 
 One panel per time (the frame nearest to it; default: a third, two thirds and the end of
 the run). Intact nodes are drawn faintly, nodes with damage >= threshold coloured by damage, so
 crack paths stay readable at any resolution (a damage colour map over every node hides them
 once there are more nodes than pixels). Axes in mm. Writes OUTDIR/crack_map.png unless --out
-is given.
+is given. A 3D run is drawn as the node plane nearest to z = Z (m) with --slice-z (a plate's
+through-thickness crack, e.g. cases/fibre_notch.toml); without it, 3D runs are refused.
 """
 import argparse
 import os
@@ -28,6 +30,8 @@ def main():
     ap.add_argument("--threshold", type=float, default=0.2)
     ap.add_argument("--out")
     ap.add_argument("--dpi", type=int, default=80)
+    ap.add_argument("--marker", type=float, default=2.0, help="marker size of damaged nodes (points^2)")
+    ap.add_argument("--slice-z", type=float, help="3D runs: draw the node plane nearest to this z (m)")
     a = ap.parse_args()
     fs = frames(a.outdir)
     if a.times:
@@ -35,18 +39,24 @@ def main():
     else:
         n = len(fs)
         picks = [fs[max(n // 3, 0)], fs[max(2 * n // 3, 0)], fs[-1]]
-    fig, axs = plt.subplots(1, len(picks), figsize=(5 * len(picks), 6), squeeze=False)
+    fig, axs = plt.subplots(1, len(picks), figsize=(4.2 * len(picks), 4.2), squeeze=False)
     for ax, (t, path) in zip(axs[0], picks):
         m = read(path)
         if "damage" not in m.point_data:
             raise SystemExit(f"{path}: no damage field (the case has no fracture)")
         ref = (np.asarray(m.points) - np.asarray(m.point_data["displacement"])) * 1e3
-        if np.ptp(ref[:, 2]) != 0.0:
-            raise SystemExit(f"{path}: a 3D run; crack_map draws 2D runs (use render_damage.py)")
         d = np.asarray(m.point_data["damage"])
+        if np.ptp(ref[:, 2]) != 0.0:
+            if a.slice_z is None:
+                raise SystemExit(
+                    f"{path}: a 3D run; give --slice-z Z for one node plane (or use render_damage.py)"
+                )
+            z = ref[:, 2] / 1e3
+            plane = np.abs(z - z[np.argmin(np.abs(z - a.slice_z))]) < 1e-12 + 1e-9 * np.ptp(z)
+            ref, d = ref[plane], d[plane]
         hit = d >= a.threshold
         ax.scatter(ref[~hit, 0], ref[~hit, 1], s=0.2, c="0.85", linewidths=0)
-        sc = ax.scatter(ref[hit, 0], ref[hit, 1], s=2, c=d[hit], cmap="inferno_r", vmin=0, vmax=1, linewidths=0)
+        sc = ax.scatter(ref[hit, 0], ref[hit, 1], s=a.marker, c=d[hit], cmap="inferno_r", vmin=0, vmax=1, linewidths=0)
         ax.set_aspect("equal")
         ax.set_title(f"t = {t * 1e6:.1f} us")
         ax.set_xlabel("x (mm)")

@@ -189,10 +189,13 @@ def load_case(case: Union[str, os.PathLike], set: Optional[Mapping[str, Any]] = 
     return Simulation(inner)
 
 
-def _flags(lattice: str, nu: float, flags: Mapping[str, Any]) -> List[str]:
-    """Keyword arguments as the command's flags: ``size=[21, 6, 6]`` -> ``--size 21 6 6``, a
-    True flag bare, False or None left out."""
-    argv: List[str] = ["--lattice", str(lattice), "--nu", repr(float(nu))]
+def _flags(lattice: str, nu: Optional[float], flags: Mapping[str, Any]) -> List[str]:
+    """Keyword arguments as the command's flags: ``size=[21, 6, 6]`` -> ``--size 21,6,6`` (the
+    commands take lists comma-separated), a True flag bare, False or None left out (``nu``
+    too)."""
+    argv: List[str] = ["--lattice", str(lattice)]
+    if nu is not None:
+        argv += ["--nu", repr(float(nu))]
     for k, v in flags.items():
         opt = "--" + k.replace("_", "-")
         if v is True:
@@ -200,7 +203,7 @@ def _flags(lattice: str, nu: float, flags: Mapping[str, Any]) -> List[str]:
         elif v is False or v is None:
             continue
         elif isinstance(v, (list, tuple)):
-            argv += [opt] + [str(x) for x in v]
+            argv += [opt, ",".join(repr(x) if isinstance(x, float) else str(x) for x in v)]
         else:
             argv += [opt, str(v)]
     return argv
@@ -266,6 +269,26 @@ class Builder:
         """E (Pa), nu (any value in (-1, 1/2)), rho (kg/m^3)."""
         return self._call("material", {"youngs": youngs, "poisson": poisson, "density": density})
 
+    def transverse(self, youngs_plane: float, youngs_fibre: float, poisson_plane: float,
+                   poisson_fibre: float, shear_fibre: float, fibre: Any,
+                   density: float) -> "Builder":
+        """A transversely isotropic material, as ``kind = "transverse"`` in a case file (the
+        cubic lattice, ``fibre`` along a lattice axis): E_p, E_t (Pa), nu_p, nu_tp, G_t (Pa),
+        the fibre direction [x, y, z] and rho (``docs/anisotropy.md``). Instead of
+        ``material``."""
+        return self._call("transverse", {
+            "youngs_plane": youngs_plane, "youngs_fibre": youngs_fibre,
+            "poisson_plane": poisson_plane, "poisson_fibre": poisson_fibre,
+            "shear_fibre": shear_fibre, "fibre": [float(v) for v in fibre], "density": density})
+
+    def orthotropic(self, youngs: Any, poisson: Any, shear: Any, density: float) -> "Builder":
+        """An orthotropic material, its axes along the cubic lattice's, as ``kind =
+        "orthotropic"``: ``youngs`` [E_x, E_y, E_z], ``poisson`` [nu_xy, nu_xz, nu_yz],
+        ``shear`` [G_yz, G_xz, G_xy] (Pa), rho. Instead of ``material``."""
+        return self._call("orthotropic", {
+            "youngs": [float(v) for v in youngs], "poisson": [float(v) for v in poisson],
+            "shear": [float(v) for v in shear], "density": density})
+
     def fracture_energy(self, g_c: float) -> "Builder":
         """G_c (J/m^2): springs break, calibrated so that cracks dissipate G_c."""
         return self._call("fracture_energy", float(g_c))
@@ -323,13 +346,18 @@ class Builder:
                                      "jitter": float(jitter)})
 
     def breaking(self, stretch: Optional[float] = None, fracture_energy: Optional[float] = None,
-                 criterion: str = "stretch") -> "Builder":
+                 criterion: str = "stretch",
+                 stretch_fibre: Optional[float] = None) -> "Builder":
         """The breaking rule: a critical ``stretch``, or a ``fracture_energy`` G_c (J/m^2)
         through the measured lattice toughness; ``criterion="energy"`` takes the spring-energy
-        criterion matched to either (regular lattices)."""
+        criterion matched to either (regular lattices). A transverse material may add
+        ``stretch_fibre``, the critical stretch along its fibre (``stretch`` is then the one
+        across it), as ``critical_stretch_fibre`` in a case file."""
         if (stretch is None) == (fracture_energy is None):
             raise CaseError("breaking: give stretch or fracture_energy, one of them")
         arg: Dict[str, Any] = {"criterion": criterion}
+        if stretch_fibre is not None:
+            arg["stretch_fibre"] = float(stretch_fibre)
         if stretch is not None:
             arg["stretch"] = float(stretch)
         else:
@@ -427,12 +455,16 @@ class Builder:
         return Simulation(_hooke.build(json.dumps(self._spec), str(out), name))
 
 
-def moduli(lattice: str = "cubic", nu: float = 0.3, **flags: Any) -> Dict[str, Any]:
+def moduli(lattice: str = "cubic", nu: Optional[float] = 0.3, **flags: Any) -> Dict[str, Any]:
     """The paper's block test, as ``hooke moduli --lattice LATTICE --nu NU ... --json``: the
     same keys and numbers. Other flags by name (``size=[21, 6, 6]``, ``samples=4``,
     ``sampler="jitter"``; ``bulk=True``: the exact bulk test's 6x6 ``C_measured`` and
     ``C_target``; ``cell_weights=True``: springs and nodes weighted by their cells, no surface
-    bias)."""
+    bias; ``transverse=[E_p, E_t, nu_p, nu_tp, G_t]`` with ``fibre="z"``, or
+    ``orthotropic=[E_x, E_y, E_z, nu_xy, nu_xz, nu_yz, G_yz, G_xz, G_xy]``: an anisotropic
+    material instead of ``nu``)."""
+    if flags.get("transverse") is not None or flags.get("orthotropic") is not None:
+        nu = None
     return json.loads(_hooke.command_json("moduli", _flags(lattice, nu, flags)))
 
 

@@ -352,6 +352,34 @@ pub fn build(spec: &Value) -> R<Simulation> {
                 num(field(&a, "poisson", key)?, key)?,
                 num(field(&a, "density", key)?, key)?,
             ),
+            "transverse" => {
+                let fibre = point(field(&a, "fibre", key)?, key)?;
+                b.transverse(hooke_core::Transverse {
+                    youngs_plane: num(field(&a, "youngs_plane", key)?, key)?,
+                    youngs_fibre: num(field(&a, "youngs_fibre", key)?, key)?,
+                    poisson_plane: num(field(&a, "poisson_plane", key)?, key)?,
+                    poisson_fibre: num(field(&a, "poisson_fibre", key)?, key)?,
+                    shear_fibre: num(field(&a, "shear_fibre", key)?, key)?,
+                    density: num(field(&a, "density", key)?, key)?,
+                    fibre,
+                })
+            }
+            "orthotropic" => {
+                let three = |name: &str| -> R<[Real; 3]> {
+                    let v = field(&a, name, key)?;
+                    let arr = v
+                        .as_array()
+                        .filter(|x| x.len() == 3)
+                        .ok_or_else(|| format!("{key}: {name}: give three numbers, not {v}"))?;
+                    Ok([num(&arr[0], key)?, num(&arr[1], key)?, num(&arr[2], key)?])
+                };
+                b.orthotropic(hooke_core::Orthotropic {
+                    youngs: three("youngs")?,
+                    poisson: three("poisson")?,
+                    shear: three("shear")?,
+                    density: num(field(&a, "density", key)?, key)?,
+                })
+            }
             "fracture_energy" => b.fracture_energy(num(&a, key)?),
             "precrack_segment" => {
                 let (p, q) = (
@@ -491,12 +519,24 @@ pub fn build(spec: &Value) -> R<Simulation> {
                         ))
                     }
                 };
-                let rule = match (a.get("stretch"), a.get("fracture_energy"), energy) {
+                let fibre = a.get("stretch_fibre").filter(|v| !v.is_null());
+                let rule = match (a.get("stretch"), a.get("fracture_energy"), energy, fibre) {
+                    (Some(s), None, false, Some(f)) => BreakRule::FibreStretch {
+                        across: num(s, key)?,
+                        along: num(f, key)?,
+                    },
+                    (_, _, _, Some(_)) => {
+                        return Err(format!(
+                            "{key}: stretch_fibre goes with stretch (across the fibre) and the stretch criterion"
+                        ))
+                    }
+                    _ => match (a.get("stretch"), a.get("fracture_energy"), energy) {
                     (Some(s), None, false) => BreakRule::Stretch(num(s, key)?),
                     (Some(s), None, true) => BreakRule::SpringEnergyFromStretch(num(s, key)?),
                     (None, Some(g), false) => BreakRule::FractureEnergy(num(g, key)?),
                     (None, Some(g), true) => BreakRule::SpringEnergy(num(g, key)?),
                     _ => return Err(format!("{key}: give stretch or fracture_energy")),
+                    },
                 };
                 b.breaking(rule)
             }

@@ -49,6 +49,42 @@ def test_cell_weights_remove_the_surface_bias():
     assert abs(weighted["E_relative_error"]) < 1e-4
 
 
+def test_anisotropic_moduli_match_the_command_line_exactly():
+    mat = [10e9, 25e9, 0.35, 0.28, 4e9]
+    mine = hooke.moduli(transverse=mat, fibre="x", bulk=True)
+    theirs = json.loads(cli("moduli", "--transverse", "10e9,25e9,0.35,0.28,4e9", "--fibre", "x",
+                            "--bulk", "--json"))
+    assert mine == theirs and mine["max_relative_difference"] < 1e-9
+    block = hooke.moduli(transverse=mat, fibre="z", cell_weights=True, size=[31, 8, 8])
+    assert block["size"] == [31, 8, 8]
+    assert np.allclose(block["lateral_measured"], [0.35, 0.112], atol=1e-4)
+    ortho = hooke.moduli(orthotropic=[60e9, 50e9, 10e9, 0.05, 0.3, 0.32, 4e9, 4.5e9, 5e9],
+                         bulk=True)
+    assert ortho["max_relative_difference"] < 1e-9
+    with pytest.raises(hooke.CaseError, match="lattice axis"):
+        hooke.moduli(transverse=mat, fibre="1,1,0", bulk=True)
+
+
+def test_a_built_fibre_plate_is_the_case_file_bit_for_bit(tmp_path):
+    case = ROOT / "cases" / "fibre_notch.toml"
+    ref = tmp_path / "ref"
+    cli("run", str(case), "--scale", "0.25", "--set", "solver.end_time=60e-6", "--out", str(ref))
+    a = 4e-3
+    b = (hooke.Builder("cubic", spacing=a)
+         .box([0, 0, 0], [60e-3, 60e-3, 4e-3])
+         .transverse(10e9, 40e9, 0.35, 0.28, 4e9, fibre=[0, 1, 0], density=1500)
+         .breaking(stretch=1e-3, stretch_fibre=5e-3)
+         .precrack([[-1e-3, 30.5e-3, -1e-3], [20e-3, 30.5e-3, -1e-3], [20e-3, 30.5e-3, 5e-3],
+                    [-1e-3, 30.5e-3, 5e-3]]))
+    for face, v in (("y+", 0.3), ("y-", -0.3)):
+        b = b.boundary({"face": face}, velocity={"y": hooke.smooth_ramp(v, 10e-6)}, no_fail=True)
+    mine = tmp_path / "mine"
+    b.end_time(60e-6).output_every(20e-6).build(mine, "fibre_notch").finish()
+    out = subprocess.run([sys.executable, str(ROOT / "tools" / "compare_runs.py"), str(ref),
+                          str(mine)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout + out.stderr
+
+
 def test_toughness_matches_the_command_line_exactly():
     mine = hooke.toughness(lattice="hex", nu=0.25, height=10, window=3)
     theirs = json.loads(cli("toughness", "--lattice", "hex", "--nu", "0.25", "--height", "10",

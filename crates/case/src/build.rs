@@ -364,19 +364,20 @@ fn material(
     spans: &mut Spans,
 ) -> Result<Builder, CaseError> {
     let m = &raw.material;
-    spans.at("material.youngs", m.youngs.span());
-    spans.at("material.poisson", m.poisson.span());
     spans.at("material.density", m.density.span());
-    let b = b.material(
-        *m.youngs.get_ref(),
-        *m.poisson.get_ref(),
-        *m.density.get_ref(),
-    );
+    let b = elastic(ctx, m, b, spans)?;
     let softening = m
         .criterion
         .as_ref()
         .is_some_and(|c| c.get_ref() == "softening");
     if softening {
+        if let Some(f) = &m.critical_stretch_fibre {
+            return Err(ctx.err(
+                f.span(),
+                "material.critical_stretch_fibre",
+                "goes with the stretch criterion, not softening springs; remove it",
+            ));
+        }
         return softening_rule(ctx, m, b, spans);
     }
     for (key, span) in [
@@ -463,6 +464,20 @@ fn material(
             "a criterion needs fracture_energy or critical_stretch; give one, or remove criterion",
         ));
     }
+    if let Some(f) = &m.critical_stretch_fibre {
+        spans.at("material.critical_stretch_fibre", f.span());
+        let along = ctx.positive(f, "material.critical_stretch_fibre", "(dimensionless)")?;
+        return match (given, energy) {
+            (Some((false, across)), false) => {
+                Ok(b.breaking(BreakRule::FibreStretch { across, along }))
+            }
+            _ => Err(ctx.err(
+                f.span(),
+                "material.critical_stretch_fibre",
+                "goes with critical_stretch (the stretch across the fibre) and the stretch criterion; give critical_stretch, or remove it",
+            )),
+        };
+    }
     Ok(match given {
         None => b,
         Some((true, g)) if energy => b.breaking(BreakRule::SpringEnergy(g)),
@@ -470,6 +485,157 @@ fn material(
         Some((false, s)) if energy => b.breaking(BreakRule::SpringEnergyFromStretch(s)),
         Some((false, s)) => b.breaking(BreakRule::Stretch(s)),
     })
+}
+
+/// `[material]`'s elastic part: `youngs` and `poisson` (the default, `kind = "isotropic"`);
+/// `kind = "transverse"` with `youngs_plane`, `youngs_fibre`, `poisson_plane`, `poisson_fibre`,
+/// `shear_fibre` and `fibre`; or `kind = "orthotropic"` with `youngs_x|y|z`,
+/// `poisson_xy|xz|yz` and `shear_yz|xz|xy`.
+fn elastic(
+    ctx: &Ctx,
+    m: &RawMaterial,
+    b: Builder,
+    spans: &mut Spans,
+) -> Result<Builder, CaseError> {
+    let isotropic = [("youngs", &m.youngs), ("poisson", &m.poisson)];
+    let transverse = [
+        ("youngs_plane", &m.youngs_plane),
+        ("youngs_fibre", &m.youngs_fibre),
+        ("poisson_plane", &m.poisson_plane),
+        ("poisson_fibre", &m.poisson_fibre),
+        ("shear_fibre", &m.shear_fibre),
+    ];
+    let orthotropic = [
+        ("youngs_x", &m.youngs_x),
+        ("youngs_y", &m.youngs_y),
+        ("youngs_z", &m.youngs_z),
+        ("poisson_xy", &m.poisson_xy),
+        ("poisson_xz", &m.poisson_xz),
+        ("poisson_yz", &m.poisson_yz),
+        ("shear_yz", &m.shear_yz),
+        ("shear_xz", &m.shear_xz),
+        ("shear_xy", &m.shear_xy),
+    ];
+    let kind = match &m.kind {
+        None => "isotropic",
+        Some(k) => {
+            spans.at("material.kind", k.span());
+            match k.get_ref().as_str() {
+                v @ ("isotropic" | "transverse" | "orthotropic") => v,
+                other => {
+                    return Err(ctx.err(
+                        k.span(),
+                        "material.kind",
+                        format!("unknown material kind \"{other}\"; use \"isotropic\", \"transverse\" or \"orthotropic\""),
+                    ))
+                }
+            }
+        }
+    };
+    // Keys of the other kinds are mistakes: name them.
+    let foreign: Vec<(&str, &Option<Spanned<Real>>, &str)> = isotropic
+        .iter()
+        .map(|&(k, v)| (k, v, "isotropic"))
+        .chain(transverse.iter().map(|&(k, v)| (k, v, "transverse")))
+        .chain(orthotropic.iter().map(|&(k, v)| (k, v, "orthotropic")))
+        .filter(|&(_, _, owner)| owner != kind)
+        .collect();
+    for (key, v, owner) in foreign {
+        if let Some(v) = v {
+            return Err(ctx.err(
+                v.span(),
+                format!("material.{key}"),
+                if owner == "isotropic" {
+                    format!(
+                        "{} {kind} material does not take {key}; remove it (or remove kind)",
+                        if kind == "transverse" { "a" } else { "an" }
+                    )
+                } else {
+                    format!(
+                        "this key belongs to {owner} materials; add kind = \"{owner}\" or remove it"
+                    )
+                },
+            ));
+        }
+    }
+    if let (Some(f), false) = (&m.fibre, kind == "transverse") {
+        return Err(ctx.err(
+            f.span(),
+            "material.fibre",
+            "a fibre direction belongs to transversely isotropic materials; add kind = \"transverse\" or remove it",
+        ));
+    }
+    let at = m.kind.as_ref().map_or(m.density.span(), |k| k.span());
+    let mut values = |keys: &[(&str, &Option<Spanned<Real>>)]| -> Result<Vec<Real>, CaseError> {
+        let names: Vec<&str> = keys.iter().map(|(k, _)| *k).collect();
+        keys.iter()
+            .map(|&(key, v)| {
+                let v = v.as_ref().ok_or_else(|| {
+                    ctx.err(
+                        at.clone(),
+                        format!("material.{key}"),
+                        format!(
+                            "missing: {} {kind} material needs {}",
+                            if kind == "transverse" { "a" } else { "an" },
+                            names.join(", ")
+                        ),
+                    )
+                })?;
+                spans.at(format!("material.{key}"), v.span());
+                Ok(*v.get_ref())
+            })
+            .collect()
+    };
+    let density = *m.density.get_ref();
+    match kind {
+        "isotropic" => {
+            let c = values(&isotropic)?;
+            Ok(b.material(c[0], c[1], density))
+        }
+        "orthotropic" => {
+            let c = values(&orthotropic)?;
+            Ok(b.orthotropic(hooke_core::Orthotropic {
+                youngs: [c[0], c[1], c[2]],
+                poisson: [c[3], c[4], c[5]],
+                shear: [c[6], c[7], c[8]],
+                density,
+            }))
+        }
+        _ => {
+            let c = values(&transverse)?;
+            let fibre = match &m.fibre {
+                None => {
+                    return Err(ctx.err(
+                        at,
+                        "material.fibre",
+                        "missing: give the fibre direction, e.g. fibre = [0, 0, 1] (along a lattice axis)",
+                    ))
+                }
+                Some(f) => {
+                    spans.at("material.fibre", f.span());
+                    match f.get_ref().as_slice() {
+                        &[x, y, z] => [x, y, z],
+                        _ => {
+                            return Err(ctx.err(
+                                f.span(),
+                                "material.fibre",
+                                "give three numbers, e.g. fibre = [0, 0, 1]",
+                            ))
+                        }
+                    }
+                }
+            };
+            Ok(b.transverse(hooke_core::Transverse {
+                youngs_plane: c[0],
+                youngs_fibre: c[1],
+                poisson_plane: c[2],
+                poisson_fibre: c[3],
+                shear_fibre: c[4],
+                density,
+                fibre,
+            }))
+        }
+    }
 }
 
 /// `material.criterion = "softening"`: the curve's shape, then G_f with the tensile strength or
@@ -587,7 +753,7 @@ fn softening_rule(
             "add peak_stretch (the stretch at which a spring starts to soften)",
         )),
         (None, None, None) => Err(ctx.err(
-            m.criterion.as_ref().map(|c| c.span()).unwrap_or_else(|| m.youngs.span()),
+            m.criterion.as_ref().map(|c| c.span()).unwrap_or_else(|| m.density.span()),
             "material.criterion",
             "softening springs need fracture_energy with tensile_strength (or \
              characteristic_length), or peak_stretch with final_stretch",

@@ -130,11 +130,35 @@ pub struct RawLattice {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawMaterial {
-    pub youngs: Spanned<Real>,
-    pub poisson: Spanned<Real>,
+    /// `"isotropic"` (default), `"transverse"` or `"orthotropic"`.
+    pub kind: Option<Spanned<String>>,
+    /// Isotropic: Young's modulus (Pa) and Poisson's ratio (required).
+    pub youngs: Option<Spanned<Real>>,
+    pub poisson: Option<Spanned<Real>>,
+    /// Transverse: E_p, E_t (Pa), nu_p, nu_tp and G_t (Pa), and the fibre direction.
+    pub youngs_plane: Option<Spanned<Real>>,
+    pub youngs_fibre: Option<Spanned<Real>>,
+    pub poisson_plane: Option<Spanned<Real>>,
+    pub poisson_fibre: Option<Spanned<Real>>,
+    pub shear_fibre: Option<Spanned<Real>>,
+    pub fibre: Option<Spanned<Vec<Real>>>,
+    /// Orthotropic (axes along the lattice's): E_x, E_y, E_z (Pa), nu_xy, nu_xz, nu_yz and
+    /// G_yz, G_xz, G_xy (Pa).
+    pub youngs_x: Option<Spanned<Real>>,
+    pub youngs_y: Option<Spanned<Real>>,
+    pub youngs_z: Option<Spanned<Real>>,
+    pub poisson_xy: Option<Spanned<Real>>,
+    pub poisson_xz: Option<Spanned<Real>>,
+    pub poisson_yz: Option<Spanned<Real>>,
+    pub shear_yz: Option<Spanned<Real>>,
+    pub shear_xz: Option<Spanned<Real>>,
+    pub shear_xy: Option<Spanned<Real>>,
     pub density: Spanned<Real>,
     pub fracture_energy: Option<Spanned<Real>>,
     pub critical_stretch: Option<Spanned<Real>>,
+    /// Transverse materials: the critical stretch of springs along the fibre (`critical_stretch`
+    /// is then the one across it).
+    pub critical_stretch_fibre: Option<Spanned<Real>>,
     /// `"stretch"` (default), `"energy"` or `"softening"`.
     pub criterion: Option<Spanned<String>>,
     /// Softening springs: `"linear"` (default) or `"bilinear"`.

@@ -247,6 +247,17 @@ fn softening_is_bit_identical_for_any_team() {
     );
 }
 
+/// A transversely isotropic material (direction-weighted levers on the general kernel).
+#[test]
+fn transverse_material_is_bit_identical_for_any_team() {
+    check(
+        "fibre_block.toml",
+        1.0,
+        &["solver.end_time=10e-6", "output.every=5e-6"],
+        &[2, 3],
+    );
+}
+
 /// Quasi-static runs are refused with the reason when shared.
 #[test]
 fn quasi_static_runs_are_refused_in_a_team() {

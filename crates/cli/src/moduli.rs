@@ -5,10 +5,10 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
+use hooke_core::anisotropy::{Anisotropic, Orthotropic, Transverse};
 use hooke_core::moduli::{block_test, BlockResult, BlockTest, Ends};
 use hooke_core::random::{calibration, Sampler};
-use hooke_core::transverse::Transverse;
-use hooke_core::{Body, LatticeKind, Real};
+use hooke_core::{LatticeKind, Real};
 
 use crate::InputError;
 
@@ -124,6 +124,11 @@ pub struct ModuliArgs {
     /// The fibre direction of --transverse: x, y, z, or three numbers X,Y,Z.
     #[arg(long, default_value = "z", allow_hyphen_values = true)]
     pub fibre: String,
+    /// An orthotropic material instead of the isotropic one (cubic lattice, material axes along
+    /// the lattice's): E_x,E_y,E_z,nu_xy,nu_xz,nu_yz,G_yz,G_xz,G_xy (Pa and -), with nu_ij =
+    /// -eps_j/eps_i under tension along i. Replaces --nu and --stiffness.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub orthotropic: Option<Vec<Real>>,
     /// Random lattices: measure the calibration table (nu and E/E_affine against q over the
     /// samples) that `hooke_core::random::calibration` holds, and print it as Rust source.
     #[arg(long)]
@@ -139,6 +144,32 @@ impl From<LatticeArg> for LatticeKind {
             LatticeArg::Random3d => LatticeKind::Random3d,
         }
     }
+}
+
+/// `--transverse` (with `--fibre`) or `--orthotropic` as a material (density 1: the moduli do
+/// not depend on it).
+pub fn anisotropic(args: &ModuliArgs) -> Result<Option<Anisotropic>> {
+    if let Some(v) = &args.orthotropic {
+        if args.transverse.is_some() {
+            return Err(InputError("--transverse and --orthotropic: keep one".into()).into());
+        }
+        let &[ex, ey, ez, nxy, nxz, nyz, gyz, gxz, gxy] = v.as_slice() else {
+            return Err(InputError(format!(
+                "--orthotropic {v:?}: give nine numbers, E_x,E_y,E_z,nu_xy,nu_xz,nu_yz,G_yz,G_xz,G_xy"
+            ))
+            .into());
+        };
+        let o = Orthotropic {
+            youngs: [ex, ey, ez],
+            poisson: [nxy, nxz, nyz],
+            shear: [gyz, gxz, gxy],
+            density: 1.0,
+        };
+        o.stiffness()
+            .map_err(|e| InputError(format!("--orthotropic: {e}")))?;
+        return Ok(Some(Anisotropic::Orthotropic(o)));
+    }
+    Ok(transverse(args)?.map(Anisotropic::Transverse))
 }
 
 /// `--transverse` and `--fibre` as a material (density 1: the moduli do not depend on it).
@@ -252,10 +283,10 @@ fn test_for(args: &ModuliArgs, nu: Real) -> Result<BlockTest> {
     t.strain = args.strain;
     t.spacing = args.spacing;
     t.stiffness = args.stiffness;
-    t.transverse = transverse(args)?;
-    if t.transverse.is_some() && kind != LatticeKind::Cubic {
+    t.anisotropic = anisotropic(args)?;
+    if t.anisotropic.is_some() && kind != LatticeKind::Cubic {
         return Err(InputError(format!(
-            "--transverse: transversely isotropic materials are built on the cubic lattice (fibre along a lattice axis); the {} lattice is not supported yet",
+            "--transverse, --orthotropic: anisotropic materials are built on the cubic lattice (material axes along the lattice's); the {} lattice is not supported yet",
             kind.name()
         ))
         .into());
@@ -320,9 +351,12 @@ pub struct ModuliJson {
     pub lateral_target: Option<[Real; 2]>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lateral_measured: Option<[Real; 2]>,
-    /// `--transverse`: the material (E_p, E_t, nu_p, nu_tp, G_t and the fibre).
+    /// `--transverse` or `--orthotropic`: the material's engineering constants (key
+    /// `transverse` or `orthotropic`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub transverse: Option<serde_json::Value>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orthotropic: Option<serde_json::Value>,
 }
 
 fn to_json(t: &BlockTest, r: &BlockResult, seconds: f64) -> ModuliJson {
@@ -363,16 +397,30 @@ fn to_json(t: &BlockTest, r: &BlockResult, seconds: f64) -> ModuliJson {
         e_samples: None,
         lateral_target: r.lateral_target,
         lateral_measured: r.lateral_measured,
-        transverse: t.transverse.as_ref().map(transverse_json),
+        transverse: match &t.anisotropic {
+            Some(m @ Anisotropic::Transverse(_)) => Some(anisotropic_json(m)),
+            _ => None,
+        },
+        orthotropic: match &t.anisotropic {
+            Some(m @ Anisotropic::Orthotropic(_)) => Some(anisotropic_json(m)),
+            _ => None,
+        },
     }
 }
 
-/// A transverse material as JSON (its engineering constants and unit fibre).
-fn transverse_json(m: &Transverse) -> serde_json::Value {
-    serde_json::json!({
-        "E_p": m.youngs_plane, "E_t": m.youngs_fibre, "nu_p": m.poisson_plane,
-        "nu_tp": m.poisson_fibre, "G_t": m.shear_fibre, "fibre": m.axis().unwrap_or(m.fibre),
-    })
+/// An anisotropic material as JSON (its engineering constants, and the unit fibre).
+fn anisotropic_json(m: &Anisotropic) -> serde_json::Value {
+    match m {
+        Anisotropic::Transverse(m) => serde_json::json!({
+            "E_p": m.youngs_plane, "E_t": m.youngs_fibre, "nu_p": m.poisson_plane,
+            "nu_tp": m.poisson_fibre, "G_t": m.shear_fibre, "fibre": m.axis().unwrap_or(m.fibre),
+        }),
+        Anisotropic::Orthotropic(o) => serde_json::json!({
+            "E_x": o.youngs[0], "E_y": o.youngs[1], "E_z": o.youngs[2],
+            "nu_xy": o.poisson[0], "nu_xz": o.poisson[1], "nu_yz": o.poisson[2],
+            "G_yz": o.shear[0], "G_xz": o.shear[1], "G_xy": o.shear[2],
+        }),
+    }
 }
 
 fn measure(args: &ModuliArgs, nu: Real) -> Result<ModuliJson> {
@@ -507,15 +555,16 @@ pub fn value(args: &ModuliArgs) -> Result<serde_json::Value> {
 
 /// `--nu`, required unless `--transverse` gives the material (then it is unused: NaN).
 fn nu_of(args: &ModuliArgs) -> Result<Real> {
-    match (args.nu, &args.transverse) {
-        (Some(_), Some(_)) => Err(InputError(
-            "--nu and --transverse both give the material: keep one".into(),
+    let aniso = args.transverse.is_some() || args.orthotropic.is_some();
+    match (args.nu, aniso) {
+        (Some(_), true) => Err(InputError(
+            "--nu and --transverse/--orthotropic both give the material: keep one".into(),
         )
         .into()),
-        (Some(nu), None) => Ok(nu),
-        (None, Some(_)) => Ok(Real::NAN),
-        (None, None) => Err(InputError(
-            "give --nu NU (the Poisson's ratio to build), --transverse E_p,E_t,nu_p,nu_tp,G_t, or --sweep"
+        (Some(nu), false) => Ok(nu),
+        (None, true) => Ok(Real::NAN),
+        (None, false) => Err(InputError(
+            "give --nu NU (the Poisson's ratio to build), --transverse E_p,E_t,nu_p,nu_tp,G_t, --orthotropic E_x,...,G_xy, or --sweep"
                 .into(),
         )
         .into()),
@@ -545,30 +594,39 @@ fn bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
             return Err(InputError(format!("{what} {v}: give a positive number")).into());
         }
     }
-    if let Some(m) = transverse(args)? {
+    if let Some(m) = anisotropic(args)? {
         if kind != LatticeKind::Cubic {
             return Err(InputError(format!(
-                "--transverse: transversely isotropic materials are built on the cubic lattice; the {} lattice is not supported yet",
+                "--transverse, --orthotropic: anisotropic materials are built on the cubic lattice; the {} lattice is not supported yet",
                 kind.name()
             ))
             .into());
         }
         let a = args.spacing;
-        let f = hooke_core::transverse::cubic_families(&m, a)
-            .map_err(|e| InputError(format!("--transverse: {e}")))?;
-        let measured =
-            hooke_core::moduli::bulk_stiffness_of(kind, a, &|l| Body::transverse(l, &m))?;
+        let f = m.families(a).map_err(|e| {
+            let flag = match m {
+                Anisotropic::Transverse(_) => "--transverse",
+                Anisotropic::Orthotropic(_) => "--orthotropic",
+            };
+            InputError(format!("{flag}: {e}"))
+        })?;
+        let measured = hooke_core::moduli::bulk_stiffness_of(kind, a, &|l| m.body(l))?;
         let target = m.stiffness()?;
-        return Ok(serde_json::json!({
+        let name = match m {
+            Anisotropic::Transverse(_) => "transverse",
+            Anisotropic::Orthotropic(_) => "orthotropic",
+        };
+        let mut v = serde_json::json!({
             "test": "bulk", "lattice": kind.name(), "q": f.q, "spacing": a,
-            "transverse": transverse_json(&m),
-            "family_stiffness": f.k, "family_weights": f.w,
-            "families": ["axis along the fibre", "axes across", "diagonals across", "diagonals with a fibre component"],
+            "axis_stiffness": f.axis_k, "diagonal_stiffness": f.diagonal_k,
+            "axis_weights": f.axis_w, "diagonal_weights": f.diagonal_w,
             "units": "Pa",
             "voigt": ["xx", "yy", "zz", "yz", "xz", "xy"],
             "C_target": target, "C_measured": measured,
             "max_relative_difference": max_relative_difference(&measured, &target),
-        }));
+        });
+        v[name] = anisotropic_json(&m);
+        return Ok(v);
     }
     let q = q_from_nu(kind, nu).map_err(|e| InputError(format!("--nu {nu}: {e}")))?;
     let (k, a) = (args.stiffness, args.spacing);
@@ -627,17 +685,20 @@ pub fn run(args: ModuliArgs) -> Result<()> {
 }
 
 fn print_bulk(v: &serde_json::Value) {
-    if v["transverse"].is_object() {
+    if let Some(name) = ["transverse", "orthotropic"]
+        .into_iter()
+        .find(|n| v[*n].is_object())
+    {
         println!(
-            "bulk (affine) test: {} lattice, transversely isotropic {}, q = {:.6} ({}); Voigt xx yy zz yz xz xy",
+            "bulk (affine) test: {} lattice, {name} {}, q = {:.6} ({}); Voigt xx yy zz yz xz xy",
             v["lattice"].as_str().unwrap_or(""),
-            v["transverse"],
+            v[name],
             v["q"].as_f64().unwrap_or(0.0),
             v["units"].as_str().unwrap_or("")
         );
         println!(
-            "spring families (along, across, diagonals across, diagonals along): k = {} N/m, w = {}",
-            v["family_stiffness"], v["family_weights"]
+            "springs: axes x y z k = {} w = {}; face diagonals yz xz xy k = {} w = {} (N/m)",
+            v["axis_stiffness"], v["axis_weights"], v["diagonal_stiffness"], v["diagonal_weights"]
         );
     } else {
         println!(

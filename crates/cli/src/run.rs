@@ -139,6 +139,16 @@ pub fn check(args: CheckArgs) -> Result<()> {
             "output_bytes": sim.output_estimate(),
         });
         v[if kind.is_random() { "kappa" } else { "k" }] = serde_json::json!(sim.k);
+        if let Some(m) = &sim.anisotropic {
+            let f = m.families(sim.body.lattice.spacing)?;
+            v["nu"] = serde_json::Value::Null;
+            v["anisotropic"] = serde_json::json!({
+                "material": format!("{m:?}"),
+                "axis_stiffness": f.axis_k, "diagonal_stiffness": f.diagonal_k,
+                "axis_weights": f.axis_w, "diagonal_weights": f.diagonal_w,
+                "stiffness": m.stiffness()?,
+            });
+        }
         println!("{}", serde_json::to_string(&v)?);
         return Ok(());
     }
@@ -164,6 +174,37 @@ pub fn check(args: CheckArgs) -> Result<()> {
             "  kappa, q     {:e} {unit} (k_s = kappa V_s / L_s^2), {:.6}",
             sim.k, sim.q
         );
+    } else if let Some(m) = &sim.anisotropic {
+        let f = m.families(sim.body.lattice.spacing)?;
+        match m {
+            hooke_core::Anisotropic::Transverse(t) => println!(
+                "  material     transversely isotropic, fibre {:?}: E_p {:e} Pa, E_t {:e} Pa, nu_p {}, nu_tp {}, G_t {:e} Pa",
+                t.axis()?, t.youngs_plane, t.youngs_fibre, t.poisson_plane, t.poisson_fibre, t.shear_fibre
+            ),
+            hooke_core::Anisotropic::Orthotropic(o) => println!(
+                "  material     orthotropic, axes x y z: E {:?} Pa, nu_xy nu_xz nu_yz {:?}, G_yz G_xz G_xy {:?} Pa",
+                o.youngs, o.poisson, o.shear
+            ),
+        }
+        println!(
+            "  springs k    axes x y z {:.6e} {:.6e} {:.6e}, face diagonals yz xz xy {:.6e} {:.6e} {:.6e} N/m",
+            f.axis_k[0], f.axis_k[1], f.axis_k[2], f.diagonal_k[0], f.diagonal_k[1], f.diagonal_k[2]
+        );
+        println!(
+            "  weights, q   w = {:.6} {:.6} {:.6}, {:.6} {:.6} {:.6} (same order), q = {:.6}",
+            f.axis_w[0],
+            f.axis_w[1],
+            f.axis_w[2],
+            f.diagonal_w[0],
+            f.diagonal_w[1],
+            f.diagonal_w[2],
+            f.q
+        );
+        println!("  stiffness    C (Pa, Voigt xx yy zz yz xz xy):");
+        for row in m.stiffness()? {
+            let cells: Vec<String> = row.iter().map(|x| format!("{x:>12.4e}")).collect();
+            println!("               {}", cells.join(" "));
+        }
     } else {
         println!("  k, q         {:e} N/m, {:.6}", sim.k, sim.q);
     }

@@ -13,6 +13,96 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// `hooke moduli --transverse`: the bulk tensor is the transversely isotropic target to 1e-9
+/// for every fibre axis, and with `--cell-weights` the block test reads E and both lateral
+/// ratios along and across the fibre to 1e-4; bad input exits 2 with the reason.
+#[test]
+fn moduli_transverse_gives_the_target_tensor_and_engineering_constants() {
+    let mat = "10e9,25e9,0.35,0.28,4e9";
+    for fibre in ["x", "y", "z", "0,0,-1"] {
+        let o = hooke(&[
+            "moduli",
+            "--bulk",
+            "--transverse",
+            mat,
+            "--fibre",
+            fibre,
+            "--spacing",
+            "1e-3",
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let d = v["max_relative_difference"].as_f64().unwrap();
+        assert!(d < 1e-9, "fibre {fibre}: {d}");
+        assert_eq!(v["C_target"].as_array().unwrap().len(), 6);
+        assert_eq!(v["C_measured"].as_array().unwrap().len(), 6);
+    }
+    // Along the fibre (x): E_t and nu_tp twice; across it (fibre z): E_p, nu_p along y and
+    // nu_pt = nu_tp E_p / E_t along z.
+    for (fibre, e, lat) in [("x", 25e9, [0.28, 0.28]), ("z", 10e9, [0.35, 0.112])] {
+        let o = hooke(&[
+            "moduli",
+            "--transverse",
+            mat,
+            "--fibre",
+            fibre,
+            "--spacing",
+            "1e-3",
+            "--cell-weights",
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let em = v["E_measured"].as_f64().unwrap();
+        assert!((em / e - 1.0).abs() < 1e-4, "fibre {fibre}: E {em}");
+        for c in 0..2 {
+            let m = v["lateral_measured"][c].as_f64().unwrap();
+            let t = v["lateral_target"][c].as_f64().unwrap();
+            assert!((t - lat[c]).abs() < 1e-12, "fibre {fibre}: target {t}");
+            assert!(
+                (m - t).abs() < 1e-4,
+                "fibre {fibre}: lateral {c} {m} against {t}"
+            );
+        }
+    }
+    for (args, why) in [
+        (
+            vec!["moduli", "--bulk", "--transverse", "1e9,2e9,0.3,0.2"],
+            "five numbers",
+        ),
+        (
+            vec!["moduli", "--bulk", "--transverse", mat, "--fibre", "1,1,0"],
+            "lattice axis",
+        ),
+        (
+            vec!["moduli", "--bulk", "--transverse", mat, "--fibre", "up"],
+            "--fibre",
+        ),
+        (
+            vec!["moduli", "--transverse", mat, "--nu", "0.3"],
+            "keep one",
+        ),
+        (
+            vec!["moduli", "--transverse", mat, "--lattice", "hex"],
+            "cubic",
+        ),
+        (
+            vec![
+                "moduli",
+                "--bulk",
+                "--transverse",
+                "10e9,25e9,0.35,0.28,9e9",
+            ],
+            "2 G_p",
+        ),
+    ] {
+        let o = hooke(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(why), "{args:?}: {}", stderr(&o));
+    }
+}
+
 #[test]
 fn moduli_json_has_the_contract_keys() {
     let o = hooke(&["moduli", "--nu", "0.3", "--size", "21,6,6", "--json"]);

@@ -11,11 +11,12 @@
 //! immutable), [`material`] ((E, nu) to (k, q)), [`body`] (a lattice with its constants),
 //! [`state`] (everything that changes), [`law`] (the force law and its energy), [`tangent`] (its
 //! exact stiffness, matrix-free), [`statics`] (Newton-CG equilibrium), [`moduli`] (the paper's
-//! block test and the exact bulk test), [`transverse`] (transversely isotropic materials by
+//! block test and the exact bulk test), [`anisotropy`] (transversely isotropic and orthotropic materials by
 //! direction-weighted dispersion).
 //!
 //! Units: SI throughout. No I/O here.
 
+pub mod anisotropy;
 pub mod body;
 pub mod dynamics;
 pub mod error;
@@ -33,8 +34,8 @@ pub mod state;
 pub mod statics;
 pub mod tangent;
 pub mod team;
-pub mod transverse;
 
+pub use anisotropy::{Anisotropic, Orthotropic, Transverse};
 pub use body::Body;
 pub use error::{Error, Result};
 pub use lattice::{Cells, Lattice, LatticeKind};
@@ -42,4 +43,3 @@ pub use material::{Elastic, PlaneModel, SpringConstants};
 pub use math::{Coords, Matrix, Real, Vector};
 pub use state::State;
 pub use tangent::Tangent;
-pub use transverse::Transverse;

@@ -71,11 +71,11 @@ pub struct BlockTest {
     /// Regular lattices: weight each spring and node by the share of the bulk's cells it stands
     /// for ([`Body::with_cell_weights`]), which removes the free-surface bias.
     pub cell_weights: bool,
-    /// The cubic lattice only: build this transversely isotropic material
-    /// ([`Body::transverse`]) instead of the isotropic one (`nu`, `q` and `stiffness` are then
+    /// The cubic lattice only: build this anisotropic material ([`Body::transverse`],
+    /// [`Body::orthotropic`]) instead of the isotropic one (`nu`, `q` and `stiffness` are then
     /// unused). The targets are the compliance's: `E = 1/S_xx`, and the lateral ratios
     /// `-S_yx/S_xx`, `-S_zx/S_xx` ([`BlockResult::lateral_target`]).
-    pub transverse: Option<crate::transverse::Transverse>,
+    pub anisotropic: Option<crate::anisotropy::Anisotropic>,
 }
 
 impl BlockTest {
@@ -98,7 +98,7 @@ impl BlockTest {
             axis: 0,
             q: None,
             cell_weights: false,
-            transverse: None,
+            anisotropic: None,
         }
     }
 }
@@ -136,24 +136,24 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
         });
     }
     if t.kind.is_random() {
-        if t.transverse.is_some() {
+        if t.anisotropic.is_some() {
             return Err(Error::InvalidInput {
-                what: "transverse material",
-                why: "the block test builds transversely isotropic materials on the cubic lattice only".into(),
+                what: "anisotropic material",
+                why: "the block test builds anisotropic materials on the cubic lattice only".into(),
             });
         }
         return random_block_test(t);
     }
     // The targets: E and the lateral ratios under uniaxial stress along x.
-    let (q, e_target, lateral_target) = match &t.transverse {
+    let (q, e_target, lateral_target) = match &t.anisotropic {
         Some(m) => {
             let c = m.stiffness()?;
             let c = nalgebra::Matrix6::from_fn(|i, j| c[i][j]);
             let s = c.try_inverse().ok_or_else(|| Error::InvalidInput {
-                what: "transverse material",
+                what: "anisotropic material",
                 why: "its stiffness is singular".into(),
             })?;
-            let f = crate::transverse::cubic_families(m, t.spacing)?;
+            let f = m.families(t.spacing)?;
             (
                 f.q,
                 1.0 / s[(0, 0)],
@@ -190,8 +190,8 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
             why: "the bar needs at least 3 nodes along x".into(),
         });
     }
-    let mut body = match &t.transverse {
-        Some(m) => Body::transverse(lattice, m)?,
+    let mut body = match &t.anisotropic {
+        Some(m) => m.body(lattice)?,
         None => Body::uniform(lattice, t.stiffness, q, 1.0),
     };
     if t.cell_weights {

@@ -12,12 +12,22 @@ pub struct SpringState {
     /// Dispersion lever (m): the rest length for an isotropic material,
     /// [`hooke_core::Body::levers`] for a direction-weighted one.
     pub lever: Real,
+    /// Unit direction of the spring in the reference configuration (either sense), for
+    /// criteria whose strength depends on it ([`crate::FibreStretch`]).
+    pub dir: [Real; 3],
     /// Extension dL = l - L (m).
     pub dl: Real,
     /// Pool ratios p of its two end nodes (from the last force evaluation).
     pub pool: [Real; 2],
     /// Dispersion ratio q of the material.
     pub q: Real,
+}
+
+/// The unit reference direction of the spring from node `i` to node `j`.
+pub fn reference_direction(body: &hooke_core::Body, i: usize, j: usize) -> [Real; 3] {
+    let d = body.lattice.reference_vector(i, j);
+    let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    [d[0] / l, d[1] / l, d[2] / l]
 }
 
 impl SpringState {

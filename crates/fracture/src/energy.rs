@@ -169,6 +169,7 @@ mod tests {
                 k,
                 rest,
                 lever: rest,
+                dir: [1.0, 0.0, 0.0],
                 dl: s * rest,
                 pool: [s, s],
                 q,

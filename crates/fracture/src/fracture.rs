@@ -317,6 +317,7 @@ fn new_weight(
             k: state.springs(body).k[b],
             rest,
             lever: body.levers()[b],
+            dir: crate::criterion::reference_direction(body, i, j),
             dl: g.dl,
             pool: [state.pool[i], state.pool[j]],
             q: body.q,

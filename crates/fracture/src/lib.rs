@@ -36,4 +36,4 @@ pub use error::FractureError;
 pub use fracture::{node_dispersive_energy, BreakReport, Fracture};
 pub use precrack::Crack;
 pub use softening::{Softening, SofteningShape};
-pub use stretch::CriticalStretch;
+pub use stretch::{CriticalStretch, FibreStretch};

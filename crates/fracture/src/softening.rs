@@ -578,6 +578,7 @@ mod tests {
             k: 1.0,
             rest: 1.0,
             lever: 1.0,
+            dir: [1.0, 0.0, 0.0],
             dl: stretch,
             pool: [0.0; 2],
             q: 0.0,

@@ -285,9 +285,99 @@ impl Criterion for CriticalStretch {
     }
 }
 
+/// A critical stretch that depends on the spring's direction against a fibre `m`: springs
+/// across the fibre break at `across`, springs along it at `along`, and in between
+/// `s_c(n) = across + (along - across) (n.m)^2` (the same quadratic form as the anisotropic
+/// materials' weights, `docs/anisotropy.md`). Strong fibres (`along > across`) let a crack
+/// split along them rather than cut them. The screen is the smaller of the two.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FibreStretch {
+    pub across: Real,
+    pub along: Real,
+    /// Unit fibre direction.
+    pub fibre: [Real; 3],
+}
+
+impl FibreStretch {
+    /// The criterion for positive critical stretches and a non-zero fibre direction.
+    pub fn new(across: Real, along: Real, fibre: [Real; 3]) -> Result<Self, FractureError> {
+        for (what, v) in [
+            ("critical stretch across the fibre", across),
+            ("critical stretch along the fibre", along),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(FractureError::BadParameter {
+                    what,
+                    value: v,
+                    fix: "give a positive number, e.g. 1e-3",
+                });
+            }
+        }
+        let n = (fibre[0] * fibre[0] + fibre[1] * fibre[1] + fibre[2] * fibre[2]).sqrt();
+        if !(n.is_finite() && n > 0.0) {
+            return Err(FractureError::BadParameter {
+                what: "fibre direction length",
+                value: n,
+                fix: "give a non-zero fibre direction",
+            });
+        }
+        Ok(FibreStretch {
+            across,
+            along,
+            fibre: fibre.map(|c| c / n),
+        })
+    }
+
+    /// The critical stretch of a spring along the unit direction `dir`.
+    pub fn critical(&self, dir: [Real; 3]) -> Real {
+        let c = dir[0] * self.fibre[0] + dir[1] * self.fibre[1] + dir[2] * self.fibre[2];
+        self.across + (self.along - self.across) * c * c
+    }
+}
+
+impl Criterion for FibreStretch {
+    fn name(&self) -> &'static str {
+        "fibre-stretch"
+    }
+
+    fn breaks(&self, s: &SpringState) -> bool {
+        s.stretch() > self.critical(s.dir)
+    }
+    fn screen(&self) -> Option<Real> {
+        Some(self.across.min(self.along))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_fibre_stretch_depends_on_the_direction_only_through_the_fibre() {
+        let c = FibreStretch::new(1e-3, 4e-3, [0.0, 0.0, 2.0]).unwrap();
+        let at = |dir: [Real; 3], stretch: Real| SpringState {
+            k: 1.0,
+            rest: 1.0,
+            lever: 1.0,
+            dir,
+            dl: stretch,
+            pool: [0.0; 2],
+            q: 0.0,
+        };
+        let h = (0.5 as Real).sqrt();
+        // Across: 1e-3; along: 4e-3; a diagonal with (n.m)^2 = 1/2: 2.5e-3.
+        for (dir, s_c) in [
+            ([1.0, 0.0, 0.0], 1e-3),
+            ([0.0, 0.0, -1.0], 4e-3),
+            ([h, 0.0, h], 2.5e-3),
+        ] {
+            assert!((c.critical(dir) - s_c).abs() < 1e-15, "{dir:?}");
+            assert!(!c.breaks(&at(dir, 0.99 * s_c)) && c.breaks(&at(dir, 1.01 * s_c)));
+        }
+        assert_eq!(c.screen(), Some(1e-3));
+        assert!(FibreStretch::new(1e-3, 0.0, [0.0, 0.0, 1.0]).is_err());
+        assert!(FibreStretch::new(1e-3, 1e-3, [0.0; 3]).is_err());
+    }
 
     #[test]
     fn stretch_and_fracture_energy_are_inverse() {
@@ -334,6 +424,7 @@ mod tests {
             k: 1.0,
             rest: 1.0,
             lever: 1.0,
+            dir: [1.0, 0.0, 0.0],
             dl: -0.5,
             pool: [0.0; 2],
             q: 0.0,

@@ -533,6 +533,7 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
                 k: body.k[b],
                 rest: bonds.rest[b],
                 lever: body.levers()[b],
+                dir: crate::criterion::reference_direction(&body, i, j),
                 dl: g.dl,
                 pool: [state.pool[i], state.pool[j]],
                 q: body.q,

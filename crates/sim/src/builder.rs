@@ -29,9 +29,10 @@ use hooke_core::dynamics::{IntegratorOptions, TimeStep};
 use hooke_core::loading::{Loading, Motion, Prescribed, TimeFunction};
 use hooke_core::material::{self, Elastic, PlaneModel};
 use hooke_core::random::RandomSpec;
-use hooke_core::{Body, LatticeKind, Real, State, Vector};
+use hooke_core::{Anisotropic, Body, LatticeKind, Orthotropic, Real, State, Transverse, Vector};
 use hooke_fracture::{
-    Crack, Criterion, CriticalStretch, Fracture, Softening, SofteningShape, SpringEnergy,
+    Crack, Criterion, CriticalStretch, FibreStretch, Fracture, Softening, SofteningShape,
+    SpringEnergy,
 };
 
 use crate::geometry::{fill_lattice, traction_loads, Region, Solid};
@@ -118,6 +119,9 @@ pub enum BreakRule {
     FractureEnergy(Real),
     /// A critical stretch given directly.
     Stretch(Real),
+    /// Critical stretches across and along the fibre of a transversely isotropic material
+    /// ([`hooke_fracture::FibreStretch`]).
+    FibreStretch { across: Real, along: Real },
     /// The spring-energy criterion calibrated to G_c (regular lattices).
     SpringEnergy(Real),
     /// The spring-energy criterion matching a given critical stretch (regular lattices).
@@ -156,6 +160,7 @@ pub struct Builder {
     random: RandomSpec,
     geometry: Solid,
     material: Option<Elastic>,
+    anisotropic: Option<Anisotropic>,
     breaking: Option<BreakRule>,
     cracks: Vec<Crack>,
     bcs: Vec<Bc>,
@@ -184,6 +189,7 @@ impl Builder {
             random: RandomSpec::default(),
             geometry: Solid::default(),
             material: None,
+            anisotropic: None,
             breaking: None,
             cracks: Vec::new(),
             bcs: Vec::new(),
@@ -228,6 +234,19 @@ impl Builder {
             poisson,
             density,
         });
+        self
+    }
+    /// A transversely isotropic material instead of [`Builder::material`] (the cubic lattice,
+    /// its fibre along a lattice axis: [`Body::transverse`]). Fracture then takes a critical
+    /// stretch ([`BreakRule::Stretch`]): the G_c calibrations are isotropic.
+    pub fn transverse(mut self, t: Transverse) -> Self {
+        self.anisotropic = Some(Anisotropic::Transverse(t));
+        self
+    }
+    /// An orthotropic material, its axes along the Ladd lattice's ([`Body::orthotropic`]), with
+    /// the same limits as [`Builder::transverse`].
+    pub fn orthotropic(mut self, o: Orthotropic) -> Self {
+        self.anisotropic = Some(Anisotropic::Orthotropic(o));
         self
     }
     /// Springs break by the critical stretch that dissipates G_c (J/m^2).
@@ -349,6 +368,7 @@ impl Builder {
             q,
             precracked,
             contact,
+            anisotropic: self.anisotropic,
         })
     }
 
@@ -387,6 +407,63 @@ impl Builder {
             (None, _) => 1.0,
         };
         let lattice = fill_lattice(kind, a, h, self.random, &self.geometry)?;
+        if let Some(t) = &self.anisotropic {
+            if self.material.is_some() {
+                return Err(BuildError::new(
+                    "material",
+                    "give an isotropic material or an anisotropic one, not both",
+                ));
+            }
+            if kind != LatticeKind::Cubic {
+                return Err(BuildError::new(
+                    "material.kind",
+                    format!(
+                        "anisotropic materials are built on the cubic lattice (material axes along the lattice axes); the {} lattice is not supported yet: use lattice.kind = \"cubic\"",
+                        kind.name()
+                    ),
+                ));
+            }
+            let body = t.body(lattice).map_err(|e| {
+                let msg = e.to_string();
+                // The key the message is about: the constant it names, else the material.
+                let key = [
+                    "youngs_plane",
+                    "youngs_fibre",
+                    "poisson_plane",
+                    "poisson_fibre",
+                    "shear_fibre",
+                    "youngs_x",
+                    "youngs_y",
+                    "youngs_z",
+                    "poisson_xy",
+                    "shear_yz",
+                    "shear_xz",
+                    "shear_xy",
+                    "density",
+                ]
+                .into_iter()
+                .find(|k| msg.contains(k))
+                .map_or(
+                    match t {
+                        Anisotropic::Transverse(_) => "material.fibre".to_string(),
+                        Anisotropic::Orthotropic(_) => "material.kind".to_string(),
+                    },
+                    |k| format!("material.{k}"),
+                );
+                BuildError::new(key, msg)
+            })?;
+            if !matches!(
+                self.breaking,
+                None | Some(BreakRule::Stretch(_) | BreakRule::FibreStretch { .. })
+            ) {
+                return Err(BuildError::new(
+                    "material.fracture_energy",
+                    "the fracture-energy calibrations (and the energy and softening criteria) are measured for isotropic materials; give critical_stretch for a transverse one",
+                ));
+            }
+            // No single k: the families differ (`hooke check` prints them).
+            return Ok((body, Real::NAN, h));
+        }
         let elastic = self.material.ok_or_else(|| {
             BuildError::new(
                 "material",
@@ -439,6 +516,18 @@ impl Builder {
             Some(BreakRule::Stretch(s)) => Some(Box::new(
                 CriticalStretch::new(s).map_err(fr("material.critical_stretch"))?,
             )),
+            Some(BreakRule::FibreStretch { across, along }) => {
+                let Some(Anisotropic::Transverse(t)) = &self.anisotropic else {
+                    return Err(BuildError::new(
+                        "material.critical_stretch_fibre",
+                        "a critical stretch along the fibre needs a fibre: kind = \"transverse\" (or remove it)",
+                    ));
+                };
+                Some(Box::new(
+                    FibreStretch::new(across, along, t.fibre)
+                        .map_err(fr("material.critical_stretch_fibre"))?,
+                ))
+            }
             Some(BreakRule::SpringEnergy(_) | BreakRule::SpringEnergyFromStretch(_))
                 if kind.is_random() =>
             {

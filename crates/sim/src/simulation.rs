@@ -75,6 +75,9 @@ pub struct Simulation {
     pub precracked: usize,
     /// Contact with rigid bodies and between fragments.
     pub contact: Option<Contact>,
+    /// An anisotropic material (`[material] kind = "transverse"` or `"orthotropic"`), or
+    /// `None` for an isotropic one.
+    pub anisotropic: Option<hooke_core::Anisotropic>,
 }
 
 impl Simulation {
