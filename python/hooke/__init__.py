@@ -281,6 +281,10 @@ class Builder:
             "poisson_plane": poisson_plane, "poisson_fibre": poisson_fibre,
             "shear_fibre": shear_fibre, "fibre": [float(v) for v in fibre], "density": density})
 
+    def rotate_lattice(self, direction: Any) -> "Builder":
+        """Lay the cubic lattice along ``direction`` (a fibre's), as ``lattice.rotate_to``."""
+        return self._call("rotate_lattice", [float(v) for v in direction])
+
     def orthotropic(self, youngs: Any, poisson: Any, shear: Any, density: float) -> "Builder":
         """An orthotropic material, its axes along the cubic lattice's, as ``kind =
         "orthotropic"``: ``youngs`` [E_x, E_y, E_z], ``poisson`` [nu_xy, nu_xz, nu_yz],

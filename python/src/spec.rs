@@ -380,6 +380,7 @@ pub fn build(spec: &Value) -> R<Simulation> {
                     density: num(field(&a, "density", key)?, key)?,
                 })
             }
+            "rotate_lattice" => b.rotate_lattice(point(&a, key)?),
             "fracture_energy" => b.fracture_energy(num(&a, key)?),
             "precrack_segment" => {
                 let (p, q) = (

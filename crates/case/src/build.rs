@@ -1247,6 +1247,24 @@ fn lattice(
     if dim == 2 {
         b = b.thickness(h);
     }
+    if let Some(r) = &l.rotate_to {
+        spans.at("lattice.rotate_to", r.span());
+        if kind != LatticeKind::Cubic {
+            return Err(ctx.err(
+                r.span(),
+                "lattice.rotate_to",
+                "only the cubic lattice is turned (random lattices have no axes); remove it",
+            ));
+        }
+        let &[x, y, z] = r.get_ref().as_slice() else {
+            return Err(ctx.err(
+                r.span(),
+                "lattice.rotate_to",
+                "give three numbers, a direction, e.g. rotate_to = [0.866, 0.5, 0] (a fibre's)",
+            ));
+        };
+        b = b.rotate_lattice([x, y, z]);
+    }
     Ok((b, kind, h))
 }
 

@@ -125,6 +125,9 @@ pub struct RawLattice {
     pub jitter: Option<Spanned<Real>>,
     /// Random lattices: the seed (default 1).
     pub seed: Option<Spanned<i64>>,
+    /// The cubic lattice: lay it along this direction (the lattice axis nearest to it turned
+    /// onto it), e.g. a fibre's.
+    pub rotate_to: Option<Spanned<Vec<Real>>>,
 }
 
 #[derive(Debug, Deserialize)]

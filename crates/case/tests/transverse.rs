@@ -123,6 +123,32 @@ fn transverse_mistakes_name_line_key_and_fix() {
         assert!(shown.contains(text), "{to}: {shown}");
         assert_eq!(e.line, line, "{to}: {shown}");
     }
+    // A lattice laid along a fibre: only the cubic one, along a direction.
+    for (from, to, text) in [
+        (
+            "spacing = 1.0e-3",
+            "spacing = 1.0e-3\nrotate_to = [1, 1]",
+            "three numbers",
+        ),
+        (
+            "spacing = 1.0e-3",
+            "spacing = 1.0e-3\nrotate_to = [0, 0, 0]",
+            "non-zero",
+        ),
+    ] {
+        let e = load(&BASE.replacen(from, to, 1)).err().unwrap();
+        assert_eq!((e.key.as_str(), e.line), ("lattice.rotate_to", 5), "{e}");
+        assert!(e.to_string().contains(text), "{e}");
+    }
+    let turned = BASE
+        .replacen(
+            "spacing = 1.0e-3",
+            "spacing = 1.0e-3\nrotate_to = [1, 1, 0]",
+            1,
+        )
+        .replacen("fibre = [0, 0, 1]", "fibre = [1, 1, 0]", 1);
+    let sim = load(&turned).unwrap();
+    assert!(sim.body.lattice.grid.is_none() && sim.body.nodes() > 20);
     // Transverse keys on an isotropic material are named too.
     let iso = "[lattice]\nkind = \"cubic\"\nspacing = 1e-3\n[material]\nyoungs = 1e9\npoisson = 0.3\ndensity = 1000\nshear_fibre = 1e9\n[geometry]\nbox = { min = [0, 0, 0], max = [3e-3, 3e-3, 3e-3] }\n[solver]\nend_time = 1e-6\n";
     let e = load(iso).err().unwrap();
@@ -247,18 +273,17 @@ fn orthotropic_bodies_are_built_and_their_mistakes_named() {
 /// The springs the run broke (not the pre-crack's), as their midpoints in the reference
 /// configuration (m), and the nodes that lost at least a fifth of their springs (the damage
 /// the crack maps draw).
-fn broken_midpoints(set: &[&str]) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../cases/fibre_notch.toml");
+fn broken_midpoints(case: &str, set: &[&str]) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../cases")
+        .join(case);
     let text = std::fs::read_to_string(&path).unwrap();
     let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
     let overrides = hooke_case::parse_overrides(&set).unwrap();
     let (sim, mut opts) = hooke_case::prepare(&path, &text, 1.0, &overrides).unwrap();
     let before = sim.state.alive().to_vec();
-    let out = std::env::temp_dir().join(format!(
-        "hooke_fibre_notch_{}_{}",
-        std::process::id(),
-        set.len()
-    ));
+    let out =
+        std::env::temp_dir().join(format!("hooke_{case}_{}_{}", std::process::id(), set.len()));
     let _ = std::fs::remove_dir_all(&out);
     opts.out = out.clone();
     let (_, sim) = hooke_sim::run_keeping(sim, opts, &mut hooke_sim::Silent).unwrap();
@@ -296,7 +321,7 @@ fn broken_midpoints(set: &[&str]) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
 /// plane, no break on the other case's splitting line).
 #[test]
 fn a_notched_fibre_plate_splits_along_strong_fibres() {
-    let (across, _) = broken_midpoints(&[]);
+    let (across, _) = broken_midpoints("fibre_notch.toml", &[]);
     assert!(across.len() > 200, "{} breaks", across.len());
     // The split: nine in ten breaks within 1.5 mm of x = 20 mm (the faces' springs split a
     // little wider), none ahead of the tip beyond x = 24.5 mm (the crack never cuts on across
@@ -321,7 +346,7 @@ fn a_notched_fibre_plate_splits_along_strong_fibres() {
     );
     assert!(lo < 10e-3 && hi > 50e-3, "split from y = {lo} to {hi}");
 
-    let (along, damaged) = broken_midpoints(&["material.fibre=[1, 0, 0]"]);
+    let (along, damaged) = broken_midpoints("fibre_notch.toml", &["material.fibre=[1, 0, 0]"]);
     let far = along.iter().map(|m| m[0]).fold(0.0f64, f64::max);
     // Ahead of the tip, away from the far edge (whose free-face springs also break late in
     // the run): the damaged nodes (a fifth of their springs broken, what the crack map draws;
@@ -349,4 +374,43 @@ fn a_notched_fibre_plate_splits_along_strong_fibres() {
     assert!(far > 50e-3, "the crack stopped at x = {far}");
     assert!(band < 8e-3, "a band {band} m wide about the notch's plane");
     assert!(split < 20, "{split} breaks split along y at the tip");
+}
+
+/// Fibres at 60 degrees to the notch, on a lattice laid along them (`lattice.rotate_to`): the
+/// crack leaves the notch's plane at the tip and runs along the fibres. The breaks between
+/// y = 33 and 44 mm (above the tip, below the grip's own damage) lie on a line at 60 +- 6 degrees to the
+/// notch (least squares), and fewer than 10 lie on the notch's plane ahead of the tip beyond
+/// x = 30 mm.
+#[test]
+fn an_oblique_fibre_plate_splits_at_the_fibre_angle() {
+    let (broken, _) = broken_midpoints("fibre_notch_oblique.toml", &[]);
+    let band: Vec<&[f64; 3]> = broken
+        .iter()
+        .filter(|m| m[1] > 33e-3 && m[1] < 44e-3)
+        .collect();
+    assert!(band.len() > 100, "{} breaks above the tip", band.len());
+    // x = x0 + y cot(theta), fitted by least squares.
+    let n = band.len() as f64;
+    let (my, mx) = (
+        band.iter().map(|m| m[1]).sum::<f64>() / n,
+        band.iter().map(|m| m[0]).sum::<f64>() / n,
+    );
+    let sxy: f64 = band.iter().map(|m| (m[1] - my) * (m[0] - mx)).sum();
+    let syy: f64 = band.iter().map(|m| (m[1] - my) * (m[1] - my)).sum();
+    let angle = (syy / sxy).atan().to_degrees();
+    let ahead = broken
+        .iter()
+        .filter(|m| m[0] > 30e-3 && (m[1] - 30.5e-3).abs() < 3e-3)
+        .count();
+    eprintln!(
+        "fibres at 60 degrees: {} breaks, {} between y = 33 and 44 mm on a line at {angle:.1} degrees; {ahead} on the notch's plane ahead of the tip",
+        broken.len(),
+        band.len()
+    );
+    assert!(
+        (angle - 60.0).abs() < 6.0,
+        "the split runs at {angle} degrees"
+    );
+    // A crack running on along the notch would break hundreds there.
+    assert!(ahead < 10, "{ahead} breaks ahead on the notch's plane");
 }

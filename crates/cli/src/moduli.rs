@@ -124,6 +124,11 @@ pub struct ModuliArgs {
     /// The fibre direction of --transverse: x, y, z, or three numbers X,Y,Z.
     #[arg(long, default_value = "z", allow_hyphen_values = true)]
     pub fibre: String,
+    /// With --transverse and --bulk: lay the lattice along the fibre (the lattice axis nearest to
+    /// it turned onto it, as `lattice.rotate_to` does), so that any fibre direction is reached;
+    /// `C_target` and `C_measured` are then in the global axes.
+    #[arg(long)]
+    pub rotate_lattice: bool,
     /// An orthotropic material instead of the isotropic one (cubic lattice, material axes along
     /// the lattice's): E_x,E_y,E_z,nu_xy,nu_xz,nu_yz,G_yz,G_xz,G_xy (Pa and -), with nu_ij =
     /// -eps_j/eps_i under tension along i. Replaces --nu and --stiffness.
@@ -284,6 +289,13 @@ fn test_for(args: &ModuliArgs, nu: Real) -> Result<BlockTest> {
     t.spacing = args.spacing;
     t.stiffness = args.stiffness;
     t.anisotropic = anisotropic(args)?;
+    if args.rotate_lattice {
+        return Err(InputError(
+            "--rotate-lattice: the block test needs faces on node planes; use it with --bulk"
+                .into(),
+        )
+        .into());
+    }
     if t.anisotropic.is_some() && kind != LatticeKind::Cubic {
         return Err(InputError(format!(
             "--transverse, --orthotropic: anisotropic materials are built on the cubic lattice (material axes along the lattice's); the {} lattice is not supported yet",
@@ -610,7 +622,25 @@ fn bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
             };
             InputError(format!("{flag}: {e}"))
         })?;
-        let measured = hooke_core::moduli::bulk_stiffness_of(kind, a, &|l| m.body(l))?;
+        let turn =
+            match (args.rotate_lattice, &m) {
+                (false, _) => None,
+                (true, Anisotropic::Transverse(t)) => {
+                    Some(hooke_core::anisotropy::lattice_rotation(t.fibre)?)
+                }
+                (true, Anisotropic::Orthotropic(_)) => return Err(InputError(
+                    "--rotate-lattice lays the lattice along a fibre: it goes with --transverse"
+                        .into(),
+                )
+                .into()),
+            };
+        // The test's box is 7 nodes across: turned about its centre node.
+        let centre = hooke_core::Vector::repeat(3.0 * a);
+        let measured = hooke_core::moduli::bulk_stiffness_of(kind, a, &|l| match &turn {
+            Some(r) => m.body(l.rotated(r, centre)?),
+            None => m.body(l),
+        })
+        .map_err(|e| InputError(format!("--transverse: {e}")))?;
         let target = m.stiffness()?;
         let name = match m {
             Anisotropic::Transverse(_) => "transverse",
@@ -626,6 +656,7 @@ fn bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
             "max_relative_difference": max_relative_difference(&measured, &target),
         });
         v[name] = anisotropic_json(&m);
+        v["rotate_lattice"] = serde_json::json!(args.rotate_lattice);
         return Ok(v);
     }
     let q = q_from_nu(kind, nu).map_err(|e| InputError(format!("--nu {nu}: {e}")))?;

@@ -187,8 +187,12 @@ pub fn check(args: CheckArgs) -> Result<()> {
             ),
         }
         println!(
-            "  springs k    axes x y z {:.6e} {:.6e} {:.6e}, face diagonals yz xz xy {:.6e} {:.6e} {:.6e} N/m",
-            f.axis_k[0], f.axis_k[1], f.axis_k[2], f.diagonal_k[0], f.diagonal_k[1], f.diagonal_k[2]
+            "  springs k    axes x y z {:.6e} {:.6e} {:.6e}, face diagonals yz xz xy {:.6e} {:.6e} {:.6e} N/m{}",
+            f.axis_k[0], f.axis_k[1], f.axis_k[2], f.diagonal_k[0], f.diagonal_k[1], f.diagonal_k[2],
+            match m {
+                hooke_core::Anisotropic::Transverse(_) => " (in the fibre's frame: z along the fibre)",
+                hooke_core::Anisotropic::Orthotropic(_) => "",
+            }
         );
         println!(
             "  weights, q   w = {:.6} {:.6} {:.6}, {:.6} {:.6} {:.6} (same order), q = {:.6}",
@@ -200,7 +204,14 @@ pub fn check(args: CheckArgs) -> Result<()> {
             f.diagonal_w[2],
             f.q
         );
-        println!("  stiffness    C (Pa, Voigt xx yy zz yz xz xy):");
+        println!(
+            "  stiffness    C (Pa, Voigt xx yy zz yz xz xy, global axes){}:",
+            if sim.body.lattice.grid.is_none() {
+                "; the lattice is laid along the fibre (lattice.rotate_to)"
+            } else {
+                ""
+            }
+        );
         for row in m.stiffness()? {
             let cells: Vec<String> = row.iter().map(|x| format!("{x:>12.4e}")).collect();
             println!("               {}", cells.join(" "));

@@ -66,6 +66,48 @@ fn moduli_transverse_gives_the_target_tensor_and_engineering_constants() {
             );
         }
     }
+    // Any fibre direction, on a lattice laid along it: the bulk tensor in the global axes.
+    let o = hooke(&[
+        "moduli",
+        "--bulk",
+        "--transverse",
+        mat,
+        "--fibre",
+        "1,2,0.5",
+        "--rotate-lattice",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["max_relative_difference"].as_f64().unwrap() < 1e-9);
+    assert!(
+        v["C_target"][0][5].as_f64().unwrap().abs() > 1e8,
+        "an off-axis tensor"
+    );
+    // Orthotropic (axes on the lattice's): the bulk tensor, and the block along x reads E_x,
+    // nu_xy and nu_xz.
+    let ortho = "60e9,50e9,10e9,0.05,0.3,0.32,4e9,4.5e9,5e9";
+    let o = hooke(&["moduli", "--bulk", "--orthotropic", ortho, "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["max_relative_difference"].as_f64().unwrap() < 1e-9);
+    assert!(v["orthotropic"].is_object());
+    let o = hooke(&[
+        "moduli",
+        "--orthotropic",
+        ortho,
+        "--spacing",
+        "1e-3",
+        "--cell-weights",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!((v["E_measured"].as_f64().unwrap() / 60e9 - 1.0).abs() < 1e-4);
+    for (c, t) in [0.05, 0.3].into_iter().enumerate() {
+        let m = v["lateral_measured"][c].as_f64().unwrap();
+        assert!((m - t).abs() < 1e-4, "orthotropic lateral {c}: {m}");
+    }
     for (args, why) in [
         (
             vec!["moduli", "--bulk", "--transverse", "1e9,2e9,0.3,0.2"],
@@ -73,7 +115,38 @@ fn moduli_transverse_gives_the_target_tensor_and_engineering_constants() {
         ),
         (
             vec!["moduli", "--bulk", "--transverse", mat, "--fibre", "1,1,0"],
-            "lattice axis",
+            "rotate",
+        ),
+        (
+            vec!["moduli", "--transverse", mat, "--rotate-lattice"],
+            "--bulk",
+        ),
+        (
+            vec!["moduli", "--bulk", "--orthotropic", "1,2,3"],
+            "nine numbers",
+        ),
+        (
+            vec![
+                "moduli",
+                "--bulk",
+                "--orthotropic",
+                "12e9,1.2e9,0.8e9,0.42,0.45,0.5,0.1e9,0.7e9,0.9e9",
+            ],
+            "negative stiffness",
+        ),
+        (
+            vec!["moduli", "--transverse", mat, "--orthotropic", ortho],
+            "keep one",
+        ),
+        (
+            vec![
+                "moduli",
+                "--bulk",
+                "--orthotropic",
+                ortho,
+                "--rotate-lattice",
+            ],
+            "--transverse",
         ),
         (
             vec!["moduli", "--bulk", "--transverse", mat, "--fibre", "up"],

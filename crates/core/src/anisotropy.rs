@@ -468,8 +468,6 @@ pub fn ladd_families(
 /// fibre along a lattice axis, for output (`hooke check`, `hooke moduli --bulk`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CubicFamilies {
-    /// Index of the lattice axis along the fibre.
-    pub axis: usize,
     /// Stiffness (N/m) of the four families: the axis along the fibre, the axes across it, the
     /// diagonals across it, the diagonals with a component along it.
     pub k: [Real; 4],
@@ -477,27 +475,20 @@ pub struct CubicFamilies {
     pub w: [Real; 4],
     /// Dispersion ratio.
     pub q: Real,
-    /// The same springs by axis and plane.
+    /// The same springs by axis and plane, in the fibre's frame (the fibre along z).
     pub ladd: LaddFamilies,
 }
 
-/// The spring constants that give the Ladd lattice of spacing `a` the material `t`, or why they
-/// do not exist (see the module docs for the reachable set).
+/// The spring constants that give a Ladd lattice of spacing `a`, one of whose axes lies along
+/// the fibre, the material `t`, or why they do not exist (see the module docs for the
+/// reachable set). Solved in the fibre's frame (the fibre along its z axis).
 pub fn cubic_families(t: &Transverse, a: Real) -> Result<CubicFamilies> {
     t.validate()?;
-    let m = t.axis()?;
-    let axis = (0..3).find(|&c| (m[c].abs() - 1.0).abs() < 1e-12).ok_or_else(|| Error::InvalidInput {
-        what: "fibre direction",
-        why: format!(
-            "{:?}: on the cubic lattice the fibre must lie along a lattice axis ([1,0,0], [0,1,0] or [0,0,1]); off-axis fibres would meet the lattice's own cubic anisotropy",
-            t.fibre
-        ),
-    })?;
     let local = t.local_stiffness();
     let (c44, c66) = (local[3][3], local[5][5]);
-    let ladd = ladd_families(&t.stiffness()?, a).map_err(|e| match e {
+    let ladd = ladd_families(&local, a).map_err(|e| match e {
         // In the engineering constants: the axes across the fibre need G_t < 2 G_p.
-        Unreachable::Axis { axis: i, .. } if i != axis && !(c44 < 2.0 * c66) => out_of_range(
+        Unreachable::Axis { axis: i, .. } if i != 2 && !(c44 < 2.0 * c66) => out_of_range(
             "shear_fibre",
             c44,
             format!(
@@ -525,27 +516,53 @@ pub fn cubic_families(t: &Transverse, a: Real) -> Result<CubicFamilies> {
         ),
         Unreachable::Diagonal(_) => out_of_range("shear_fibre", c44, e.why()),
     })?;
-    // The four families: along, across (the other axes), diagonals across (the plane normal to
-    // the fibre), diagonals along (a plane holding the fibre).
-    let across = (axis + 1) % 3;
-    let holding = (axis + 1) % 3; // a plane holding the fibre: normal to another axis
+    // In the fibre's frame: along = z, across = x, diagonals across = the xy plane (index 2),
+    // diagonals along = the yz plane (index 0).
     Ok(CubicFamilies {
-        axis,
         k: [
-            ladd.axis_k[axis],
-            ladd.axis_k[across],
-            ladd.diagonal_k[axis],
-            ladd.diagonal_k[holding],
+            ladd.axis_k[2],
+            ladd.axis_k[0],
+            ladd.diagonal_k[2],
+            ladd.diagonal_k[0],
         ],
         w: [
-            ladd.axis_w[axis],
-            ladd.axis_w[across],
-            ladd.diagonal_w[axis],
-            ladd.diagonal_w[holding],
+            ladd.axis_w[2],
+            ladd.axis_w[0],
+            ladd.diagonal_w[2],
+            ladd.diagonal_w[0],
         ],
         q: ladd.q,
         ladd,
     })
+}
+
+/// The rotation that lays a Ladd lattice along the fibre `m`: the smallest turn taking the
+/// lattice axis nearest to `m` (either sense) onto it. A fibre at 30 degrees in the xy plane
+/// turns the lattice about z by 30 degrees, so a plate's faces stay node planes.
+pub fn lattice_rotation(m: [Real; 3]) -> Result<crate::math::Matrix> {
+    use crate::math::{Matrix, Vector};
+    let n = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+    if !(n.is_finite() && n > 0.0) {
+        return Err(Error::InvalidInput {
+            what: "lattice rotation",
+            why: format!("{m:?} has no direction: give a non-zero vector"),
+        });
+    }
+    let to = Vector::new(m[0] / n, m[1] / n, m[2] / n);
+    let k = (0..3)
+        .max_by(|&i, &j| to[i].abs().total_cmp(&to[j].abs()))
+        .unwrap_or(2);
+    let mut from = Vector::zeros();
+    from[k] = to[k].signum();
+    // Rodrigues: the turn about from x to by the angle between them.
+    let axis = from.cross(&to);
+    let (sin, cos) = (axis.norm(), from.dot(&to));
+    if sin < 1e-15 {
+        return Ok(Matrix::identity());
+    }
+    let u = axis / sin;
+    let cross = Matrix::new(0.0, -u.z, u.y, u.z, 0.0, -u.x, -u.y, u.x, 0.0);
+    Ok(Matrix::identity() + cross * sin + cross * cross * (1.0 - cos))
 }
 
 impl Body {
@@ -555,7 +572,38 @@ impl Body {
     pub fn transverse(lattice: Lattice, t: &Transverse) -> Result<Body> {
         check_ladd(&lattice, "transversely isotropic")?;
         let f = cubic_families(t, lattice.spacing)?;
-        Body::ladd(lattice, &f.ladd, t.density)
+        let m = t.axis()?;
+        let a = lattice.spacing;
+        let bonds = &lattice.bonds;
+        let mut k = Vec::with_capacity(bonds.len());
+        let mut lever = Vec::with_capacity(bonds.len());
+        for b in 0..bonds.len() {
+            let [i, j] = bonds.ends[b].map(|v| v as usize);
+            let d = lattice.reference_vector(i, j);
+            let l = bonds.rest[b];
+            // The family from the spring's length and c = (n.m)^2: 1, 0 (axes), 0, 1/2
+            // (diagonals). Anything else means the fibre is not along a lattice axis.
+            let c = ((d[0] * m[0] + d[1] * m[1] + d[2] * m[2]) / l).powi(2);
+            let diagonal = l > 1.2 * a;
+            let family = match (diagonal, c) {
+                (false, c) if (c - 1.0).abs() < 1e-6 => 0,
+                (false, c) if c < 1e-6 => 1,
+                (true, c) if c < 1e-6 => 2,
+                (true, c) if (c - 0.5).abs() < 1e-6 => 3,
+                _ => {
+                    return Err(Error::InvalidInput {
+                        what: "fibre direction",
+                        why: format!(
+                            "{:?}: on the cubic lattice the fibre must lie along a lattice axis; for another direction lay the lattice along the fibre (case key lattice.rotate_to = the fibre, `Lattice::rotated`): off-axis fibres would meet the lattice's own cubic anisotropy",
+                            t.fibre
+                        ),
+                    })
+                }
+            };
+            k.push(f.k[family]);
+            lever.push(f.w[family] * l);
+        }
+        Body::weighted(lattice, k, lever, f.q, t.density)
     }
 
     /// A body of the orthotropic material `o` (axes along the lattice's) on a Ladd lattice
@@ -593,20 +641,30 @@ impl Body {
                 _ => {
                     return Err(Error::InvalidInput {
                         what: "anisotropic material",
-                        why: format!("spring {b} is neither an axis nor a face diagonal"),
+                        why: format!("spring {b} is neither along a lattice axis nor a face diagonal of the x, y, z axes: orthotropic materials need the lattice along the material axes (not turned)"),
                     })
                 }
             };
             k.push(kk);
             lever.push(w * l);
         }
-        let mass = density * lattice.cell_volume;
-        let nodes = lattice.len();
+        Body::weighted(lattice, k, lever, f.q, density)
+    }
+
+    /// A regular lattice's body with per-spring stiffnesses and levers, every node `rho a^3`.
+    fn weighted(
+        lattice: Lattice,
+        k: Vec<Real>,
+        lever: Vec<Real>,
+        q: Real,
+        density: Real,
+    ) -> Result<Body> {
+        let mass = vec![density * lattice.cell_volume; lattice.len()];
         let body = Body {
             lattice,
             k,
-            q: f.q,
-            mass: vec![mass; nodes],
+            q,
+            mass,
             lever: Some(lever),
         };
         body.validate()?;
@@ -787,6 +845,39 @@ mod tests {
         }
     }
 
+    /// Any fibre direction: a Ladd lattice laid along the fibre ([`lattice_rotation`],
+    /// [`Lattice::rotated`]) has the target's bulk tensor in the global axes to round-off.
+    #[test]
+    fn a_lattice_laid_along_any_fibre_has_the_target_tensor() {
+        for fibre in [
+            [1.0, 2.0, 0.5],
+            [0.3, -0.2, 1.0],
+            [1.0, 0.577, 0.0],
+            [-1.0, 1.0, 1.0],
+        ] {
+            let t = material(10e9, 25e9, 0.35, 0.28, 4e9, fibre);
+            let a = 1e-3;
+            let r = lattice_rotation(fibre).unwrap();
+            // The rotation takes a lattice axis onto the fibre.
+            let m = t.axis().unwrap();
+            let cols: Vec<Real> = (0..3)
+                .map(|k| (0..3).map(|i| r[(i, k)] * m[i]).sum::<Real>().abs())
+                .collect();
+            assert!(
+                cols.iter().any(|c| (c - 1.0).abs() < 1e-12),
+                "{fibre:?}: {cols:?}"
+            );
+            let centre = crate::math::Vector::repeat(3.0 * a);
+            let c = bulk_stiffness_of(LatticeKind::Cubic, a, &|l| {
+                Body::transverse(l.rotated(&r, centre)?, &t)
+            })
+            .unwrap();
+            let target = t.stiffness().unwrap();
+            let err = worst(&c, &target);
+            assert!(err < 1e-9, "fibre {fibre:?}: differs by {err:e}");
+        }
+    }
+
     /// The isotropic material is the paper's lattice: every family has k = mu a, w = 1, and q
     /// is `0.3 (4 nu - 1)/(1 - 2 nu)` (`docs/model.md`).
     #[test]
@@ -928,8 +1019,14 @@ mod tests {
         // q below the stability limit: strongly auxetic in the plane, stiff coupling.
         let msg = why(material(10e9, 10e9, -0.999, -0.5, 1e9, z));
         assert!(msg.contains("stability limit"), "{msg}");
-        // Off a lattice axis.
-        assert!(why(material(10e9, 20e9, 0.25, 0.2, 3e9, [1.0, 1.0, 0.0])).contains("lattice axis"));
+        // Off a lattice axis: the body says how to lay the lattice along the fibre.
+        let off = material(10e9, 20e9, 0.25, 0.2, 3e9, [1.0, 1.0, 0.0]);
+        let cube = Lattice::cubic_box([3, 3, 3], 1e-3).unwrap();
+        let msg = format!("{}", Body::transverse(cube, &off).unwrap_err());
+        assert!(
+            msg.contains("lattice axis") && msg.contains("rotate_to"),
+            "{msg}"
+        );
         // No direction.
         assert!(why(material(10e9, 20e9, 0.25, 0.2, 3e9, [0.0; 3])).contains("non-zero"));
         // Other lattices are refused.

@@ -534,6 +534,37 @@ impl Lattice {
     }
 }
 
+impl Lattice {
+    /// The same lattice turned rigidly by the rotation `r` about the point `about` (a regular
+    /// lattice laid along other axes, e.g. a Ladd lattice along a fibre: `crate::anisotropy`).
+    /// Node and spring order are kept; the rest lengths are those of the turned positions. The
+    /// result is no longer a box lattice (`grid` is `None`), so it runs on the general kernel.
+    /// Periodic lattices are refused: their periods are along the axes.
+    pub fn rotated(self, r: &crate::math::Matrix, about: Vector) -> Result<Self> {
+        if self.is_periodic() {
+            return Err(Error::InvalidInput {
+                what: "lattice rotation",
+                why: "a periodic lattice cannot be turned (its periods lie along the axes)".into(),
+            });
+        }
+        let n = self.len();
+        let (mut x, mut y, mut z) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        for i in 0..n {
+            let p = about + r * (self.pos.get(i) - about);
+            (x[i], y[i], z[i]) = (p.x, p.y, p.z);
+        }
+        let pos = Coords::from_components(&x, &y, &z);
+        let pairs: Vec<[u32; 2]> = self.bonds.ends.clone();
+        let bonds = Bonds::from_pairs(n, &pairs, &pos, self.period)?;
+        Ok(Lattice {
+            pos,
+            bonds,
+            grid: None,
+            ..self
+        })
+    }
+}
+
 fn check_spacing(a: Real) -> Result<()> {
     if a.is_finite() && a > 0.0 {
         Ok(())

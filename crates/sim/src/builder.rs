@@ -161,6 +161,7 @@ pub struct Builder {
     geometry: Solid,
     material: Option<Elastic>,
     anisotropic: Option<Anisotropic>,
+    rotate_to: Option<[Real; 3]>,
     breaking: Option<BreakRule>,
     cracks: Vec<Crack>,
     bcs: Vec<Bc>,
@@ -190,6 +191,7 @@ impl Builder {
             geometry: Solid::default(),
             material: None,
             anisotropic: None,
+            rotate_to: None,
             breaking: None,
             cracks: Vec::new(),
             bcs: Vec::new(),
@@ -241,6 +243,14 @@ impl Builder {
     /// stretch ([`BreakRule::Stretch`]): the G_c calibrations are isotropic.
     pub fn transverse(mut self, t: Transverse) -> Self {
         self.anisotropic = Some(Anisotropic::Transverse(t));
+        self
+    }
+    /// Lay the cubic lattice along `dir` (e.g. a fibre's): the lattice axis nearest to it is
+    /// turned onto it ([`hooke_core::anisotropy::lattice_rotation`]) and the turned lattice
+    /// filled into the solid. Its faces are then node planes only where they lie along the
+    /// lattice; elsewhere they are steps of one spacing.
+    pub fn rotate_lattice(mut self, dir: [Real; 3]) -> Self {
+        self.rotate_to = Some(dir);
         self
     }
     /// An orthotropic material, its axes along the Ladd lattice's ([`Body::orthotropic`]), with
@@ -406,7 +416,15 @@ impl Builder {
             }
             (None, _) => 1.0,
         };
-        let lattice = fill_lattice(kind, a, h, self.random, &self.geometry)?;
+        let lattice =
+            match self.rotate_to {
+                None => fill_lattice(kind, a, h, self.random, &self.geometry)?,
+                Some(_) if kind != LatticeKind::Cubic => return Err(BuildError::new(
+                    "lattice.rotate_to",
+                    "only the cubic lattice is turned (random lattices have no axes); remove it",
+                )),
+                Some(dir) => crate::geometry::fill_turned_cubic(a, dir, &self.geometry)?,
+            };
         if let Some(t) = &self.anisotropic {
             if self.material.is_some() {
                 return Err(BuildError::new(

@@ -397,3 +397,54 @@ pub fn traction_loads(
         }
     }
 }
+
+/// Fill `geometry` with a cubic lattice of spacing `a` laid along `dir`
+/// ([`hooke_core::anisotropy::lattice_rotation`]): a grid over the body's box as the turned
+/// lattice sees it, turned about the box's centre, keeping the nodes inside the box and the
+/// body (within 1e-9 a).
+pub fn fill_turned_cubic(a: Real, dir: [Real; 3], geometry: &Solid) -> Result<Lattice, BuildError> {
+    let (lo, hi) = geometry.bounds(3)?;
+    let r = hooke_core::anisotropy::lattice_rotation(dir)
+        .map_err(|e| BuildError::new("lattice.rotate_to", e.to_string()))?;
+    let centre = 0.5 * (lo + hi);
+    // The box's corners in the turned lattice's frame, and their bounds.
+    let (mut llo, mut lhi) = (
+        Vector::repeat(Real::INFINITY),
+        Vector::repeat(Real::NEG_INFINITY),
+    );
+    for corner in 0..8 {
+        let c = Vector::new(
+            if corner & 1 == 0 { lo.x } else { hi.x },
+            if corner & 2 == 0 { lo.y } else { hi.y },
+            if corner & 4 == 0 { lo.z } else { hi.z },
+        );
+        let l = r.transpose() * (c - centre);
+        llo = llo.inf(&l);
+        lhi = lhi.sup(&l);
+    }
+    let size = lhi - llo;
+    let countf = |len: Real| (len / a + 1e-9).floor() + 2.0;
+    let total = countf(size.x) * countf(size.y) * countf(size.z);
+    if !(total <= MAX_NODES) {
+        return Err(BuildError::new("lattice.spacing", format!("{total:.3e} nodes would not fit in memory (at most {MAX_NODES:e}); use a larger spacing or --scale below 1")));
+    }
+    let n = [size.x, size.y, size.z].map(|s| countf(s) as usize);
+    let geo = |e: hooke_core::Error| BuildError::new("geometry", e.to_string());
+    let mut lattice = Lattice::cubic_box(n, a).map_err(geo)?;
+    // The grid from the bounds' low corner in the turned frame (so a face the turn leaves in
+    // place stays a node plane), then turned about the box's centre.
+    let shift = centre + llo;
+    for i in 0..lattice.len() {
+        lattice.pos.x_mut()[i] += shift.x;
+        lattice.pos.y_mut()[i] += shift.y;
+        lattice.pos.z_mut()[i] += shift.z;
+    }
+    let lattice = lattice.rotated(&r, centre).map_err(geo)?;
+    let tol = 1e-9 * a;
+    lattice
+        .retain(|p| {
+            (0..3).all(|c| p[c] >= lo[c] - tol && p[c] <= hi[c] + tol)
+                && geometry.contains(p, tol, 3)
+        })
+        .map_err(geo)
+}
