@@ -85,6 +85,23 @@ def test_a_built_fibre_plate_is_the_case_file_bit_for_bit(tmp_path):
     assert out.returncode == 0, out.stdout + out.stderr
 
 
+def test_a_lattice_laid_along_an_oblique_fibre_builds_and_runs(tmp_path):
+    b = (hooke.Builder("cubic", spacing=2e-3).rotate_lattice([1, 1, 0])
+         .box([0, 0, 0], [20e-3, 20e-3, 6e-3])
+         .transverse(10e9, 25e9, 0.35, 0.28, 4e9, fibre=[1, 1, 0], density=1500)
+         .initial_velocity({"box": {"min": [-1, -1, -1], "max": [1, 1, 1]}}, [0.1, 0, 0])
+         .end_time(2e-6).output_every(1e-6))
+    sim = b.build(tmp_path / "turned", "turned")
+    summary = sim.finish()
+    # The turned lattice fills the box (its stepped faces keep about the box's volume in nodes).
+    assert 0.6 * 11 * 11 * 4 < sim.nodes < 1.4 * 11 * 11 * 4
+    assert abs(summary["energy"]["balance_error"]) < 1e-6 * summary["energy"]["kinetic"] + 1e-12
+    with pytest.raises(hooke.CaseError, match="lattice axis"):
+        (hooke.Builder("cubic", spacing=2e-3).box([0, 0, 0], [20e-3, 20e-3, 6e-3])
+         .transverse(10e9, 25e9, 0.35, 0.28, 4e9, fibre=[1, 1, 0], density=1500)
+         .end_time(1e-6).build(tmp_path / "axis"))
+
+
 def test_toughness_matches_the_command_line_exactly():
     mine = hooke.toughness(lattice="hex", nu=0.25, height=10, window=3)
     theirs = json.loads(cli("toughness", "--lattice", "hex", "--nu", "0.25", "--height", "10",

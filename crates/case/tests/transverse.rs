@@ -149,6 +149,13 @@ fn transverse_mistakes_name_line_key_and_fix() {
         .replacen("fibre = [0, 0, 1]", "fibre = [1, 1, 0]", 1);
     let sim = load(&turned).unwrap();
     assert!(sim.body.lattice.grid.is_none() && sim.body.nodes() > 20);
+    // ... but no traction on its stepped faces.
+    let pulled = format!(
+        "{turned}\n[[boundary]]\nregion = {{ face = \"x+\" }}\ntraction = [{{ value = [1e6, 0, 0], normal = \"x\" }}]\n"
+    );
+    let e = load(&pulled).err().unwrap();
+    assert!(e.key.starts_with("boundary[0].traction"), "{e}");
+    assert!(e.to_string().contains("stepped faces"), "{e}");
     // Transverse keys on an isotropic material are named too.
     let iso = "[lattice]\nkind = \"cubic\"\nspacing = 1e-3\n[material]\nyoungs = 1e9\npoisson = 0.3\ndensity = 1000\nshear_fibre = 1e9\n[geometry]\nbox = { min = [0, 0, 0], max = [3e-3, 3e-3, 3e-3] }\n[solver]\nend_time = 1e-6\n";
     let e = load(iso).err().unwrap();

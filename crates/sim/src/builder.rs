@@ -693,6 +693,14 @@ impl Builder {
             }
             for (j, (t, normal, scale)) in bc.tractions.iter().enumerate() {
                 axis_ok(*normal, format!("{key}.traction[{j}].normal"))?;
+                if self.rotate_to.is_some() {
+                    // A turned lattice's faces are steps: no node stands for a known share of
+                    // a face's area, so a traction would be spread wrongly.
+                    return Err(BuildError::new(
+                        format!("{key}.traction[{j}]"),
+                        "a traction needs faces on node planes, and a lattice laid along a fibre (lattice.rotate_to) has stepped faces; load it by a prescribed velocity or displacement of a box region instead",
+                    ));
+                }
                 loading
                     .loads
                     .extend(traction_loads(body, &nodes, *t, *normal, scale.clone()));
