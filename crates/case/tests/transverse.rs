@@ -156,11 +156,46 @@ fn transverse_mistakes_name_line_key_and_fix() {
     let e = load(&pulled).err().unwrap();
     assert!(e.key.starts_with("boundary[0].traction"), "{e}");
     assert!(e.to_string().contains("stepped faces"), "{e}");
+    // The fibre's own critical stretch: with critical_stretch, on a transverse material, not
+    // with softening springs.
+    for (extra, text) in [
+        ("critical_stretch_fibre = 5e-3", "give critical_stretch"),
+        (
+            "critical_stretch = 1e-3\ncritical_stretch_fibre = 5e-3\ncriterion = \"energy\"",
+            "stretch criterion",
+        ),
+        (
+            "criterion = \"softening\"\npeak_stretch = 1e-3\nfinal_stretch = 5e-3\ncritical_stretch_fibre = 5e-3",
+            "softening",
+        ),
+    ] {
+        let e = load(&BASE.replacen("density = 1500", &format!("density = 1500\n{extra}"), 1))
+            .err()
+            .unwrap_or_else(|| panic!("{extra}: accepted"));
+        assert_eq!(e.key, "material.critical_stretch_fibre", "{e}");
+        assert!(e.to_string().contains(text), "{extra}: {e}");
+    }
+    let random = BASE.replacen(
+        "kind = \"cubic\"",
+        "kind = \"random3d\"\nrotate_to = [1, 0, 0]",
+        1,
+    );
+    let e = load(&random).err().unwrap();
+    assert_eq!(e.key, "lattice.rotate_to", "{e}");
+    assert!(e.to_string().contains("only the cubic lattice"), "{e}");
     // Transverse keys on an isotropic material are named too.
     let iso = "[lattice]\nkind = \"cubic\"\nspacing = 1e-3\n[material]\nyoungs = 1e9\npoisson = 0.3\ndensity = 1000\nshear_fibre = 1e9\n[geometry]\nbox = { min = [0, 0, 0], max = [3e-3, 3e-3, 3e-3] }\n[solver]\nend_time = 1e-6\n";
     let e = load(iso).err().unwrap();
     assert_eq!((e.key.as_str(), e.line), ("material.shear_fibre", 8), "{e}");
     assert!(e.to_string().contains("kind = \"transverse\""), "{e}");
+    let e = load(&iso.replace(
+        "shear_fibre = 1e9",
+        "critical_stretch = 1e-3\ncritical_stretch_fibre = 5e-3",
+    ))
+    .err()
+    .unwrap();
+    assert_eq!(e.key, "material.critical_stretch_fibre", "{e}");
+    assert!(e.to_string().contains("needs a fibre"), "{e}");
 }
 
 /// The shipped fibre block, compressed along x (across the fibre, which runs along z): at the
