@@ -13,10 +13,9 @@ use hooke_tests::{
     kernel_forces, kill_random, random_displacement, small_body, Rng,
 };
 
-/// A carbon-fibre-like target (E_t / E_p = 2.5, nu_tp above nu_p) on a small Ladd box, the
-/// fibre along `fibre`.
-fn fibre_body(n: [usize; 3], fibre: [Real; 3]) -> Body {
-    let t = Transverse {
+/// A carbon-fibre-like material (E_t / E_p = 2.5, nu_tp above nu_p), the fibre along `fibre`.
+fn carbon(fibre: [Real; 3]) -> Transverse {
+    Transverse {
         youngs_plane: 10e9,
         youngs_fibre: 25e9,
         poisson_plane: 0.35,
@@ -24,8 +23,12 @@ fn fibre_body(n: [usize; 3], fibre: [Real; 3]) -> Body {
         shear_fibre: 4e9,
         density: 1500.0,
         fibre,
-    };
-    Body::transverse(Lattice::cubic_box(n, 1e-3).unwrap(), &t).unwrap()
+    }
+}
+
+/// [`carbon`] on a small Ladd box.
+fn fibre_body(n: [usize; 3], fibre: [Real; 3]) -> Body {
+    Body::transverse(Lattice::cubic_box(n, 1e-3).unwrap(), &carbon(fibre)).unwrap()
 }
 
 /// Random signed weights on a body of any lattice: levers `w L` with w in (-1.5, 1.5).
@@ -187,15 +190,7 @@ fn weighted_damaged_stiffness_stays_positive_semidefinite() {
 /// is about (ka)^2/24 = 0.3 %.
 #[test]
 fn wave_speeds_along_and_across_the_fibre_match_christoffel() {
-    let t = Transverse {
-        youngs_plane: 10e9,
-        youngs_fibre: 25e9,
-        poisson_plane: 0.35,
-        poisson_fibre: 0.28,
-        shear_fibre: 4e9,
-        density: 1500.0,
-        fibre: [0.0, 0.0, 1.0],
-    };
+    let t = carbon([0.0, 0.0, 1.0]);
     let c = t.stiffness().unwrap();
     let a = 1e-3;
     let n = 24;

@@ -574,18 +574,11 @@ impl Body {
         let f = cubic_families(t, lattice.spacing)?;
         let m = t.axis()?;
         let a = lattice.spacing;
-        let bonds = &lattice.bonds;
-        let mut k = Vec::with_capacity(bonds.len());
-        let mut lever = Vec::with_capacity(bonds.len());
-        for b in 0..bonds.len() {
-            let [i, j] = bonds.ends[b].map(|v| v as usize);
-            let d = lattice.reference_vector(i, j);
-            let l = bonds.rest[b];
+        Body::by_family(lattice, f.q, t.density, |d, l| {
             // The family from the spring's length and c = (n.m)^2: 1, 0 (axes), 0, 1/2
             // (diagonals). Anything else means the fibre is not along a lattice axis.
             let c = ((d[0] * m[0] + d[1] * m[1] + d[2] * m[2]) / l).powi(2);
-            let diagonal = l > 1.2 * a;
-            let family = match (diagonal, c) {
+            let family = match (l > 1.2 * a, c) {
                 (false, c) if (c - 1.0).abs() < 1e-6 => 0,
                 (false, c) if c < 1e-6 => 1,
                 (true, c) if c < 1e-6 => 2,
@@ -600,10 +593,8 @@ impl Body {
                     })
                 }
             };
-            k.push(f.k[family]);
-            lever.push(f.w[family] * l);
-        }
-        Body::weighted(lattice, k, lever, f.q, t.density)
+            Ok((f.k[family], f.w[family]))
+        })
     }
 
     /// A body of the orthotropic material `o` (axes along the lattice's) on a Ladd lattice
@@ -622,43 +613,45 @@ impl Body {
     /// each node's mass `rho a^3`.
     fn ladd(lattice: Lattice, f: &LaddFamilies, density: Real) -> Result<Body> {
         let a = lattice.spacing;
-        let bonds = &lattice.bonds;
-        let mut k = Vec::with_capacity(bonds.len());
-        let mut lever = Vec::with_capacity(bonds.len());
-        for b in 0..bonds.len() {
-            let [i, j] = bonds.ends[b].map(|v| v as usize);
-            let d = lattice.reference_vector(i, j);
-            let l = bonds.rest[b];
+        Body::by_family(lattice, f.q, density, |d, _| {
             // An axis spring has one non-zero component; a face diagonal two, and the plane it
             // lies in is normal to the zero one.
             let zero: Vec<usize> = (0..3).filter(|&c| d[c].abs() < 0.25 * a).collect();
-            let (kk, w) = match zero.as_slice() {
+            match zero.as_slice() {
                 &[p, q] => {
                     let axis = 3 - p - q;
-                    (f.axis_k[axis], f.axis_w[axis])
+                    Ok((f.axis_k[axis], f.axis_w[axis]))
                 }
-                &[p] => (f.diagonal_k[p], f.diagonal_w[p]),
-                _ => {
-                    return Err(Error::InvalidInput {
-                        what: "anisotropic material",
-                        why: format!("spring {b} is neither along a lattice axis nor a face diagonal of the x, y, z axes: orthotropic materials need the lattice along the material axes (not turned)"),
-                    })
-                }
-            };
-            k.push(kk);
-            lever.push(w * l);
-        }
-        Body::weighted(lattice, k, lever, f.q, density)
+                &[p] => Ok((f.diagonal_k[p], f.diagonal_w[p])),
+                _ => Err(Error::InvalidInput {
+                    what: "anisotropic material",
+                    why: format!("a spring along {d:?} is neither along a lattice axis nor a face diagonal of the x, y, z axes: orthotropic materials need the lattice along the material axes (not turned)"),
+                }),
+            }
+        })
     }
 
-    /// A regular lattice's body with per-spring stiffnesses and levers, every node `rho a^3`.
-    fn weighted(
+    /// A regular lattice's body whose springs take the stiffness and direction weight
+    /// `family(d, L)` gives for their reference vector `d` and rest length `L` (lever `w L`),
+    /// every node `rho a^3`.
+    fn by_family(
         lattice: Lattice,
-        k: Vec<Real>,
-        lever: Vec<Real>,
         q: Real,
         density: Real,
+        family: impl Fn([Real; 3], Real) -> Result<(Real, Real)>,
     ) -> Result<Body> {
+        let bonds = &lattice.bonds;
+        let (mut k, mut lever) = (
+            Vec::with_capacity(bonds.len()),
+            Vec::with_capacity(bonds.len()),
+        );
+        for b in 0..bonds.len() {
+            let [i, j] = bonds.ends[b].map(|v| v as usize);
+            let l = bonds.rest[b];
+            let (kb, w) = family(lattice.reference_vector(i, j), l)?;
+            k.push(kb);
+            lever.push(w * l);
+        }
         let mass = vec![density * lattice.cell_volume; lattice.len()];
         let body = Body {
             lattice,
