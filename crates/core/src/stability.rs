@@ -2,11 +2,15 @@
 //!
 //! Velocity Verlet (leapfrog) is stable for `dt < 2 / sqrt(lambda_max)`, `lambda_max` the
 //! largest eigenvalue of `M^-1 K`. We estimate it with a Lanczos iteration on the symmetric
-//! `M^-1/2 K M^-1/2`. The product `K v` is the central difference of the run's own force kernel,
-//! `K v = -(f(u + eps v) - f(u - eps v)) / (2 eps)` with `eps |v|_max = 1e-7 a` (exact to about
-//! 1e-9: the force is smooth and its rounding is 1e-16 k a), so the estimate costs two fast
-//! sweeps per iteration, sees the body's current state (geometric stiffness, broken springs), and
-//! cannot disagree with the forces actually integrated. The largest Ritz value converges from
+//! `M^-1/2 K M^-1/2`. The product `K v` is the forward difference of the run's own force kernel,
+//! `K v = -(f(u + eps v) - f(u)) / eps` with `eps |v|_max = 1e-7 a`, `f(u)` evaluated once. Its
+//! error is the force's curvature times `eps`, about 1e-7 relative (a spring's force is smooth on
+//! the scale of its length `a`), and its rounding about 1e-9 (the force's rounding, 1e-16 k a,
+//! over `eps`): far below the 1e-3 to which the iteration converges. A central difference would
+//! cancel the curvature term but costs two sweeps per iteration where this costs one (the
+//! estimate is the largest part of a large body's set-up). It sees the body's current state
+//! (geometric stiffness, broken springs) and cannot disagree with the forces actually
+//! integrated. The largest Ritz value converges from
 //! below: on small bodies to 1e-6 of a dense eigensolver; on large ones the top of the spectrum
 //! is nearly continuous and the estimate after the 40 iterations we allow is about 0.5 % low
 //! (10^6 nodes, plain lattice), which the safety factor covers. For the plain Ladd lattice
@@ -83,25 +87,36 @@ pub fn estimate(
     let mut beta: Vec<Real> = Vec::new();
     let mut last = 0.0;
     for it in 0..iterations.max(2) {
-        // w = M^-1/2 K M^-1/2 q
+        // w = M^-1/2 K M^-1/2 q, and alpha = w.q in the same pass (the vector passes cost a
+        // third of a large body's estimate when each was a pass of its own).
         for c in 0..3 {
-            for i in 0..n {
-                tmp.comp_mut(c)[i] = q.comp(c)[i] * inv_sqrt_m[i];
+            for ((t, x), s) in tmp.comp_mut(c).iter_mut().zip(q.comp(c)).zip(&inv_sqrt_m) {
+                *t = x * s;
             }
         }
         op.apply(body, kernel, &tmp, &mut w);
+        let mut a = 0.0;
         for c in 0..3 {
-            for i in 0..n {
-                w.comp_mut(c)[i] *= inv_sqrt_m[i];
+            let mut part = 0.0;
+            for ((y, x), s) in w.comp_mut(c).iter_mut().zip(q.comp(c)).zip(&inv_sqrt_m) {
+                *y *= s;
+                part += *y * x;
             }
+            a += part;
         }
-        let a = w.dot(&q);
         alpha.push(a);
-        w.axpy(-a, &q);
-        if let Some(&b) = beta.last() {
-            w.axpy(-b, &q_prev);
+        // w -= alpha q + beta q_prev, and beta' = |w|.
+        let b_last = beta.last().copied().unwrap_or(0.0);
+        let mut b2 = 0.0;
+        for c in 0..3 {
+            let mut part = 0.0;
+            for ((y, x), p) in w.comp_mut(c).iter_mut().zip(q.comp(c)).zip(q_prev.comp(c)) {
+                *y += -a * x + -b_last * p;
+                part += *y * *y;
+            }
+            b2 += part;
         }
-        let b = w.norm();
+        let b = b2.sqrt();
         let top = largest_ritz(&alpha, &beta);
         if std::env::var_os("HOOKE_TRACE").is_some() {
             eprintln!("lanczos {it}: {top:.9}");
@@ -113,8 +128,12 @@ pub fn estimate(
         last = top;
         beta.push(b);
         std::mem::swap(&mut q_prev, &mut q);
-        q.clone_from(&w);
-        scale(&mut q, 1.0 / b);
+        let inv = 1.0 / b;
+        for c in 0..3 {
+            for (x, y) in q.comp_mut(c).iter_mut().zip(w.comp(c)) {
+                *x = y * inv;
+            }
+        }
     }
     let lambda_max = last;
     StableStep {
@@ -132,8 +151,8 @@ struct KernelJacobian {
     unit_inv_mass: Vec<Real>,
     spacing: Real,
     partials: Vec<crate::kernel::SweepSums>,
-    /// Scratch: the force at `u - eps v`.
-    minus: Coords,
+    /// The force at `u`, once the first product needs it.
+    at_base: Option<Coords>,
 }
 
 impl KernelJacobian {
@@ -145,15 +164,19 @@ impl KernelJacobian {
             unit_inv_mass: vec![1.0; body.nodes()],
             spacing: body.lattice.spacing,
             partials: vec![Default::default(); crate::kernel::partials_len(body.nodes())],
-            minus: Coords::zeros(body.nodes()),
+            at_base: None,
         }
     }
 
     /// Force at `base + s v` into `out` (one pool sweep and one force sweep: with unit inverse
     /// masses, zero velocity and dt = 1 the kick leaves exactly the force in the velocity).
-    fn force(&mut self, body: &Body, kernel: &Kernel, v: &Coords, s: Real, out: &mut Coords) {
-        self.scratch.u.clone_from(&self.base);
-        self.scratch.u.axpy(s, v);
+    fn force(&mut self, body: &Body, kernel: &Kernel, v: &Coords, s: Real) {
+        for c in 0..3 {
+            let u = self.scratch.u.comp_mut(c).iter_mut();
+            for ((u, b), x) in u.zip(self.base.comp(c)).zip(v.comp(c)) {
+                *u = b + s * x;
+            }
+        }
         self.scratch.v.fill_zero();
         kernel.pools(body, &mut self.scratch);
         let p = StepParams {
@@ -169,7 +192,6 @@ impl KernelJacobian {
             &mut self.u_next,
             &mut self.partials,
         );
-        out.clone_from(&self.scratch.v);
     }
 
     fn apply(&mut self, body: &Body, kernel: &Kernel, v: &Coords, out: &mut Coords) {
@@ -179,16 +201,22 @@ impl KernelJacobian {
             return;
         }
         let eps = 1e-7 * self.spacing / vmax;
-        let mut minus = std::mem::take(&mut self.minus);
-        self.force(body, kernel, v, -eps, &mut minus);
-        self.force(body, kernel, v, eps, out);
-        // K v = -(f(+) - f(-)) / (2 eps)
+        let base = match self.at_base.take() {
+            Some(f) => f,
+            None => {
+                self.force(body, kernel, v, 0.0);
+                self.scratch.v.clone()
+            }
+        };
+        self.force(body, kernel, v, eps);
+        // K v = -(f(u + eps v) - f(u)) / eps
         for c in 0..3 {
-            for (o, m) in out.comp_mut(c).iter_mut().zip(minus.comp(c)) {
-                *o = (m - *o) / (2.0 * eps);
+            let o = out.comp_mut(c).iter_mut();
+            for ((o, b), f) in o.zip(base.comp(c)).zip(self.scratch.v.comp(c)) {
+                *o = (b - f) / eps;
             }
         }
-        self.minus = minus;
+        self.at_base = Some(base);
     }
 }
 

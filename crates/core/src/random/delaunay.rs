@@ -80,6 +80,51 @@ struct Builder<const N: usize> {
     free: Vec<u32>,
     mark: Vec<u32>,
     stamp: u32,
+    /// Scratch of `insert`, kept so that an insertion allocates nothing: the boundary facets
+    /// joined to the new point, and the facets through it waiting for their partner.
+    facets: Vec<([u32; N], u32, u32, usize)>,
+    open: Open,
+}
+
+/// An open-addressing table of the facets through a new point that wait for their partner,
+/// cleared between insertions by a generation count rather than by writing it.
+#[derive(Default)]
+struct Open {
+    /// `(generation, key, simplex, slot)`; a key is the facet's vertices other than the point.
+    table: Vec<(u32, [u32; 2], u32, u32)>,
+    generation: u32,
+}
+
+impl Open {
+    /// Start an insertion that will offer at most `facets` facets.
+    fn begin(&mut self, facets: usize) {
+        let want = (4 * facets).next_power_of_two().max(64);
+        if self.table.len() < want || self.generation == u32::MAX {
+            self.table = vec![(0, [NONE; 2], 0, 0); want];
+            self.generation = 0;
+        }
+        self.generation += 1;
+    }
+
+    /// Offer a facet; returns its partner's `(simplex, slot)` when that was offered before.
+    fn offer(&mut self, key: [u32; 2], w: u32, j: usize) -> Option<(u32, usize)> {
+        let mask = self.table.len() - 1;
+        let h = key[0].wrapping_mul(0x9E37_79B1) ^ key[1].wrapping_mul(0x85EB_CA77);
+        let mut at = (h ^ (h >> 15)) as usize & mask;
+        loop {
+            let e = &mut self.table[at];
+            if e.0 != self.generation {
+                *e = (self.generation, key, w, j as u32);
+                return None;
+            }
+            if e.1 == key {
+                // A facet is shared by exactly two simplices: free the entry for nobody.
+                e.1 = [NONE; 2];
+                return Some((e.2, e.3 as usize));
+            }
+            at = (at + 1) & mask;
+        }
+    }
 }
 
 /// Triangulate `points` (z = 0 for `N = 3`). Fails only on duplicate points, non-finite
@@ -163,6 +208,8 @@ pub fn triangulate<const N: usize>(points: &[[f64; 3]]) -> Result<Mesh<N>> {
         free: Vec::new(),
         mark: vec![0],
         stamp: 0,
+        facets: Vec::new(),
+        open: Open::default(),
     };
     // Insert in Morton order of the quantised coordinates: consecutive points are close, so the
     // walk from the last new simplex is short.
@@ -323,12 +370,14 @@ impl<const N: usize> Builder<N> {
         // New simplices: each boundary facet joined to p (p takes the place of the vertex
         // opposite the facet, which keeps the orientation).
         created.clear();
-        let facets: Vec<([u32; N], u32, u32, usize)> = boundary
-            .iter()
-            .map(|&(s, k)| (self.with_vertex(s, k, p), s, self.nbr[s as usize][k], k))
-            .collect();
-        let old: Vec<u32> = cavity.clone();
-        for &s in &old {
+        let mut facets = std::mem::take(&mut self.facets);
+        facets.clear();
+        facets.extend(
+            boundary
+                .iter()
+                .map(|&(s, k)| (self.with_vertex(s, k, p), s, self.nbr[s as usize][k], k)),
+        );
+        for &s in cavity.iter() {
             self.dead[s as usize] = true;
         }
         for &(v, s, outer, k) in &facets {
@@ -343,12 +392,17 @@ impl<const N: usize> Builder<N> {
             }
             created.push(w);
         }
-        for &s in &old {
+        self.facets = facets;
+        for &s in cavity.iter() {
             self.mark[s as usize] = 0;
             self.free.push(s);
         }
-        // Facets through p between new simplices: match them by the vertices other than p.
-        let mut open: Vec<([u32; 2], u32, usize)> = Vec::with_capacity(created.len() * (N - 1));
+        // Facets through p between new simplices: each is named by its vertices other than p
+        // and shared by exactly two new simplices, paired through a small hash table (a cavity
+        // has tens of new simplices; a linear search for each partner was the hottest loop of
+        // the triangulation). The pairing is unique, so the mesh does not depend on how.
+        let mut open = std::mem::take(&mut self.open);
+        open.begin(created.len() * (N - 1));
         for &w in created.iter() {
             let v = self.verts[w as usize];
             let kp = v.iter().position(|&x| x == p).unwrap();
@@ -367,16 +421,13 @@ impl<const N: usize> Builder<N> {
                 if key[1] != NONE && key[0] > key[1] {
                     key.swap(0, 1);
                 }
-                if let Some(pos) = open.iter().position(|e| e.0 == key) {
-                    let (_, w2, j2) = open.swap_remove(pos);
+                if let Some((w2, j2)) = open.offer(key, w, j) {
                     self.nbr[w as usize][j] = w2;
                     self.nbr[w2 as usize][j2] = w;
-                } else {
-                    open.push((key, w, j));
                 }
             }
         }
-        debug_assert!(open.is_empty(), "unmatched facets around a new node");
+        self.open = open;
         Ok(created[0])
     }
 }
