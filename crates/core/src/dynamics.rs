@@ -231,7 +231,7 @@ impl Integrator {
         // The damage-proof step needs only the plain law's estimate: (1 + 2 max(q, 0)) times
         // its lambda bounds the dispersive law's lambda for the intact body as for any pattern
         // of broken springs (stability.rs), so estimating that one too would only cost a second
-        // Lanczos run (as many force sweeps as 40 steps) at set-up.
+        // Lanczos run (as many force sweeps as 20 steps) at set-up.
         let stable = if opts.damage_proof {
             let plain = stability::estimate(body, state, &kernel.plain(), 40, 1e-3);
             let lambda = (1.0 + 2.0 * body.q.max(0.0)) * plain.lambda_max;

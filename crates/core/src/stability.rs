@@ -143,7 +143,7 @@ pub fn estimate(
     }
 }
 
-/// `K v` as the central difference of a force kernel (see the module docs).
+/// `K v` as the forward difference of a force kernel (see the module docs).
 struct KernelJacobian {
     base: Coords,
     scratch: State,
