@@ -233,7 +233,7 @@ impl Integrator {
         // of broken springs (stability.rs), so estimating that one too would only cost a second
         // Lanczos run (as many force sweeps as 20 steps) at set-up.
         let stable = if opts.damage_proof {
-            let plain = stability::estimate(body, state, &kernel.plain(), 40, 1e-3);
+            let plain = stability::estimate_in(body, state, &kernel.plain(), 40, 1e-3);
             let lambda = (1.0 + 2.0 * body.q.max(0.0)) * plain.lambda_max;
             StableStep {
                 lambda_max: lambda,
@@ -241,7 +241,7 @@ impl Integrator {
                 ..plain
             }
         } else {
-            stability::estimate(body, state, &kernel, 40, 1e-3)
+            stability::estimate_in(body, state, &kernel, 40, 1e-3)
         };
         let dt = match opts.time_step {
             TimeStep::Auto { safety } => {

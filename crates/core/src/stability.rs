@@ -58,10 +58,25 @@ pub struct StableStep {
 
 /// Estimate the stable step of `body` in `state` with the force kernel of the run: at most
 /// `iterations` Lanczos steps, stopping once the estimate changes by less than `tolerance`
-/// (relative) from one step to the next.
+/// (relative) from one step to the next. Works on a copy of `state`; see [`estimate_in`] for
+/// the same estimate without the copy.
 pub fn estimate(
     body: &Body,
     state: &State,
+    kernel: &Kernel,
+    iterations: usize,
+    tolerance: Real,
+) -> StableStep {
+    estimate_in(body, &mut state.clone(), kernel, iterations, tolerance)
+}
+
+/// [`estimate`], with the force evaluations run in `state` itself (a copy of a large body's
+/// state was a third of its peak memory at set-up): its displacements and velocities are given
+/// back exactly, while its pools, forces and kernel scratch are left as the last evaluation made
+/// them, for the caller to recompute.
+pub fn estimate_in(
+    body: &Body,
+    state: &mut State,
     kernel: &Kernel,
     iterations: usize,
     tolerance: Real,
@@ -136,6 +151,8 @@ pub fn estimate(
         }
     }
     let lambda_max = last;
+    op.scratch.u.clone_from(&op.base);
+    op.scratch.v.clone_from(&op.saved_v);
     StableStep {
         lambda_max,
         dt_critical: 2.0 / lambda_max.sqrt(),
@@ -144,9 +161,11 @@ pub fn estimate(
 }
 
 /// `K v` as the forward difference of a force kernel (see the module docs).
-struct KernelJacobian {
+struct KernelJacobian<'a> {
     base: Coords,
-    scratch: State,
+    /// The velocities to give back.
+    saved_v: Coords,
+    scratch: &'a mut State,
     u_next: Coords,
     unit_inv_mass: Vec<Real>,
     spacing: Real,
@@ -155,11 +174,12 @@ struct KernelJacobian {
     at_base: Option<Coords>,
 }
 
-impl KernelJacobian {
-    fn new(body: &Body, state: &State) -> Self {
+impl<'a> KernelJacobian<'a> {
+    fn new(body: &Body, state: &'a mut State) -> Self {
         KernelJacobian {
             base: state.u.clone(),
-            scratch: state.clone(),
+            saved_v: state.v.clone(),
+            scratch: state,
             u_next: Coords::zeros(body.nodes()),
             unit_inv_mass: vec![1.0; body.nodes()],
             spacing: body.lattice.spacing,
