@@ -138,6 +138,16 @@ pub struct ModuliArgs {
     /// samples) that `hooke_core::random::calibration` holds, and print it as Rust source.
     #[arg(long)]
     pub table: bool,
+    /// random3d: test the pillar inscribed in the bar instead (a cylinder along the load axis,
+    /// its diameter the smaller lateral side, e.g. --size 21,15,15 for 7 spacings in radius and
+    /// 20 high): its curved wall carries nodes of its own, as the box's faces do. E is measured
+    /// on the section pi R^2, nu by fitting u_r = eps_r r over the middle third's nodes.
+    #[arg(long)]
+    pub cylinder: bool,
+    /// With --cylinder: keep only the box's nodes that the cylinder holds, with none on its
+    /// wall (how curved surfaces were sampled before; for comparison).
+    #[arg(long, requires = "cylinder")]
+    pub inner_surface: bool,
 }
 
 impl From<LatticeArg> for LatticeKind {
@@ -237,6 +247,17 @@ fn test_for(args: &ModuliArgs, nu: Real) -> Result<BlockTest> {
             .into());
         }
         t.cell_weights = true;
+    }
+    if args.cylinder {
+        if kind != LatticeKind::Random3d {
+            return Err(InputError(format!(
+                "--cylinder: the pillar test is for random3d lattices, not {}; give --lattice random3d",
+                kind.name()
+            ))
+            .into());
+        }
+        t.cylinder = true;
+        t.conform = !args.inner_surface;
     }
     if let Some(s) = &args.size {
         t.size = match (kind.dim(), s.as_slice()) {
@@ -338,6 +359,9 @@ pub struct ModuliJson {
     pub seconds: f64,
     /// Springs and nodes weighted by their cells (`--cell-weights`).
     pub cell_weights: bool,
+    /// `--cylinder`: the pillar test (`"conforming"` wall, or `"inner"` with `--inner-surface`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cylinder: Option<&'static str>,
     /// Random lattices: the sampler, load axis, first seed and number of samples.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sampler: Option<&'static str>,
@@ -399,6 +423,9 @@ fn to_json(t: &BlockTest, r: &BlockResult, seconds: f64) -> ModuliJson {
         strain: t.strain,
         seconds,
         cell_weights: t.cell_weights,
+        cylinder: t
+            .cylinder
+            .then_some(if t.conform { "conforming" } else { "inner" }),
         sampler: None,
         axis: None,
         seed: None,

@@ -76,6 +76,13 @@ pub struct BlockTest {
     /// unused). The targets are the compliance's: `E = 1/S_xx`, and the lateral ratios
     /// `-S_yx/S_xx`, `-S_zx/S_xx` ([`BlockResult::lateral_target`]).
     pub anisotropic: Option<crate::anisotropy::Anisotropic>,
+    /// random3d only: test the cylinder inscribed in the box along the load axis (its diameter
+    /// the smaller lateral side) instead of the box, a pillar with a curved surface.
+    pub cylinder: bool,
+    /// With `cylinder`: put the nodes of its wall on the surface ([`crate::random::Curved`]),
+    /// as the box's faces have theirs. Off, the wall's outer nodes lie inside the surface (the
+    /// box's nodes that the cylinder holds), as before curved surfaces were sampled.
+    pub conform: bool,
 }
 
 impl BlockTest {
@@ -99,6 +106,8 @@ impl BlockTest {
             q: None,
             cell_weights: false,
             anisotropic: None,
+            cylinder: false,
+            conform: true,
         }
     }
 }
@@ -367,7 +376,55 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
     for (m, &c) in lateral.iter().enumerate() {
         ext[c] = (t.size[m + 1].max(2) - 1) as Real * a;
     }
-    let lattice = Lattice::random(dim, [0.0; 3], ext, a, 1.0, t.random, &|_| true)?;
+    let mut centre = [0.0; 3];
+    for c in 0..dim {
+        centre[c] = 0.5 * ext[c];
+    }
+    if t.cylinder && dim != 3 {
+        return Err(Error::InvalidInput {
+            what: "cylinder",
+            why: "the pillar test is for random3d lattices: give --lattice random3d".into(),
+        });
+    }
+    // The pillar's radius, and a node's distance from its axis.
+    let radius = lateral
+        .iter()
+        .map(|&c| ext[c])
+        .fold(Real::INFINITY, Real::min)
+        / 2.0;
+    let radial = |p: [Real; 3]| -> [Real; 3] {
+        let mut d = [0.0; 3];
+        for &c in &lateral {
+            d[c] = p[c] - centre[c];
+        }
+        d
+    };
+    let lattice = if t.cylinder {
+        let tol = 1e-9 * a;
+        let inside = |p: [Real; 3]| {
+            let d = radial(p);
+            (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() <= radius + tol
+                && p[ax] >= -tol
+                && p[ax] <= ext[ax] + tol
+        };
+        let mut curved = Vec::new();
+        if t.conform {
+            curved.push(crate::random::Curved::cylinder_wall(
+                centre,
+                ax,
+                radius,
+                0.5 * ext[ax],
+            ));
+            for end in [0.0, ext[ax]] {
+                let mut c = centre;
+                c[ax] = end;
+                curved.push(crate::random::Curved::circle(3, c, ax, radius));
+            }
+        }
+        Lattice::random_conforming(dim, [0.0; 3], ext, a, 1.0, t.random, &inside, &curved)?
+    } else {
+        Lattice::random(dim, [0.0; 3], ext, a, 1.0, t.random, &|_| true)?
+    };
     let e_target = calibration::youngs_for(t.kind, sampler, t.stiffness, q);
     // k_s = kappa V_s / L_s^2 with kappa = t.stiffness (statics: the masses play no part).
     let body = Body::from_cells(lattice, t.stiffness, q, 1.0);
@@ -389,10 +446,6 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
             None
         }
     };
-    let mut centre = [0.0; 3];
-    for c in 0..dim {
-        centre[c] = 0.5 * ext[c];
-    }
     for i in 0..n {
         let mut u = [0.0; 3];
         for c in 0..dim {
@@ -439,9 +492,28 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
         .filter(|&i| end_of(i) == Some(1.0))
         .map(|i| -state.f.comp(ax)[i])
         .sum();
-    let area: Real = lateral.iter().map(|&c| ext[c]).product();
+    let area: Real = if t.cylinder {
+        std::f64::consts::PI * radius * radius
+    } else {
+        lateral.iter().map(|&c| ext[c]).product()
+    };
     let mut lateral_strain = 0.0;
-    for &c in &lateral {
+    if t.cylinder {
+        // The radial strain of the middle third: the least-squares fit of u_r = eps_r r over
+        // its nodes (exact for a uniform lateral strain, whatever the nodes' radii).
+        let (mut ur, mut rr) = (0.0, 0.0);
+        for i in 0..n {
+            if (coord(ax, i) - centre[ax]).abs() > len / 6.0 {
+                continue;
+            }
+            let d = radial([coord(0, i), coord(1, i), coord(2, i)]);
+            let u = state.u.get(i);
+            ur += u.x * d[0] + u.y * d[1] + u.z * d[2];
+            rr += d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        }
+        lateral_strain = ur / rr;
+    }
+    for &c in lateral.iter().filter(|_| !t.cylinder) {
         let side_mean = |at: Real| {
             let sel: Vec<usize> = (0..n)
                 .filter(|&i| coord(c, i) == at && (coord(ax, i) - centre[ax]).abs() <= len / 6.0)
@@ -450,7 +522,9 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
         };
         lateral_strain += (side_mean(ext[c]) - side_mean(0.0)) / ext[c];
     }
-    lateral_strain /= lateral.len() as Real;
+    if !t.cylinder {
+        lateral_strain /= lateral.len() as Real;
+    }
     let e_measured = force / area / t.strain;
     Ok(BlockResult {
         nu_target: t.nu,

@@ -2,7 +2,7 @@
 //! conditions act on. Shared by the [`crate::Builder`] and the case files.
 
 use hooke_contact::MeshShape;
-use hooke_core::random::RandomSpec;
+use hooke_core::random::{Curved, RandomSpec};
 use hooke_core::{Body, Lattice, LatticeKind, Real, Vector};
 
 use crate::builder::BuildError;
@@ -182,6 +182,35 @@ impl Solid {
         Ok((lo, hi))
     }
 
+    /// The curved pieces of the body's boundary, for a random lattice to put nodes on: the
+    /// surfaces of its spheres and cylinders, added or subtracted (each is trimmed to where it
+    /// bounds the body while it is sampled). Boxes' faces off the bounding box, polygons' walls
+    /// and meshes are not among them: random nodes there lie inside the body.
+    pub fn curved(&self, dim: usize) -> Vec<Curved<'static>> {
+        let mut out = Vec::new();
+        for sh in self.add.iter().chain(&self.subtract) {
+            match *sh {
+                Shape::Ball { c, r } if dim == 3 => out.push(Curved::sphere(c.into(), r)),
+                Shape::Ball { c, r } => out.push(Curved::circle(2, [c.x, c.y, 0.0], 2, r)),
+                Shape::Cylinder { c, axis, r, half } if dim == 3 => {
+                    let c: [Real; 3] = c.into();
+                    out.push(Curved::cylinder_wall(c, axis, r, half));
+                    for s in [-1.0, 1.0] {
+                        let mut end = c;
+                        end[axis] += s * half;
+                        out.push(Curved::circle(3, end, axis, r));
+                        out.push(Curved::plane(end, axis, vec![end]));
+                    }
+                }
+                Shape::Cylinder { c, axis: 2, r, .. } => {
+                    out.push(Curved::circle(2, [c.x, c.y, 0.0], 2, r))
+                }
+                _ => {}
+            }
+        }
+        out
+    }
+
     /// Whether `p` is in the body, surfaces moved out by `tol`.
     pub fn contains(&self, p: Vector, tol: Real, dim: usize) -> bool {
         (self.add.is_empty() || self.add.iter().any(|s| s.contains(p, tol, dim)))
@@ -240,7 +269,18 @@ pub fn fill_lattice(
             // dropped (`hooke_core::random`).
             let tol = 1e-9 * a;
             let inside = |p: [Real; 3]| geometry.contains(Vector::new(p[0], p[1], p[2]), tol, dim);
-            return Lattice::random(dim, lo.into(), hi.into(), a, h, random, &inside).map_err(geo);
+            let curved = geometry.curved(dim);
+            return Lattice::random_conforming(
+                dim,
+                lo.into(),
+                hi.into(),
+                a,
+                h,
+                random,
+                &inside,
+                &curved,
+            )
+            .map_err(geo);
         }
     };
     for i in 0..lattice.len() {

@@ -63,7 +63,7 @@ pub mod sample;
 use crate::error::{Error, Result};
 use crate::lattice::{Bonds, Cells, Lattice, LatticeKind};
 use crate::math::{Coords, Real};
-pub use sample::Sampler;
+pub use sample::{Curved, Sampler};
 
 /// How to scatter the nodes of a random lattice.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -93,6 +93,24 @@ impl Lattice {
         h: Real,
         spec: RandomSpec,
         inside: &dyn Fn([Real; 3]) -> bool,
+    ) -> Result<Lattice> {
+        Self::random_conforming(dim, lo, hi, a, h, spec, inside, &[])
+    }
+
+    /// [`Lattice::random`] with nodes on the curved pieces of the body's boundary (see
+    /// [`sample::Curved`]), so that a cylinder or a sphere has its outer nodes on its surface
+    /// as a box has them on its faces: its springs and nodes then stand for the volume up to
+    /// the surface, not to a hull inside it.
+    #[allow(clippy::too_many_arguments)]
+    pub fn random_conforming(
+        dim: usize,
+        lo: [Real; 3],
+        hi: [Real; 3],
+        a: Real,
+        h: Real,
+        spec: RandomSpec,
+        inside: &dyn Fn([Real; 3]) -> bool,
+        curved: &[sample::Curved],
     ) -> Result<Lattice> {
         if !(a.is_finite() && a > 0.0) {
             return Err(Error::InvalidInput {
@@ -126,19 +144,32 @@ impl Lattice {
         } else {
             (lo, hi)
         };
-        let mut pts = sample::sample_box(dim, lo, hi, a, spec.sampler, spec.seed, inside);
+        let (mut pts, on_curved) =
+            sample::sample_conforming(dim, lo, hi, a, spec.sampler, spec.seed, inside, curved);
+        let mut curved_node = vec![false; pts.len()];
+        curved_node[..on_curved].fill(true);
         // Number the nodes along a Morton curve: neighbours in space are near in memory, which
         // the CSR kernel's gathers need (sampling order scatters them: 2.5x slower steps).
-        morton_sort(&mut pts, lo, hi);
+        morton_sort(&mut pts, &mut curved_node, lo, hi);
+        let r = sample::poisson_radius(dim, a);
+        // A simplex edge between two neighbours on a curved surface is a chord: on a concave
+        // surface (a hole) it runs just outside the body, by a / 8 R of its length, and must not
+        // drop the simplex for that.
+        let chord = |i: u32, j: u32| {
+            let (p, q) = (pts[i as usize], pts[j as usize]);
+            curved_node[i as usize]
+                && curved_node[j as usize]
+                && (0..3).map(|c| (p[c] - q[c]).powi(2)).sum::<Real>() < 4.0 * r * r
+        };
         let (kind, thickness) = if dim == 2 {
             (LatticeKind::Random2d, h)
         } else {
             (LatticeKind::Random3d, 1.0)
         };
         let (verts, measures, surface) = if dim == 2 {
-            simplices::<3>(&pts, a, inside)?
+            simplices::<3>(&pts, a, inside, &chord)?
         } else {
-            simplices::<4>(&pts, a, inside)?
+            simplices::<4>(&pts, a, inside, &chord)?
         };
         let nodes_per = dim + 1;
         let (node_vol, merged) = shares(pts.len(), &verts, nodes_per, &measures, thickness);
@@ -250,9 +281,19 @@ fn shares(
     (node_vol, edges)
 }
 
-/// Sort points by the Morton (Z-order) key of their coordinates quantised in the box.
-fn morton_sort(pts: &mut [[Real; 3]], lo: [Real; 3], hi: [Real; 3]) {
-    pts.sort_by_cached_key(|p| delaunay::morton_key(p, lo, hi));
+/// Sort points, and a flag with each, by the Morton (Z-order) key of their coordinates
+/// quantised in the box.
+fn morton_sort(pts: &mut [[Real; 3]], flag: &mut [bool], lo: [Real; 3], hi: [Real; 3]) {
+    if !flag.iter().any(|&f| f) {
+        pts.sort_by_cached_key(|p| delaunay::morton_key(p, lo, hi));
+        return;
+    }
+    let mut both: Vec<([Real; 3], bool)> = pts.iter().cloned().zip(flag.iter().cloned()).collect();
+    both.sort_by_cached_key(|p| delaunay::morton_key(&p.0, lo, hi));
+    for (k, (p, f)) in both.into_iter().enumerate() {
+        pts[k] = p;
+        flag[k] = f;
+    }
 }
 
 /// Triangulate and drop simplices outside the shape. Returns the kept simplices' vertices
@@ -264,6 +305,7 @@ fn simplices<const N: usize>(
     pts: &[[Real; 3]],
     a: Real,
     inside: &dyn Fn([Real; 3]) -> bool,
+    chord: &dyn Fn(u32, u32) -> bool,
 ) -> Result<(Vec<u32>, Vec<Real>, Vec<[Real; 3]>)> {
     let mesh = delaunay::triangulate::<N>(pts)?;
     let tiny = 1e-12 * a.powi(N as i32 - 1);
@@ -284,6 +326,9 @@ fn simplices<const N: usize>(
             let mut ok = inside(c);
             for x in 0..N {
                 for y in x + 1..N {
+                    if chord(v[x], v[y]) {
+                        continue;
+                    }
                     let (p, q) = (at(v[x]), at(v[y]));
                     for t in [0.25, 0.5, 0.75] {
                         ok = ok

@@ -52,12 +52,262 @@ pub fn sample_box(
     seed: u64,
     inside: &dyn Fn([f64; 3]) -> bool,
 ) -> Vec<[f64; 3]> {
+    sample_conforming(dim, lo, hi, a, sampler, seed, inside, &[]).0
+}
+
+/// A curved piece of a body's boundary that its nodes should lie on, as the box's faces do: a
+/// surface (3D), a curve bounding a plate (2D), or a curved edge of a solid (3D). Poisson-disk
+/// sampling puts nodes on it first, by Bridson's rule within the piece, then fills the rest.
+///
+/// The piece may be given larger than the body's boundary (a whole sphere, a cylinder's wall
+/// beyond another shape): a node is kept on it only where the body's `inside` test says the
+/// point is in the body and a step of `1e-6 a` along one of its normals leaves the body, so the
+/// union and difference of shapes trim their pieces without being told how.
+pub struct Curved<'a> {
+    /// 1 for a curve, 2 for a surface.
+    pub dim: usize,
+    /// Points of the piece to grow from: one per part that the body may cut apart.
+    pub starts: Vec<[f64; 3]>,
+    /// The point of the piece nearest to a point close to it.
+    pub project: Box<dyn Fn([f64; 3]) -> [f64; 3] + 'a>,
+    /// Unit tangents (the first `dim`) and unit normals (the body's dimension less `dim`) at a
+    /// point of the piece.
+    pub frame: Box<dyn Fn([f64; 3]) -> ([[f64; 3]; 2], [[f64; 3]; 2]) + 'a>,
+}
+
+fn unit_axis(axis: usize) -> [f64; 3] {
+    let mut e = [0.0; 3];
+    e[axis] = 1.0;
+    e
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn normalised(a: [f64; 3]) -> [f64; 3] {
+    let n = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    if n > 0.0 {
+        [a[0] / n, a[1] / n, a[2] / n]
+    } else {
+        [1.0, 0.0, 0.0]
+    }
+}
+
+/// `p - c` without its component along `axis`, and that component.
+fn split(p: [f64; 3], c: [f64; 3], axis: usize) -> ([f64; 3], f64) {
+    let mut d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+    let along = d[axis];
+    d[axis] = 0.0;
+    (d, along)
+}
+
+impl<'a> Curved<'a> {
+    /// The sphere of centre `c` and radius `r` (3D).
+    pub fn sphere(c: [f64; 3], r: f64) -> Curved<'a> {
+        let starts = (0..6)
+            .map(|k| {
+                let mut p = c;
+                p[k / 2] += if k % 2 == 0 { r } else { -r };
+                p
+            })
+            .collect();
+        Curved {
+            dim: 2,
+            starts,
+            project: Box::new(move |p| {
+                let n = normalised([p[0] - c[0], p[1] - c[1], p[2] - c[2]]);
+                [c[0] + r * n[0], c[1] + r * n[1], c[2] + r * n[2]]
+            }),
+            frame: Box::new(move |p| {
+                let n = normalised([p[0] - c[0], p[1] - c[1], p[2] - c[2]]);
+                // A tangent from the axis least along n, then the third by the right hand.
+                let k = (0..3)
+                    .min_by(|&i, &j| n[i].abs().total_cmp(&n[j].abs()))
+                    .unwrap_or(0);
+                let t1 = normalised(cross(n, unit_axis(k)));
+                ([t1, cross(n, t1)], [n, [0.0; 3]])
+            }),
+        }
+    }
+
+    /// The wall of the cylinder of radius `r` about the line through `c` along `axis` (3D),
+    /// unbounded along the axis: the body's test trims it.
+    pub fn cylinder_wall(c: [f64; 3], axis: usize, r: f64, half: f64) -> Curved<'a> {
+        let e = unit_axis(axis);
+        let (b1, b2) = (unit_axis((axis + 1) % 3), unit_axis((axis + 2) % 3));
+        let mut starts = Vec::new();
+        for s in [0.0, -0.9 * half, 0.9 * half] {
+            for (u, v) in [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)] {
+                starts.push([0, 1, 2].map(|k| c[k] + s * e[k] + r * (u * b1[k] + v * b2[k])));
+            }
+        }
+        Curved {
+            dim: 2,
+            starts,
+            project: Box::new(move |p| {
+                let (d, along) = split(p, c, axis);
+                let n = normalised(d);
+                [0, 1, 2].map(|k| c[k] + along * e[k] + r * n[k])
+            }),
+            frame: Box::new(move |p| {
+                let n = normalised(split(p, c, axis).0);
+                ([e, cross(e, n)], [n, [0.0; 3]])
+            }),
+        }
+    }
+
+    /// The circle of radius `r` about `c` in the plane normal to `axis`: a plate's edge (2D,
+    /// `axis` 2), or a solid's curved edge (3D, where both the radial and the axial direction
+    /// are normals).
+    pub fn circle(dim: usize, c: [f64; 3], axis: usize, r: f64) -> Curved<'a> {
+        let e = unit_axis(axis);
+        let (b1, b2) = (unit_axis((axis + 1) % 3), unit_axis((axis + 2) % 3));
+        let starts = [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)]
+            .iter()
+            .map(|&(u, v)| [0, 1, 2].map(|k| c[k] + r * (u * b1[k] + v * b2[k])))
+            .collect();
+        Curved {
+            dim: 1,
+            starts,
+            project: Box::new(move |p| {
+                let n = normalised(split(p, c, axis).0);
+                [0, 1, 2].map(|k| c[k] + r * n[k])
+            }),
+            frame: Box::new(move |p| {
+                let n = normalised(split(p, c, axis).0);
+                let normals = if dim == 3 { [n, e] } else { [n, [0.0; 3]] };
+                ([cross(e, n), [0.0; 3]], normals)
+            }),
+        }
+    }
+
+    /// The plane through `c` normal to `axis` (3D), unbounded: the body's test trims it to a
+    /// cylinder's flat end or a box's face.
+    pub fn plane(c: [f64; 3], axis: usize, starts: Vec<[f64; 3]>) -> Curved<'a> {
+        let e = unit_axis(axis);
+        let (b1, b2) = (unit_axis((axis + 1) % 3), unit_axis((axis + 2) % 3));
+        Curved {
+            dim: 2,
+            starts,
+            project: Box::new(move |p| {
+                let mut q = p;
+                q[axis] = c[axis];
+                q
+            }),
+            frame: Box::new(move |_| ([b1, b2], [e, [0.0; 3]])),
+        }
+    }
+}
+
+/// [`sample_box`] with nodes on the curved pieces of the boundary first (Poisson only: a
+/// jittered grid has no distance rule to make room for them, so it ignores them). Returns the
+/// nodes and how many of them, first in the list, lie on the curved pieces.
+///
+/// With curved pieces the box's strata place only nodes that the body holds (a node outside
+/// would keep the body's own nodes at bay near the curved surface), reseeding each stratum until
+/// a thousand random tries in a row find no room, since the body may cut a stratum apart.
+#[allow(clippy::too_many_arguments)]
+pub fn sample_conforming(
+    dim: usize,
+    lo: [f64; 3],
+    hi: [f64; 3],
+    a: f64,
+    sampler: Sampler,
+    seed: u64,
+    inside: &dyn Fn([f64; 3]) -> bool,
+    curved: &[Curved],
+) -> (Vec<[f64; 3]>, usize) {
     let mut rng = Rng::new(seed);
-    let pts = match sampler {
-        Sampler::Jitter { amplitude } => jittered(dim, lo, hi, a, amplitude, &mut rng),
-        Sampler::Poisson => poisson(dim, lo, hi, poisson_radius(dim, a), &mut rng),
+    match sampler {
+        Sampler::Jitter { amplitude } => {
+            let pts = jittered(dim, lo, hi, a, amplitude, &mut rng);
+            (pts.into_iter().filter(|&p| inside(p)).collect(), 0)
+        }
+        Sampler::Poisson => {
+            let r = poisson_radius(dim, a);
+            let mut grid = Grid::new(dim, lo, hi, r);
+            let mut pts: Vec<[f64; 3]> = Vec::new();
+            // Curves before surfaces, as edges before faces.
+            let mut order: Vec<&Curved> = curved.iter().collect();
+            order.sort_by_key(|c| c.dim);
+            for piece in order {
+                grow_on(dim, piece, a, r, inside, &mut rng, &mut grid, &mut pts);
+            }
+            let on_curved = pts.len();
+            let filter = if curved.is_empty() {
+                None
+            } else {
+                Some(inside)
+            };
+            poisson(dim, lo, hi, r, &mut rng, &mut grid, &mut pts, filter);
+            let kept = pts
+                .iter()
+                .enumerate()
+                .filter(|&(i, p)| i < on_curved || inside(*p))
+                .map(|(_, p)| *p)
+                .collect();
+            (kept, on_curved)
+        }
+    }
+}
+
+/// Bridson's rule on a curved piece: candidates in the shell `r..2r` of the tangent plane (or
+/// line) at an active node, projected onto the piece.
+#[allow(clippy::too_many_arguments)]
+fn grow_on(
+    dim: usize,
+    piece: &Curved,
+    a: f64,
+    r: f64,
+    inside: &dyn Fn([f64; 3]) -> bool,
+    rng: &mut Rng,
+    grid: &mut Grid,
+    pts: &mut Vec<[f64; 3]>,
+) {
+    let step = 1e-6 * a;
+    let normals = dim - piece.dim;
+    // A point off the sampling box would share a clamped grid cell with another node, which
+    // the one-node-per-cell grid cannot hold: such a piece is cut off at the box.
+    let (glo, gcell, gn) = (grid.lo, grid.cell, grid.n);
+    let on_boundary = |p: [f64; 3]| {
+        if !inside(p) || !holds(glo, gcell, gn, p) {
+            return false;
+        }
+        let (_, n) = (piece.frame)(p);
+        n.iter().take(normals).any(|n| {
+            let out = |s: f64| [p[0] + s * n[0], p[1] + s * n[1], p[2] + s * n[2]];
+            !inside(out(step)) || !inside(out(-step))
+        })
     };
-    pts.into_iter().filter(|&p| inside(p)).collect()
+    let mut active: Vec<usize> = Vec::new();
+    for &s in &piece.starts {
+        let p = (piece.project)(s);
+        if on_boundary(p) && grid.far_from_all(p, r) {
+            grid.insert(p);
+            active.push(pts.len());
+            pts.push(p);
+        }
+        // Candidates in the tangent plane (or line) at the centre, projected onto the piece.
+        let candidate = |centre: [f64; 3], rng: &mut Rng| {
+            let (t, _) = (piece.frame)(centre);
+            let d = shell(piece.dim, r, rng);
+            let mut p = centre;
+            for (m, t) in t.iter().take(piece.dim).enumerate() {
+                for c in 0..3 {
+                    p[c] += d[m] * t[c];
+                }
+            }
+            (piece.project)(p)
+        };
+        grow_front(&mut active, r, rng, grid, pts, &candidate, &|p| {
+            on_boundary(*p)
+        });
+    }
 }
 
 fn jittered(
@@ -96,6 +346,12 @@ fn jittered(
 }
 
 /// Background grid for the distance checks: cells of side `r/sqrt(d)` hold at most one node.
+/// Whether `p` lies in the box a grid of `n` cells of side `cell` from `lo` covers (an axis
+/// of one cell is a plane's unused one).
+fn holds(lo: [f64; 3], cell: f64, n: [usize; 3], p: [f64; 3]) -> bool {
+    (0..3).all(|a| n[a] == 1 || (p[a] >= lo[a] && p[a] <= lo[a] + cell * n[a] as f64))
+}
+
 struct Grid {
     lo: [f64; 3],
     cell: f64,
@@ -201,7 +457,17 @@ struct Stratum {
     fixed: [Option<f64>; 3],
 }
 
-fn poisson(dim: usize, lo: [f64; 3], hi: [f64; 3], r: f64, rng: &mut Rng) -> Vec<[f64; 3]> {
+#[allow(clippy::too_many_arguments)]
+fn poisson(
+    dim: usize,
+    lo: [f64; 3],
+    hi: [f64; 3],
+    r: f64,
+    rng: &mut Rng,
+    grid: &mut Grid,
+    pts: &mut Vec<[f64; 3]>,
+    filter: Option<&dyn Fn([f64; 3]) -> bool>,
+) {
     // Strata by dimension: corners, then edges, then faces, then the interior.
     let mut strata: Vec<(usize, Stratum)> = Vec::new();
     let combos = 3usize.pow(dim as u32);
@@ -223,12 +489,9 @@ fn poisson(dim: usize, lo: [f64; 3], hi: [f64; 3], r: f64, rng: &mut Rng) -> Vec
         strata.push((free, Stratum { fixed }));
     }
     strata.sort_by_key(|s| s.0);
-    let mut grid = Grid::new(dim, lo, hi, r);
-    let mut pts: Vec<[f64; 3]> = Vec::new();
     for (free, s) in &strata {
-        grow(*free, s, lo, hi, r, rng, &mut grid, &mut pts);
+        grow(*free, s, lo, hi, r, rng, grid, pts, filter);
     }
-    pts
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -241,9 +504,12 @@ fn grow(
     rng: &mut Rng,
     grid: &mut Grid,
     pts: &mut Vec<[f64; 3]>,
+    filter: Option<&dyn Fn([f64; 3]) -> bool>,
 ) {
     let free_axes: Vec<usize> = (0..3).filter(|&c| s.fixed[c].is_none()).collect();
-    let in_box = |p: &[f64; 3]| free_axes.iter().all(|&c| p[c] >= lo[c] && p[c] <= hi[c]);
+    let in_box = |p: &[f64; 3]| {
+        free_axes.iter().all(|&c| p[c] >= lo[c] && p[c] <= hi[c]) && filter.is_none_or(|f| f(*p))
+    };
     let place = |rng: &mut Rng| {
         let mut p = [0.0; 3];
         for c in 0..3 {
@@ -256,36 +522,65 @@ fn grow(
     };
     if free == 0 {
         let p = place(rng);
-        if grid.far_from_all(p, r) {
+        if in_box(&p) && grid.far_from_all(p, r) {
             grid.insert(p);
             pts.push(p);
         }
         return;
     }
     // Bridson: seed once (the free part of a stratum is connected once lower strata are placed),
-    // then grow from an active front, 30 candidates per node in the shell r..2r.
+    // then grow from an active front, 30 candidates per node in the shell r..2r. A body that
+    // filters the nodes may cut the stratum apart: then seed again until a thousand tries in a
+    // row find no room.
     let mut active: Vec<usize> = Vec::new();
-    for _ in 0..1000 {
-        let p = place(rng);
-        if grid.far_from_all(p, r) {
-            grid.insert(p);
-            active.push(pts.len());
-            pts.push(p);
-            break;
+    loop {
+        for _ in 0..1000 {
+            let p = place(rng);
+            if in_box(&p) && grid.far_from_all(p, r) {
+                grid.insert(p);
+                active.push(pts.len());
+                pts.push(p);
+                break;
+            }
+        }
+        if active.is_empty() {
+            return;
+        }
+        let candidate = |centre: [f64; 3], rng: &mut Rng| {
+            let d = shell(free, r, rng);
+            let mut p = centre;
+            for (m, &c) in free_axes.iter().enumerate() {
+                p[c] += d[m];
+            }
+            p
+        };
+        grow_front(&mut active, r, rng, grid, pts, &candidate, &in_box);
+        if filter.is_none() {
+            return;
         }
     }
+}
+
+/// Bridson's front: from a random active node, up to 30 candidates; the first kept one far
+/// enough from every node joins the front, and a node with none left leaves it.
+#[allow(clippy::too_many_arguments)]
+fn grow_front(
+    active: &mut Vec<usize>,
+    r: f64,
+    rng: &mut Rng,
+    grid: &mut Grid,
+    pts: &mut Vec<[f64; 3]>,
+    candidate: &impl Fn([f64; 3], &mut Rng) -> [f64; 3],
+    keep: &impl Fn(&[f64; 3]) -> bool,
+) {
     const TRIES: usize = 30;
     while !active.is_empty() {
         let slot = rng.below(active.len());
         let centre = pts[active[slot]];
         let mut placed = false;
         for _ in 0..TRIES {
-            let d = shell(free, r, rng);
-            let mut p = centre;
-            for (m, &c) in free_axes.iter().enumerate() {
-                p[c] += d[m];
-            }
-            if in_box(&p) && grid.far_from_all(p, r) {
+            let p = candidate(centre, rng);
+            if keep(&p) && grid.far_from_all(p, r) {
                 grid.insert(p);
                 active.push(pts.len());
                 pts.push(p);
@@ -405,5 +700,90 @@ mod tests {
             .iter()
             .all(|q| (0..3).all(|c| q[c] >= 0.0) && q[0] <= 4.0 && q[1] <= 3.0 && q[2] <= 2.0));
         assert_eq!(p.iter().filter(|q| q[0] == 0.0).count(), 12);
+    }
+
+    #[test]
+    fn curved_nodes_lie_on_the_surface_cover_it_and_keep_their_distance() {
+        // A ball of radius 4 (3D) and a disk of radius 5 (2D), centred in their boxes.
+        for (dim, rad) in [(3, 4.0), (2, 5.0)] {
+            let c = if dim == 3 { [4.5; 3] } else { [5.5, 5.5, 0.0] };
+            let hi = if dim == 3 {
+                [9.0; 3]
+            } else {
+                [11.0, 11.0, 0.0]
+            };
+            let dist = move |p: [f64; 3]| {
+                ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt()
+            };
+            let inside = move |p: [f64; 3]| dist(p) <= rad + 1e-9;
+            let piece = if dim == 3 {
+                Curved::sphere(c, rad)
+            } else {
+                Curved::circle(2, c, 2, rad)
+            };
+            let (p, on) = sample_conforming(
+                dim,
+                [0.0; 3],
+                hi,
+                1.0,
+                Sampler::Poisson,
+                7,
+                &inside,
+                std::slice::from_ref(&piece),
+            );
+            let r = poisson_radius(dim, 1.0);
+            assert!(on > 0 && on < p.len());
+            // The curved nodes come first and lie on the surface to rounding.
+            assert!(p[..on].iter().all(|&q| (dist(q) - rad).abs() < 1e-9 * rad));
+            assert!(p[on..].iter().all(|&q| dist(q) < rad - 1e-9));
+            assert!(min_dist(&p) >= r * (1.0 - 1e-12));
+            // Maximal on the surface: no point of it is farther than 2r from a curved node
+            // (Bridson's shell reaches 2r), checked on a dense set of surface points.
+            let probes: Vec<[f64; 3]> = if dim == 3 {
+                (0..400)
+                    .map(|k| {
+                        // A Fibonacci sphere.
+                        let z = 1.0 - 2.0 * (k as f64 + 0.5) / 400.0;
+                        let phi = k as f64 * 2.399_963_229_728_653;
+                        let s = (1.0 - z * z).sqrt();
+                        [
+                            c[0] + rad * s * phi.cos(),
+                            c[1] + rad * s * phi.sin(),
+                            c[2] + rad * z,
+                        ]
+                    })
+                    .collect()
+            } else {
+                (0..200)
+                    .map(|k| {
+                        let t = k as f64 * std::f64::consts::TAU / 200.0;
+                        [c[0] + rad * t.cos(), c[1] + rad * t.sin(), 0.0]
+                    })
+                    .collect()
+            };
+            for q in probes {
+                let near = p[..on]
+                    .iter()
+                    .map(|&s| {
+                        ((s[0] - q[0]).powi(2) + (s[1] - q[1]).powi(2) + (s[2] - q[2]).powi(2))
+                            .sqrt()
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                assert!(near <= 2.0 * r, "dim {dim}: a gap of {near} on the surface");
+            }
+            // The same seed gives the same nodes, bit for bit.
+            let (again, on_again) = sample_conforming(
+                dim,
+                [0.0; 3],
+                hi,
+                1.0,
+                Sampler::Poisson,
+                7,
+                &inside,
+                std::slice::from_ref(&piece),
+            );
+            assert_eq!(on, on_again);
+            assert!(p.iter().zip(&again).all(|(x, y)| x == y) && p.len() == again.len());
+        }
     }
 }
