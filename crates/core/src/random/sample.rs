@@ -72,8 +72,11 @@ pub struct Curved<'a> {
     pub project: Box<dyn Fn([f64; 3]) -> [f64; 3] + 'a>,
     /// Unit tangents (the first `dim`) and unit normals (the body's dimension less `dim`) at a
     /// point of the piece.
-    pub frame: Box<dyn Fn([f64; 3]) -> ([[f64; 3]; 2], [[f64; 3]; 2]) + 'a>,
+    pub frame: Box<dyn Fn([f64; 3]) -> Frame + 'a>,
 }
+
+/// Up to two unit tangents and up to two unit normals at a point of a [`Curved`] piece.
+pub type Frame = ([[f64; 3]; 2], [[f64; 3]; 2]);
 
 fn unit_axis(axis: usize) -> [f64; 3] {
     let mut e = [0.0; 3];
@@ -563,7 +566,6 @@ fn grow(
 
 /// Bridson's front: from a random active node, up to 30 candidates; the first kept one far
 /// enough from every node joins the front, and a node with none left leaves it.
-#[allow(clippy::too_many_arguments)]
 fn grow_front(
     active: &mut Vec<usize>,
     r: f64,
