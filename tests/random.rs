@@ -292,3 +292,130 @@ fn random3d_paper_block_over_nu_and_samplers() {
         }
     }
 }
+
+/// The relaxed bulk test's identities on one node set (random3d, 12-spacing cube):
+/// * its tensor is symmetric (the relaxed response is the Hessian of an energy), to the
+///   solver's tolerance;
+/// * the affine tensor bounds it from above in energy (Hill: relaxation only lowers the energy
+///   of a given boundary strain), so `C_affine - C_measured` is positive semi-definite;
+/// * the relaxation is real: C11 relaxes by more than 3 % (the network is about 7 % softer
+///   than its affine estimate, `calibration`);
+/// * regular lattices and cubes too small to have inner nodes are refused.
+#[test]
+fn relaxed_bulk_tensor_is_symmetric_and_below_the_affine_one() {
+    use hooke_core::moduli::{relaxed_bulk_stiffness, RelaxedBulk};
+    let t = RelaxedBulk {
+        kind: LatticeKind::Random3d,
+        nu: 0.3,
+        size: 12.0,
+        spacing: 1e-3,
+        stiffness: 2e9,
+        random: RandomSpec {
+            sampler: Sampler::Poisson,
+            seed: 3,
+        },
+        solver: Default::default(),
+    };
+    let r = relaxed_bulk_stiffness(&t).unwrap();
+    let c = nalgebra::Matrix6::from_fn(|i, j| r.c_measured[i][j]);
+    let a = nalgebra::Matrix6::from_fn(|i, j| r.c_affine[i][j]);
+    let c11 = c[(0, 0)];
+    assert!(r.boundary_nodes > 0 && r.boundary_nodes < r.nodes);
+    assert!(
+        (c - c.transpose()).amax() < 1e-6 * c11,
+        "asymmetry {:e} of C11",
+        (c - c.transpose()).amax() / c11
+    );
+    let gap = (a - c).symmetric_eigenvalues().min();
+    assert!(gap > -1e-6 * c11, "C_affine - C has eigenvalue {gap:e}");
+    assert!(
+        c11 < 0.97 * a[(0, 0)],
+        "C11 {c11:e} against affine {:e}",
+        a[(0, 0)]
+    );
+    // And it is a stiffness near the target: every entry within 5 % of C11 on one small cube.
+    for i in 0..6 {
+        for j in 0..6 {
+            assert!((c[(i, j)] - r.c_target[i][j]).abs() < 0.05 * c11);
+        }
+    }
+    let mut bad = t.clone();
+    bad.kind = LatticeKind::Cubic;
+    assert!(relaxed_bulk_stiffness(&bad).is_err());
+    let mut bad = t.clone();
+    bad.size = 2.0;
+    assert!(relaxed_bulk_stiffness(&bad).is_err());
+}
+
+/// The relaxed bulk tensor's ensemble means against the calibrated isotropic targets, per entry
+/// (the entry's own value, or C11 where the target's entry is zero), on the default cubes
+/// (32 spacings in 3D, 64 in 2D), 4 node sets each. The calibration came from block tests with
+/// free faces; this is an independent check. Measured: 3D within 1.3 % for nu in
+/// [-0.5, 0.45] (C11 0.7-0.9 % high: the faces' boundary layer, which shrinks like a/L);
+/// 2D within 1.5 % for nu_2D in [-0.9, 0.45]. At 3D nu = -0.9 the entries are off by 5 % of
+/// C11: they scale like 1/(1 + nu), and the calibration's nu is -0.904 there.
+#[test]
+#[ignore]
+fn relaxed_bulk_ensembles_match_the_calibrated_targets() {
+    use hooke_core::moduli::{relaxed_bulk_stiffness, RelaxedBulk};
+    let cases: &[(LatticeKind, Real, Real, Real)] = &[
+        (LatticeKind::Random3d, -0.5, 32.0, 0.02),
+        (LatticeKind::Random3d, 0.0, 32.0, 0.02),
+        (LatticeKind::Random3d, 0.25, 32.0, 0.02),
+        (LatticeKind::Random3d, 0.45, 32.0, 0.02),
+        (LatticeKind::Random3d, -0.9, 32.0, 0.06),
+        (LatticeKind::Random2d, -0.9, 64.0, 0.02),
+        (LatticeKind::Random2d, -0.5, 64.0, 0.02),
+        (LatticeKind::Random2d, 0.0, 64.0, 0.02),
+        (LatticeKind::Random2d, 0.25, 64.0, 0.02),
+        (LatticeKind::Random2d, 0.45, 64.0, 0.02),
+    ];
+    for &(kind, nu, size, tol) in cases {
+        let mut mean = [[0.0; 6]; 6];
+        let mut target = [[0.0; 6]; 6];
+        let samples = 4;
+        for seed in 1..=samples {
+            let r = relaxed_bulk_stiffness(&RelaxedBulk {
+                kind,
+                nu,
+                size,
+                spacing: 1.0,
+                stiffness: 1.0,
+                random: RandomSpec {
+                    sampler: Sampler::Poisson,
+                    seed,
+                },
+                solver: Default::default(),
+            })
+            .unwrap();
+            for i in 0..6 {
+                for j in 0..6 {
+                    mean[i][j] += r.c_measured[i][j] / samples as Real;
+                }
+            }
+            target = r.c_target;
+        }
+        let scale = target[0][0];
+        let mut worst: Real = 0.0;
+        for i in 0..6 {
+            for j in 0..6 {
+                let t = target[i][j];
+                let d = mean[i][j] - t;
+                worst = worst.max(
+                    if t.abs() > 1e-12 * scale {
+                        d / t
+                    } else {
+                        d / scale
+                    }
+                    .abs(),
+                );
+            }
+        }
+        println!(
+            "{} nu {nu}: largest entry difference {:.4}",
+            kind.name(),
+            worst
+        );
+        assert!(worst < tol, "{} nu {nu}: {worst}", kind.name());
+    }
+}

@@ -463,7 +463,7 @@ def moduli(lattice: str = "cubic", nu: Optional[float] = 0.3, **flags: Any) -> D
     """The paper's block test, as ``hooke moduli --lattice LATTICE --nu NU ... --json``: the
     same keys and numbers. Other flags by name (``size=[21, 6, 6]``, ``samples=4``,
     ``sampler="jitter"``; ``bulk=True``: the exact bulk test's 6x6 ``C_measured`` and
-    ``C_target``; ``cell_weights=True``: springs and nodes weighted by their cells, no surface
+    ``C_target``, on random lattices the relaxed one's with ``C_spread`` and ``C_affine``; ``cell_weights=True``: springs and nodes weighted by their cells, no surface
     bias; ``transverse=[E_p, E_t, nu_p, nu_tp, G_t]`` with ``fibre="z"``, or
     ``orthotropic=[E_x, E_y, E_z, nu_xy, nu_xz, nu_yz, G_yz, G_xz, G_xy]``: an anisotropic
     material instead of ``nu``)."""

@@ -201,8 +201,7 @@ fn moduli_json_has_the_contract_keys() {
 
 /// `hooke moduli --bulk --json`: the exact bulk test's full stiffness tensor (`C_measured`,
 /// 6x6 Voigt, Pa) equals the isotropic target for the lattice's E and nu (`C_target`) to 1e-9
-/// relative on both regular lattices across nu, with the isotropy relations visible in it;
-/// random lattices are refused with the reason.
+/// relative on both regular lattices across nu, with the isotropy relations visible in it.
 #[test]
 fn moduli_bulk_gives_the_full_stiffness_tensor() {
     for (lattice, nu) in [
@@ -212,36 +211,8 @@ fn moduli_bulk_gives_the_full_stiffness_tensor() {
         ("hex", -0.9),
         ("hex", 0.6),
     ] {
-        let nu_s = nu.to_string();
-        let o = hooke(&[
-            "moduli",
-            "--bulk",
-            "--lattice",
-            lattice,
-            "--nu",
-            &nu_s,
-            "--spacing",
-            "2e-3",
-            "--stiffness",
-            "5e4",
-            "--json",
-        ]);
-        assert!(o.status.success(), "{}", stderr(&o));
-        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-        let m = |key: &str| -> Vec<Vec<f64>> {
-            v[key]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|r| {
-                    r.as_array()
-                        .unwrap()
-                        .iter()
-                        .map(|x| x.as_f64().unwrap())
-                        .collect()
-                })
-                .collect()
-        };
+        let v = bulk_json(lattice, nu, &["--spacing", "2e-3", "--stiffness", "5e4"]);
+        let m = |key: &str| matrix(&v[key]);
         let (c, t) = (m("C_measured"), m("C_target"));
         assert_eq!((c.len(), c[0].len()), (6, 6));
         let scale = t.iter().flatten().fold(0.0f64, |a, x| a.max(x.abs()));
@@ -269,9 +240,19 @@ fn moduli_bulk_gives_the_full_stiffness_tensor() {
         );
         assert!(v["max_relative_difference"].as_f64().unwrap() < 1e-9);
     }
-    let o = hooke(&["moduli", "--bulk", "--lattice", "random3d", "--nu", "0.3"]);
+    // A random lattice's bulk test is the relaxed one (below); a bar's size is refused.
+    let o = hooke(&[
+        "moduli",
+        "--bulk",
+        "--lattice",
+        "random3d",
+        "--nu",
+        "0.3",
+        "--size",
+        "71,16,16",
+    ]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("block test"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("cube"), "{}", stderr(&o));
     // Cell weights concern faces; the bulk has none, and a random lattice is weighted already.
     let o = hooke(&["moduli", "--bulk", "--cell-weights", "--nu", "0.3"]);
     assert_eq!(o.status.code(), Some(2));
@@ -286,6 +267,103 @@ fn moduli_bulk_gives_the_full_stiffness_tensor() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("by volume"), "{}", stderr(&o));
+}
+
+/// `hooke moduli --bulk --lattice LATTICE --nu NU ARGS --json`, which must succeed.
+fn bulk_json(lattice: &str, nu: f64, args: &[&str]) -> serde_json::Value {
+    let nu_s = nu.to_string();
+    let mut all = vec![
+        "moduli",
+        "--bulk",
+        "--lattice",
+        lattice,
+        "--nu",
+        &nu_s,
+        "--json",
+    ];
+    all.extend_from_slice(args);
+    let o = hooke(&all);
+    assert!(o.status.success(), "{lattice} nu={nu}: {}", stderr(&o));
+    serde_json::from_slice(&o.stdout).unwrap()
+}
+
+/// A JSON array of arrays of numbers (a 6x6 tensor).
+fn matrix(v: &serde_json::Value) -> Vec<Vec<f64>> {
+    let row = |r: &serde_json::Value| -> Vec<f64> {
+        r.as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    v.as_array().unwrap().iter().map(row).collect()
+}
+
+/// `--bulk` on random lattices: the relaxed test (faces on the affine field, the inside in
+/// equilibrium) over a few node sets. Every entry of the mean tensor within 2 % of the
+/// calibrated isotropic target (of the entry, or of C11 where the target's is zero; measured
+/// 1.5 % for random3d at 24 spacings, 2 sets, and 1.3 % for random2d at 48, 4 sets), the spread
+/// reported, and relaxation below the affine tensor. Mistakes exit with code 2.
+#[test]
+fn moduli_bulk_on_random_lattices_is_the_relaxed_test() {
+    for (lattice, nu, size, samples) in
+        [("random3d", 0.25, "25", "2"), ("random2d", -0.5, "49", "4")]
+    {
+        let v = bulk_json(
+            lattice,
+            nu,
+            &[
+                "--size",
+                size,
+                "--samples",
+                samples,
+                "--spacing",
+                "1e-3",
+                "--stiffness",
+                "3e9",
+            ],
+        );
+        assert_eq!(v["relaxed"], true);
+        let m = |key: &str| matrix(&v[key]);
+        let (c, t, sd, aff) = (m("C_measured"), m("C_target"), m("C_spread"), m("C_affine"));
+        let c11 = t[0][0];
+        for i in 0..6 {
+            for j in 0..6 {
+                let scale = if t[i][j].abs() > 1e-12 * c11 {
+                    t[i][j].abs()
+                } else {
+                    c11
+                };
+                assert!(
+                    (c[i][j] - t[i][j]).abs() <= 0.02 * scale,
+                    "{lattice}: C[{i}][{j}] = {:e} against {:e}",
+                    c[i][j],
+                    t[i][j]
+                );
+                assert!(sd[i][j].is_finite() && sd[i][j] >= 0.0);
+            }
+        }
+        assert!(sd[0][0] > 0.0, "{lattice}: node sets differ, so must C11");
+        assert!(v["max_entry_relative_difference"].as_f64().unwrap() <= 0.02);
+        assert!(aff[0][0] > 1.02 * c[0][0], "{lattice}: no relaxation seen");
+        let nu_m = v["nu_measured"].as_f64().unwrap();
+        assert!((nu_m - nu).abs() < 0.01, "{lattice}: nu {nu_m}");
+    }
+    // Mistakes exit with code 2 and name what to change.
+    for (args, needle) in [
+        (&["--size", "3"][..], "--size"),
+        (&["--cylinder"][..], "cube"),
+        (&["--size", "5,6,7"][..], "cube"),
+    ] {
+        let mut all = vec!["moduli", "--bulk", "--lattice", "random3d", "--nu", "0.3"];
+        all.extend_from_slice(args);
+        let o = hooke(&all);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(needle), "{args:?}: {}", stderr(&o));
+    }
+    let o = hooke(&["moduli", "--bulk", "--lattice", "random3d", "--nu", "0.6"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("0.485"), "{}", stderr(&o));
 }
 
 /// The random3d pillar (a cylinder 7 spacings in radius, 20 high, its wall carrying nodes of its
