@@ -232,9 +232,12 @@ fn q_range_covers_the_admissible_nu() {
 /// (`BlockTest::cell_weights`), the paper's Ladd block has no surface layer: a uniform strain is
 /// an exact equilibrium, and the block reads the target nu and E (nominal section) to the
 /// solver's tolerance over the whole admissible range, where the unweighted block is off by up
-/// to +0.025 in nu and +13 % in E. The hexagonal strip gains most of it: E within 0.5 % and nu
-/// within 0.002 from nu = 0 up; at nu = -0.9 nu is still 0.018 too negative (the edge rows'
-/// pools; recorded, not hidden).
+/// to +0.025 in nu and +13 % in E. The hexagonal strip comes within 0.0013 in nu and 0.14 % in
+/// E from nu = -0.9 to 0.9 (measured: largest at +-0.9). It is not exact, as the Ladd block is:
+/// its ends are zigzag (odd rows stand a/2 further out), and the weighted star of an end node
+/// has an anisotropic second moment, so its pool is not the volume change; the end zones'
+/// error fades before the middle section. (Until the ends were held on the affine field, they
+/// sheared their end cells and nu read 0.018 too negative at -0.9.)
 #[test]
 fn cell_weights_remove_the_surface_bias() {
     for nu in [-0.9, -0.5, 0.0, 0.25, 0.45, 0.49] {
@@ -248,14 +251,14 @@ fn cell_weights_remove_the_surface_bias() {
             "cubic nu {nu}: {dnu:e}, {de:e}"
         );
     }
-    for nu in [0.0, 0.3, 0.45] {
+    for nu in [-0.9, -0.5, 0.0, 0.3, 0.45, 0.9] {
         let mut t = BlockTest::paper(LatticeKind::Hex, nu);
         t.cell_weights = true;
         let r = block_test(&t).unwrap();
         let (dnu, de) = (r.nu_measured - nu, r.e_measured / r.e_target - 1.0);
         println!("hex nu {nu}: nu error {dnu:+.2e}, E error {de:+.2e}");
         assert!(
-            dnu.abs() < 2e-3 && de.abs() < 5e-3,
+            dnu.abs() < 2e-3 && de.abs() < 2e-3,
             "hex nu {nu}: {dnu:e}, {de:e}"
         );
     }

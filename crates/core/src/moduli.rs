@@ -2,7 +2,8 @@
 //! bulk (affine) test.
 //!
 //! **Block test.** A box of `nx x ny x nz` nodes (3D) or `nx` nodes by `rows` rows (2D) is
-//! loaded by displacing its two x-end node planes by `-/+ eps Lx/2` along x, `Lx = (nx-1) a`.
+//! loaded by displacing its two x-end node planes by `-/+ eps Lx/2` along x, `Lx = (nx-1) a`
+//! (each end node by `eps (x - Lx/2)`: the hexagonal strip's ends are zigzag).
 //! With [`Ends::Slide`] the end nodes are free across (y, z); the rigid motions that leaves free
 //! (translations across, rotation about x) are projected out. With [`Ends::Clamp`] they are
 //! fixed across. Then
@@ -241,8 +242,10 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
             u.z = 0.0;
             cons.fix(i, 2);
         }
-        if let Some(side) = end_of(i) {
-            u.x = side * t.strain * lx / 2.0;
+        if end_of(i).is_some() {
+            // The affine value: a hexagonal strip's ends are zigzag (odd rows stand a/2 further
+            // along x), and holding them all at -/+ eps Lx/2 would shear its end cells.
+            u.x = t.strain * (p.x - xc);
             cons.fix(i, 0);
             if t.ends == Ends::Clamp {
                 u.y = 0.0;
