@@ -10,7 +10,7 @@ use hooke_core::moduli::{
     block_test, relaxed_bulk_stiffness, BlockResult, BlockTest, Ends, RelaxedBulk,
     RelaxedBulkResult,
 };
-use hooke_core::random::{calibration, Sampler};
+use hooke_core::random::{calibration, RandomSpec, Sampler};
 use hooke_core::{LatticeKind, Real};
 
 use crate::InputError;
@@ -50,7 +50,7 @@ pub enum EndsArg {
     Clamp,
 }
 
-#[derive(Clone, Debug, Args)]
+#[derive(Debug, Args)]
 pub struct ModuliArgs {
     /// Lattice to test.
     #[arg(long, value_enum, default_value = "cubic")]
@@ -243,6 +243,29 @@ pub fn transverse(args: &ModuliArgs) -> Result<Option<Transverse>> {
     Ok(Some(m))
 }
 
+/// `--seed`, `--sampler` and `--jitter`: how a random lattice's nodes are scattered.
+fn random_spec(args: &ModuliArgs) -> Result<RandomSpec> {
+    let sampler = match args.sampler {
+        SamplerArg::Poisson => Sampler::Poisson,
+        SamplerArg::Jitter => {
+            if !(0.0..=1.0).contains(&args.jitter) {
+                return Err(InputError(format!(
+                    "--jitter {}: give a fraction of the spacing in [0, 1]",
+                    args.jitter
+                ))
+                .into());
+            }
+            Sampler::Jitter {
+                amplitude: args.jitter,
+            }
+        }
+    };
+    Ok(RandomSpec {
+        sampler,
+        seed: args.seed,
+    })
+}
+
 fn test_for(args: &ModuliArgs, nu: Real) -> Result<BlockTest> {
     let kind = LatticeKind::from(args.lattice);
     let mut t = BlockTest::paper(kind, nu);
@@ -294,22 +317,7 @@ fn test_for(args: &ModuliArgs, nu: Real) -> Result<BlockTest> {
         EndsArg::Slide => Ends::Slide,
         EndsArg::Clamp => Ends::Clamp,
     };
-    t.random.seed = args.seed;
-    t.random.sampler = match args.sampler {
-        SamplerArg::Poisson => Sampler::Poisson,
-        SamplerArg::Jitter => {
-            if !(0.0..=1.0).contains(&args.jitter) {
-                return Err(InputError(format!(
-                    "--jitter {}: give a fraction of the spacing in [0, 1]",
-                    args.jitter
-                ))
-                .into());
-            }
-            Sampler::Jitter {
-                amplitude: args.jitter,
-            }
-        }
-    };
+    t.random = random_spec(args)?;
     t.axis = args.axis as usize;
     if t.axis >= kind.dim() {
         return Err(InputError(format!("--axis z: the {} lattice is 2D", kind.name())).into());
@@ -629,20 +637,17 @@ fn bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
     }
     use hooke_core::moduli::{bulk_stiffness, isotropic_stiffness};
     let kind = LatticeKind::from(args.lattice);
-    if kind.is_random() {
-        return random_bulk(args, nu);
+    for (what, v) in [("--spacing", args.spacing), ("--stiffness", args.stiffness)] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(InputError(format!("{what} {v}: give a positive number")).into());
+        }
     }
-    if args.extrapolate {
+    if args.extrapolate && !kind.is_random() {
         return Err(InputError(format!(
             "--extrapolate: the {} lattice's bulk test is exact, there is nothing to extrapolate (random lattices only)",
             kind.name()
         ))
         .into());
-    }
-    for (what, v) in [("--spacing", args.spacing), ("--stiffness", args.stiffness)] {
-        if !(v.is_finite() && v > 0.0) {
-            return Err(InputError(format!("{what} {v}: give a positive number")).into());
-        }
     }
     if let Some(m) = anisotropic(args)? {
         if kind != LatticeKind::Cubic {
@@ -697,6 +702,9 @@ fn bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
         v["rotate_lattice"] = serde_json::json!(args.rotate_lattice);
         return Ok(v);
     }
+    if kind.is_random() {
+        return random_bulk(args, nu);
+    }
     let q = q_from_nu(kind, nu).map_err(|e| InputError(format!("--nu {nu}: {e}")))?;
     let (k, a) = (args.stiffness, args.spacing);
     let youngs = youngs_from_k(kind, k, a, q);
@@ -714,16 +722,10 @@ fn bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
 }
 
 /// `--bulk` on a random lattice: the relaxed test ([`hooke_core::moduli::RelaxedBulk`]) over
-/// `--samples` node sets, the mean tensor and its spread per entry.
+/// `--samples` node sets, the mean tensor and its spread per entry. [`bulk`] has checked the
+/// options common to both bulk tests.
 fn random_bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
     let kind = LatticeKind::from(args.lattice);
-    if anisotropic(args)?.is_some() {
-        return Err(InputError(format!(
-            "--transverse, --orthotropic: anisotropic materials are built on the cubic lattice; the {} lattice is not supported yet",
-            kind.name()
-        ))
-        .into());
-    }
     if args.cylinder {
         return Err(InputError(
             "--cylinder: the pillar is a block test; the bulk test is a cube (drop one of the two)"
@@ -733,11 +735,6 @@ fn random_bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
     }
     if args.samples == 0 {
         return Err(InputError("--samples 0: give at least one sample".into()).into());
-    }
-    for (what, v) in [("--spacing", args.spacing), ("--stiffness", args.stiffness)] {
-        if !(v.is_finite() && v > 0.0) {
-            return Err(InputError(format!("{what} {v}: give a positive number")).into());
-        }
     }
     // The cube: N nodes' worth of spacings per side, (N - 1) a, as the block test's boxes.
     let default = if kind.dim() == 3 { 33 } else { 65 };
@@ -765,15 +762,7 @@ fn random_bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
         size: nodes_per_side as Real - 1.0,
         spacing: args.spacing,
         stiffness: args.stiffness,
-        // The sampler and seed as the block test reads them (its --size is a bar's).
-        random: test_for(
-            &ModuliArgs {
-                size: None,
-                ..args.clone()
-            },
-            nu,
-        )?
-        .random,
+        random: random_spec(args)?,
         solver: Default::default(),
     };
     let first_seed = test.random.seed;
@@ -789,7 +778,6 @@ fn random_bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
     let extrapolated = if args.extrapolate {
         let mut half = test.clone();
         half.size = (0.5 * test.size).round();
-        half.random.seed = first_seed;
         if half.size < 8.0 {
             return Err(InputError(format!(
                 "--extrapolate runs a cube of half the side too: give --size 17 or more (now {})",
@@ -882,10 +870,7 @@ fn mean_spread(
 /// Entry by entry: the difference over the target's entry where it has one, else over the
 /// target's largest entry.
 fn entry_relative_difference(c: &[[Real; 6]; 6], target: &[[Real; 6]; 6]) -> [[Real; 6]; 6] {
-    let scale = target
-        .iter()
-        .flatten()
-        .fold(0.0 as Real, |m, x| m.max(x.abs()));
+    let scale = max_abs(target);
     let mut relative = [[0.0; 6]; 6];
     for i in 0..6 {
         for j in 0..6 {
@@ -923,10 +908,7 @@ fn engineering(dim: usize, c: &[[Real; 6]; 6]) -> (Real, Real) {
 
 /// Largest entry difference over the largest target entry.
 fn max_relative_difference(measured: &[[Real; 6]; 6], target: &[[Real; 6]; 6]) -> Real {
-    let scale = target
-        .iter()
-        .flatten()
-        .fold(0.0 as Real, |m, x| m.max(x.abs()));
+    let scale = max_abs(target);
     measured
         .iter()
         .flatten()

@@ -838,13 +838,13 @@ pub fn relaxed_bulk_stiffness(t: &RelaxedBulk) -> Result<RelaxedBulkResult> {
     // Small enough that the geometric nonlinearity is far below the tolerances (relative
     // 1e-6), large enough that the forces are far above round-off.
     let eps = 1e-6;
-    let stress = |state: &State| -> Matrix {
+    // The volume-average stress from the forces that hold `nodes`. Central forces make the
+    // virial symmetric to round-off; keep its symmetric part.
+    let stress = |state: &State, nodes: &mut dyn Iterator<Item = usize>| -> Matrix {
         let mut s = Matrix::zeros();
-        for &b in &boundary {
-            let x = pos.get(b) - centre;
-            s -= state.f.get(b) * x.transpose();
+        for b in nodes {
+            s -= state.f.get(b) * (pos.get(b) - centre).transpose();
         }
-        // Central forces make the virial symmetric to round-off; keep its symmetric part.
         0.5 * (s + s.transpose()) / volume
     };
     let mut c_measured = [[0.0; 6]; 6];
@@ -862,16 +862,11 @@ pub fn relaxed_bulk_stiffness(t: &RelaxedBulk) -> Result<RelaxedBulkResult> {
         for i in 0..n {
             state.u.set(i, strain * (pos.get(i) - centre));
         }
-        // The affine stress: the reactions of the whole body held on the affine field. With
-        // every node prescribed, the sum runs over all of them.
+        // The affine stress: the whole body held on the affine field, every node a support.
         law::update_forces(&body, &mut state);
-        let mut affine = Matrix::zeros();
-        for i in 0..n {
-            affine -= state.f.get(i) * (pos.get(i) - centre).transpose();
-        }
-        let affine = 0.5 * (affine + affine.transpose()) / volume;
+        let affine = stress(&state, &mut (0..n));
         solves.push(statics::solve(&body, &mut state, &cons, None, &t.solver)?);
-        let relaxed = stress(&state);
+        let relaxed = stress(&state, &mut boundary.iter().copied());
         for (i, &(p, m)) in VOIGT.iter().enumerate() {
             c_measured[i][j] = relaxed[(p, m)] / eps;
             c_affine[i][j] = affine[(p, m)] / eps;
