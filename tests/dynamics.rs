@@ -247,18 +247,40 @@ fn free_body_conserves_momentum() {
 }
 
 fn run_with_threads(threads: usize, force_csr: bool, portable: bool) -> State {
+    run_body_with_threads(&|| cube(24, 0.45), threads, force_csr, portable)
+}
+
+/// A 60 x 50 hexagonal plate (its stencil: rows of 60 hold vector blocks and scalar tails) at
+/// nu_2D = 0.45.
+fn hex_plate() -> Body {
+    let lat = Lattice::hex_box(60, 50, 1.0, 1.0).unwrap();
+    Body::uniform(lat, 1.0, q_from_nu(LatticeKind::Hex, 0.45).unwrap(), 1.0)
+}
+
+/// 40 steps of `body()` with 5 % of its springs broken, a random displacement, damping and a
+/// body force (along -z in 3D, in the plane for a plate), on `threads` threads.
+fn run_body_with_threads(
+    body: &(dyn Fn() -> Body + Send + Sync),
+    threads: usize,
+    force_csr: bool,
+    portable: bool,
+) -> State {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap();
     pool.install(|| {
-        let body = cube(24, 0.45);
+        let body = body();
         let mut rng = Rng::new(9);
         let mut state = State::new(&body);
         kill_random(&body, &mut state, &mut rng, 0.05);
         state.u = random_displacement(&body, &mut rng, 1e-3);
         let mut loading = Loading::default();
-        loading.body_acceleration = Vector::new(0.0, 0.0, -1e-4);
+        loading.body_acceleration = if body.lattice.dim() == 3 {
+            Vector::new(0.0, 0.0, -1e-4)
+        } else {
+            Vector::new(0.0, -1e-4, 0.0)
+        };
         let opts = IntegratorOptions {
             damping: 0.01,
             force_csr,
@@ -266,6 +288,7 @@ fn run_with_threads(threads: usize, force_csr: bool, portable: bool) -> State {
             ..Default::default()
         };
         let mut it = Integrator::new(&body, &mut state, loading, &opts).unwrap();
+        assert_eq!(it.kernel.is_stencil(), !force_csr);
         it.run(&body, &mut state, 40).unwrap();
         let e = it.ledger();
         state.time = e.dissipated + e.body_work; // fold the reductions into the comparison
@@ -290,6 +313,46 @@ fn runs_are_bit_identical_for_any_thread_count() {
             "csr={csr}: energy sums differ"
         );
     }
+}
+
+/// Each stencil's vector path performs its portable path's operations lane by lane, so a
+/// damaged, deformed body reaches the same bits on either path and any thread count (which node
+/// takes which path depends on where the chunks and rows begin); a plate's z components stay
+/// exact zeros; and the hexagonal stencil integrates the CSR kernel's motion to round-off (the
+/// same law; its reference vectors and rest lengths are the lattice's to round-off).
+#[test]
+fn stencil_paths_and_thread_counts_give_the_same_bits() {
+    let cube24 = || cube(24, 0.45);
+    let bodies: [&(dyn Fn() -> Body + Send + Sync); 2] = [&hex_plate, &cube24];
+    for body in bodies {
+        let vector = run_body_with_threads(body, 1, false, false);
+        for (threads, portable) in [(2, false), (1, true), (2, true)] {
+            let s = run_body_with_threads(body, threads, false, portable);
+            assert!(
+                s.u == vector.u && s.v == vector.v,
+                "threads {threads}, portable {portable}: states differ"
+            );
+            assert_eq!(s.time.to_bits(), vector.time.to_bits());
+        }
+    }
+    let vector = run_body_with_threads(&hex_plate, 1, false, false);
+    assert!(vector.u.z().iter().chain(vector.v.z()).all(|&z| z == 0.0));
+    let csr = run_body_with_threads(&hex_plate, 2, true, false);
+    let size = vector
+        .u
+        .as_flat()
+        .iter()
+        .fold(0.0 as Real, |m, v| m.max(v.abs()));
+    let diff = vector
+        .u
+        .as_flat()
+        .iter()
+        .zip(csr.u.as_flat())
+        .fold(0.0 as Real, |m, (a, b)| m.max((a - b).abs()));
+    assert!(
+        diff < 1e-12 * size,
+        "stencil against CSR: {diff:e} of {size:e}"
+    );
 }
 
 /// The stencil kernels (vector and portable) and the CSR kernel integrate the same motion: after
@@ -762,12 +825,20 @@ fn kernel_forces_match_the_reference_law_on_every_lattice() {
             .map(|i| reference.f.get(i).norm())
             .fold(0.0, Real::max);
         let mut kernels = vec![Kernel::Csr { plain: false }];
-        if let Kernel::Cubic(s) = Kernel::for_body(&body, &state) {
-            let mut portable = s.clone();
+        let stencil = Kernel::for_body(&body, &state);
+        if stencil.is_stencil() {
+            let mut portable = stencil.clone();
             portable.set_simd(false);
-            kernels.push(Kernel::Cubic(s));
-            kernels.push(Kernel::Cubic(portable));
+            kernels.push(stencil);
+            kernels.push(portable);
         }
+        // Each box of a regular lattice has its stencil (the periodic one runs on CSR).
+        assert_eq!(
+            kernels.len() > 1,
+            matches!(kind, LatticeKind::Cubic | LatticeKind::Hex) && !body.lattice.is_periodic(),
+            "{}",
+            kind.name()
+        );
         for kernel in kernels {
             let f = kernel_forces(&kernel, &body, &state);
             for i in 0..body.nodes() {
@@ -779,6 +850,74 @@ fn kernel_forces_match_the_reference_law_on_every_lattice() {
                     kernel.name()
                 );
             }
+        }
+    }
+}
+
+/// On a plate, sweep 2 with `plane` (z neither read nor written) gives the bits of the sweep
+/// over all three components, whose z lanes compute exact zeros: on the CSR kernel and both
+/// paths of the hexagonal stencil, with damping and an in-plane body force.
+#[test]
+fn plane_sweeps_skip_only_exact_zeros() {
+    use hooke_core::kernel::{partials_len, StepParams};
+    use hooke_core::random::RandomSpec;
+    let random = Lattice::random(
+        2,
+        [0.0; 3],
+        [30.0, 20.0, 0.0],
+        1.0,
+        1.0,
+        RandomSpec::default(),
+        &|_| true,
+    )
+    .unwrap();
+    let random = Body::uniform(
+        random,
+        1.0,
+        q_from_nu(LatticeKind::Random2d, 0.3).unwrap(),
+        1.0,
+    );
+    for body in [random, hex_plate()] {
+        let mut rng = Rng::new(3);
+        let mut state = State::new(&body);
+        kill_random(&body, &mut state, &mut rng, 0.1);
+        state.u = random_displacement(&body, &mut rng, 1e-3);
+        state.v = random_displacement(&body, &mut rng, 1e-2);
+        state.u.z_mut().fill(0.0);
+        state.v.z_mut().fill(0.0);
+        let inv = vec![0.7; body.nodes()];
+        let mut kernels = vec![Kernel::Csr { plain: false }];
+        let stencil = Kernel::for_body(&body, &state);
+        if stencil.is_stencil() {
+            let mut portable = stencil.clone();
+            portable.set_simd(false);
+            kernels.extend([stencil, portable]);
+        }
+        for kernel in kernels {
+            let run = |plane: bool| {
+                let mut s = state.clone();
+                let p = StepParams {
+                    dt: 0.05,
+                    damping: 0.3,
+                    accel: [0.1, -0.2, 0.0],
+                    plane,
+                };
+                let mut u_next = Coords::zeros(body.nodes());
+                let mut partials = vec![Default::default(); partials_len(body.nodes())];
+                kernel.pools(&body, &mut s);
+                let sums =
+                    kernel.force_kick_drift(&body, &mut s, &inv, &p, &mut u_next, &mut partials);
+                (s.v, u_next, sums)
+            };
+            let (full, plane) = (run(false), run(true));
+            assert!(full.0 == plane.0 && full.1 == plane.1, "{}", kernel.name());
+            assert_eq!(full.2, plane.2, "{}", kernel.name());
+            assert!(full
+                .0
+                .z()
+                .iter()
+                .chain(full.1.z())
+                .all(|&z| z.to_bits() == 0));
         }
     }
 }

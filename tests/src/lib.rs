@@ -132,6 +132,7 @@ pub fn kernel_forces(kernel: &hooke_core::kernel::Kernel, body: &Body, state: &S
         dt: 1.0,
         damping: 0.0,
         accel: [0.0; 3],
+        plane: false,
     };
     let mut u_next = Coords::zeros(body.nodes());
     let mut partials = vec![Default::default(); partials_len(body.nodes())];

@@ -31,6 +31,7 @@ fn main() {
         dt: 0.01,
         damping: 0.0,
         accel: [0.0; 3],
+        plane: false,
     };
     k.pools(&body, &mut state);
     let reps: usize = std::env::var("REPS")

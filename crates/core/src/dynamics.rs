@@ -182,6 +182,10 @@ pub struct Integrator {
     killed: Vec<u32>,
     /// The processes sharing the sweeps, and this one's share (`None`: one process does all).
     team: Option<Shared>,
+    /// A plate on which nothing acts along z (see [`Integrator::is_plane`]): its z components
+    /// stay the exact zeros they start as, so sweep 2 and the exchange between ranks leave them
+    /// alone.
+    plane: bool,
 }
 
 /// What a shared integrator keeps besides its share (see [`Integrator::distribute`]).
@@ -225,8 +229,8 @@ impl Integrator {
         } else {
             Kernel::for_body(body, state)
         };
-        if let (Kernel::Cubic(s), true) = (&mut kernel, opts.portable) {
-            s.set_simd(false);
+        if opts.portable {
+            kernel.set_simd(false);
         }
         // The damage-proof step needs only the plain law's estimate: (1 + 2 max(q, 0)) times
         // its lambda bounds the dispersive law's lambda for the intact body as for any pattern
@@ -275,6 +279,7 @@ impl Integrator {
         };
         let mut it = Self::assemble(body, loading, opts, kernel, dt, stable);
         it.synced = state.breaks();
+        it.plane &= Self::flat(state);
         // The CSR kernel's scratch is sized here, so that no step allocates (the pools it also
         // computes are recomputed below).
         if let Kernel::Csr { .. } = it.kernel {
@@ -352,6 +357,13 @@ impl Integrator {
             d.loads = start..dof_loads.len();
         }
         let sparse = dofs.len() + loaded.len();
+        let plane = body.lattice.dim() == 2
+            && loading.body_acceleration.z == 0.0
+            && loading.loads.iter().all(|l| l.force.z == 0.0)
+            && loading
+                .prescribed
+                .iter()
+                .all(|p| p.axis != 2 || matches!(p.motion, Motion::Fixed));
         let mut seen = std::collections::HashSet::new();
         let first_load = loaded.iter().map(|&(i, _)| seen.insert(i)).collect();
         Integrator {
@@ -375,6 +387,7 @@ impl Integrator {
             v_kernel: Vec::with_capacity(sparse),
             partials: vec![Default::default(); crate::kernel::partials_len(body.nodes())],
             team: None,
+            plane,
             contact: Vec::new(),
             v_contact: Vec::new(),
             synced: 0,
@@ -417,11 +430,12 @@ impl Integrator {
         } else {
             Kernel::for_body(body, state)
         };
-        if let (Kernel::Cubic(s), true) = (&mut kernel, opts.portable) {
-            s.set_simd(false);
+        if opts.portable {
+            kernel.set_simd(false);
         }
         let mut it = Self::assemble(body, loading, opts, kernel, ck.dt, ck.stable);
         it.synced = state.breaks();
+        it.plane &= Self::flat(state);
         it.ledger = ck.ledger;
         it.initial = ck.initial;
         it.initial_power = ck.initial_power;
@@ -519,16 +533,12 @@ impl Integrator {
         if state.breaks() == self.synced {
             return;
         }
-        if let Kernel::Cubic(old) = &self.kernel {
-            let simd = old.simd();
-            self.kernel = match Kernel::for_body(body, state) {
-                Kernel::Cubic(mut s) => {
-                    s.set_simd(simd);
-                    Kernel::Cubic(s)
-                }
-                // Softened springs: the stencil cannot hold their stiffnesses.
-                csr => csr,
-            };
+        if self.kernel.is_stencil() {
+            let simd = self.kernel.simd();
+            // Softened springs: the stencil cannot hold their stiffnesses, and `for_body` gives
+            // the CSR kernel.
+            self.kernel = Kernel::for_body(body, state);
+            self.kernel.set_simd(simd);
         }
         self.synced = state.breaks();
     }
@@ -631,11 +641,7 @@ impl Integrator {
         let (team, share) = (&t.team, &t.share);
         // A plate's z components stay exact zeros on every rank (no force, load or
         // acceleration acts along z), so they need no exchange.
-        let dims = if body.lattice.dim() == 2 && params.accel[2] == 0.0 {
-            2
-        } else {
-            3
-        };
+        let dims = params.dims(body.lattice.dim());
         for c in self.u_next.xyz_mut().into_iter().take(dims) {
             team.gather(c, &share.nodes);
         }
@@ -668,6 +674,18 @@ impl Integrator {
             total += s;
         }
         total
+    }
+
+    /// Whether the body is a plate on which nothing acts along z: no body acceleration, load or
+    /// prescribed motion along z, and no displacement or velocity along z when the run began
+    /// (contact between plates is planar too). Its z components then stay exact zeros, and
+    /// the sweeps do not touch them.
+    pub fn is_plane(&self) -> bool {
+        self.plane
+    }
+
+    fn flat(state: &State) -> bool {
+        state.u.z().iter().chain(state.v.z()).all(|&z| z == 0.0)
     }
 
     /// Book energy released by springs broken outside the integrator (fracture).
@@ -802,6 +820,7 @@ impl Integrator {
             dt,
             damping: self.damping,
             accel: self.loading.body_acceleration.into(),
+            plane: self.plane,
         };
         let sums = self.sweep_everywhere(body, state, &params, interaction.is_some());
         self.ledger.dissipated += sums.dissipated;

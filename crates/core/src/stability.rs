@@ -203,6 +203,7 @@ impl<'a> KernelJacobian<'a> {
             dt: 1.0,
             damping: 0.0,
             accel: [0.0; 3],
+            plane: false,
         };
         kernel.force_kick_drift(
             body,

@@ -438,6 +438,7 @@ fn fkd<const D: usize>(
     let (u, pool, rec) = (&state.u, &state.pool, &state.spring);
     let bonds = &body.lattice.bonds;
     let w = stride(D);
+    let dims = p.dims(D);
     sweep_chunks(
         body.nodes(),
         chunks,
@@ -465,6 +466,7 @@ fn fkd<const D: usize>(
                     }
                 }
                 let (d, w) = kick_drift(
+                    dims,
                     f,
                     inv_mass[i],
                     p,

@@ -10,22 +10,21 @@
 //! use the vector square root and one division per spring and pass: measured on this project's
 //! 2-core AMD machine, that was as fast as the 14-bit reciprocal square root with the two Newton
 //! steps double precision needs (one step leaves a relative error of 4e-9, too much for
-//! `dL = l - L` at small strain), and it is exact. A block runs on the vector path
-//! when all its neighbour indices are inside the arrays; which path a node takes depends only on
-//! its index, never on how the nodes were split between threads, so results stay bit-identical
-//! for any thread count. The portable scalar path computes the same formulas with `sqrt` and
-//! division.
+//! `dL = l - L` at small strain), and it is exact. A block runs on the vector path when all its
+//! neighbour indices are inside the arrays. The vector path performs the portable scalar path's
+//! IEEE operations in the same order, lane by lane (no fused multiply-adds; a masked lane skips a
+//! spring as the scalar loop does), so the two give the same bits: results depend neither on
+//! which nodes took which path nor on the thread count or the processor.
 
-use rayon::prelude::*;
-
-use super::{kick_drift, sweep_chunks, ChunkOut, StepParams, SweepSums, CHUNK};
+use super::stencil::{simd_available, Stencil};
+use super::{StepParams, SweepSums};
 use crate::body::Body;
 use crate::lattice::LatticeKind;
 use crate::math::{Coords, Real};
 use crate::state::State;
 
-/// Nodes per flag of the break screen (divides [`CHUNK`]).
-pub const SCREEN: usize = 64;
+/// Nodes per flag of the break screen.
+pub const SCREEN: usize = super::stencil::SCREEN;
 
 /// The 18 directions of the Ladd star, in opposite pairs: `opposite(d) = d ^ 1`.
 pub const DIRS: [[i32; 3]; 18] = [
@@ -230,175 +229,55 @@ impl CubicStencil {
         }
         f
     }
-
-    /// Sweep 1, and with a finite `screen` s the break screen: `state.hot` flags each block of
-    /// [`SCREEN`] nodes with an intact spring of `dL > s L` (seen from either end: both ends
-    /// compute the same length).
-    ///
-    /// With `chunks` (one rank's share of a distributed run), only those node chunks, and every
-    /// other screen flag cleared.
-    pub fn pools(
-        &self,
-        _body: &Body,
-        state: &mut State,
-        screen: Real,
-        chunks: Option<std::ops::Range<usize>>,
-    ) {
-        if self.q == 0.0 && !screen.is_finite() {
-            state.pool.fill(0.0);
-            return;
-        }
-        let blocks = self.n.div_ceil(SCREEN);
-        if state.hot.len() != blocks {
-            state.hot = vec![false; blocks];
-        }
-        let all = 0..self.n.div_ceil(CHUNK);
-        let shared = chunks.is_some();
-        let chunks = chunks.unwrap_or(all);
-        if shared {
-            state.hot.fill(false);
-        }
-        let u = &state.u;
-        let (first, per) = (chunks.start, CHUNK / SCREEN);
-        let nodes = (first * CHUNK).min(self.n)..(chunks.end * CHUNK).min(self.n);
-        let flags = (first * per).min(blocks)..(chunks.end * per).min(blocks);
-        state.pool[nodes]
-            .par_chunks_mut(CHUNK)
-            .zip(state.hot[flags].par_chunks_mut(per))
-            .enumerate()
-            .for_each(|(c, (out, hot))| self.pool_chunk(u, first + c, out, hot, screen));
-    }
-
-    /// Sweep 1 over chunk `c` (its pools `out` and screen flags `hot`).
-    fn pool_chunk(&self, u: &Coords, c: usize, out: &mut [Real], hot: &mut [bool], screen: Real) {
-        hot.fill(false);
-        let start = c * CHUNK;
-        let mut k = 0;
-        while k < out.len() {
-            let i = start + k;
-            if self.simd && k + 8 <= out.len() && self.block_inside(i) {
-                // SAFETY: AVX-512F was detected; the block and its neighbours are in bounds.
-                #[cfg(target_arch = "x86_64")]
-                {
-                    let h = unsafe { avx512::pools8(self, u, i, &mut out[k..k + 8], screen) };
-                    // A block of 8 may straddle two screen blocks (scalar steps shift it).
-                    hot[k / SCREEN] |= h;
-                    hot[(k + 7) / SCREEN] |= h;
-                }
-                k += 8;
-            } else {
-                let (p, h) = self.pool_scalar(u, i, screen);
-                out[k] = p;
-                hot[k / SCREEN] |= h;
-                k += 1;
-            }
-        }
-        if self.q == 0.0 {
-            out.fill(0.0);
-        }
-    }
-
-    /// After springs broke between sweep 1 and sweep 2 (`bond_killed` already applied):
-    /// recompute the pools of the chunks holding their ends with the same code as sweep 1, so
-    /// the bits are those of breaking before the step.
-    pub fn repair(&self, body: &Body, state: &mut State, killed: &[u32]) {
-        if self.q == 0.0 {
-            return;
-        }
-        let mut chunks: Vec<usize> = killed
-            .iter()
-            .flat_map(|&b| body.lattice.bonds.ends[b as usize])
-            .map(|n| n as usize / CHUNK)
-            .collect();
-        chunks.sort_unstable();
-        chunks.dedup();
-        let mut scratch = [false; CHUNK / SCREEN];
-        for c in chunks {
-            let r = c * CHUNK..((c + 1) * CHUNK).min(self.n);
-            let blocks = r.len().div_ceil(SCREEN);
-            self.pool_chunk(
-                &state.u,
-                c,
-                &mut state.pool[r],
-                &mut scratch[..blocks],
-                Real::INFINITY,
-            );
-        }
-    }
-
-    /// Sweep 2 over the node chunks `chunks`.
-    #[allow(clippy::too_many_arguments)]
-    pub fn force_kick_drift(
-        &self,
-        _body: &Body,
-        state: &mut State,
-        inv_mass: &[Real],
-        p: &StepParams,
-        u_next: &mut Coords,
-        partials: &mut [SweepSums],
-        chunks: std::ops::Range<usize>,
-    ) -> SweepSums {
-        let (u, pool) = (&state.u, &state.pool);
-        sweep_chunks(self.n, chunks, &mut state.v, u_next, partials, |r, o| {
-            let ChunkOut {
-                v: [vx, vy, vz],
-                u_next: [nx, ny, nz],
-            } = o;
-            let mut sums = SweepSums::default();
-            let len = r.len();
-            let mut k = 0;
-            while k < len {
-                let i = r.start + k;
-                if self.simd && k + 8 <= len && self.block_inside(i) {
-                    #[cfg(target_arch = "x86_64")]
-                    {
-                        // SAFETY: AVX-512F was detected; the block and its neighbours are in
-                        // bounds; the output slices hold the block's 8 nodes.
-                        let s = unsafe {
-                            avx512::force_kick_drift8(
-                                self,
-                                u,
-                                pool,
-                                inv_mass,
-                                p,
-                                i,
-                                [&mut vx[k..k + 8], &mut vy[k..k + 8], &mut vz[k..k + 8]],
-                                [&mut nx[k..k + 8], &mut ny[k..k + 8], &mut nz[k..k + 8]],
-                            )
-                        };
-                        sums += s;
-                    }
-                    k += 8;
-                } else {
-                    let f = self.force_scalar(u, pool, i);
-                    let (d, w) = kick_drift(
-                        f,
-                        inv_mass[i],
-                        p,
-                        [&mut vx[k], &mut vy[k], &mut vz[k]],
-                        [u.x()[i], u.y()[i], u.z()[i]],
-                        [&mut nx[k], &mut ny[k], &mut nz[k]],
-                    );
-                    sums.dissipated += d;
-                    sums.body_work += w;
-                    k += 1;
-                }
-            }
-            sums
-        })
-    }
 }
 
-fn simd_available() -> bool {
-    super::simd_allowed() && {
-        #[cfg(target_arch = "x86_64")]
-        {
-            std::arch::is_x86_feature_detected!("avx512f")
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            false
-        }
+impl Stencil for CubicStencil {
+    fn nodes(&self) -> usize {
+        self.n
+    }
+
+    fn q(&self) -> Real {
+        self.q
+    }
+
+    fn dim(&self) -> usize {
+        3
+    }
+
+    #[inline]
+    fn vector_block(&self, i: usize) -> bool {
+        self.simd && self.block_inside(i)
+    }
+
+    fn pool_one(&self, u: &Coords, i: usize, screen: Real) -> (Real, bool) {
+        self.pool_scalar(u, i, screen)
+    }
+
+    fn force_one(&self, u: &Coords, pool: &[Real], i: usize) -> [Real; 3] {
+        self.force_scalar(u, pool, i)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn pool_block(&self, u: &Coords, i: usize, out: &mut [Real], screen: Real) -> bool {
+        // SAFETY (caller): the vector path is on (so the processor has AVX-512F) and the block
+        // and its neighbours are in bounds.
+        unsafe { avx512::pools8(self, u, i, out, screen) }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn force_kick_drift_block(
+        &self,
+        u: &Coords,
+        pool: &[Real],
+        inv_mass: &[Real],
+        p: &StepParams,
+        i: usize,
+        v: [&mut [Real]; 3],
+        un: [&mut [Real]; 3],
+        sums: &mut SweepSums,
+    ) {
+        // SAFETY (caller): as for `pool_block`.
+        unsafe { avx512::force_kick_drift8(self, u, pool, inv_mass, p, i, v, un, sums) }
     }
 }
 
@@ -432,27 +311,14 @@ mod avx512 {
             }
         };
         let (x, y, z) = (comp(u.x(), 0), comp(u.y(), 1), comp(u.z(), 2));
+        // ((x x + y y) + z z), as the scalar path adds them.
         (
             [x, y, z],
-            _mm512_fmadd_pd(x, x, _mm512_fmadd_pd(y, y, _mm512_mul_pd(z, z))),
+            _mm512_add_pd(
+                _mm512_add_pd(_mm512_mul_pd(x, x), _mm512_mul_pd(y, y)),
+                _mm512_mul_pd(z, z),
+            ),
         )
-    }
-
-    /// Spring vectors, 1/l and extension of direction `d` for the block at `i`.
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    unsafe fn spring8(
-        s: &CubicStencil,
-        u: &Coords,
-        i: usize,
-        d: usize,
-        ui: [__m512d; 3],
-    ) -> ([__m512d; 3], __m512d, __m512d) {
-        let (x, ss) = unsafe { vector8(s, u, i, d, ui) };
-        let l = _mm512_sqrt_pd(ss);
-        let r = _mm512_div_pd(_mm512_set1_pd(1.0), l);
-        let dl = _mm512_sub_pd(l, _mm512_set1_pd(s.rest[d]));
-        (x, r, dl)
     }
 
     #[inline]
@@ -500,7 +366,8 @@ mod avx512 {
             let (_, ss) = unsafe { vector8(s, u, i, d, ui) };
             let l = _mm512_sqrt_pd(ss);
             let dl = _mm512_sub_pd(l, _mm512_set1_pd(s.rest[d]));
-            acc = _mm512_mask3_fmadd_pd(_mm512_set1_pd(s.k * s.rest[d]), dl, acc, m);
+            let share = _mm512_mul_pd(_mm512_set1_pd(s.k * s.rest[d]), dl);
+            acc = _mm512_mask_add_pd(acc, m, acc, share);
             hot |= _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m, dl, _mm512_set1_pd(screen * s.rest[d]));
         }
         // SAFETY: out has 8 entries; inv_norm[i..i+8] is in bounds.
@@ -523,7 +390,8 @@ mod avx512 {
         i: usize,
         v: [&mut [Real]; 3],
         un: [&mut [Real]; 3],
-    ) -> SweepSums {
+        sums: &mut SweepSums,
+    ) {
         let (ui, mask) = unsafe { load_block(s, u, i) };
         let pi = unsafe { _mm512_loadu_pd(pool.as_ptr().add(i)) };
         let kv = _mm512_set1_pd(s.k);
@@ -534,64 +402,20 @@ mod avx512 {
                 continue;
             }
             let j = (i as isize + s.off[d]) as usize;
-            let (x, r, dl) = unsafe { spring8(s, u, i, d, ui) };
+            let (x, ss) = unsafe { vector8(s, u, i, d, ui) };
+            let l = _mm512_sqrt_pd(ss);
+            let dl = _mm512_sub_pd(l, _mm512_set1_pd(s.rest[d]));
             let pj = unsafe { _mm512_loadu_pd(pool.as_ptr().add(j)) };
-            let t = _mm512_fmadd_pd(
-                kv,
-                dl,
+            let t = _mm512_add_pd(
+                _mm512_mul_pd(kv, dl),
                 _mm512_mul_pd(_mm512_set1_pd(s.q * s.k * s.rest[d]), _mm512_add_pd(pi, pj)),
             );
-            // Broken or missing springs: zero their share (their lanes may hold anything).
-            let sc = _mm512_maskz_mov_pd(m, _mm512_mul_pd(t, r));
+            let sc = _mm512_div_pd(t, l);
             for c in 0..3 {
-                f[c] = _mm512_fmadd_pd(sc, x[c], f[c]);
+                f[c] = _mm512_mask_add_pd(f[c], m, f[c], _mm512_mul_pd(sc, x[c]));
             }
         }
-        let h = 0.5 * p.damping * p.dt;
-        let shrink = _mm512_set1_pd(1.0 - h);
-        let grow = _mm512_set1_pd(1.0 / (1.0 + h));
-        let dt = _mm512_set1_pd(p.dt);
-        let half = _mm512_set1_pd(0.5);
-        let im = unsafe { _mm512_loadu_pd(inv_mass.as_ptr().add(i)) };
-        let mut v2 = _mm512_setzero_pd();
-        let mut gw = _mm512_setzero_pd();
-        let [vx, vy, vz] = v;
-        let [nx, ny, nz] = un;
-        for (c, (vs, ns)) in [(vx, nx), (vy, ny), (vz, nz)].into_iter().enumerate() {
-            // SAFETY: each slice holds the block's 8 entries.
-            unsafe {
-                let old = _mm512_loadu_pd(vs.as_ptr());
-                let acc = _mm512_fmadd_pd(f[c], im, _mm512_set1_pd(p.accel[c]));
-                let new = _mm512_mul_pd(_mm512_fmadd_pd(dt, acc, _mm512_mul_pd(shrink, old)), grow);
-                _mm512_storeu_pd(vs.as_mut_ptr(), new);
-                _mm512_storeu_pd(ns.as_mut_ptr(), _mm512_fmadd_pd(dt, new, ui[c]));
-                let mid = _mm512_mul_pd(half, _mm512_add_pd(old, new));
-                v2 = _mm512_fmadd_pd(mid, mid, v2);
-                gw = _mm512_fmadd_pd(_mm512_set1_pd(p.accel[c]), mid, gw);
-            }
-        }
-        if p.damping == 0.0 && p.accel == [0.0; 3] {
-            return SweepSums::default();
-        }
-        // Per-lane masses (1/inv_mass), summed lane by lane in a fixed order.
-        let mut lane_v2 = [0.0; 8];
-        let mut lane_gw = [0.0; 8];
-        let mut lane_im = [0.0; 8];
-        unsafe {
-            _mm512_storeu_pd(lane_v2.as_mut_ptr(), v2);
-            _mm512_storeu_pd(lane_gw.as_mut_ptr(), gw);
-            _mm512_storeu_pd(lane_im.as_mut_ptr(), im);
-        }
-        let mut sums = SweepSums::default();
-        for l in 0..8 {
-            let m = if lane_im[l] > 0.0 {
-                1.0 / lane_im[l]
-            } else {
-                0.0
-            };
-            sums.dissipated += p.damping * m * lane_v2[l] * p.dt;
-            sums.body_work += m * lane_gw[l] * p.dt;
-        }
-        sums
+        // SAFETY (caller): the block is in bounds.
+        unsafe { super::super::stencil::avx512::kick_drift8(3, f, u, inv_mass, p, i, v, un, sums) }
     }
 }

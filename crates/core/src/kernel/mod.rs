@@ -14,12 +14,14 @@
 //! body-force work) are formed per fixed chunk of [`CHUNK`] nodes and added in chunk order, so
 //! every result is bit-identical for any thread count.
 //!
-//! [`Kernel::Csr`] works on any lattice through its CSR rows. [`Kernel::Cubic`] is a stencil
-//! kernel for box-shaped Ladd lattices: no neighbour indices at all, x/y/z in separate arrays,
-//! AVX-512 where the processor has it.
+//! [`Kernel::Csr`] works on any lattice through its CSR rows. [`Kernel::Cubic`] and
+//! [`Kernel::Hex`] are stencil kernels for box-shaped Ladd and hexagonal lattices: no neighbour
+//! indices at all, x/y/z in separate arrays, AVX-512 where the processor has it.
 
 pub mod csr;
 pub mod cubic;
+pub mod hex;
+mod stencil;
 
 use crate::body::Body;
 use crate::math::{Coords, Real};
@@ -44,6 +46,23 @@ pub struct StepParams {
     pub damping: Real,
     /// Body acceleration g (m/s^2).
     pub accel: [Real; 3],
+    /// The body is a plate whose z components stay exact zeros (nothing acts along z: see
+    /// [`crate::dynamics::Integrator`]): sweep 2 then neither reads nor writes the z components
+    /// of v and u', which would only ever hold the zeros they hold. A third less memory
+    /// traffic; the same bits (the z lanes of a plate compute +0 from +0). Ignored in 3D.
+    pub plane: bool,
+}
+
+impl StepParams {
+    /// Components sweep 2 updates for a body of dimension `dim`.
+    #[inline(always)]
+    pub fn dims(&self, dim: usize) -> usize {
+        if dim == 2 && self.plane {
+            2
+        } else {
+            3
+        }
+    }
 }
 
 /// Sums over all nodes gathered during sweep 2 (two reals, in this order: ranks exchange them
@@ -74,14 +93,19 @@ pub enum Kernel {
     Csr { plain: bool },
     /// Box-shaped Ladd lattice with uniform spring constants: stencil kernel.
     Cubic(cubic::CubicStencil),
+    /// Box-shaped hexagonal lattice with uniform spring constants: stencil kernel.
+    Hex(hex::HexStencil),
 }
 
 impl Kernel {
-    /// The fastest kernel that can run `body`: the cubic stencil for a box-shaped Ladd lattice
-    /// with one stiffness, CSR otherwise.
+    /// The fastest kernel that can run `body`: a stencil for a box-shaped Ladd or hexagonal
+    /// lattice with one stiffness, CSR otherwise.
     pub fn for_body(body: &Body, state: &State) -> Kernel {
-        match cubic::CubicStencil::new(body, state) {
-            Some(s) => Kernel::Cubic(s),
+        if let Some(s) = cubic::CubicStencil::new(body, state) {
+            return Kernel::Cubic(s);
+        }
+        match hex::HexStencil::new(body, state) {
+            Some(s) => Kernel::Hex(s),
             None => Kernel::Csr { plain: false },
         }
     }
@@ -91,7 +115,33 @@ impl Kernel {
         match self {
             Kernel::Csr { .. } => "csr",
             Kernel::Cubic(s) => s.name(),
+            Kernel::Hex(s) => s.name(),
         }
+    }
+
+    /// Whether a stencil kernel uses its vector path (false for the CSR kernel, whose vector
+    /// loops are chosen per process).
+    pub fn simd(&self) -> bool {
+        match self {
+            Kernel::Csr { .. } => false,
+            Kernel::Cubic(s) => s.simd(),
+            Kernel::Hex(s) => s.simd(),
+        }
+    }
+
+    /// Switch a stencil kernel's vector path on or off (e.g. to measure the portable one);
+    /// nothing for the CSR kernel.
+    pub fn set_simd(&mut self, on: bool) {
+        match self {
+            Kernel::Csr { .. } => {}
+            Kernel::Cubic(s) => s.set_simd(on),
+            Kernel::Hex(s) => s.set_simd(on),
+        }
+    }
+
+    /// Whether this is one of the stencil kernels (which hold their own spring masks).
+    pub fn is_stencil(&self) -> bool {
+        !matches!(self, Kernel::Csr { .. })
     }
 
     /// Sweep 1: `state.pool` from `state.u` (and the CSR kernel's per-spring scratch, which
@@ -121,7 +171,8 @@ impl Kernel {
     ) {
         match self {
             Kernel::Csr { plain } => csr::pools(body, state, *plain, screen, share),
-            Kernel::Cubic(s) => s.pools(body, state, screen, share.map(|s| s.chunks())),
+            Kernel::Cubic(s) => stencil::pools(s, state, screen, share.map(|s| s.chunks())),
+            Kernel::Hex(s) => stencil::pools(s, state, screen, share.map(|s| s.chunks())),
         }
     }
 
@@ -132,11 +183,11 @@ impl Kernel {
         out.clear();
         match self {
             Kernel::Csr { .. } => csr::hot_springs(state, body.springs(), out),
-            Kernel::Cubic(_) => {
+            Kernel::Cubic(_) | Kernel::Hex(_) => {
                 let bonds = &body.lattice.bonds;
                 let n = body.nodes();
                 for (blk, _) in state.hot.iter().enumerate().filter(|(_, &h)| h) {
-                    for i in blk * cubic::SCREEN..((blk + 1) * cubic::SCREEN).min(n) {
+                    for i in blk * stencil::SCREEN..((blk + 1) * stencil::SCREEN).min(n) {
                         out.extend(bonds.row(i).map(|e| bonds.bond[e]));
                     }
                 }
@@ -154,7 +205,8 @@ impl Kernel {
         }
         match self {
             Kernel::Csr { plain } => csr::repair(body, state, *plain, killed),
-            Kernel::Cubic(s) => s.repair(body, state, killed),
+            Kernel::Cubic(s) => stencil::repair(s, body, state, killed),
+            Kernel::Hex(s) => stencil::repair(s, body, state, killed),
         }
     }
 
@@ -190,7 +242,10 @@ impl Kernel {
                 csr::force_kick_drift(body, state, inv_mass, p, u_next, partials, chunks)
             }
             Kernel::Cubic(s) => {
-                s.force_kick_drift(body, state, inv_mass, p, u_next, partials, chunks)
+                stencil::force_kick_drift(s, state, inv_mass, p, u_next, partials, chunks)
+            }
+            Kernel::Hex(s) => {
+                stencil::force_kick_drift(s, state, inv_mass, p, u_next, partials, chunks)
             }
         }
     }
@@ -201,13 +256,16 @@ impl Kernel {
         match self {
             Kernel::Csr { .. } => Kernel::Csr { plain: true },
             Kernel::Cubic(s) => Kernel::Cubic(s.with_q(0.0)),
+            Kernel::Hex(s) => Kernel::Hex(s.with_q(0.0)),
         }
     }
 
     /// Keep the kernel's own copy of the spring states in step after `state.kill_bond(b)`.
     pub fn bond_killed(&mut self, body: &Body, b: usize) {
-        if let Kernel::Cubic(s) = self {
-            s.bond_killed(body, b);
+        match self {
+            Kernel::Csr { .. } => {}
+            Kernel::Cubic(s) => s.bond_killed(body, b),
+            Kernel::Hex(s) => s.bond_killed(body, b),
         }
     }
 }
@@ -298,10 +356,11 @@ where
     total
 }
 
-/// The kick-drift of one node (both kernels share it, so they integrate identically).
-/// Returns the node's contributions to [`SweepSums`].
+/// The kick-drift of one node's first `dims` components (every kernel shares it, so they
+/// integrate identically). Returns the node's contributions to [`SweepSums`].
 #[inline(always)]
 pub(crate) fn kick_drift(
+    dims: usize,
     f: [Real; 3],
     inv_m: Real,
     p: &StepParams,
@@ -316,7 +375,11 @@ pub(crate) fn kick_drift(
     let mut gw = 0.0;
     let [vx, vy, vz] = v;
     let [ux, uy, uz] = u_next;
-    for (c, (vc, unc)) in [(vx, ux), (vy, uy), (vz, uz)].into_iter().enumerate() {
+    for (c, (vc, unc)) in [(vx, ux), (vy, uy), (vz, uz)]
+        .into_iter()
+        .enumerate()
+        .take(dims)
+    {
         let old = *vc;
         let new = (shrink * old + p.dt * (f[c] * inv_m + p.accel[c])) * grow;
         *vc = new;

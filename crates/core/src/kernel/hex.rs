@@ -1,0 +1,458 @@
+//! Stencil kernel for a box of the hexagonal lattice with one spring stiffness.
+//!
+//! Node `c + nx r` sits in row `r` (odd rows shifted by `a/2`), and its six neighbours are at
+//! index offsets that depend only on the row's parity:
+//!
+//! ```text
+//!             E     W     NE        SW        NW        SE
+//! even row   +1    -1    +nx      -nx - 1   +nx - 1    -nx
+//! odd row    +1    -1    +nx + 1  -nx       +nx       -nx + 1
+//! ```
+//!
+//! so no neighbour index is stored: a node costs a 6-bit mask (which of its springs exist and are
+//! intact) and its `1/S_n`. A spring's current vector is `D_d + w` with `D_d` the direction's
+//! constant reference vector and `w = u_j - u_n`; its extension is the cancellation-free
+//! `dL = (2 D_d.w + w.w) / (l + L)` of the reference law ([`crate::law::spring_geometry`]), so
+//! a body at rest has exactly zero force and small strains keep their digits.
+//!
+//! On processors with AVX-512F, blocks of 8 consecutive nodes of one row are processed in one
+//! vector (unaligned loads at the block index plus the direction's offset). The vector path
+//! performs exactly the scalar path's IEEE operations in the same order (no fused
+//! multiply-adds; masked lanes skip a spring as the scalar loop does), so both give the same
+//! bits: results do not depend on which nodes took which path, on the thread count, or on
+//! whether the processor has AVX-512 at all.
+
+use super::stencil::{simd_available, Stencil};
+use super::{StepParams, SweepSums};
+use crate::body::Body;
+use crate::lattice::LatticeKind;
+use crate::math::{Coords, Real};
+use crate::state::State;
+
+/// Nodes per flag of the break screen (the cubic stencil's blocks, so
+/// [`super::Kernel::hot_springs`] reads both alike).
+pub const SCREEN: usize = super::stencil::SCREEN;
+
+/// Number of directions; opposite pairs are `d` and `d ^ 1`.
+const DIRS: usize = 6;
+
+/// Precomputed stencil of a hexagonal box.
+#[derive(Clone, Debug)]
+pub struct HexStencil {
+    n: usize,
+    nx: usize,
+    /// Index offset of each direction, for even and odd rows.
+    off: [[isize; DIRS]; 2],
+    /// Reference vector of each direction (m).
+    dvec: [[Real; 2]; DIRS],
+    /// Rest length `a` (m), and `k a` and `q k a`.
+    rest: Real,
+    k: Real,
+    q: Real,
+    /// Bit d set: the spring in direction d exists and is intact.
+    mask: Vec<u8>,
+    /// `1 / S_n`, 0 for a node with no intact spring.
+    inv_norm: Vec<Real>,
+    /// Largest |offset|: blocks whose neighbours all lie within the arrays may run vectorised.
+    reach: usize,
+    simd: bool,
+}
+
+impl HexStencil {
+    /// The stencil for `body` if it is a non-periodic box of the hexagonal lattice (at least 2
+    /// nodes per row and 2 rows) with a single stiffness and the isotropic law; `None`
+    /// otherwise.
+    pub fn new(body: &Body, state: &State) -> Option<Self> {
+        let lat = &body.lattice;
+        let g = lat.grid?;
+        if lat.kind != LatticeKind::Hex || g[0] < 2 || g[1] < 2 || lat.is_periodic() {
+            return None;
+        }
+        if lat.len() != g[0] * g[1] {
+            return None;
+        }
+        let k = *body.k.first()?;
+        if body.k.iter().any(|&v| v != k) || state.is_softened() || body.lever.is_some() {
+            return None;
+        }
+        let nx = g[0] as isize;
+        let a = lat.spacing;
+        let h = a * (3.0 as Real).sqrt() / 2.0;
+        let off = [
+            [1, -1, nx, -nx - 1, nx - 1, -nx],
+            [1, -1, nx + 1, -nx, nx, -nx + 1],
+        ];
+        let dvec = [
+            [a, 0.0],
+            [-a, 0.0],
+            [0.5 * a, h],
+            [-0.5 * a, -h],
+            [-0.5 * a, h],
+            [0.5 * a, -h],
+        ];
+        let mut s = HexStencil {
+            n: lat.len(),
+            nx: g[0],
+            off,
+            dvec,
+            rest: a,
+            k,
+            q: body.q,
+            mask: vec![0; lat.len()],
+            inv_norm: vec![0.0; lat.len()],
+            reach: (nx + 1) as usize,
+            simd: simd_available(),
+        };
+        for b in 0..lat.bonds.len() {
+            let (i, d) = s.direction_of(body, b)?;
+            if (i as isize + s.offset(i, d)) as usize != lat.bonds.ends[b][1] as usize {
+                return None;
+            }
+            if state.alive[b] {
+                let j = (i as isize + s.offset(i, d)) as usize;
+                s.mask[i] |= 1 << d;
+                s.mask[j] |= 1 << (d ^ 1);
+            }
+        }
+        for i in 0..s.n {
+            s.refresh_norm(i);
+        }
+        Some(s)
+    }
+
+    /// Use (or not) the vector path. Ignored where the processor lacks AVX-512F. Either way
+    /// the results are the same bits.
+    pub fn set_simd(&mut self, on: bool) {
+        self.simd = on && simd_available();
+    }
+
+    /// Whether the vector path is on.
+    pub fn simd(&self) -> bool {
+        self.simd
+    }
+
+    /// A copy with another dispersion ratio (q = 0: the plain law).
+    pub fn with_q(&self, q: Real) -> Self {
+        HexStencil { q, ..self.clone() }
+    }
+
+    /// Kernel name for reports.
+    pub fn name(&self) -> &'static str {
+        if self.simd {
+            "hex-stencil-avx512"
+        } else {
+            "hex-stencil-portable"
+        }
+    }
+
+    #[inline(always)]
+    fn offset(&self, i: usize, d: usize) -> isize {
+        self.off[(i / self.nx) & 1][d]
+    }
+
+    /// Lower end and direction of spring `b` (`None` if it is not one of the six).
+    fn direction_of(&self, body: &Body, b: usize) -> Option<(usize, usize)> {
+        let lat = &body.lattice;
+        let [i, j] = lat.bonds.ends[b].map(|v| v as usize);
+        let dx = lat.pos.get(j) - lat.pos.get(i);
+        let (x, y) = (dx.x / lat.spacing, dx.y / lat.spacing);
+        let d = if y.abs() < 0.25 {
+            if x > 0.0 {
+                0
+            } else {
+                1
+            }
+        } else if y > 0.0 {
+            if x > 0.0 {
+                2
+            } else {
+                4
+            }
+        } else if x > 0.0 {
+            5
+        } else {
+            3
+        };
+        Some((i, d))
+    }
+
+    fn refresh_norm(&mut self, i: usize) {
+        let m = self.mask[i];
+        let mut s = 0.0;
+        for d in 0..DIRS {
+            if m & (1 << d) != 0 {
+                s += self.k * self.rest * self.rest;
+            }
+        }
+        self.inv_norm[i] = if s > 0.0 { 1.0 / s } else { 0.0 };
+    }
+
+    /// Clear spring `b` from the masks and refresh both ends' `1/S_n`.
+    pub fn bond_killed(&mut self, body: &Body, b: usize) {
+        if let Some((i, d)) = self.direction_of(body, b) {
+            let j = (i as isize + self.offset(i, d)) as usize;
+            self.mask[i] &= !(1 << d);
+            self.mask[j] &= !(1 << (d ^ 1));
+            self.refresh_norm(i);
+            self.refresh_norm(j);
+        }
+    }
+
+    /// True when the 8 nodes from `i` lie in one row and all their neighbour indices inside the
+    /// arrays: the vector path may run them.
+    #[inline]
+    fn block_inside(&self, i: usize) -> bool {
+        i >= self.reach && i + 8 + self.reach <= self.n && i % self.nx + 8 <= self.nx
+    }
+
+    /// Current vector, squared length and the numerator `2 D.w + w.w` of the extension of
+    /// node i's spring in direction d (the reference law's operations, in its order).
+    #[inline(always)]
+    fn spring(&self, u: &Coords, i: usize, d: usize) -> (usize, [Real; 2], Real, Real) {
+        let j = (i as isize + self.offset(i, d)) as usize;
+        let big = self.dvec[d];
+        let w = [u.x()[j] - u.x()[i], u.y()[j] - u.y()[i]];
+        let x = [big[0] + w[0], big[1] + w[1]];
+        let d2 = x[0] * x[0] + x[1] * x[1];
+        let num = 2.0 * (big[0] * w[0] + big[1] * w[1]) + (w[0] * w[0] + w[1] * w[1]);
+        (j, x, d2, num)
+    }
+
+    /// Node i's pool and whether one of its intact springs has `dL > screen L`.
+    fn pool_scalar(&self, u: &Coords, i: usize, screen: Real) -> (Real, bool) {
+        let m = self.mask[i];
+        let (kl, lim) = (self.k * self.rest, screen * self.rest);
+        let mut pi = 0.0;
+        let mut hot = false;
+        for d in 0..DIRS {
+            if m & (1 << d) != 0 {
+                let (_, _, d2, num) = self.spring(u, i, d);
+                let dl = num / (d2.sqrt() + self.rest);
+                pi += kl * dl;
+                hot |= dl > lim;
+            }
+        }
+        (pi * self.inv_norm[i], hot)
+    }
+
+    fn force_scalar(&self, u: &Coords, pool: &[Real], i: usize) -> [Real; 3] {
+        let m = self.mask[i];
+        let qkl = self.q * self.k * self.rest;
+        let mut f = [0.0; 2];
+        for d in 0..DIRS {
+            if m & (1 << d) != 0 {
+                let (j, x, d2, num) = self.spring(u, i, d);
+                let l = d2.sqrt();
+                let dl = num / (l + self.rest);
+                let t = self.k * dl + qkl * (pool[i] + pool[j]);
+                let s = t / l;
+                f[0] += s * x[0];
+                f[1] += s * x[1];
+            }
+        }
+        [f[0], f[1], 0.0]
+    }
+}
+
+impl Stencil for HexStencil {
+    fn nodes(&self) -> usize {
+        self.n
+    }
+
+    fn q(&self) -> Real {
+        self.q
+    }
+
+    fn dim(&self) -> usize {
+        2
+    }
+
+    #[inline]
+    fn vector_block(&self, i: usize) -> bool {
+        self.simd && self.block_inside(i)
+    }
+
+    fn pool_one(&self, u: &Coords, i: usize, screen: Real) -> (Real, bool) {
+        self.pool_scalar(u, i, screen)
+    }
+
+    fn force_one(&self, u: &Coords, pool: &[Real], i: usize) -> [Real; 3] {
+        self.force_scalar(u, pool, i)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn pool_block(&self, u: &Coords, i: usize, out: &mut [Real], screen: Real) -> bool {
+        // SAFETY (caller): the vector path is on (so the processor has AVX-512F) and the block
+        // and its neighbours are in bounds.
+        unsafe { avx512::pools8(self, u, i, out, screen) }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn force_kick_drift_block(
+        &self,
+        u: &Coords,
+        pool: &[Real],
+        inv_mass: &[Real],
+        p: &StepParams,
+        i: usize,
+        v: [&mut [Real]; 3],
+        un: [&mut [Real]; 3],
+        sums: &mut SweepSums,
+    ) {
+        // SAFETY (caller): as for `pool_block`.
+        unsafe { avx512::force_kick_drift8(self, u, pool, inv_mass, p, i, v, un, sums) }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx512 {
+    use std::arch::x86_64::*;
+
+    use super::{HexStencil, StepParams, SweepSums, DIRS};
+    use crate::math::{Coords, Real};
+
+    /// The block's displacements, intact-spring masks (one 64-bit lane per node) and row
+    /// parity.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn load_block(s: &HexStencil, u: &Coords, i: usize) -> ([__m512d; 2], __m512i) {
+        // SAFETY (caller): i..i+8 is in bounds.
+        unsafe {
+            let m = _mm_loadl_epi64(s.mask.as_ptr().add(i) as *const __m128i);
+            (
+                [
+                    _mm512_loadu_pd(u.x().as_ptr().add(i)),
+                    _mm512_loadu_pd(u.y().as_ptr().add(i)),
+                ],
+                _mm512_cvtepu8_epi64(m),
+            )
+        }
+    }
+
+    /// Spring vector, squared length and extension numerator of direction `d` for the block at
+    /// `i` (the scalar path's operations, lane by lane).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn spring8(
+        s: &HexStencil,
+        u: &Coords,
+        i: usize,
+        d: usize,
+        ui: [__m512d; 2],
+    ) -> (usize, [__m512d; 2], __m512d, __m512d) {
+        let j = (i as isize + s.offset(i, d)) as usize;
+        let big = s.dvec[d];
+        // SAFETY (caller): j..j+8 is in bounds because the block is inside.
+        let (wx, wy) = unsafe {
+            (
+                _mm512_sub_pd(_mm512_loadu_pd(u.x().as_ptr().add(j)), ui[0]),
+                _mm512_sub_pd(_mm512_loadu_pd(u.y().as_ptr().add(j)), ui[1]),
+            )
+        };
+        let (bx, by) = (_mm512_set1_pd(big[0]), _mm512_set1_pd(big[1]));
+        let x = [_mm512_add_pd(bx, wx), _mm512_add_pd(by, wy)];
+        let d2 = _mm512_add_pd(_mm512_mul_pd(x[0], x[0]), _mm512_mul_pd(x[1], x[1]));
+        let bw = _mm512_add_pd(_mm512_mul_pd(bx, wx), _mm512_mul_pd(by, wy));
+        let ww = _mm512_add_pd(_mm512_mul_pd(wx, wx), _mm512_mul_pd(wy, wy));
+        let num = _mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(2.0), bw), ww);
+        (j, x, d2, num)
+    }
+
+    /// Lanes whose spring in direction `d` is intact.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn lanes(mask: __m512i, d: usize) -> __mmask8 {
+        _mm512_test_epi64_mask(mask, _mm512_set1_epi64(1 << d))
+    }
+
+    /// Sweep 1 for the 8 nodes at `i`.
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn pools8(
+        s: &HexStencil,
+        u: &Coords,
+        i: usize,
+        out: &mut [Real],
+        screen: Real,
+    ) -> bool {
+        let (ui, mask) = unsafe { load_block(s, u, i) };
+        let kl = _mm512_set1_pd(s.k * s.rest);
+        let rest = _mm512_set1_pd(s.rest);
+        let lim = _mm512_set1_pd(screen * s.rest);
+        let mut acc = _mm512_setzero_pd();
+        let mut hot: __mmask8 = 0;
+        for d in 0..DIRS {
+            let m = lanes(mask, d);
+            if m == 0 {
+                continue;
+            }
+            let (_, _, d2, num) = unsafe { spring8(s, u, i, d, ui) };
+            let dl = _mm512_div_pd(num, _mm512_add_pd(_mm512_sqrt_pd(d2), rest));
+            acc = _mm512_mask_add_pd(acc, m, acc, _mm512_mul_pd(kl, dl));
+            hot |= _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m, dl, lim);
+        }
+        // SAFETY: out has 8 entries; inv_norm[i..i+8] is in bounds.
+        unsafe {
+            let inv = _mm512_loadu_pd(s.inv_norm.as_ptr().add(i));
+            _mm512_storeu_pd(out.as_mut_ptr(), _mm512_mul_pd(acc, inv));
+        }
+        hot != 0
+    }
+
+    /// Sweep 2 for the 8 nodes at `i`: force, kick, drift (the scalar `kick_drift`'s operations
+    /// lane by lane; the sums added node by node in index order).
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn force_kick_drift8(
+        s: &HexStencil,
+        u: &Coords,
+        pool: &[Real],
+        inv_mass: &[Real],
+        p: &StepParams,
+        i: usize,
+        v: [&mut [Real]; 3],
+        un: [&mut [Real]; 3],
+        sums: &mut SweepSums,
+    ) {
+        let (ui, mask) = unsafe { load_block(s, u, i) };
+        let pi = unsafe { _mm512_loadu_pd(pool.as_ptr().add(i)) };
+        let (kv, qkl, rest) = (
+            _mm512_set1_pd(s.k),
+            _mm512_set1_pd(s.q * s.k * s.rest),
+            _mm512_set1_pd(s.rest),
+        );
+        let mut f = [_mm512_setzero_pd(); 2];
+        for d in 0..DIRS {
+            let m = lanes(mask, d);
+            if m == 0 {
+                continue;
+            }
+            let (j, x, d2, num) = unsafe { spring8(s, u, i, d, ui) };
+            let l = _mm512_sqrt_pd(d2);
+            let dl = _mm512_div_pd(num, _mm512_add_pd(l, rest));
+            let pj = unsafe { _mm512_loadu_pd(pool.as_ptr().add(j)) };
+            let t = _mm512_add_pd(
+                _mm512_mul_pd(kv, dl),
+                _mm512_mul_pd(qkl, _mm512_add_pd(pi, pj)),
+            );
+            let sc = _mm512_div_pd(t, l);
+            for c in 0..2 {
+                f[c] = _mm512_mask_add_pd(f[c], m, f[c], _mm512_mul_pd(sc, x[c]));
+            }
+        }
+        let fz = _mm512_setzero_pd();
+        // SAFETY (caller): the block is in bounds.
+        unsafe {
+            super::super::stencil::avx512::kick_drift8(
+                p.dims(2),
+                [f[0], f[1], fz],
+                u,
+                inv_mass,
+                p,
+                i,
+                v,
+                un,
+                sums,
+            )
+        }
+    }
+}

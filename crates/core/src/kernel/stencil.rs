@@ -1,0 +1,316 @@
+//! What the stencil kernels ([`super::cubic`], [`super::hex`]) share: the sweeps' scaffolding
+//! over fixed node chunks, the break screen's flags, the repair after breaks, and the choice
+//! between a block of 8 nodes on the vector path and one node on the portable path.
+//!
+//! A stencil says, per node and per block, how to form its pool and its force
+//! ([`Stencil`]); everything else here is the same for both lattices. Which path a node takes
+//! depends only on its index and on where its chunk begins (chunks are fixed, never the thread
+//! count's), so results are bit-identical for any thread count.
+
+use rayon::prelude::*;
+
+use super::{kick_drift, sweep_chunks, ChunkOut, StepParams, SweepSums, CHUNK};
+use crate::body::Body;
+use crate::math::{Coords, Real};
+use crate::state::State;
+
+/// Nodes per flag of the break screen (divides [`CHUNK`]).
+pub const SCREEN: usize = 64;
+
+/// The per-node and per-block operations of a stencil kernel.
+pub(crate) trait Stencil: Sync {
+    /// Number of nodes.
+    fn nodes(&self) -> usize;
+    /// Dispersion ratio q (0: the plain law, no pools).
+    fn q(&self) -> Real;
+    /// Dimension of the body (2: a plate, whose z components may be left alone).
+    fn dim(&self) -> usize;
+    /// Whether the 8 nodes from `i` run on the vector path (it is on, the processor has it, and
+    /// the block and its neighbours lie inside the arrays).
+    fn vector_block(&self, i: usize) -> bool;
+    /// Node i's pool and whether one of its intact springs has `dL > screen L`.
+    fn pool_one(&self, u: &Coords, i: usize, screen: Real) -> (Real, bool);
+    /// Node i's force.
+    fn force_one(&self, u: &Coords, pool: &[Real], i: usize) -> [Real; 3];
+    /// Pools of the 8 nodes from `i` into `out`, and whether one of their springs is past the
+    /// screen.
+    ///
+    /// # Safety
+    /// Only when [`Stencil::vector_block`] holds for `i`.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn pool_block(&self, u: &Coords, i: usize, out: &mut [Real], screen: Real) -> bool;
+    /// Force, kick and drift of the 8 nodes from `i` (`v` and `un` hold their 8 entries), their
+    /// shares of the sums added to `sums` node by node.
+    ///
+    /// # Safety
+    /// Only when [`Stencil::vector_block`] holds for `i`.
+    #[cfg(target_arch = "x86_64")]
+    #[allow(clippy::too_many_arguments)]
+    unsafe fn force_kick_drift_block(
+        &self,
+        u: &Coords,
+        pool: &[Real],
+        inv_mass: &[Real],
+        p: &StepParams,
+        i: usize,
+        v: [&mut [Real]; 3],
+        un: [&mut [Real]; 3],
+        sums: &mut SweepSums,
+    );
+}
+
+/// True when the vector paths may run: the processor has AVX-512F and `HOOKE_NO_SIMD` is not
+/// set.
+pub(crate) fn simd_available() -> bool {
+    super::simd_allowed() && {
+        #[cfg(target_arch = "x86_64")]
+        {
+            std::arch::is_x86_feature_detected!("avx512f")
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            false
+        }
+    }
+}
+
+/// Sweep 1, and with a finite `screen` s the break screen: `state.hot` flags each block of
+/// [`SCREEN`] nodes with an intact spring of `dL > s L` (seen from either end: both ends
+/// compute the same length). With `chunks` (one rank's share of a distributed run), only those
+/// node chunks, and every other screen flag cleared.
+pub(crate) fn pools<S: Stencil>(
+    s: &S,
+    state: &mut State,
+    screen: Real,
+    chunks: Option<std::ops::Range<usize>>,
+) {
+    let n = s.nodes();
+    if s.q() == 0.0 && !screen.is_finite() {
+        state.pool.fill(0.0);
+        return;
+    }
+    let blocks = n.div_ceil(SCREEN);
+    if state.hot.len() != blocks {
+        state.hot = vec![false; blocks];
+    }
+    let all = 0..n.div_ceil(CHUNK);
+    let shared = chunks.is_some();
+    let chunks = chunks.unwrap_or(all);
+    if shared {
+        state.hot.fill(false);
+    }
+    let u = &state.u;
+    let (first, per) = (chunks.start, CHUNK / SCREEN);
+    let nodes = (first * CHUNK).min(n)..(chunks.end * CHUNK).min(n);
+    let flags = (first * per).min(blocks)..(chunks.end * per).min(blocks);
+    state.pool[nodes]
+        .par_chunks_mut(CHUNK)
+        .zip(state.hot[flags].par_chunks_mut(per))
+        .enumerate()
+        .for_each(|(c, (out, hot))| pool_chunk(s, u, first + c, out, hot, screen));
+}
+
+/// Sweep 1 over chunk `c` (its pools `out` and screen flags `hot`).
+fn pool_chunk<S: Stencil>(
+    s: &S,
+    u: &Coords,
+    c: usize,
+    out: &mut [Real],
+    hot: &mut [bool],
+    screen: Real,
+) {
+    hot.fill(false);
+    let start = c * CHUNK;
+    let mut k = 0;
+    while k < out.len() {
+        let i = start + k;
+        #[cfg(target_arch = "x86_64")]
+        if k + 8 <= out.len() && s.vector_block(i) {
+            // SAFETY: `vector_block` holds for i.
+            let h = unsafe { s.pool_block(u, i, &mut out[k..k + 8], screen) };
+            // A block of 8 may straddle two screen blocks (scalar steps shift it).
+            hot[k / SCREEN] |= h;
+            hot[(k + 7) / SCREEN] |= h;
+            k += 8;
+            continue;
+        }
+        let (p, h) = s.pool_one(u, i, screen);
+        out[k] = p;
+        hot[k / SCREEN] |= h;
+        k += 1;
+    }
+    if s.q() == 0.0 {
+        out.fill(0.0);
+    }
+}
+
+/// After springs broke between sweep 1 and sweep 2 (the stencil's masks already updated):
+/// recompute the pools of the chunks holding their ends with the same code as sweep 1, so the
+/// bits are those of breaking before the step.
+pub(crate) fn repair<S: Stencil>(s: &S, body: &Body, state: &mut State, killed: &[u32]) {
+    if s.q() == 0.0 {
+        return;
+    }
+    let n = s.nodes();
+    let mut chunks: Vec<usize> = killed
+        .iter()
+        .flat_map(|&b| body.lattice.bonds.ends[b as usize])
+        .map(|n| n as usize / CHUNK)
+        .collect();
+    chunks.sort_unstable();
+    chunks.dedup();
+    let mut scratch = [false; CHUNK / SCREEN];
+    for c in chunks {
+        let r = c * CHUNK..((c + 1) * CHUNK).min(n);
+        let blocks = r.len().div_ceil(SCREEN);
+        pool_chunk(
+            s,
+            &state.u,
+            c,
+            &mut state.pool[r],
+            &mut scratch[..blocks],
+            Real::INFINITY,
+        );
+    }
+}
+
+/// Sweep 2 over the node chunks `chunks`.
+pub(crate) fn force_kick_drift<S: Stencil>(
+    s: &S,
+    state: &mut State,
+    inv_mass: &[Real],
+    p: &StepParams,
+    u_next: &mut Coords,
+    partials: &mut [SweepSums],
+    chunks: std::ops::Range<usize>,
+) -> SweepSums {
+    let (u, pool) = (&state.u, &state.pool);
+    let dims = p.dims(s.dim());
+    sweep_chunks(s.nodes(), chunks, &mut state.v, u_next, partials, |r, o| {
+        let ChunkOut {
+            v: [vx, vy, vz],
+            u_next: [nx, ny, nz],
+        } = o;
+        let mut sums = SweepSums::default();
+        let len = r.len();
+        let mut k = 0;
+        while k < len {
+            let i = r.start + k;
+            #[cfg(target_arch = "x86_64")]
+            if k + 8 <= len && s.vector_block(i) {
+                // SAFETY: `vector_block` holds for i; the output slices hold the block's 8
+                // nodes.
+                unsafe {
+                    s.force_kick_drift_block(
+                        u,
+                        pool,
+                        inv_mass,
+                        p,
+                        i,
+                        [&mut vx[k..k + 8], &mut vy[k..k + 8], &mut vz[k..k + 8]],
+                        [&mut nx[k..k + 8], &mut ny[k..k + 8], &mut nz[k..k + 8]],
+                        &mut sums,
+                    )
+                };
+                k += 8;
+                continue;
+            }
+            let f = s.force_one(u, pool, i);
+            let (d, w) = kick_drift(
+                dims,
+                f,
+                inv_mass[i],
+                p,
+                [&mut vx[k], &mut vy[k], &mut vz[k]],
+                [u.x()[i], u.y()[i], u.z()[i]],
+                [&mut nx[k], &mut ny[k], &mut nz[k]],
+            );
+            sums.dissipated += d;
+            sums.body_work += w;
+            k += 1;
+        }
+        sums
+    })
+}
+
+/// The vector paths' shared kick and drift.
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod avx512 {
+    use std::arch::x86_64::*;
+
+    use super::{StepParams, SweepSums};
+    use crate::math::{Coords, Real};
+
+    /// Kick and drift of the 8 nodes from `i` with forces `f` (the first `dims` components):
+    /// the scalar [`super::super::kick_drift`]'s operations lane by lane (no fused
+    /// multiply-adds), each node's shares of the sums added to `sums` in index order, so the
+    /// bits are those of the portable path.
+    ///
+    /// # Safety
+    /// The processor has AVX-512F; `u` and `inv_mass` hold nodes `i..i + 8`; `v` and `un`
+    /// hold the block's 8 entries per component.
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx512f")]
+    pub(crate) unsafe fn kick_drift8(
+        dims: usize,
+        f: [__m512d; 3],
+        u: &Coords,
+        inv_mass: &[Real],
+        p: &StepParams,
+        i: usize,
+        v: [&mut [Real]; 3],
+        un: [&mut [Real]; 3],
+        sums: &mut SweepSums,
+    ) {
+        let h = 0.5 * p.damping * p.dt;
+        let shrink = _mm512_set1_pd(1.0 - h);
+        let grow = _mm512_set1_pd(1.0 / (1.0 + h));
+        let dt = _mm512_set1_pd(p.dt);
+        let half = _mm512_set1_pd(0.5);
+        // SAFETY (caller): i..i+8 is in bounds of every array read or written here.
+        let im = unsafe { _mm512_loadu_pd(inv_mass.as_ptr().add(i)) };
+        let mut v2 = _mm512_setzero_pd();
+        let mut gw = _mm512_setzero_pd();
+        let [vx, vy, vz] = v;
+        let [nx, ny, nz] = un;
+        let comps = [(vx, nx, u.x()), (vy, ny, u.y()), (vz, nz, u.z())];
+        for (c, (vs, ns, uc)) in comps.into_iter().enumerate().take(dims) {
+            let g = _mm512_set1_pd(p.accel[c]);
+            unsafe {
+                let old = _mm512_loadu_pd(vs.as_ptr());
+                let acc = _mm512_add_pd(_mm512_mul_pd(f[c], im), g);
+                let new = _mm512_mul_pd(
+                    _mm512_add_pd(_mm512_mul_pd(shrink, old), _mm512_mul_pd(dt, acc)),
+                    grow,
+                );
+                _mm512_storeu_pd(vs.as_mut_ptr(), new);
+                let ui = _mm512_loadu_pd(uc.as_ptr().add(i));
+                _mm512_storeu_pd(ns.as_mut_ptr(), _mm512_add_pd(ui, _mm512_mul_pd(dt, new)));
+                let mid = _mm512_mul_pd(half, _mm512_add_pd(old, new));
+                v2 = _mm512_add_pd(v2, _mm512_mul_pd(mid, mid));
+                gw = _mm512_add_pd(gw, _mm512_mul_pd(g, mid));
+            }
+        }
+        if p.damping == 0.0 && p.accel == [0.0; 3] {
+            // Every node's shares are +0, which would leave the sums' bits as they are.
+            return;
+        }
+        let mut lane_v2 = [0.0; 8];
+        let mut lane_gw = [0.0; 8];
+        let mut lane_im = [0.0; 8];
+        unsafe {
+            _mm512_storeu_pd(lane_v2.as_mut_ptr(), v2);
+            _mm512_storeu_pd(lane_gw.as_mut_ptr(), gw);
+            _mm512_storeu_pd(lane_im.as_mut_ptr(), im);
+        }
+        for l in 0..8 {
+            let m = if lane_im[l] > 0.0 {
+                1.0 / lane_im[l]
+            } else {
+                0.0
+            };
+            sums.dissipated += p.damping * m * lane_v2[l] * p.dt;
+            sums.body_work += m * lane_gw[l] * p.dt;
+        }
+    }
+}
