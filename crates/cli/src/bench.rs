@@ -112,6 +112,8 @@ struct BenchJson {
     spring_updates_per_s: f64,
     node_updates_per_s: f64,
     peak_memory_bytes: Option<u64>,
+    /// Resident memory after the timed steps (the steady state: set-up scratch returned).
+    resident_memory_bytes: Option<u64>,
     setup_seconds: f64,
     /// With --contact: step time with contact over step time without (medians of alternating
     /// windows).
@@ -127,8 +129,17 @@ struct BenchJson {
 
 /// Peak resident memory of this process (Linux), in bytes.
 pub fn peak_memory() -> Option<u64> {
+    status_bytes("VmHWM:")
+}
+
+/// Resident memory of this process now (Linux), in bytes: after set-up, what a run keeps.
+pub fn resident_memory() -> Option<u64> {
+    status_bytes("VmRSS:")
+}
+
+fn status_bytes(key: &str) -> Option<u64> {
     let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let line = s.lines().find(|l| l.starts_with(key))?;
     let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb * 1024)
 }
@@ -236,6 +247,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         spring_updates_per_s: springs as f64 * args.steps as f64 / seconds,
         node_updates_per_s: body.nodes() as f64 * args.steps as f64 / seconds,
         peak_memory_bytes: peak_memory(),
+        resident_memory_bytes: resident_memory(),
         setup_seconds,
         contact_overhead,
         processes: team.as_ref().map_or(1, |t| t.size()),
