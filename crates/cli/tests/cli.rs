@@ -681,6 +681,7 @@ fn bench_json_has_the_contract_keys() {
         "spring_updates_per_s",
         "seconds_per_step",
         "peak_memory_bytes",
+        "resident_memory_bytes",
     ] {
         assert!(v.get(key).is_some(), "missing {key} in {v}");
     }
@@ -698,6 +699,9 @@ fn bench_json_has_the_contract_keys() {
         "--json",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
+    // A hexagonal box runs on its stencil.
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["kernel"].as_str().unwrap().starts_with("hex-stencil"), "{v}");
     let o = hooke(&[
         "bench",
         "--compare",
