@@ -285,13 +285,19 @@ class Builder:
         """Lay the cubic lattice along ``direction`` (a fibre's), as ``lattice.rotate_to``."""
         return self._call("rotate_lattice", [float(v) for v in direction])
 
-    def orthotropic(self, youngs: Any, poisson: Any, shear: Any, density: float) -> "Builder":
-        """An orthotropic material, its axes along the cubic lattice's, as ``kind =
-        "orthotropic"``: ``youngs`` [E_x, E_y, E_z], ``poisson`` [nu_xy, nu_xz, nu_yz],
-        ``shear`` [G_yz, G_xz, G_xy] (Pa), rho. Instead of ``material``."""
-        return self._call("orthotropic", {
+    def orthotropic(self, youngs: Any, poisson: Any, shear: Any, density: float,
+                    axes: Any = None) -> "Builder":
+        """An orthotropic material, as ``kind = "orthotropic"``: ``youngs`` [E_x, E_y, E_z],
+        ``poisson`` [nu_xy, nu_xz, nu_yz], ``shear`` [G_yz, G_xz, G_xy] (Pa), rho, in its
+        material axes: the body's, or ``axes`` [[x], [y]] (the material x and y directions,
+        as ``material.axes``), along which the cubic lattice is then laid. Instead of
+        ``material``."""
+        arg: Dict[str, Any] = {
             "youngs": [float(v) for v in youngs], "poisson": [float(v) for v in poisson],
-            "shear": [float(v) for v in shear], "density": density})
+            "shear": [float(v) for v in shear], "density": density}
+        if axes is not None:
+            arg["axes"] = [[float(c) for c in v] for v in axes]
+        return self._call("orthotropic", arg)
 
     def fracture_energy(self, g_c: float) -> "Builder":
         """G_c (J/m^2): springs break, calibrated so that cracks dissipate G_c."""
@@ -465,8 +471,9 @@ def moduli(lattice: str = "cubic", nu: Optional[float] = 0.3, **flags: Any) -> D
     ``sampler="jitter"``; ``bulk=True``: the exact bulk test's 6x6 ``C_measured`` and
     ``C_target``, on random lattices the relaxed one's with ``C_spread`` and ``C_affine``; ``cell_weights=True``: springs and nodes weighted by their cells, no surface
     bias; ``transverse=[E_p, E_t, nu_p, nu_tp, G_t]`` with ``fibre="z"``, or
-    ``orthotropic=[E_x, E_y, E_z, nu_xy, nu_xz, nu_yz, G_yz, G_xz, G_xy]``: an anisotropic
-    material instead of ``nu``)."""
+    ``orthotropic=[E_x, E_y, E_z, nu_xy, nu_xz, nu_yz, G_yz, G_xz, G_xy]``, with
+    ``axes=[X1, Y1, Z1, X2, Y2, Z2]`` turned against the body: an anisotropic material instead
+    of ``nu``)."""
     if flags.get("transverse") is not None or flags.get("orthotropic") is not None:
         nu = None
     return json.loads(_hooke.command_json("moduli", _flags(lattice, nu, flags)))

@@ -373,11 +373,26 @@ pub fn build(spec: &Value) -> R<Simulation> {
                         .ok_or_else(|| format!("{key}: {name}: give three numbers, not {v}"))?;
                     Ok([num(&arr[0], key)?, num(&arr[1], key)?, num(&arr[2], key)?])
                 };
+                let axes = match a.get("axes").filter(|v| !v.is_null()) {
+                    None => hooke_core::Orthotropic::AXES,
+                    Some(v) => {
+                        let pair = v
+                            .as_array()
+                            .filter(|p| p.len() == 2)
+                            .ok_or_else(|| format!("{key}: axes: give the material x and y axes, two directions, not {v}"))?;
+                        hooke_core::Orthotropic::axes_from(
+                            point(&pair[0], key)?,
+                            point(&pair[1], key)?,
+                        )
+                        .map_err(|e| format!("{key}: axes: {e}"))?
+                    }
+                };
                 b.orthotropic(hooke_core::Orthotropic {
                     youngs: three("youngs")?,
                     poisson: three("poisson")?,
                     shear: three("shear")?,
                     density: num(field(&a, "density", key)?, key)?,
+                    axes,
                 })
             }
             "rotate_lattice" => b.rotate_lattice(point(&a, key)?),

@@ -114,6 +114,27 @@ def test_a_lattice_laid_along_an_oblique_fibre_builds_and_runs(tmp_path):
          .end_time(1e-6).build(tmp_path / "axis"))
 
 
+def test_a_turned_orthotropic_material_lays_the_lattice_along_its_axes(tmp_path):
+    ortho = [60e9, 50e9, 10e9, 0.05, 0.3, 0.32, 4e9, 4.5e9, 5e9]
+    axes = [0.8, 0.6, 0, -0.6, 0.8, 0]
+    mine = hooke.moduli(orthotropic=ortho, axes=axes, bulk=True)
+    theirs = json.loads(cli("moduli", "--orthotropic", ",".join(str(v) for v in ortho),
+                            "--axes", ",".join(str(v) for v in axes), "--bulk", "--json"))
+    assert mine == theirs and mine["max_relative_difference"] < 1e-9
+    b = (hooke.Builder("cubic", spacing=2e-3).box([0, 0, 0], [20e-3, 20e-3, 6e-3])
+         .orthotropic(ortho[:3], ortho[3:6], ortho[6:], 1600, axes=[axes[:3], axes[3:]])
+         .initial_velocity({"box": {"min": [-1, -1, -1], "max": [1, 1, 1]}}, [0.1, 0, 0])
+         .end_time(2e-6).output_every(1e-6))
+    sim = b.build(tmp_path / "turned", "turned")
+    summary = sim.finish()
+    assert 0.6 * 11 * 11 * 4 < sim.nodes < 1.4 * 11 * 11 * 4
+    assert abs(summary["energy"]["balance_error"]) < 1e-6 * summary["energy"]["kinetic"] + 1e-12
+    with pytest.raises(hooke.CaseError, match="not perpendicular"):
+        (hooke.Builder("cubic", spacing=2e-3).box([0, 0, 0], [20e-3, 20e-3, 6e-3])
+         .orthotropic(ortho[:3], ortho[3:6], ortho[6:], 1600, axes=[[1, 0, 0], [0.3, 1, 0]])
+         .end_time(1e-6).build(tmp_path / "bad"))
+
+
 def test_toughness_matches_the_command_line_exactly():
     mine = hooke.toughness(lattice="hex", nu=0.25, height=10, window=3)
     theirs = json.loads(cli("toughness", "--lattice", "hex", "--nu", "0.25", "--height", "10",

@@ -558,6 +558,13 @@ fn elastic(
             ));
         }
     }
+    if let (Some(a), false) = (&m.axes, kind == "orthotropic") {
+        return Err(ctx.err(
+            a.span(),
+            "material.axes",
+            "material axes belong to orthotropic materials (a transversely isotropic one takes a fibre); add kind = \"orthotropic\" or remove it",
+        ));
+    }
     if let (Some(f), false) = (&m.fibre, kind == "transverse") {
         return Err(ctx.err(
             f.span(),
@@ -594,11 +601,31 @@ fn elastic(
         }
         "orthotropic" => {
             let c = values(&orthotropic)?;
+            let axes = match &m.axes {
+                None => hooke_core::Orthotropic::AXES,
+                Some(a) => {
+                    spans.at("material.axes", a.span());
+                    let bad = |why: String| ctx.err(a.span(), "material.axes", why);
+                    match a.get_ref().as_slice() {
+                        [x, y] if x.len() == 3 && y.len() == 3 => hooke_core::Orthotropic::axes_from(
+                            [x[0], x[1], x[2]],
+                            [y[0], y[1], y[2]],
+                        )
+                        .map_err(|e| bad(format!("{e}")))?,
+                        _ => {
+                            return Err(bad(
+                                "give the material x and y axes as two directions, e.g. axes = [[0.866, 0.5, 0], [-0.5, 0.866, 0]] (z is their cross product)".into(),
+                            ))
+                        }
+                    }
+                }
+            };
             Ok(b.orthotropic(hooke_core::Orthotropic {
                 youngs: [c[0], c[1], c[2]],
                 poisson: [c[3], c[4], c[5]],
                 shear: [c[6], c[7], c[8]],
                 density,
+                axes,
             }))
         }
         _ => {

@@ -145,8 +145,11 @@ pub struct RawMaterial {
     pub poisson_fibre: Option<Spanned<Real>>,
     pub shear_fibre: Option<Spanned<Real>>,
     pub fibre: Option<Spanned<Vec<Real>>>,
-    /// Orthotropic (axes along the lattice's): E_x, E_y, E_z (Pa), nu_xy, nu_xz, nu_yz and
-    /// G_yz, G_xz, G_xy (Pa).
+    /// Orthotropic: its material x and y axes in the body (`[[x], [y]]`; default the body's
+    /// own, z = x cross y). Off the body's axes the lattice is laid along them.
+    pub axes: Option<Spanned<Vec<Vec<Real>>>>,
+    /// Orthotropic: E_x, E_y, E_z (Pa), nu_xy, nu_xz, nu_yz and G_yz, G_xz, G_xy (Pa), in the
+    /// material axes.
     pub youngs_x: Option<Spanned<Real>>,
     pub youngs_y: Option<Spanned<Real>>,
     pub youngs_z: Option<Spanned<Real>>,

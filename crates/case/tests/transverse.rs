@@ -456,3 +456,91 @@ fn an_oblique_fibre_plate_splits_at_the_fibre_angle() {
     // A crack running on along the notch would break hundreds there.
     assert!(ahead < 10, "{ahead} breaks ahead on the notch's plane");
 }
+
+/// `material.axes` turns an orthotropic material against the body and lays the lattice along
+/// its axes: every spring then runs along a material axis or a face diagonal of two (none
+/// along the body's own x at 30 degrees off); the mistakes name their key and line.
+#[test]
+fn turned_orthotropic_bodies_lay_the_lattice_along_their_axes() {
+    let turned = ORTHO.replacen(
+        "density = 1600",
+        "density = 1600\naxes = [[0.8660254037844387, 0.5, 0], [-0.5, 0.8660254037844387, 0]]",
+        1,
+    );
+    let sim = load(&turned).unwrap();
+    let Some(hooke_core::Anisotropic::Orthotropic(o)) = sim.anisotropic else {
+        panic!("an orthotropic material");
+    };
+    assert!((o.axes[0][1] - 0.5).abs() < 1e-15 && o.axes[2] == [0.0, 0.0, 1.0]);
+    let lat = &sim.body.lattice;
+    let a = lat.spacing;
+    let mut along_x = 0;
+    for b in 0..lat.bonds.len() {
+        let [i, j] = lat.bonds.ends[b].map(|v| v as usize);
+        let d = lat.reference_vector(i, j);
+        let local = o
+            .axes
+            .map(|e| (e[0] * d[0] + e[1] * d[1] + e[2] * d[2]) / a);
+        // Components in the material frame are 0 or +-1.
+        for c in local {
+            assert!(c.abs() < 1e-9 || (c.abs() - 1.0).abs() < 1e-9, "{local:?}");
+        }
+        along_x += (local[0].abs() > 0.5 && local[1].abs() < 0.5 && local[2].abs() < 0.5) as usize;
+    }
+    assert!(along_x > 10);
+    // Stepped faces: no node of the turned lattice lies outside the box.
+    assert!((0..lat.len()).all(|i| {
+        let p = lat.pos.get(i);
+        p.x >= -1e-12 && p.x <= 6e-3 + 1e-12 && p.y >= -1e-12 && p.y <= 4e-3 + 1e-12
+    }));
+    for (text, key, shown, line) in [
+        (
+            turned.replacen("kind = \"orthotropic\"", "kind = \"orthotropic\"\n", 1).replacen(
+                "axes = [[0.8660254037844387, 0.5, 0], [-0.5, 0.8660254037844387, 0]]",
+                "axes = [[1, 0, 0], [0.1, 1, 0]]",
+                1,
+            ),
+            "material.axes",
+            "not perpendicular",
+            19,
+        ),
+        (
+            turned.replacen(
+                "axes = [[0.8660254037844387, 0.5, 0], [-0.5, 0.8660254037844387, 0]]",
+                "axes = [[1, 0, 0]]",
+                1,
+            ),
+            "material.axes",
+            "two directions",
+            18,
+        ),
+        (
+            turned.replacen("spacing = 1.0e-3", "spacing = 1.0e-3\nrotate_to = [1, 0, 0]", 1),
+            "lattice.rotate_to",
+            "remove lattice.rotate_to",
+            5,
+        ),
+        (
+            BASE.replacen("density = 1500", "density = 1500\naxes = [[1, 0, 0], [0, 1, 0]]", 1),
+            "material.axes",
+            "kind = \"orthotropic\"",
+            15,
+        ),
+        (
+            format!(
+                "{turned}\n[[boundary]]\nregion = {{ box = {{ min = [-1, -1, -1], max = [1, 1e-3, 1] }} }}\ntraction = [{{ value = [0, -1e6, 0], normal = \"y\" }}]\n"
+            ),
+            "boundary[0].traction[0]",
+            "stepped faces",
+            0,
+        ),
+    ] {
+        let e = load(&text).err().unwrap_or_else(|| panic!("{key}: accepted"));
+        let msg = e.to_string();
+        assert_eq!(e.key, key, "{msg}");
+        assert!(msg.contains(shown), "{msg}");
+        if line > 0 {
+            assert_eq!(e.line, line, "{msg}");
+        }
+    }
+}

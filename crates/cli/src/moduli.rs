@@ -137,6 +137,11 @@ pub struct ModuliArgs {
     /// -eps_j/eps_i under tension along i. Replaces --nu and --stiffness.
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub orthotropic: Option<Vec<Real>>,
+    /// With --orthotropic and --bulk: the material x and y axes in the body,
+    /// X1,Y1,Z1,X2,Y2,Z2 (z is their cross product; as `material.axes`): the lattice is laid
+    /// along them, and `C_target` and `C_measured` are in the body's axes.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub axes: Option<Vec<Real>>,
     /// Random lattices: measure the calibration table (nu and E/E_affine against q over the
     /// samples) that `hooke_core::random::calibration` holds, and print it as Rust source.
     #[arg(long)]
@@ -172,6 +177,13 @@ impl From<LatticeArg> for LatticeKind {
 /// `--transverse` (with `--fibre`) or `--orthotropic` as a material (density 1: the moduli do
 /// not depend on it).
 pub fn anisotropic(args: &ModuliArgs) -> Result<Option<Anisotropic>> {
+    if args.axes.is_some() && args.orthotropic.is_none() {
+        return Err(InputError(
+            "--axes: material axes go with --orthotropic (a --transverse material takes --fibre)"
+                .into(),
+        )
+        .into());
+    }
     if let Some(v) = &args.orthotropic {
         if args.transverse.is_some() {
             return Err(InputError("--transverse and --orthotropic: keep one".into()).into());
@@ -182,11 +194,23 @@ pub fn anisotropic(args: &ModuliArgs) -> Result<Option<Anisotropic>> {
             ))
             .into());
         };
+        let axes = match args.axes.as_deref() {
+            None => Orthotropic::AXES,
+            Some(&[a, b, c, d, e, f]) => Orthotropic::axes_from([a, b, c], [d, e, f])
+                .map_err(|e| InputError(format!("--axes: {e}")))?,
+            Some(v) => {
+                return Err(InputError(format!(
+                    "--axes {v:?}: give six numbers, the material x and y axes X1,Y1,Z1,X2,Y2,Z2"
+                ))
+                .into())
+            }
+        };
         let o = Orthotropic {
             youngs: [ex, ey, ez],
             poisson: [nxy, nxz, nyz],
             shear: [gyz, gxz, gxy],
             density: 1.0,
+            axes,
         };
         o.stiffness()
             .map_err(|e| InputError(format!("--orthotropic: {e}")))?;
@@ -326,6 +350,13 @@ fn test_for(args: &ModuliArgs, nu: Real) -> Result<BlockTest> {
     t.spacing = args.spacing;
     t.stiffness = args.stiffness;
     t.anisotropic = anisotropic(args)?;
+    if args.axes.is_some() {
+        return Err(InputError(
+            "--axes: the block test needs faces on node planes, and a lattice laid along turned axes has steps; use it with --bulk"
+                .into(),
+        )
+        .into());
+    }
     if args.rotate_lattice {
         return Err(InputError(
             "--rotate-lattice: the block test needs faces on node planes; use it with --bulk"
@@ -672,11 +703,15 @@ fn bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
                     Some(hooke_core::anisotropy::lattice_rotation(t.fibre)?)
                 }
                 (true, Anisotropic::Orthotropic(_)) => return Err(InputError(
-                    "--rotate-lattice lays the lattice along a fibre: it goes with --transverse"
+                    "--rotate-lattice lays the lattice along a fibre: it goes with --transverse (--axes lays it along an orthotropic material's axes)"
                         .into(),
                 )
                 .into()),
             };
+        let turn = match &m {
+            Anisotropic::Orthotropic(o) if !o.along_body_axes() => Some(o.lattice_rotation()),
+            _ => turn,
+        };
         // The test's box is 7 nodes across: turned about its centre node.
         let centre = hooke_core::Vector::repeat(3.0 * a);
         let measured = hooke_core::moduli::bulk_stiffness_of(kind, a, &|l| match &turn {

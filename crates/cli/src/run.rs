@@ -181,10 +181,19 @@ pub fn check(args: CheckArgs) -> Result<()> {
                 "  material     transversely isotropic, fibre {:?}: E_p {:e} Pa, E_t {:e} Pa, nu_p {}, nu_tp {}, G_t {:e} Pa",
                 t.axis()?, t.youngs_plane, t.youngs_fibre, t.poisson_plane, t.poisson_fibre, t.shear_fibre
             ),
-            hooke_core::Anisotropic::Orthotropic(o) => println!(
-                "  material     orthotropic, axes x y z: E {:?} Pa, nu_xy nu_xz nu_yz {:?}, G_yz G_xz G_xy {:?} Pa",
-                o.youngs, o.poisson, o.shear
-            ),
+            hooke_core::Anisotropic::Orthotropic(o) => {
+                println!(
+                    "  material     orthotropic, axes x y z: E {:?} Pa, nu_xy nu_xz nu_yz {:?}, G_yz G_xz G_xy {:?} Pa",
+                    o.youngs, o.poisson, o.shear
+                );
+                if !o.along_body_axes() {
+                    let a = o.axes;
+                    println!(
+                        "  axes         x = [{:.6}, {:.6}, {:.6}], y = [{:.6}, {:.6}, {:.6}], z = [{:.6}, {:.6}, {:.6}] in the body",
+                        a[0][0], a[0][1], a[0][2], a[1][0], a[1][1], a[1][2], a[2][0], a[2][1], a[2][2]
+                    );
+                }
+            }
         }
         println!(
             "  springs k    axes x y z {:.6e} {:.6e} {:.6e}, face diagonals yz xz xy {:.6e} {:.6e} {:.6e} N/m{}",
@@ -206,10 +215,11 @@ pub fn check(args: CheckArgs) -> Result<()> {
         );
         println!(
             "  stiffness    C (Pa, Voigt xx yy zz yz xz xy, global axes){}:",
-            if sim.body.lattice.grid.is_none() {
-                "; the lattice is laid along the fibre (lattice.rotate_to)"
-            } else {
-                ""
+            match (&m, sim.body.lattice.grid.is_none()) {
+                (hooke_core::Anisotropic::Orthotropic(o), true) if !o.along_body_axes() =>
+                    "; the lattice is laid along the material axes (material.axes)",
+                (_, true) => "; the lattice is laid along the fibre (lattice.rotate_to)",
+                _ => "",
             }
         );
         for row in m.stiffness()? {

@@ -92,6 +92,42 @@ fn moduli_transverse_gives_the_target_tensor_and_engineering_constants() {
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert!(v["max_relative_difference"].as_f64().unwrap() < 1e-9);
     assert!(v["orthotropic"].is_object());
+    let unturned = v["C_target"].clone();
+    // Turned against the body by --axes (the lattice laid along them): the turned tensor, to
+    // round-off, in the body's axes.
+    let axes = "0.8,0.6,0,-0.6,0.8,0";
+    let o = hooke(&[
+        "moduli",
+        "--bulk",
+        "--orthotropic",
+        ortho,
+        "--axes",
+        axes,
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["max_relative_difference"].as_f64().unwrap() < 1e-9, "{v}");
+    assert!(v["C_target"][0][5].as_f64().unwrap().abs() > 1e8, "{v}");
+    assert_ne!(v["C_target"], unturned);
+    for (extra, why) in [
+        (vec!["--axes", "1,0,0,0.2,1,0"], "not perpendicular"),
+        (vec!["--axes", "1,0,0"], "six numbers"),
+    ] {
+        let mut args = vec!["moduli", "--bulk", "--orthotropic", ortho];
+        args.extend(extra);
+        let o = hooke(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        assert!(stderr(&o).contains(why), "{}", stderr(&o));
+    }
+    for args in [
+        vec!["moduli", "--orthotropic", ortho, "--axes", axes],
+        vec!["moduli", "--bulk", "--transverse", mat, "--axes", axes],
+    ] {
+        let o = hooke(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        assert!(stderr(&o).contains("--axes"), "{}", stderr(&o));
+    }
     let o = hooke(&[
         "moduli",
         "--orthotropic",
@@ -701,7 +737,10 @@ fn bench_json_has_the_contract_keys() {
     assert!(o.status.success(), "{}", stderr(&o));
     // A hexagonal box runs on its stencil.
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert!(v["kernel"].as_str().unwrap().starts_with("hex-stencil"), "{v}");
+    assert!(
+        v["kernel"].as_str().unwrap().starts_with("hex-stencil"),
+        "{v}"
+    );
     let o = hooke(&[
         "bench",
         "--compare",

@@ -216,9 +216,8 @@ impl Transverse {
     }
 }
 
-/// An orthotropic linear elastic material in SI units, its material axes along the lattice
-/// axes x, y, z, in the engineering notation `nu_ij = -eps_j / eps_i` under uniaxial stress
-/// along i:
+/// An orthotropic linear elastic material in SI units, in the engineering notation
+/// `nu_ij = -eps_j / eps_i` under uniaxial stress along i of its material axes x, y, z:
 ///
 /// ```text
 /// S_11 = 1/E_x   S_12 = -nu_xy/E_x   S_13 = -nu_xz/E_x   S_44 = 1/G_yz
@@ -226,6 +225,10 @@ impl Transverse {
 /// ```
 ///
 /// (the minor ratios follow from symmetry, `nu_ji = nu_ij E_j / E_i`).
+///
+/// The material axes are `axes` in the body's frame: the body's own x, y, z
+/// ([`Orthotropic::AXES`]), or any right-handed orthonormal frame, on a cubic lattice laid along
+/// them ([`Orthotropic::lattice_rotation`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Orthotropic {
     /// Young's moduli E_x, E_y, E_z (Pa).
@@ -236,13 +239,74 @@ pub struct Orthotropic {
     pub shear: [Real; 3],
     /// Mass density (kg/m^3).
     pub density: Real,
+    /// The material axes x, y, z as rows, each in the body's frame.
+    pub axes: [[Real; 3]; 3],
 }
 
 impl Orthotropic {
-    /// The stiffness (Voigt order xx, yy, zz, yz, xz, xy, engineering shears, Pa): the inverse
-    /// of the compliance, or why the constants describe no material (it must be positive
-    /// definite).
+    /// The body's own axes.
+    pub const AXES: [[Real; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+    /// The material frame whose x axis is along `x` and whose y axis is `y` (which must be
+    /// perpendicular to `x`, to 1e-6 of a radian: the pair is then made orthonormal), z their
+    /// cross product.
+    pub fn axes_from(x: [Real; 3], y: [Real; 3]) -> Result<[[Real; 3]; 3]> {
+        let len = |v: [Real; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        let (lx, ly) = (len(x), len(y));
+        if !(lx.is_finite() && lx > 0.0 && ly.is_finite() && ly > 0.0) {
+            return Err(Error::InvalidInput {
+                what: "material axes",
+                why: format!(
+                    "{x:?}, {y:?}: give two non-zero directions, the material x and y axes"
+                ),
+            });
+        }
+        let ex = x.map(|v| v / lx);
+        let cos = (ex[0] * y[0] + ex[1] * y[1] + ex[2] * y[2]) / ly;
+        if cos.abs() > 1e-6 {
+            return Err(Error::InvalidInput {
+                what: "material axes",
+                why: format!(
+                    "{x:?} and {y:?} are not perpendicular (they are {:.6} degrees apart): the material y axis must be at right angles to x",
+                    cos.clamp(-1.0, 1.0).acos().to_degrees()
+                ),
+            });
+        }
+        let ey = normalise([
+            y[0] - cos * ly * ex[0],
+            y[1] - cos * ly * ex[1],
+            y[2] - cos * ly * ex[2],
+        ]);
+        Ok([ex, ey, cross(ex, ey)])
+    }
+
+    /// Whether the material axes are the body's own.
+    pub fn along_body_axes(&self) -> bool {
+        self.axes == Self::AXES
+    }
+
+    /// The rotation that lays a cubic lattice along the material axes (its columns are the
+    /// axes): a lattice vector `v` becomes `R v` in the body.
+    pub fn lattice_rotation(&self) -> crate::math::Matrix {
+        let a = self.axes;
+        crate::math::Matrix::new(
+            a[0][0], a[1][0], a[2][0], a[0][1], a[1][1], a[2][1], a[0][2], a[1][2], a[2][2],
+        )
+    }
+
+    /// The stiffness in the body's frame (Voigt order xx, yy, zz, yz, xz, xy, engineering
+    /// shears, Pa): [`Orthotropic::local_stiffness`] turned by the axes.
     pub fn stiffness(&self) -> Result<[[Real; 6]; 6]> {
+        let c = self.local_stiffness()?;
+        if self.along_body_axes() {
+            return Ok(c);
+        }
+        Ok(rotate(&c, &self.axes))
+    }
+
+    /// The stiffness in the material's axes: the inverse of the compliance, or why the
+    /// constants describe no material (it must be positive definite).
+    pub fn local_stiffness(&self) -> Result<[[Real; 6]; 6]> {
         let names = ["youngs_x", "youngs_y", "youngs_z"];
         for (name, &e) in names.iter().zip(&self.youngs) {
             if !(e.is_finite() && e > 0.0) {
@@ -597,23 +661,31 @@ impl Body {
         })
     }
 
-    /// A body of the orthotropic material `o` (axes along the lattice's) on a Ladd lattice
-    /// ([`ladd_families`]).
+    /// A body of the orthotropic material `o` on a Ladd lattice along its material axes (the
+    /// body's axes, or a lattice laid along `o.axes`: [`Orthotropic::lattice_rotation`]), from
+    /// [`ladd_families`] in the material's frame.
     pub fn orthotropic(lattice: Lattice, o: &Orthotropic) -> Result<Body> {
         check_ladd(&lattice, "orthotropic")?;
-        let f =
-            ladd_families(&o.stiffness()?, lattice.spacing).map_err(|e| Error::InvalidInput {
+        let f = ladd_families(&o.local_stiffness()?, lattice.spacing).map_err(|e| {
+            Error::InvalidInput {
                 what: "orthotropic material",
                 why: e.why(),
-            })?;
-        Body::ladd(lattice, &f, o.density)
+            }
+        })?;
+        Body::ladd(lattice, &f, o.density, &o.axes)
     }
 
-    /// Each spring's stiffness and lever from its family (axis or face diagonal, by direction),
-    /// each node's mass `rho a^3`.
-    fn ladd(lattice: Lattice, f: &LaddFamilies, density: Real) -> Result<Body> {
+    /// Each spring's stiffness and lever from its family (axis or face diagonal, by its
+    /// direction in the material axes `axes`), each node's mass `rho a^3`.
+    fn ladd(
+        lattice: Lattice,
+        f: &LaddFamilies,
+        density: Real,
+        axes: &[[Real; 3]; 3],
+    ) -> Result<Body> {
         let a = lattice.spacing;
-        Body::by_family(lattice, f.q, density, |d, _| {
+        Body::by_family(lattice, f.q, density, |w, _| {
+            let d = axes.map(|e| e[0] * w[0] + e[1] * w[1] + e[2] * w[2]);
             // An axis spring has one non-zero component; a face diagonal two, and the plane it
             // lies in is normal to the zero one.
             let zero: Vec<usize> = (0..3).filter(|&c| d[c].abs() < 0.25 * a).collect();
@@ -625,7 +697,7 @@ impl Body {
                 &[p] => Ok((f.diagonal_k[p], f.diagonal_w[p])),
                 _ => Err(Error::InvalidInput {
                     what: "anisotropic material",
-                    why: format!("a spring along {d:?} is neither along a lattice axis nor a face diagonal of the x, y, z axes: orthotropic materials need the lattice along the material axes (not turned)"),
+                    why: format!("a spring along {w:?} is neither along a material axis nor a face diagonal of two: an orthotropic material needs the lattice laid along its material axes (the body's, or material.axes, which turn the lattice with them)"),
                 }),
             }
         })
@@ -694,7 +766,7 @@ impl Anisotropic {
         match self {
             Anisotropic::Transverse(t) => Ok(cubic_families(t, a)?.ladd),
             Anisotropic::Orthotropic(o) => {
-                ladd_families(&o.stiffness()?, a).map_err(|e| Error::InvalidInput {
+                ladd_families(&o.local_stiffness()?, a).map_err(|e| Error::InvalidInput {
                     what: "orthotropic material",
                     why: e.why(),
                 })
@@ -905,6 +977,7 @@ mod tests {
                 poisson: [0.42, 0.45, 0.5],
                 shear: [0.08e9, 0.3e9, 0.35e9],
                 density: 500.0,
+                axes: Orthotropic::AXES,
             },
             // a cross-ply laminate-like block
             Orthotropic {
@@ -912,6 +985,7 @@ mod tests {
                 poisson: [0.05, 0.3, 0.32],
                 shear: [4e9, 4.5e9, 5e9],
                 density: 1600.0,
+                axes: Orthotropic::AXES,
             },
             // auxetic couplings (q < 0)
             Orthotropic {
@@ -919,6 +993,7 @@ mod tests {
                 poisson: [-0.2, -0.1, -0.15],
                 shear: [3.5e9, 3e9, 2.5e9],
                 density: 1000.0,
+                axes: Orthotropic::AXES,
             },
         ];
         for o in cases {
@@ -948,12 +1023,68 @@ mod tests {
         let f = ladd_families(&c, 1e-3).unwrap();
         assert!(f.q > 0.0, "{f:?}");
         let built = |l: Lattice| {
-            let mut b = Body::ladd(l, &f, 1.0)?;
+            let mut b = Body::ladd(l, &f, 1.0, &Orthotropic::AXES)?;
             b.q = f.q;
             Ok(b)
         };
         let m = bulk_stiffness_of(LatticeKind::Cubic, 1e-3, &built).unwrap();
         assert!(worst(&m, &c) < 1e-9, "{:e}", worst(&m, &c));
+    }
+
+    /// Orthotropic materials whose axes are turned against the body, on a cubic lattice laid
+    /// along them: the bulk tensor is the target turned by the axes, to round-off, for a turn
+    /// about z, one about an oblique axis, and a frame with its axes swapped. A lattice left
+    /// along the body's axes is refused with the fix, and axes that are not at right angles are
+    /// refused with the angle between them.
+    #[test]
+    fn turned_orthotropic_bulk_tensors_are_the_turned_target() {
+        let (c30, s30) = (
+            (30.0 as Real).to_radians().cos(),
+            (30.0 as Real).to_radians().sin(),
+        );
+        let frames = [
+            Orthotropic::axes_from([c30, s30, 0.0], [-s30, c30, 0.0]).unwrap(),
+            Orthotropic::axes_from([1.0, 2.0, 0.5], [2.0, -1.0, 0.0]).unwrap(),
+            Orthotropic::axes_from([0.0, 0.0, 1.0], [1.0, 0.0, 0.0]).unwrap(),
+        ];
+        let local = Orthotropic {
+            youngs: [60e9, 50e9, 10e9],
+            poisson: [0.05, 0.3, 0.32],
+            shear: [4e9, 4.5e9, 5e9],
+            density: 1600.0,
+            axes: Orthotropic::AXES,
+        };
+        let a = 1e-3;
+        for (k, axes) in frames.into_iter().enumerate() {
+            let o = Orthotropic { axes, ..local };
+            let r = o.lattice_rotation();
+            // Right-handed and orthonormal.
+            assert!((r.determinant() - 1.0).abs() < 1e-12);
+            assert!((r.transpose() * r - crate::math::Matrix::identity()).norm() < 1e-12);
+            let centre = crate::math::Vector::repeat(3.0 * a);
+            let c = bulk_stiffness_of(LatticeKind::Cubic, a, &|l| {
+                Body::orthotropic(l.rotated(&r, centre)?, &o)
+            })
+            .unwrap();
+            let target = o.stiffness().unwrap();
+            assert!(
+                worst(&c, &target) < 1e-9,
+                "{axes:?}: {:e}",
+                worst(&c, &target)
+            );
+            // The turn really moved the tensor: it is not the unturned one.
+            assert!(worst(&target, &local.stiffness().unwrap()) > 1e-3);
+            // Off the lattice's axes the unturned lattice cannot hold it (a permutation of the
+            // axes, the third frame, it can).
+            let unturned = Body::orthotropic(Lattice::cubic_box([3, 3, 3], a).unwrap(), &o);
+            match unturned {
+                Err(e) => assert!(k < 2 && e.to_string().contains("material.axes"), "{e}"),
+                Ok(_) => assert_eq!(k, 2),
+            }
+        }
+        let e = Orthotropic::axes_from([1.0, 0.0, 0.0], [0.1, 1.0, 0.0]).unwrap_err();
+        assert!(e.to_string().contains("not perpendicular"), "{e}");
+        assert!(Orthotropic::axes_from([0.0; 3], [0.0, 1.0, 0.0]).is_err());
     }
 
     #[test]
@@ -963,6 +1094,7 @@ mod tests {
             poisson: [0.05, 0.3, 0.32],
             shear: [4e9, 4.5e9, 5e9],
             density: 1600.0,
+            axes: Orthotropic::AXES,
         };
         let mut c = base.stiffness().unwrap();
         // Two planes coupled, one not.
@@ -979,6 +1111,7 @@ mod tests {
             poisson: [0.42, 0.45, 0.5],
             shear: [0.1e9, 0.7e9, 0.9e9],
             density: 500.0,
+            axes: Orthotropic::AXES,
         };
         let e = ladd_families(&wood.stiffness().unwrap(), 1e-3).unwrap_err();
         assert!(matches!(e, Unreachable::Axis { .. }), "{e:?}");

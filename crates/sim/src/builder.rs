@@ -253,12 +253,19 @@ impl Builder {
         self.rotate_to = Some(dir);
         self
     }
-    /// An orthotropic material, its axes along the Ladd lattice's ([`Body::orthotropic`]), with
-    /// the same limits as [`Builder::transverse`].
+    /// An orthotropic material ([`Body::orthotropic`]), with the same limits as
+    /// [`Builder::transverse`]. Its material axes are the body's, or `o.axes`
+    /// ([`Orthotropic::axes_from`]): then the cubic lattice is laid along them.
     pub fn orthotropic(mut self, o: Orthotropic) -> Self {
         self.anisotropic = Some(Anisotropic::Orthotropic(o));
         self
     }
+    /// Whether the lattice is laid along a fibre or material axes (its faces are then steps).
+    fn turned(&self) -> bool {
+        self.rotate_to.is_some()
+            || matches!(&self.anisotropic, Some(Anisotropic::Orthotropic(o)) if !o.along_body_axes())
+    }
+
     /// Springs break by the critical stretch that dissipates G_c (J/m^2).
     pub fn fracture_energy(mut self, g_c: Real) -> Self {
         self.breaking = Some(BreakRule::FractureEnergy(g_c));
@@ -416,15 +423,41 @@ impl Builder {
             }
             (None, _) => 1.0,
         };
-        let lattice =
-            match self.rotate_to {
-                None => fill_lattice(kind, a, h, self.random, &self.geometry)?,
-                Some(_) if kind != LatticeKind::Cubic => return Err(BuildError::new(
+        // The turn of the lattice: along a fibre (lattice.rotate_to), or along an orthotropic
+        // material's axes (material.axes), which need it.
+        let axes = match &self.anisotropic {
+            Some(Anisotropic::Orthotropic(o)) if !o.along_body_axes() => Some(o),
+            _ => None,
+        };
+        let turn = match (self.rotate_to, axes) {
+            (Some(_), Some(_)) => {
+                return Err(BuildError::new(
+                    "lattice.rotate_to",
+                    "material.axes lays the lattice along the orthotropic material's axes already; remove lattice.rotate_to",
+                ))
+            }
+            (Some(_), None) if kind != LatticeKind::Cubic => {
+                return Err(BuildError::new(
                     "lattice.rotate_to",
                     "only the cubic lattice is turned (random lattices have no axes); remove it",
-                )),
-                Some(dir) => crate::geometry::fill_turned_cubic(a, dir, &self.geometry)?,
-            };
+                ))
+            }
+            (Some(dir), None) => Some(
+                hooke_core::anisotropy::lattice_rotation(dir)
+                    .map_err(|e| BuildError::new("lattice.rotate_to", e.to_string()))?,
+            ),
+            (None, Some(o)) => Some(o.lattice_rotation()),
+            (None, None) => None,
+        };
+        let lattice = match turn {
+            None => fill_lattice(kind, a, h, self.random, &self.geometry)?,
+            // (A random or hexagonal lattice with material.axes is refused below, with the
+            // anisotropic material.)
+            Some(_) if kind != LatticeKind::Cubic => {
+                fill_lattice(kind, a, h, self.random, &self.geometry)?
+            }
+            Some(r) => crate::geometry::fill_turned_cubic(a, &r, &self.geometry)?,
+        };
         if let Some(t) = &self.anisotropic {
             if self.material.is_some() {
                 return Err(BuildError::new(
@@ -693,12 +726,12 @@ impl Builder {
             }
             for (j, (t, normal, scale)) in bc.tractions.iter().enumerate() {
                 axis_ok(*normal, format!("{key}.traction[{j}].normal"))?;
-                if self.rotate_to.is_some() {
+                if self.turned() {
                     // A turned lattice's faces are steps: no node stands for a known share of
                     // a face's area, so a traction would be spread wrongly.
                     return Err(BuildError::new(
                         format!("{key}.traction[{j}]"),
-                        "a traction needs faces on node planes, and a lattice laid along a fibre (lattice.rotate_to) has stepped faces; load it by a prescribed velocity or displacement of a box region instead",
+                        "a traction needs faces on node planes, and a lattice laid along a fibre or material axes (lattice.rotate_to, material.axes) has stepped faces; load it by a prescribed velocity or displacement of a box region instead",
                     ));
                 }
                 loading

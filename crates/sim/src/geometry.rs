@@ -438,14 +438,17 @@ pub fn traction_loads(
     }
 }
 
-/// Fill `geometry` with a cubic lattice of spacing `a` laid along `dir`
-/// ([`hooke_core::anisotropy::lattice_rotation`]): a grid over the body's box as the turned
-/// lattice sees it, turned about the box's centre, keeping the nodes inside the box and the
-/// body (within 1e-9 a).
-pub fn fill_turned_cubic(a: Real, dir: [Real; 3], geometry: &Solid) -> Result<Lattice, BuildError> {
+/// Fill `geometry` with a cubic lattice of spacing `a` turned by `r` (a lattice vector `v` is
+/// `r v` in the body: [`hooke_core::anisotropy::lattice_rotation`] lays it along a fibre,
+/// [`hooke_core::Orthotropic::lattice_rotation`] along material axes): a grid over the body's box as the turned lattice sees it, turned about
+/// the box's centre, keeping the nodes inside the box and the body (within 1e-9 a).
+pub fn fill_turned_cubic(
+    a: Real,
+    r: &hooke_core::math::Matrix,
+    geometry: &Solid,
+) -> Result<Lattice, BuildError> {
     let (lo, hi) = geometry.bounds(3)?;
-    let r = hooke_core::anisotropy::lattice_rotation(dir)
-        .map_err(|e| BuildError::new("lattice.rotate_to", e.to_string()))?;
+    let r = *r;
     let centre = 0.5 * (lo + hi);
     // The box's corners in the turned lattice's frame, and their bounds.
     let (mut llo, mut lhi) = (
