@@ -585,17 +585,30 @@ impl RigidBody {
             return self.geometry.bounds(self.position);
         }
         let (lo, hi) = self.geometry.bounds([0.0; 3]);
-        if lo.iter().chain(&hi).any(|x| !x.is_finite()) {
-            // Unbounded shapes never turn (no inertia), but a kinematic half-space may spin:
-            // it reaches everywhere.
-            return ([f64::NEG_INFINITY; 3], [f64::INFINITY; 3]);
-        }
-        let c = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
-        let h = [0, 1, 2].map(|k| 0.5 * (hi[k] - lo[k]));
         let r = matrix(self.orientation);
-        let cw = add(self.position, mat_vec(&r, c));
-        let ext = [0, 1, 2].map(|row| (0..3).map(|k| r[row][k].abs() * h[k]).sum::<f64>());
-        (sub(cw, ext), add(cw, ext))
+        // Each world axis spans the local box's centre and half-widths turned onto it. An
+        // axis the turn does not mix in counts for nothing: a plate's shape is unbounded along
+        // z, and turning about z leaves x and y bounded (2D bodies turn about z only). Where an
+        // unbounded local axis is mixed in (a kinematic half-space that spins) the world axis
+        // is unbounded too.
+        let (mut wlo, mut whi) = ([0.0; 3], [0.0; 3]);
+        for row in 0..3 {
+            let (mut c, mut ext) = (self.position[row], 0.0);
+            for k in 0..3 {
+                let m = r[row][k];
+                if m == 0.0 {
+                    continue;
+                }
+                if !(lo[k].is_finite() && hi[k].is_finite()) {
+                    (c, ext) = (0.0, f64::INFINITY);
+                    break;
+                }
+                c += m * 0.5 * (lo[k] + hi[k]);
+                ext += m.abs() * 0.5 * (hi[k] - lo[k]);
+            }
+            (wlo[row], whi[row]) = (c - ext, c + ext);
+        }
+        (wlo, whi)
     }
 
     /// The surface to draw (see [`Geometry::surface`]), placed and turned.

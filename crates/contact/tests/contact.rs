@@ -673,3 +673,59 @@ fn a_disk_on_a_plate_turns_about_z() {
         norm(l0)
     );
 }
+
+/// A plate's rigid body that has turned (about z) keeps bounds in x and y that hold it, so the
+/// contact lists keep only the nodes near it (an unbounded z once made every node of the plate
+/// a candidate, a distance query each per step); z stays unbounded, and a half-space that
+/// spins is unbounded wherever its turn mixes its unbounded axes in.
+#[test]
+fn turned_bodies_keep_bounds_that_hold_them() {
+    let mut b = RigidBody::new(
+        "projectile",
+        Geometry::cuboid(2, [50e-3, 48e-3, 0.0]),
+        Motion::Dynamic { mass: 0.77 },
+        [-25e-3, 100e-3, 0.0],
+        [32.0, 0.0, 0.0],
+        0.0,
+    );
+    let (th, c) = (0.3 as Real, [-25e-3, 100e-3]);
+    b.orientation = [(0.5 * th).cos(), 0.0, 0.0, (0.5 * th).sin()];
+    let (lo, hi) = b.bounds();
+    assert!(lo[2] == Real::NEG_INFINITY && hi[2] == Real::INFINITY);
+    for (sx, sy) in [(-1.0, -1.0), (-1.0, 1.0), (1.0, -1.0), (1.0, 1.0)] {
+        let (x, y) = (sx * 25e-3, sy * 24e-3);
+        let p = [
+            c[0] + th.cos() * x - th.sin() * y,
+            c[1] + th.sin() * x + th.cos() * y,
+        ];
+        for k in 0..2 {
+            assert!(
+                lo[k] - 1e-15 <= p[k] && p[k] <= hi[k] + 1e-15,
+                "corner {p:?}: {lo:?} {hi:?}"
+            );
+        }
+    }
+    // Tight: the turned box's own extent, not more.
+    let half = 25e-3 * th.cos() + 24e-3 * th.sin();
+    assert!((hi[0] - lo[0] - 2.0 * half).abs() < 1e-12);
+    // A kinematic half-space spinning about an axis in its plane reaches everywhere (parry
+    // bounds a half-space by the largest reals).
+    let mut wall = RigidBody::new(
+        "wall",
+        Geometry::halfspace(3, [0.0, 0.0, 1.0]),
+        Motion::Kinematic([
+            TimeFunction::Constant(0.0),
+            TimeFunction::Constant(0.0),
+            TimeFunction::Constant(0.0),
+        ]),
+        [0.0; 3],
+        [0.0; 3],
+        0.0,
+    );
+    wall.orientation = [(0.1 as Real).cos(), (0.1 as Real).sin(), 0.0, 0.0];
+    let (lo, hi) = wall.bounds();
+    assert!(
+        lo.iter().chain(&hi).all(|v| v.abs() > 1e300),
+        "{lo:?} {hi:?}"
+    );
+}
