@@ -80,7 +80,15 @@ fn physics_files(dir: &Path) -> Vec<(String, Vec<u8>)> {
 }
 
 fn check(case: &str, scale: f64, set: &[&str], sizes: &[usize]) {
-    let tag = case.trim_end_matches(".toml");
+    // The folders are named by the case and its overrides: two tests of one case run side by
+    // side (the softening test is the mode-I plate too) and must not share a folder.
+    let tag = format!(
+        "{}_{:016x}",
+        case.trim_end_matches(".toml"),
+        set.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, s| s
+            .bytes()
+            .fold(h, |h, b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3)))
+    );
     let alone = run(case, scale, set, &scratch(&format!("{tag}_1")), None);
     let reference = physics_files(&alone.out);
     // Each member must own nodes: whole chunks of nodes are what is shared.
