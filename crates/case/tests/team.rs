@@ -196,6 +196,18 @@ fn sphere_impact_is_bit_identical_for_any_team() {
     );
 }
 
+/// The glass plate on the hexagonal lattice (its stencil kernel, a plate: z left alone),
+/// breaking.
+#[test]
+fn hexagonal_glass_plate_is_bit_identical_for_any_team() {
+    check(
+        "glass_branching.toml",
+        0.5,
+        &["solver.end_time=30e-6", "output.every=15e-6"],
+        &[2, 3],
+    );
+}
+
 /// Kalthoff-Winkler: a projectile, notches and running cracks on a random plate.
 #[test]
 fn kalthoff_winkler_is_bit_identical_for_any_team() {
