@@ -316,6 +316,9 @@ fn spring_chunk<const D: usize, const P: bool>(
 ) {
     let w = stride(D);
     let n = pis.len();
+    let p = &lat.pos;
+    let pos = [p.x(), p.y(), p.z()];
+    let disp = [u.x(), u.y(), u.z()];
     let mut b0 = 0;
     while b0 < n {
         let m = BLOCK.min(n - b0);
@@ -329,18 +332,31 @@ fn spring_chunk<const D: usize, const P: bool>(
             [0.0; BLOCK],
             [0.0; BLOCK],
         );
+        // The block's slices, cut once so that the loop below indexes them without
+        // re-checking their lengths.
+        let ends = &sp.ends[b0..b0 + m];
+        let (brest, blever, balive, bk) = (
+            &sp.rest[b0..b0 + m],
+            &sp.lever[b0..b0 + m],
+            &sp.alive[b0..b0 + m],
+            &sp.k[b0..b0 + m],
+        );
+        let brec = &mut rec[w * b0..w * (b0 + m)];
         for s in 0..m {
-            let b = b0 + s;
-            let r = &mut rec[w * b..w * b + w];
-            rest[s] = sp.rest[b];
-            lever[s] = sp.lever[b];
-            if !sp.alive[b] {
+            let r = &mut brec[w * s..w * s + w];
+            rest[s] = brest[s];
+            lever[s] = blever[s];
+            if !balive[s] {
                 r[2..].fill(0.0);
                 continue;
             }
-            k[s] = sp.k[b];
-            let [i, j] = sp.ends[b].map(|v| v as usize);
-            let (d, d2, nm) = vector::<D, P>(lat, u, i, j);
+            k[s] = bk[s];
+            let [i, j] = ends[s].map(|v| v as usize);
+            let (d, d2, nm) = if P {
+                vector::<D, P>(lat, u, i, j)
+            } else {
+                vector_open::<D>(&pos, &disp, i, j)
+            };
             r[2..].copy_from_slice(&d[..D]);
             l2[s] = d2;
             num[s] = nm;
@@ -359,17 +375,56 @@ fn spring_chunk<const D: usize, const P: bool>(
             h |= dl[s] > screen * rest[s];
         }
         hot[b0 / BLOCK] = h;
-        for s in 0..m {
-            let b = b0 + s;
-            let r = &mut rec[w * b..w * b + w];
+        let bpis = &mut pis[b0..b0 + m];
+        for (s, (r, pi)) in brec.chunks_exact_mut(w).zip(bpis.iter_mut()).enumerate() {
             r[0] = k[s] * dl[s];
             r[1] = q * k[s] * lever[s];
             for c in 0..D {
                 r[2 + c] *= inv[s];
             }
-            pis[b] = k[s] * lever[s] * dl[s];
+            *pi = k[s] * lever[s] * dl[s];
         }
         b0 += m;
+    }
+}
+
+/// [`vector`] of a lattice without periodic axes, from the component slices of the reference
+/// positions and the displacements (cut once per chunk): the same operations in the same order.
+#[inline(always)]
+fn vector_open<const D: usize>(
+    pos: &[&[Real]; 3],
+    disp: &[&[Real]; 3],
+    i: usize,
+    j: usize,
+) -> ([Real; 3], Real, Real) {
+    let mut big = [0.0; 3];
+    let mut w = [0.0; 3];
+    for c in 0..D {
+        big[c] = pos[c][j] - pos[c][i];
+        w[c] = disp[c][j] - disp[c][i];
+    }
+    geometry::<D>(big, w)
+}
+
+/// From the reference vector `big` and the displacement difference `w`: the current vector `d`,
+/// `|d|^2` and the numerator `2 D.w + w.w` of the extension ([`crate::law::spring_geometry`]'s
+/// operations in its order; in 2D its z terms are exact zeros and are left out).
+#[inline(always)]
+fn geometry<const D: usize>(big: [Real; 3], w: [Real; 3]) -> ([Real; 3], Real, Real) {
+    let d = [big[0] + w[0], big[1] + w[1], big[2] + w[2]];
+    if D == 3 {
+        (
+            d,
+            d[0] * d[0] + d[1] * d[1] + d[2] * d[2],
+            2.0 * (big[0] * w[0] + big[1] * w[1] + big[2] * w[2])
+                + (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]),
+        )
+    } else {
+        (
+            d,
+            d[0] * d[0] + d[1] * d[1],
+            2.0 * (big[0] * w[0] + big[1] * w[1]) + (w[0] * w[0] + w[1] * w[1]),
+        )
     }
 }
 
@@ -392,21 +447,7 @@ fn vector<const D: usize, const P: bool>(
     };
     let wz = if D == 3 { u.z()[j] - u.z()[i] } else { 0.0 };
     let w = [u.x()[j] - u.x()[i], u.y()[j] - u.y()[i], wz];
-    let d = [big[0] + w[0], big[1] + w[1], big[2] + w[2]];
-    if D == 3 {
-        (
-            d,
-            d[0] * d[0] + d[1] * d[1] + d[2] * d[2],
-            2.0 * (big[0] * w[0] + big[1] * w[1] + big[2] * w[2])
-                + (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]),
-        )
-    } else {
-        (
-            d,
-            d[0] * d[0] + d[1] * d[1],
-            2.0 * (big[0] * w[0] + big[1] * w[1]) + (w[0] * w[0] + w[1] * w[1]),
-        )
-    }
+    geometry::<D>(big, w)
 }
 
 /// Sweep 2 over CSR rows.
@@ -420,13 +461,15 @@ pub fn force_kick_drift(
     chunks: std::ops::Range<usize>,
 ) -> SweepSums {
     if body.lattice.dim() == 2 {
-        fkd::<2>(body, state, inv_mass, p, u_next, partials, chunks)
+        fkd::<2, 4>(body, state, inv_mass, p, u_next, partials, chunks)
     } else {
-        fkd::<3>(body, state, inv_mass, p, u_next, partials, chunks)
+        fkd::<3, 5>(body, state, inv_mass, p, u_next, partials, chunks)
     }
 }
 
-fn fkd<const D: usize>(
+/// Sweep 2 for `D` dimensions, whose records hold `W = 2 + D` reals: as fixed-size arrays the
+/// records are read without a length check per row entry.
+fn fkd<const D: usize, const W: usize>(
     body: &Body,
     state: &mut State,
     inv_mass: &[Real],
@@ -437,7 +480,8 @@ fn fkd<const D: usize>(
 ) -> SweepSums {
     let (u, pool, rec) = (&state.u, &state.pool, &state.spring);
     let bonds = &body.lattice.bonds;
-    let w = stride(D);
+    debug_assert_eq!(W, stride(D));
+    let (rec, _) = rec.as_chunks::<W>();
     let dims = p.dims(D);
     sweep_chunks(
         body.nodes(),
@@ -457,7 +501,7 @@ fn fkd<const D: usize>(
                 let row = bonds.row(i);
                 for (&j, &b) in bonds.nbr[row.clone()].iter().zip(&bonds.bond[row]) {
                     let (j, b) = (j as usize, b as usize);
-                    let r = &rec[w * b..w * b + w];
+                    let r = &rec[b];
                     let t = r[0] + r[1] * (pi + pool[j]);
                     // The record's vector points from the lower end to the upper end.
                     let t = if j > i { t } else { -t };
