@@ -439,14 +439,15 @@ fn vector<const D: usize, const P: bool>(
     j: usize,
 ) -> ([Real; 3], Real, Real) {
     let p = &lat.pos;
-    let big = if P {
-        reference_vector(p, lat.period, i, j)
-    } else {
-        let z = if D == 3 { p.z()[j] - p.z()[i] } else { 0.0 };
-        [p.x()[j] - p.x()[i], p.y()[j] - p.y()[i], z]
-    };
-    let wz = if D == 3 { u.z()[j] - u.z()[i] } else { 0.0 };
-    let w = [u.x()[j] - u.x()[i], u.y()[j] - u.y()[i], wz];
+    let disp = [u.x(), u.y(), u.z()];
+    if !P {
+        return vector_open::<D>(&[p.x(), p.y(), p.z()], &disp, i, j);
+    }
+    let big = reference_vector(p, lat.period, i, j);
+    let mut w = [0.0; 3];
+    for c in 0..D {
+        w[c] = disp[c][j] - disp[c][i];
+    }
     geometry::<D>(big, w)
 }
 
@@ -481,7 +482,8 @@ fn fkd<const D: usize, const W: usize>(
     let (u, pool, rec) = (&state.u, &state.pool, &state.spring);
     let bonds = &body.lattice.bonds;
     debug_assert_eq!(W, stride(D));
-    let (rec, _) = rec.as_chunks::<W>();
+    let (rec, rest) = rec.as_chunks::<W>();
+    debug_assert!(rest.is_empty());
     let dims = p.dims(D);
     sweep_chunks(
         body.nodes(),
