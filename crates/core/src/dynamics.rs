@@ -282,7 +282,7 @@ impl Integrator {
         it.plane &= Self::flat(state);
         // The CSR kernel's scratch is sized here, so that no step allocates (the pools it also
         // computes are recomputed below).
-        if let Kernel::Csr { .. } = it.kernel {
+        if matches!(it.kernel, Kernel::Csr { .. } | Kernel::Rows(_)) {
             it.kernel.pools(body, state);
         }
         // Prescribed positions and velocities at the start.
@@ -516,7 +516,8 @@ impl Integrator {
         if !state.soften(body, b, w) {
             return false;
         }
-        if matches!(self.kernel, Kernel::Csr { .. }) {
+        if !self.kernel.is_stencil() {
+            self.kernel.bond_softened(body, state, b);
             self.killed.push(b as u32);
             if in_sync {
                 self.synced = state.breaks();
@@ -533,7 +534,7 @@ impl Integrator {
         if state.breaks() == self.synced {
             return;
         }
-        if self.kernel.is_stencil() {
+        if self.kernel.holds_springs() {
             let simd = self.kernel.simd();
             // Softened springs: the stencil cannot hold their stiffnesses, and `for_body` gives
             // the CSR kernel.

@@ -50,6 +50,9 @@ pub struct State {
     /// one flag per block of springs (CSR) or nodes (stencil) holding a spring stretched past
     /// the screen. Scratch like `spring`.
     pub(crate) hot: Vec<bool>,
+    /// Scratch of the row kernel (`kernel::rows`): each node's reference position,
+    /// displacement and pool in one cache line, refreshed before each sweep.
+    pub(crate) rec: Vec<crate::kernel::rows::Record>,
 }
 
 impl Clone for State {
@@ -69,6 +72,7 @@ impl Clone for State {
             spring: Vec::new(),
             spring_pi: Vec::new(),
             hot: Vec::new(),
+            rec: Vec::new(),
         };
         s.clone_from(self);
         s
@@ -91,6 +95,7 @@ impl Clone for State {
         self.spring.clone_from(&o.spring);
         self.spring_pi.clone_from(&o.spring_pi);
         self.hot.clone_from(&o.hot);
+        self.rec.clone_from(&o.rec);
     }
 }
 
@@ -129,6 +134,7 @@ impl State {
             spring: Vec::new(),
             spring_pi: Vec::new(),
             hot: Vec::new(),
+            rec: Vec::new(),
         };
         for i in 0..n {
             s.norm[i] = node_norm(body, s.springs(body), i);

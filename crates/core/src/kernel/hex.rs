@@ -22,7 +22,7 @@
 //! bits: results do not depend on which nodes took which path, on the thread count, or on
 //! whether the processor has AVX-512 at all.
 
-use super::stencil::{simd_available, Stencil};
+use super::stencil::{simd_available, Src, Stencil};
 use super::{StepParams, SweepSums};
 use crate::body::Body;
 use crate::lattice::LatticeKind;
@@ -272,16 +272,16 @@ impl Stencil for HexStencil {
         self.simd && self.block_inside(i)
     }
 
-    fn pool_one(&self, u: &Coords, i: usize, screen: Real) -> (Real, bool) {
+    fn pool_one(&self, u: &Src, i: usize, screen: Real) -> (Real, bool) {
         self.pool_scalar(u, i, screen)
     }
 
-    fn force_one(&self, u: &Coords, pool: &[Real], i: usize) -> [Real; 3] {
+    fn force_one(&self, u: &Src, pool: &[Real], i: usize) -> [Real; 3] {
         self.force_scalar(u, pool, i)
     }
 
     #[cfg(target_arch = "x86_64")]
-    unsafe fn pool_block(&self, u: &Coords, i: usize, out: &mut [Real], screen: Real) -> bool {
+    unsafe fn pool_block(&self, u: &Src, i: usize, out: &mut [Real], screen: Real) -> bool {
         // SAFETY (caller): the vector path is on (so the processor has AVX-512F) and the block
         // and its neighbours are in bounds.
         unsafe { avx512::pools8(self, u, i, out, screen) }
@@ -290,7 +290,7 @@ impl Stencil for HexStencil {
     #[cfg(target_arch = "x86_64")]
     unsafe fn force_kick_drift_block(
         &self,
-        u: &Coords,
+        u: &Src,
         pool: &[Real],
         inv_mass: &[Real],
         p: &StepParams,

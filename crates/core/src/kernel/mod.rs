@@ -21,6 +21,7 @@
 pub mod csr;
 pub mod cubic;
 pub mod hex;
+pub mod rows;
 mod stencil;
 
 use crate::body::Body;
@@ -95,6 +96,9 @@ pub enum Kernel {
     Cubic(cubic::CubicStencil),
     /// Box-shaped hexagonal lattice with uniform spring constants: stencil kernel.
     Hex(hex::HexStencil),
+    /// Any other non-periodic lattice on a processor with AVX-512: the CSR kernel's sweeps
+    /// node by node, 8 nodes to a vector, with the CSR kernel's bits (see [`rows`]).
+    Rows(rows::RowKernel),
 }
 
 impl Kernel {
@@ -104,8 +108,13 @@ impl Kernel {
         if let Some(s) = cubic::CubicStencil::new(body, state) {
             return Kernel::Cubic(s);
         }
-        match hex::HexStencil::new(body, state) {
-            Some(s) => Kernel::Hex(s),
+        if let Some(s) = hex::HexStencil::new(body, state) {
+            return Kernel::Hex(s);
+        }
+        // Without AVX-512 the row kernel's scalar path would be slower than the CSR kernel,
+        // which gives the same bits.
+        match rows::RowKernel::new(body, state).filter(|r| r.simd()) {
+            Some(r) => Kernel::Rows(r),
             None => Kernel::Csr { plain: false },
         }
     }
@@ -116,6 +125,7 @@ impl Kernel {
             Kernel::Csr { .. } => "csr",
             Kernel::Cubic(s) => s.name(),
             Kernel::Hex(s) => s.name(),
+            Kernel::Rows(r) => r.name(),
         }
     }
 
@@ -126,6 +136,7 @@ impl Kernel {
             Kernel::Csr { .. } => false,
             Kernel::Cubic(s) => s.simd(),
             Kernel::Hex(s) => s.simd(),
+            Kernel::Rows(r) => r.simd(),
         }
     }
 
@@ -136,11 +147,18 @@ impl Kernel {
             Kernel::Csr { .. } => {}
             Kernel::Cubic(s) => s.set_simd(on),
             Kernel::Hex(s) => s.set_simd(on),
+            Kernel::Rows(r) => r.set_simd(on),
         }
     }
 
-    /// Whether this is one of the stencil kernels (which hold their own spring masks).
+    /// Whether this is one of the stencil kernels.
     pub fn is_stencil(&self) -> bool {
+        matches!(self, Kernel::Cubic(_) | Kernel::Hex(_))
+    }
+
+    /// Whether the kernel keeps its own copy of the springs' states (the stencils' masks, the
+    /// row kernel's slots), which a change behind the integrator's back makes stale.
+    pub fn holds_springs(&self) -> bool {
         !matches!(self, Kernel::Csr { .. })
     }
 
@@ -173,6 +191,10 @@ impl Kernel {
             Kernel::Csr { plain } => csr::pools(body, state, *plain, screen, share),
             Kernel::Cubic(s) => stencil::pools(s, state, screen, share.map(|s| s.chunks())),
             Kernel::Hex(s) => stencil::pools(s, state, screen, share.map(|s| s.chunks())),
+            Kernel::Rows(r) => {
+                rows::refresh_displacements(r, body, state);
+                stencil::pools(r, state, screen, share.map(|s| s.chunks()))
+            }
         }
     }
 
@@ -183,7 +205,7 @@ impl Kernel {
         out.clear();
         match self {
             Kernel::Csr { .. } => csr::hot_springs(state, body.springs(), out),
-            Kernel::Cubic(_) | Kernel::Hex(_) => {
+            Kernel::Cubic(_) | Kernel::Hex(_) | Kernel::Rows(_) => {
                 let bonds = &body.lattice.bonds;
                 let n = body.nodes();
                 for (blk, _) in state.hot.iter().enumerate().filter(|(_, &h)| h) {
@@ -207,6 +229,7 @@ impl Kernel {
             Kernel::Csr { plain } => csr::repair(body, state, *plain, killed),
             Kernel::Cubic(s) => stencil::repair(s, body, state, killed),
             Kernel::Hex(s) => stencil::repair(s, body, state, killed),
+            Kernel::Rows(r) => stencil::repair(r, body, state, killed),
         }
     }
 
@@ -247,6 +270,10 @@ impl Kernel {
             Kernel::Hex(s) => {
                 stencil::force_kick_drift(s, state, inv_mass, p, u_next, partials, chunks)
             }
+            Kernel::Rows(r) => {
+                rows::refresh_pools(r, state);
+                stencil::force_kick_drift(r, state, inv_mass, p, u_next, partials, chunks)
+            }
         }
     }
 
@@ -257,6 +284,7 @@ impl Kernel {
             Kernel::Csr { .. } => Kernel::Csr { plain: true },
             Kernel::Cubic(s) => Kernel::Cubic(s.with_q(0.0)),
             Kernel::Hex(s) => Kernel::Hex(s.with_q(0.0)),
+            Kernel::Rows(r) => Kernel::Rows(r.with_q(0.0)),
         }
     }
 
@@ -266,6 +294,15 @@ impl Kernel {
             Kernel::Csr { .. } => {}
             Kernel::Cubic(s) => s.bond_killed(body, b),
             Kernel::Hex(s) => s.bond_killed(body, b),
+            Kernel::Rows(r) => r.bond_killed(body, b),
+        }
+    }
+
+    /// Keep the kernel's own copy of the spring stiffnesses in step after `state.soften(b, ..)`
+    /// (the row kernel; the stencils cannot hold softened springs and are replaced instead).
+    pub fn bond_softened(&mut self, body: &Body, state: &State, b: usize) {
+        if let Kernel::Rows(r) = self {
+            r.bond_softened(body, state, b);
         }
     }
 }

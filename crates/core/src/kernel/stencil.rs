@@ -14,6 +14,21 @@ use crate::body::Body;
 use crate::math::{Coords, Real};
 use crate::state::State;
 
+/// What a sweep reads of the state: the displacements (through `Deref`, as a [`Coords`]), and
+/// for the row kernel the nodes' records and normalisers.
+pub(crate) struct Src<'a> {
+    pub u: &'a Coords,
+    pub rec: &'a [super::rows::Record],
+    pub norm: &'a [Real],
+}
+
+impl std::ops::Deref for Src<'_> {
+    type Target = Coords;
+    fn deref(&self) -> &Coords {
+        self.u
+    }
+}
+
 /// Nodes per flag of the break screen (divides [`CHUNK`]).
 pub const SCREEN: usize = 64;
 
@@ -29,16 +44,16 @@ pub(crate) trait Stencil: Sync {
     /// the block and its neighbours lie inside the arrays).
     fn vector_block(&self, i: usize) -> bool;
     /// Node i's pool and whether one of its intact springs has `dL > screen L`.
-    fn pool_one(&self, u: &Coords, i: usize, screen: Real) -> (Real, bool);
+    fn pool_one(&self, u: &Src, i: usize, screen: Real) -> (Real, bool);
     /// Node i's force.
-    fn force_one(&self, u: &Coords, pool: &[Real], i: usize) -> [Real; 3];
+    fn force_one(&self, u: &Src, pool: &[Real], i: usize) -> [Real; 3];
     /// Pools of the 8 nodes from `i` into `out`, and whether one of their springs is past the
     /// screen.
     ///
     /// # Safety
     /// Only when [`Stencil::vector_block`] holds for `i`.
     #[cfg(target_arch = "x86_64")]
-    unsafe fn pool_block(&self, u: &Coords, i: usize, out: &mut [Real], screen: Real) -> bool;
+    unsafe fn pool_block(&self, u: &Src, i: usize, out: &mut [Real], screen: Real) -> bool;
     /// Force, kick and drift of the 8 nodes from `i` (`v` and `un` hold their 8 entries), their
     /// shares of the sums added to `sums` node by node.
     ///
@@ -48,7 +63,7 @@ pub(crate) trait Stencil: Sync {
     #[allow(clippy::too_many_arguments)]
     unsafe fn force_kick_drift_block(
         &self,
-        u: &Coords,
+        u: &Src,
         pool: &[Real],
         inv_mass: &[Real],
         p: &StepParams,
@@ -99,7 +114,11 @@ pub(crate) fn pools<S: Stencil>(
     if shared {
         state.hot.fill(false);
     }
-    let u = &state.u;
+    let u = Src {
+        u: &state.u,
+        rec: &state.rec,
+        norm: &state.norm,
+    };
     let (first, per) = (chunks.start, CHUNK / SCREEN);
     let nodes = (first * CHUNK).min(n)..(chunks.end * CHUNK).min(n);
     let flags = (first * per).min(blocks)..(chunks.end * per).min(blocks);
@@ -107,13 +126,13 @@ pub(crate) fn pools<S: Stencil>(
         .par_chunks_mut(CHUNK)
         .zip(state.hot[flags].par_chunks_mut(per))
         .enumerate()
-        .for_each(|(c, (out, hot))| pool_chunk(s, u, first + c, out, hot, screen));
+        .for_each(|(c, (out, hot))| pool_chunk(s, &u, first + c, out, hot, screen));
 }
 
 /// Sweep 1 over chunk `c` (its pools `out` and screen flags `hot`).
 fn pool_chunk<S: Stencil>(
     s: &S,
-    u: &Coords,
+    u: &Src,
     c: usize,
     out: &mut [Real],
     hot: &mut [bool],
@@ -165,7 +184,11 @@ pub(crate) fn repair<S: Stencil>(s: &S, body: &Body, state: &mut State, killed: 
         let blocks = r.len().div_ceil(SCREEN);
         pool_chunk(
             s,
-            &state.u,
+            &Src {
+                u: &state.u,
+                rec: &state.rec,
+                norm: &state.norm,
+            },
             c,
             &mut state.pool[r],
             &mut scratch[..blocks],
@@ -184,7 +207,12 @@ pub(crate) fn force_kick_drift<S: Stencil>(
     partials: &mut [SweepSums],
     chunks: std::ops::Range<usize>,
 ) -> SweepSums {
-    let (u, pool) = (&state.u, &state.pool);
+    let u = &Src {
+        u: &state.u,
+        rec: &state.rec,
+        norm: &state.norm,
+    };
+    let pool = &state.pool;
     let dims = p.dims(s.dim());
     sweep_chunks(s.nodes(), chunks, &mut state.v, u_next, partials, |r, o| {
         let ChunkOut {

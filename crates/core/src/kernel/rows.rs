@@ -1,0 +1,789 @@
+//! The row kernel: the general (CSR) kernel's sweeps node by node, eight nodes to a vector.
+//!
+//! Random lattices have no stencil: a node's neighbours are arbitrary nodes. The CSR kernel
+//! ([`super::csr`]) computes each spring once into a record that both ends read; that costs
+//! about a hundred scalar instructions per spring, since the records' inputs are gathered one
+//! value at a time. This kernel computes each spring from both ends instead, with AVX-512 lanes
+//! for nodes: a group of 8 consecutive nodes walks its rows side by side, slot by slot (the
+//! rows padded to the group's longest, *sliced ELLPACK*), so that lane `l` adds node `8g + l`'s
+//! springs in the order of its CSR row, exactly as the CSR kernel sums the records of that row.
+//! What a slot needs of the 8 neighbours comes from one 64-byte record per node,
+//!
+//! ```text
+//! record_n = [ X_n, Y_n, Z_n, u_x, u_y, u_z, p_n, 0 ]     (one cache line)
+//! ```
+//!
+//! loaded whole and transposed in registers (8 loads and 23 shuffles instead of 7 gathers of 8
+//! scattered values). The records are refreshed from `u` before sweep 1 and from the pools
+//! before sweep 2 (two streaming passes; the state stays the truth).
+//!
+//! **The bits are those of the CSR kernel.** Seen from its upper end a spring's vector is the
+//! exact negation of the vector seen from its lower end (`(X_i - X_j) + (u_i - u_j)` negates
+//! every rounded difference), so `|d|^2`, the extension `dL = (2 D.w + w.w)/(l + L)`, `1/l`
+//! and the tension `T = k dL + q k L (p_i + p_j)` are the same numbers at both ends, and the
+//! force term `T (d / l)` is the CSR record's term with its sign. Each node adds its terms in
+//! its row's order, as the CSR sweep does; a padding slot or a broken spring points at a far
+//! dummy record with zero stiffness and adds a signed zero, which leaves a sum that started at
+//! +0 unchanged. The scalar path (the tail group, repairs, a processor without AVX-512) performs
+//! the same operations one lane at a time. Tested bit for bit against the CSR kernel, with
+//! broken and softened springs and dispersion levers, in 2D and 3D.
+//!
+//! Periodic lattices keep the CSR kernel (their minimum-image wrap is not needed on the fast
+//! path of any shipped case).
+
+use std::sync::Arc;
+
+use rayon::prelude::*;
+
+use super::stencil::{Src, Stencil};
+use super::{StepParams, SweepSums, CHUNK};
+use crate::body::Body;
+use crate::math::Real;
+use crate::state::State;
+
+/// One node's record: reference position, displacement, pool, padding (a cache line).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, align(64))]
+pub struct Record(pub [Real; 8]);
+
+/// The rows of a body in slot-major groups of 8 nodes, with each slot's spring constants.
+#[derive(Clone, Debug)]
+struct Slots {
+    /// First slot of each group of 8 nodes (`groups + 1` entries); a slot is 8 entries, one
+    /// per lane.
+    start: Vec<u32>,
+    /// Neighbour of each entry, or the dummy node `n` (padding, broken spring).
+    j: Vec<u32>,
+    /// Current stiffness (N/m): the body's, or what softening left; 0 at the dummy.
+    k: Vec<Real>,
+    /// Rest length (m); 1 at the dummy.
+    rest: Vec<Real>,
+    /// Dispersion lever of direction-weighted materials (empty: the rest length).
+    lever: Vec<Real>,
+    /// The spring of each entry (`u32::MAX` at padding), to find a spring's two entries.
+    bond: Vec<u32>,
+}
+
+/// The row kernel of a body (see the module docs).
+#[derive(Clone, Debug)]
+pub struct RowKernel {
+    n: usize,
+    dim: usize,
+    q: Real,
+    slots: Arc<Slots>,
+    /// The dummy record's position: far from every node, so that its (ignored) spring has a
+    /// finite, non-zero length.
+    far: [Real; 3],
+    simd: bool,
+}
+
+impl RowKernel {
+    /// The row kernel of `body` in `state` (its intact springs and current stiffnesses); `None`
+    /// for a periodic lattice.
+    pub fn new(body: &Body, state: &State) -> Option<Self> {
+        let lat = &body.lattice;
+        if lat.is_periodic() {
+            return None;
+        }
+        let n = body.nodes();
+        let bonds = &lat.bonds;
+        let springs = state.springs(body);
+        let lever = body.lever.is_some();
+        let groups = n.div_ceil(8);
+        let mut s = Slots {
+            start: Vec::with_capacity(groups + 1),
+            j: Vec::new(),
+            k: Vec::new(),
+            rest: Vec::new(),
+            lever: Vec::new(),
+            bond: Vec::new(),
+        };
+        let total: usize = (0..groups)
+            .map(|g| {
+                (8 * g..(8 * g + 8).min(n))
+                    .map(|i| bonds.row(i).len())
+                    .max()
+                    .unwrap_or(0)
+            })
+            .sum();
+        s.j.reserve_exact(8 * total);
+        s.k.reserve_exact(8 * total);
+        s.rest.reserve_exact(8 * total);
+        s.bond.reserve_exact(8 * total);
+        if lever {
+            s.lever.reserve_exact(8 * total);
+        }
+        s.start.push(0);
+        for g in 0..groups {
+            let lanes = 8 * g..(8 * g + 8).min(n);
+            let width = lanes.clone().map(|i| bonds.row(i).len()).max().unwrap_or(0);
+            for slot in 0..width {
+                for l in 0..8 {
+                    let i = 8 * g + l;
+                    let e = (i < n)
+                        .then(|| bonds.row(i))
+                        .and_then(|r| r.clone().nth(slot));
+                    let b = e.map(|e| bonds.bond[e] as usize);
+                    s.bond.push(b.map_or(u32::MAX, |b| b as u32));
+                    match (e, b) {
+                        (Some(e), Some(b)) if springs.alive[b] => {
+                            s.j.push(bonds.nbr[e]);
+                            s.k.push(springs.k[b]);
+                            s.rest.push(bonds.rest[b]);
+                            if lever {
+                                s.lever.push(springs.lever[b]);
+                            }
+                        }
+                        _ => {
+                            s.j.push(n as u32);
+                            s.k.push(0.0);
+                            s.rest.push(1.0);
+                            if lever {
+                                s.lever.push(1.0);
+                            }
+                        }
+                    }
+                }
+            }
+            s.start.push(s.start[g] + width as u32);
+        }
+        // Far outside the body's box (in every axis the body uses), at a finite distance.
+        let mut far = [0.0; 3];
+        for (c, f) in far.iter_mut().enumerate().take(lat.dim()) {
+            let big = lat
+                .pos
+                .comp(c)
+                .iter()
+                .fold(0.0 as Real, |m, &x| m.max(x.abs()));
+            *f = 4.0 * big + 1e3 * lat.spacing.max(1e-300);
+        }
+        Some(RowKernel {
+            n,
+            dim: lat.dim(),
+            q: body.q,
+            slots: Arc::new(s),
+            far,
+            simd: super::stencil::simd_available(),
+        })
+    }
+
+    pub fn name(&self) -> &'static str {
+        if self.simd {
+            "rows-avx512"
+        } else {
+            "rows"
+        }
+    }
+
+    pub fn simd(&self) -> bool {
+        self.simd
+    }
+
+    pub fn set_simd(&mut self, on: bool) {
+        self.simd = on && super::stencil::simd_available();
+    }
+
+    /// The same kernel with ratio `q` (0: the plain law).
+    pub fn with_q(&self, q: Real) -> Self {
+        RowKernel { q, ..self.clone() }
+    }
+
+    /// The entries of spring `b` (one in each end's lane).
+    fn entries_of(&self, body: &Body, b: usize) -> [Option<usize>; 2] {
+        let s = &self.slots;
+        body.lattice.bonds.ends[b].map(|i| {
+            let (g, l) = (i as usize / 8, i as usize % 8);
+            (s.start[g] as usize..s.start[g + 1] as usize)
+                .map(|slot| 8 * slot + l)
+                .find(|&e| s.bond[e] == b as u32)
+        })
+    }
+
+    /// Spring `b` broke: both its entries become dummies.
+    pub fn bond_killed(&mut self, body: &Body, b: usize) {
+        let entries = self.entries_of(body, b);
+        let n = self.n as u32;
+        let s = Arc::make_mut(&mut self.slots);
+        for e in entries.into_iter().flatten() {
+            s.j[e] = n;
+            s.k[e] = 0.0;
+            s.rest[e] = 1.0;
+            if !s.lever.is_empty() {
+                s.lever[e] = 1.0;
+            }
+        }
+    }
+
+    /// Spring `b` softened: both its entries take its current stiffness.
+    pub fn bond_softened(&mut self, body: &Body, state: &State, b: usize) {
+        let k = state.springs(body).k[b];
+        let entries = self.entries_of(body, b);
+        let s = Arc::make_mut(&mut self.slots);
+        for e in entries.into_iter().flatten() {
+            if s.j[e] != self.n as u32 {
+                s.k[e] = k;
+            }
+        }
+    }
+}
+
+/// Write `u` (and at the first call the reference positions and the dummy) into the records.
+pub(crate) fn refresh_displacements(rk: &RowKernel, body: &Body, state: &mut State) {
+    let n = rk.n;
+    if state.rec.len() != n + 1 {
+        // Sized once per state (the first sweep), not per step.
+        let pos = &body.lattice.pos;
+        state.rec = (0..n)
+            .map(|i| Record([pos.x()[i], pos.y()[i], pos.z()[i], 0.0, 0.0, 0.0, 0.0, 0.0]))
+            .collect();
+        state.rec.push(Record([
+            rk.far[0], rk.far[1], rk.far[2], 0.0, 0.0, 0.0, 0.0, 0.0,
+        ]));
+    }
+    let u = &state.u;
+    state.rec[..n]
+        .par_chunks_mut(CHUNK)
+        .enumerate()
+        .for_each(|(c, recs)| {
+            let first = c * CHUNK;
+            for (k, r) in recs.iter_mut().enumerate() {
+                let i = first + k;
+                r.0[3] = u.x()[i];
+                r.0[4] = u.y()[i];
+                r.0[5] = u.z()[i];
+            }
+        });
+}
+
+/// Write the pools into the records (before sweep 2, after any repair).
+pub(crate) fn refresh_pools(rk: &RowKernel, state: &mut State) {
+    let n = rk.n;
+    let pool = &state.pool;
+    state.rec[..n]
+        .par_chunks_mut(CHUNK)
+        .enumerate()
+        .for_each(|(c, recs)| {
+            let first = c * CHUNK;
+            for (k, r) in recs.iter_mut().enumerate() {
+                r.0[6] = pool[first + k];
+            }
+        });
+}
+
+/// One spring seen from a node: the reference vector `big`, the displacement difference `w`
+/// (both from the node to its neighbour), in the CSR kernel's operations.
+#[inline(always)]
+fn geometry<const D: usize>(big: [Real; 3], w: [Real; 3]) -> ([Real; 3], Real, Real) {
+    let d = [big[0] + w[0], big[1] + w[1], big[2] + w[2]];
+    if D == 3 {
+        (
+            d,
+            d[0] * d[0] + d[1] * d[1] + d[2] * d[2],
+            2.0 * (big[0] * w[0] + big[1] * w[1] + big[2] * w[2])
+                + (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]),
+        )
+    } else {
+        (
+            d,
+            d[0] * d[0] + d[1] * d[1],
+            2.0 * (big[0] * w[0] + big[1] * w[1]) + (w[0] * w[0] + w[1] * w[1]),
+        )
+    }
+}
+
+impl RowKernel {
+    /// The entries of node i's row, in order (its lane of its group's slots).
+    #[inline(always)]
+    fn lane(&self, i: usize) -> impl Iterator<Item = usize> + '_ {
+        let (g, l) = (i / 8, i % 8);
+        let s = &self.slots;
+        (s.start[g] as usize..s.start[g + 1] as usize).map(move |slot| 8 * slot + l)
+    }
+
+    #[inline(always)]
+    fn lever_at(&self, e: usize) -> Real {
+        let s = &self.slots;
+        if s.lever.is_empty() {
+            s.rest[e]
+        } else {
+            s.lever[e]
+        }
+    }
+
+    /// Node i's springs one by one: `(entry, neighbour, d, |d|^2, numerator of dL)`.
+    #[inline(always)]
+    fn each<const D: usize>(
+        &self,
+        rec: &[Record],
+        i: usize,
+        mut f: impl FnMut(usize, usize, [Real; 3], Real, Real),
+    ) {
+        let me = &rec[i].0;
+        let s = &self.slots;
+        for e in self.lane(i) {
+            let j = s.j[e] as usize;
+            if j == self.n {
+                continue;
+            }
+            let o = &rec[j].0;
+            let big = [o[0] - me[0], o[1] - me[1], o[2] - me[2]];
+            let w = [o[3] - me[3], o[4] - me[4], o[5] - me[5]];
+            let (d, d2, num) = geometry::<D>(big, w);
+            f(e, j, d, d2, num);
+        }
+    }
+
+    fn pool_scalar<const D: usize>(&self, src: &Src, i: usize, screen: Real) -> (Real, bool) {
+        let s = &self.slots;
+        let (mut sum, mut hot) = (0.0, false);
+        self.each::<D>(src.rec, i, |e, _, _, d2, num| {
+            let dl = num / (d2.sqrt() + s.rest[e]);
+            hot |= dl > screen * s.rest[e];
+            sum += s.k[e] * self.lever_at(e) * dl;
+        });
+        let sn = src.norm[i];
+        (if sn > 0.0 { sum / sn } else { 0.0 }, hot)
+    }
+
+    fn force_scalar<const D: usize>(&self, src: &Src, pool: &[Real], i: usize) -> [Real; 3] {
+        let s = &self.slots;
+        let mut f = [0.0; 3];
+        let pi = pool[i];
+        self.each::<D>(src.rec, i, |e, j, d, d2, num| {
+            let l = d2.sqrt();
+            let inv = 1.0 / l;
+            let dl = num / (l + s.rest[e]);
+            let k = s.k[e];
+            let t = k * dl + self.q * k * self.lever_at(e) * (pi + pool[j]);
+            for c in 0..D {
+                f[c] += t * (d[c] * inv);
+            }
+        });
+        f
+    }
+}
+
+impl Stencil for RowKernel {
+    fn nodes(&self) -> usize {
+        self.n
+    }
+
+    fn q(&self) -> Real {
+        self.q
+    }
+
+    fn dim(&self) -> usize {
+        self.dim
+    }
+
+    fn vector_block(&self, i: usize) -> bool {
+        self.simd && i % 8 == 0 && i + 8 <= self.n
+    }
+
+    fn pool_one(&self, u: &Src, i: usize, screen: Real) -> (Real, bool) {
+        if self.dim == 2 {
+            self.pool_scalar::<2>(u, i, screen)
+        } else {
+            self.pool_scalar::<3>(u, i, screen)
+        }
+    }
+
+    fn force_one(&self, u: &Src, pool: &[Real], i: usize) -> [Real; 3] {
+        if self.dim == 2 {
+            self.force_scalar::<2>(u, pool, i)
+        } else {
+            self.force_scalar::<3>(u, pool, i)
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn pool_block(&self, u: &Src, i: usize, out: &mut [Real], screen: Real) -> bool {
+        // SAFETY (caller): `vector_block(i)`, so AVX-512F is there and i..i+8 are nodes.
+        unsafe {
+            match (self.dim, self.slots.lever.is_empty()) {
+                (2, true) => avx::pools::<2, false>(self, u, i, out, screen),
+                (2, false) => avx::pools::<2, true>(self, u, i, out, screen),
+                (_, true) => avx::pools::<3, false>(self, u, i, out, screen),
+                (_, false) => avx::pools::<3, true>(self, u, i, out, screen),
+            }
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn force_kick_drift_block(
+        &self,
+        u: &Src,
+        pool: &[Real],
+        inv_mass: &[Real],
+        p: &StepParams,
+        i: usize,
+        v: [&mut [Real]; 3],
+        un: [&mut [Real]; 3],
+        sums: &mut SweepSums,
+    ) {
+        // SAFETY (caller): as for `pool_block`.
+        let f = unsafe {
+            match (self.dim, self.slots.lever.is_empty()) {
+                (2, true) => avx::forces::<2, false>(self, u, pool, i),
+                (2, false) => avx::forces::<2, true>(self, u, pool, i),
+                (_, true) => avx::forces::<3, false>(self, u, pool, i),
+                (_, false) => avx::forces::<3, true>(self, u, pool, i),
+            }
+        };
+        let dims = p.dims(self.dim);
+        // SAFETY: as above; `v`, `un` hold the block's 8 entries.
+        unsafe { super::stencil::avx512::kick_drift8(dims, f, u, inv_mass, p, i, v, un, sums) };
+    }
+}
+
+/// The vector path: 8 nodes in the lanes, their rows slot by slot.
+#[cfg(target_arch = "x86_64")]
+mod avx {
+    use std::arch::x86_64::*;
+
+    use super::{RowKernel, Src};
+    use crate::math::Real;
+
+    /// The records of the 8 nodes `js`, transposed: component c of each lane's record in
+    /// vector c (the padding component is not needed).
+    #[inline(always)]
+    unsafe fn records(base: *const Real, js: &[u32; 8]) -> [__m512d; 7] {
+        // SAFETY (caller): every js[l] indexes a record (64-byte aligned, 8 reals).
+        unsafe {
+            let r = js.map(|j| _mm512_load_pd(base.add(8 * j as usize)));
+            let a = [
+                _mm512_unpacklo_pd(r[0], r[1]),
+                _mm512_unpackhi_pd(r[0], r[1]),
+                _mm512_unpacklo_pd(r[2], r[3]),
+                _mm512_unpackhi_pd(r[2], r[3]),
+                _mm512_unpacklo_pd(r[4], r[5]),
+                _mm512_unpackhi_pd(r[4], r[5]),
+                _mm512_unpacklo_pd(r[6], r[7]),
+                _mm512_unpackhi_pd(r[6], r[7]),
+            ];
+            // Components c and c + 4 of four lanes at a time, then the two halves joined.
+            let lo = _mm512_set_epi64(13, 12, 5, 4, 9, 8, 1, 0);
+            let hi = _mm512_set_epi64(15, 14, 7, 6, 11, 10, 3, 2);
+            let b0 = _mm512_permutex2var_pd(a[0], lo, a[2]);
+            let b2 = _mm512_permutex2var_pd(a[0], hi, a[2]);
+            let b1 = _mm512_permutex2var_pd(a[1], lo, a[3]);
+            let b3 = _mm512_permutex2var_pd(a[1], hi, a[3]);
+            let b4 = _mm512_permutex2var_pd(a[4], lo, a[6]);
+            let b6 = _mm512_permutex2var_pd(a[4], hi, a[6]);
+            let b5 = _mm512_permutex2var_pd(a[5], lo, a[7]);
+            let b7 = _mm512_permutex2var_pd(a[5], hi, a[7]);
+            let l2 = _mm512_set_epi64(11, 10, 9, 8, 3, 2, 1, 0);
+            let h2 = _mm512_set_epi64(15, 14, 13, 12, 7, 6, 5, 4);
+            [
+                _mm512_permutex2var_pd(b0, l2, b4),
+                _mm512_permutex2var_pd(b1, l2, b5),
+                _mm512_permutex2var_pd(b2, l2, b6),
+                _mm512_permutex2var_pd(b3, l2, b7),
+                _mm512_permutex2var_pd(b0, h2, b4),
+                _mm512_permutex2var_pd(b1, h2, b5),
+                _mm512_permutex2var_pd(b2, h2, b6),
+            ]
+        }
+    }
+
+    /// What sweep 1 and sweep 2 share for one slot of group `g`'s lanes: the current vector,
+    /// `|d|^2`, the numerator of dL (the scalar path's operations lane by lane), the records
+    /// of the neighbours, the slot's stiffness, rest length and lever, and the real lanes.
+    struct Slot {
+        d: [__m512d; 3],
+        d2: __m512d,
+        num: __m512d,
+        nb: [__m512d; 7],
+        k: __m512d,
+        rest: __m512d,
+        lever: __m512d,
+        real: __mmask8,
+    }
+
+    /// The operations of one slot.
+    ///
+    /// # Safety
+    /// AVX-512F; `e` is the first entry of a slot; `me` the group's own records transposed.
+    #[inline(always)]
+    unsafe fn slot_at<const D: usize, const LEVER: bool>(
+        rk: &RowKernel,
+        base: *const Real,
+        me: &[__m512d; 7],
+        e: usize,
+    ) -> Slot {
+        let s = &rk.slots;
+        // SAFETY (caller): the slot's 8 entries are in bounds of every slot array.
+        unsafe {
+            let js: [u32; 8] = *(s.j.as_ptr().add(e) as *const [u32; 8]);
+            let jv = _mm256_loadu_si256(s.j.as_ptr().add(e) as *const __m256i);
+            let real = _mm256_cmpneq_epu32_mask(jv, _mm256_set1_epi32(rk.n as i32));
+            let nb = records(base, &js);
+            let z = _mm512_setzero_pd();
+            let mut big = [z; 3];
+            let mut w = [z; 3];
+            for c in 0..D {
+                big[c] = _mm512_sub_pd(nb[c], me[c]);
+                w[c] = _mm512_sub_pd(nb[3 + c], me[3 + c]);
+            }
+            let d = [0, 1, 2].map(|c| _mm512_add_pd(big[c], w[c]));
+            let sq = |a: [__m512d; 3], b: [__m512d; 3]| {
+                let s = _mm512_add_pd(_mm512_mul_pd(a[0], b[0]), _mm512_mul_pd(a[1], b[1]));
+                if D == 3 {
+                    _mm512_add_pd(s, _mm512_mul_pd(a[2], b[2]))
+                } else {
+                    s
+                }
+            };
+            let d2 = sq(d, d);
+            let num = _mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(2.0), sq(big, w)), sq(w, w));
+            let k = _mm512_loadu_pd(s.k.as_ptr().add(e));
+            let rest = _mm512_loadu_pd(s.rest.as_ptr().add(e));
+            let lever = if LEVER {
+                _mm512_loadu_pd(s.lever.as_ptr().add(e))
+            } else {
+                rest
+            };
+            Slot {
+                d,
+                d2,
+                num,
+                nb,
+                k,
+                rest,
+                lever,
+                real,
+            }
+        }
+    }
+
+    /// The group's own records, transposed.
+    #[inline(always)]
+    unsafe fn own(base: *const Real, i: usize) -> [__m512d; 7] {
+        let js: [u32; 8] = std::array::from_fn(|l| (i + l) as u32);
+        // SAFETY (caller): nodes i..i+8 have records.
+        unsafe { records(base, &js) }
+    }
+
+    /// Next group's neighbours into the cache: the records are scattered, the slot arrays
+    /// stream (the hardware fetches those itself).
+    #[inline(always)]
+    unsafe fn prefetch(rk: &RowKernel, base: *const Real, g: usize) {
+        let s = &rk.slots;
+        if g + 1 < s.start.len() {
+            for e in 8 * s.start[g] as usize..8 * s.start[g + 1] as usize {
+                // SAFETY: e is an entry; its neighbour (or the dummy) has a record.
+                unsafe {
+                    let j = *s.j.get_unchecked(e) as usize;
+                    _mm_prefetch::<_MM_HINT_T0>(base.add(8 * j) as *const i8);
+                }
+            }
+        }
+    }
+
+    /// Pools of nodes i..i+8 into `out`; whether a real spring is past the screen.
+    ///
+    /// # Safety
+    /// AVX-512F; i a multiple of 8 with i + 8 <= n; records refreshed.
+    #[target_feature(enable = "avx512f,avx512vl")]
+    pub(super) unsafe fn pools<const D: usize, const LEVER: bool>(
+        rk: &RowKernel,
+        src: &Src,
+        i: usize,
+        out: &mut [Real],
+        screen: Real,
+    ) -> bool {
+        let base = src.rec.as_ptr() as *const Real;
+        let g = i / 8;
+        let s = &rk.slots;
+        let sv = _mm512_set1_pd(screen);
+        // SAFETY (caller): in bounds as stated.
+        unsafe {
+            prefetch(rk, base, g + 2);
+            let me = own(base, i);
+            let mut acc = _mm512_setzero_pd();
+            let mut hot: __mmask8 = 0;
+            for slot in s.start[g] as usize..s.start[g + 1] as usize {
+                let t = slot_at::<D, LEVER>(rk, base, &me, 8 * slot);
+                let l = _mm512_sqrt_pd(t.d2);
+                let dl = _mm512_div_pd(t.num, _mm512_add_pd(l, t.rest));
+                hot |= _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(t.real, dl, _mm512_mul_pd(sv, t.rest));
+                acc = _mm512_add_pd(acc, _mm512_mul_pd(_mm512_mul_pd(t.k, t.lever), dl));
+            }
+            let sn = _mm512_loadu_pd(src.norm.as_ptr().add(i));
+            let pos = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(sn, _mm512_setzero_pd());
+            _mm512_storeu_pd(out.as_mut_ptr(), _mm512_maskz_div_pd(pos, acc, sn));
+            hot != 0
+        }
+    }
+
+    /// Forces on nodes i..i+8.
+    ///
+    /// # Safety
+    /// As [`pools`], with the pools in the records.
+    #[target_feature(enable = "avx512f,avx512vl")]
+    pub(super) unsafe fn forces<const D: usize, const LEVER: bool>(
+        rk: &RowKernel,
+        src: &Src,
+        _pool: &[Real],
+        i: usize,
+    ) -> [__m512d; 3] {
+        let base = src.rec.as_ptr() as *const Real;
+        let g = i / 8;
+        let s = &rk.slots;
+        let q = _mm512_set1_pd(rk.q);
+        let one = _mm512_set1_pd(1.0);
+        // SAFETY (caller): in bounds as stated.
+        unsafe {
+            prefetch(rk, base, g + 2);
+            let me = own(base, i);
+            let z = _mm512_setzero_pd();
+            let mut f = [z; 3];
+            for slot in s.start[g] as usize..s.start[g + 1] as usize {
+                let t = slot_at::<D, LEVER>(rk, base, &me, 8 * slot);
+                let l = _mm512_sqrt_pd(t.d2);
+                let inv = _mm512_div_pd(one, l);
+                let dl = _mm512_div_pd(t.num, _mm512_add_pd(l, t.rest));
+                let r1 = _mm512_mul_pd(_mm512_mul_pd(q, t.k), t.lever);
+                let tt = _mm512_add_pd(
+                    _mm512_mul_pd(t.k, dl),
+                    _mm512_mul_pd(r1, _mm512_add_pd(me[6], t.nb[6])),
+                );
+                for c in 0..D {
+                    f[c] = _mm512_add_pd(f[c], _mm512_mul_pd(tt, _mm512_mul_pd(t.d[c], inv)));
+                }
+            }
+            f
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::body::Body;
+    use crate::dynamics::{Integrator, IntegratorOptions, TimeStep};
+    use crate::lattice::Lattice;
+    use crate::loading::Loading;
+    use crate::math::Real;
+    use crate::random::RandomSpec;
+    use crate::state::State;
+
+    #[derive(Clone, Copy, PartialEq, Debug)]
+    enum Path {
+        Csr,
+        Vector,
+        Scalar,
+    }
+
+    fn body(dim: usize, q: Real, levers: bool) -> Body {
+        let spec = RandomSpec::default();
+        let hi = if dim == 3 {
+            [7.0, 6.0, 5.0]
+        } else {
+            [23.0, 17.0, 0.0]
+        };
+        let lat = Lattice::random(dim, [0.0; 3], hi, 1.0, 1.0, spec, &|_| true).unwrap();
+        let mut body = Body::uniform(lat, 1.0, q, 1.0);
+        for (b, k) in body.k.iter_mut().enumerate() {
+            *k = 0.7 + 0.6 * ((b * 7919) % 101) as Real / 101.0;
+        }
+        if levers {
+            // Signed levers, as direction-weighted dispersion may give.
+            let rest = &body.lattice.bonds.rest;
+            body.lever = Some(
+                rest.iter()
+                    .enumerate()
+                    .map(|(b, l)| l * (1.3 - 0.9 * ((b * 31) % 17) as Real / 17.0))
+                    .collect(),
+            );
+        }
+        body
+    }
+
+    /// A damaged, softened, moving body stepped 40 times on `path`, with springs broken and
+    /// softened between steps; returns the state and the kernel's name.
+    fn run(body: &Body, path: Path) -> (State, &'static str) {
+        let mut state = State::new(body);
+        for b in 0..body.springs() {
+            if b % 7 == 3 {
+                state.kill_bond(body, b);
+            } else if b % 11 == 5 {
+                state.soften(body, b, 0.55);
+            }
+        }
+        let dim = body.lattice.dim();
+        for i in 0..body.nodes() {
+            let x = body.lattice.pos.get(i);
+            state.u.x_mut()[i] = 0.01 * (1.3 * x.y).sin();
+            state.u.y_mut()[i] = 0.02 * (0.7 * x.x + 0.2 * x.z).cos();
+            state.v.x_mut()[i] = 0.05 * (0.4 * x.x).cos();
+            if dim == 3 {
+                state.u.z_mut()[i] = 0.015 * (0.9 * x.x).sin();
+                state.v.z_mut()[i] = 0.03 * (0.3 * x.y).sin();
+            }
+        }
+        let opts = IntegratorOptions {
+            time_step: TimeStep::Fixed {
+                dt: 0.05,
+                force: true,
+            },
+            damping: 0.2,
+            portable: path == Path::Scalar,
+            force_csr: path == Path::Csr,
+            damage_proof: false,
+        };
+        let mut it = Integrator::new(body, &mut state, Loading::default(), &opts).unwrap();
+        for step in 0..40 {
+            it.step(body, &mut state);
+            if step % 9 == 4 {
+                for b in (step..body.springs()).step_by(97) {
+                    if step % 2 == 0 {
+                        it.break_spring(body, &mut state, b);
+                    } else {
+                        it.soften_spring(body, &mut state, b, 0.3);
+                    }
+                }
+            }
+        }
+        (state, it.kernel.name())
+    }
+
+    fn bits(s: &State) -> Vec<u64> {
+        s.u.as_flat()
+            .iter()
+            .chain(s.v.as_flat())
+            .chain(&s.pool)
+            .map(|x| x.to_bits())
+            .collect()
+    }
+
+    /// The row kernel, vector and scalar, gives the CSR kernel's bits: 2D and 3D, with broken
+    /// and softened springs (before the run and between steps), signed dispersion levers, the
+    /// plain law and damping.
+    #[test]
+    fn rows_give_the_bits_of_the_csr_kernel() {
+        let avx = super::super::stencil::simd_available();
+        for dim in [2, 3] {
+            for (q, levers) in [(0.3, false), (-0.2, true), (0.0, false)] {
+                let body = body(dim, q, levers);
+                let (csr, name) = run(&body, Path::Csr);
+                assert_eq!(name, "csr");
+                assert!(csr.u.as_flat().iter().any(|&x| x != 0.0));
+                for path in [Path::Vector, Path::Scalar] {
+                    let (s, name) = run(&body, path);
+                    if avx {
+                        let want = if path == Path::Vector {
+                            "rows-avx512"
+                        } else {
+                            "rows"
+                        };
+                        assert_eq!(name, want);
+                    }
+                    assert!(
+                        bits(&s) == bits(&csr) && s.alive == csr.alive,
+                        "dim {dim} q {q} levers {levers} {path:?}: states differ"
+                    );
+                }
+            }
+        }
+    }
+}
