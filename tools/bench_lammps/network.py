@@ -28,7 +28,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 def hooke_compare(hooke, a, env):
     out = subprocess.run(
         [hooke, "bench", "--compare", "--lattice", a.lattice, "--nodes", str(a.nodes),
-         "--kernel", "csr", "--threads", "1", "--steps", str(a.steps), "--repeats", "3", "--json"],
+         "--kernel", "auto", "--threads", "1", "--steps", str(a.steps), "--repeats", "3", "--json"],
         check=True, capture_output=True, text=True, env=env).stdout
     return json.loads(out.strip().splitlines()[-1])
 
@@ -62,7 +62,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         data = os.path.join(tmp, "network.data")
         first = json.loads(subprocess.run(
-            [a.hooke, "bench", "--lattice", a.lattice, "--nodes", str(a.nodes), "--kernel", "csr",
+            [a.hooke, "bench", "--lattice", a.lattice, "--nodes", str(a.nodes), "--kernel", "auto",
              "--threads", "1", "--law", "plain", "--steps", "1", "--export-lammps", data, "--json"],
             check=True, capture_output=True, text=True, env=env).stdout.strip().splitlines()[-1])
         with open(data) as f:
