@@ -60,8 +60,6 @@ struct Slots {
     rest: Vec<Real>,
     /// Dispersion lever of direction-weighted materials (empty: the rest length).
     lever: Vec<Real>,
-    /// The spring of each entry (`u32::MAX` at padding), to find a spring's two entries.
-    bond: Vec<u32>,
 }
 
 /// The row kernel of a body (see the module docs).
@@ -96,7 +94,6 @@ impl RowKernel {
             k: Vec::new(),
             rest: Vec::new(),
             lever: Vec::new(),
-            bond: Vec::new(),
         };
         let total: usize = (0..groups)
             .map(|g| {
@@ -109,7 +106,6 @@ impl RowKernel {
         s.j.reserve_exact(8 * total);
         s.k.reserve_exact(8 * total);
         s.rest.reserve_exact(8 * total);
-        s.bond.reserve_exact(8 * total);
         if lever {
             s.lever.reserve_exact(8 * total);
         }
@@ -124,7 +120,6 @@ impl RowKernel {
                         .then(|| bonds.row(i))
                         .and_then(|r| r.clone().nth(slot));
                     let b = e.map(|e| bonds.bond[e] as usize);
-                    s.bond.push(b.map_or(u32::MAX, |b| b as u32));
                     match (e, b) {
                         (Some(e), Some(b)) if springs.alive[b] => {
                             s.j.push(bonds.nbr[e]);
@@ -188,15 +183,13 @@ impl RowKernel {
         RowKernel { q, ..self.clone() }
     }
 
-    /// The entries of spring `b` (one in each end's lane).
+    /// The entries of intact spring `b`, one in each end's lane: the entry that points at the
+    /// other end (two nodes share at most one spring; a broken spring's entries point at the
+    /// dummy).
     fn entries_of(&self, body: &Body, b: usize) -> [Option<usize>; 2] {
+        let [i, j] = body.lattice.bonds.ends[b].map(|v| v as usize);
         let s = &self.slots;
-        body.lattice.bonds.ends[b].map(|i| {
-            let (g, l) = (i as usize / 8, i as usize % 8);
-            (s.start[g] as usize..s.start[g + 1] as usize)
-                .map(|slot| 8 * slot + l)
-                .find(|&e| s.bond[e] == b as u32)
-        })
+        [(i, j), (j, i)].map(|(me, other)| self.lane(me).find(|&e| s.j[e] as usize == other))
     }
 
     /// Spring `b` broke: both its entries become dummies.
