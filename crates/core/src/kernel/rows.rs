@@ -56,7 +56,10 @@ struct Slots {
     j: Vec<u32>,
     /// Current stiffness (N/m): the body's, or what softening left; 0 at the dummy.
     k: Vec<Real>,
-    /// Rest length (m); 1 at the dummy.
+    /// Rest length (m); 1 at the dummy. Empty when every rest length is `|X_j - X_i|` to the
+    /// bit (every lattice that is not periodic, unless its lengths were set otherwise): the
+    /// kernel then recomputes it from the records, a square root instead of 8 streamed bytes
+    /// per entry and sweep (the sweeps are bound by memory traffic, not by arithmetic).
     rest: Vec<Real>,
     /// Dispersion lever of direction-weighted materials (empty: the rest length).
     lever: Vec<Real>,
@@ -87,6 +90,11 @@ impl RowKernel {
         let bonds = &lat.bonds;
         let springs = state.springs(body);
         let lever = body.lever.is_some();
+        let pos = &lat.pos;
+        let stored = bonds.ends.iter().zip(&bonds.rest).any(|(&[i, j], &l)| {
+            let big = [0, 1, 2].map(|c| pos.comp(c)[j as usize] - pos.comp(c)[i as usize]);
+            rest_of::<3>(big).to_bits() != l.to_bits()
+        });
         let groups = n.div_ceil(8);
         let mut s = Slots {
             start: Vec::with_capacity(groups + 1),
@@ -105,7 +113,9 @@ impl RowKernel {
             .sum();
         s.j.reserve_exact(8 * total);
         s.k.reserve_exact(8 * total);
-        s.rest.reserve_exact(8 * total);
+        if stored {
+            s.rest.reserve_exact(8 * total);
+        }
         if lever {
             s.lever.reserve_exact(8 * total);
         }
@@ -124,7 +134,9 @@ impl RowKernel {
                         (Some(e), Some(b)) if springs.alive[b] => {
                             s.j.push(bonds.nbr[e]);
                             s.k.push(springs.k[b]);
-                            s.rest.push(bonds.rest[b]);
+                            if stored {
+                                s.rest.push(bonds.rest[b]);
+                            }
                             if lever {
                                 s.lever.push(springs.lever[b]);
                             }
@@ -132,7 +144,9 @@ impl RowKernel {
                         _ => {
                             s.j.push(n as u32);
                             s.k.push(0.0);
-                            s.rest.push(1.0);
+                            if stored {
+                                s.rest.push(1.0);
+                            }
                             if lever {
                                 s.lever.push(1.0);
                             }
@@ -200,7 +214,9 @@ impl RowKernel {
         for e in entries.into_iter().flatten() {
             s.j[e] = n;
             s.k[e] = 0.0;
-            s.rest[e] = 1.0;
+            if !s.rest.is_empty() {
+                s.rest[e] = 1.0;
+            }
             if !s.lever.is_empty() {
                 s.lever[e] = 1.0;
             }
@@ -284,6 +300,17 @@ fn geometry<const D: usize>(big: [Real; 3], w: [Real; 3]) -> ([Real; 3], Real, R
     }
 }
 
+/// The rest length from the reference vector, in [`crate::lattice::Bonds::from_pairs`]'s
+/// operations (in 2D the z term is an exact zero and is left out).
+#[inline(always)]
+fn rest_of<const D: usize>(big: [Real; 3]) -> Real {
+    if D == 3 {
+        (big[0] * big[0] + big[1] * big[1] + big[2] * big[2]).sqrt()
+    } else {
+        (big[0] * big[0] + big[1] * big[1]).sqrt()
+    }
+}
+
 impl RowKernel {
     /// The entries of node i's row, in order (its lane of its group's slots).
     #[inline(always)]
@@ -294,22 +321,22 @@ impl RowKernel {
     }
 
     #[inline(always)]
-    fn lever_at(&self, e: usize) -> Real {
+    fn lever_at(&self, e: usize, rest: Real) -> Real {
         let s = &self.slots;
         if s.lever.is_empty() {
-            s.rest[e]
+            rest
         } else {
             s.lever[e]
         }
     }
 
-    /// Node i's springs one by one: `(entry, neighbour, d, |d|^2, numerator of dL)`.
+    /// Node i's springs one by one: `(entry, neighbour, d, |d|^2, numerator of dL, L)`.
     #[inline(always)]
     fn each<const D: usize>(
         &self,
         rec: &[Record],
         i: usize,
-        mut f: impl FnMut(usize, usize, [Real; 3], Real, Real),
+        mut f: impl FnMut(usize, usize, [Real; 3], Real, Real, Real),
     ) {
         let me = &rec[i].0;
         let s = &self.slots;
@@ -322,17 +349,22 @@ impl RowKernel {
             let big = [o[0] - me[0], o[1] - me[1], o[2] - me[2]];
             let w = [o[3] - me[3], o[4] - me[4], o[5] - me[5]];
             let (d, d2, num) = geometry::<D>(big, w);
-            f(e, j, d, d2, num);
+            let rest = if s.rest.is_empty() {
+                rest_of::<D>(big)
+            } else {
+                s.rest[e]
+            };
+            f(e, j, d, d2, num, rest);
         }
     }
 
     fn pool_scalar<const D: usize>(&self, src: &Src, i: usize, screen: Real) -> (Real, bool) {
         let s = &self.slots;
         let (mut sum, mut hot) = (0.0, false);
-        self.each::<D>(src.rec, i, |e, _, _, d2, num| {
-            let dl = num / (d2.sqrt() + s.rest[e]);
-            hot |= dl > screen * s.rest[e];
-            sum += s.k[e] * self.lever_at(e) * dl;
+        self.each::<D>(src.rec, i, |e, _, _, d2, num, rest| {
+            let dl = num / (d2.sqrt() + rest);
+            hot |= dl > screen * rest;
+            sum += s.k[e] * self.lever_at(e, rest) * dl;
         });
         let sn = src.norm[i];
         (if sn > 0.0 { sum / sn } else { 0.0 }, hot)
@@ -342,12 +374,12 @@ impl RowKernel {
         let s = &self.slots;
         let mut f = [0.0; 3];
         let pi = pool[i];
-        self.each::<D>(src.rec, i, |e, j, d, d2, num| {
+        self.each::<D>(src.rec, i, |e, j, d, d2, num, rest| {
             let l = d2.sqrt();
             let inv = 1.0 / l;
-            let dl = num / (l + s.rest[e]);
+            let dl = num / (l + rest);
             let k = s.k[e];
-            let t = k * dl + self.q * k * self.lever_at(e) * (pi + pool[j]);
+            let t = k * dl + self.q * k * self.lever_at(e, rest) * (pi + pool[j]);
             for c in 0..D {
                 f[c] += t * (d[c] * inv);
             }
@@ -370,7 +402,7 @@ impl Stencil for RowKernel {
     }
 
     fn vector_block(&self, i: usize) -> bool {
-        self.simd && i % 8 == 0 && i + 8 <= self.n
+        self.simd && i.is_multiple_of(8) && i + 8 <= self.n
     }
 
     fn pool_one(&self, u: &Src, i: usize, screen: Real) -> (Real, bool) {
@@ -393,11 +425,16 @@ impl Stencil for RowKernel {
     unsafe fn pool_block(&self, u: &Src, i: usize, out: &mut [Real], screen: Real) -> bool {
         // SAFETY (caller): `vector_block(i)`, so AVX-512F is there and i..i+8 are nodes.
         unsafe {
-            match (self.dim, self.slots.lever.is_empty()) {
-                (2, true) => avx::pools::<2, false>(self, u, i, out, screen),
-                (2, false) => avx::pools::<2, true>(self, u, i, out, screen),
-                (_, true) => avx::pools::<3, false>(self, u, i, out, screen),
-                (_, false) => avx::pools::<3, true>(self, u, i, out, screen),
+            let s = &self.slots;
+            match (self.dim, !s.lever.is_empty(), !s.rest.is_empty()) {
+                (2, false, false) => avx::pools::<2, false, false>(self, u, i, out, screen),
+                (2, false, true) => avx::pools::<2, false, true>(self, u, i, out, screen),
+                (2, true, false) => avx::pools::<2, true, false>(self, u, i, out, screen),
+                (2, true, true) => avx::pools::<2, true, true>(self, u, i, out, screen),
+                (_, false, false) => avx::pools::<3, false, false>(self, u, i, out, screen),
+                (_, false, true) => avx::pools::<3, false, true>(self, u, i, out, screen),
+                (_, true, false) => avx::pools::<3, true, false>(self, u, i, out, screen),
+                (_, true, true) => avx::pools::<3, true, true>(self, u, i, out, screen),
             }
         }
     }
@@ -416,11 +453,16 @@ impl Stencil for RowKernel {
     ) {
         // SAFETY (caller): as for `pool_block`.
         let f = unsafe {
-            match (self.dim, self.slots.lever.is_empty()) {
-                (2, true) => avx::forces::<2, false>(self, u, pool, i),
-                (2, false) => avx::forces::<2, true>(self, u, pool, i),
-                (_, true) => avx::forces::<3, false>(self, u, pool, i),
-                (_, false) => avx::forces::<3, true>(self, u, pool, i),
+            let s = &self.slots;
+            match (self.dim, !s.lever.is_empty(), !s.rest.is_empty()) {
+                (2, false, false) => avx::forces::<2, false, false>(self, u, pool, i),
+                (2, false, true) => avx::forces::<2, false, true>(self, u, pool, i),
+                (2, true, false) => avx::forces::<2, true, false>(self, u, pool, i),
+                (2, true, true) => avx::forces::<2, true, true>(self, u, pool, i),
+                (_, false, false) => avx::forces::<3, false, false>(self, u, pool, i),
+                (_, false, true) => avx::forces::<3, false, true>(self, u, pool, i),
+                (_, true, false) => avx::forces::<3, true, false>(self, u, pool, i),
+                (_, true, true) => avx::forces::<3, true, true>(self, u, pool, i),
             }
         };
         let dims = p.dims(self.dim);
@@ -498,7 +540,7 @@ mod avx {
     /// # Safety
     /// AVX-512F; `e` is the first entry of a slot; `me` the group's own records transposed.
     #[inline(always)]
-    unsafe fn slot_at<const D: usize, const LEVER: bool>(
+    unsafe fn slot_at<const D: usize, const LEVER: bool, const STORED: bool>(
         rk: &RowKernel,
         base: *const Real,
         me: &[__m512d; 7],
@@ -530,7 +572,11 @@ mod avx {
             let d2 = sq(d, d);
             let num = _mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(2.0), sq(big, w)), sq(w, w));
             let k = _mm512_loadu_pd(s.k.as_ptr().add(e));
-            let rest = _mm512_loadu_pd(s.rest.as_ptr().add(e));
+            let rest = if STORED {
+                _mm512_loadu_pd(s.rest.as_ptr().add(e))
+            } else {
+                _mm512_sqrt_pd(sq(big, big))
+            };
             let lever = if LEVER {
                 _mm512_loadu_pd(s.lever.as_ptr().add(e))
             } else {
@@ -578,7 +624,7 @@ mod avx {
     /// # Safety
     /// AVX-512F; i a multiple of 8 with i + 8 <= n; records refreshed.
     #[target_feature(enable = "avx512f,avx512vl")]
-    pub(super) unsafe fn pools<const D: usize, const LEVER: bool>(
+    pub(super) unsafe fn pools<const D: usize, const LEVER: bool, const STORED: bool>(
         rk: &RowKernel,
         src: &Src,
         i: usize,
@@ -596,7 +642,7 @@ mod avx {
             let mut acc = _mm512_setzero_pd();
             let mut hot: __mmask8 = 0;
             for slot in s.start[g] as usize..s.start[g + 1] as usize {
-                let t = slot_at::<D, LEVER>(rk, base, &me, 8 * slot);
+                let t = slot_at::<D, LEVER, STORED>(rk, base, &me, 8 * slot);
                 let l = _mm512_sqrt_pd(t.d2);
                 let dl = _mm512_div_pd(t.num, _mm512_add_pd(l, t.rest));
                 hot |= _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(t.real, dl, _mm512_mul_pd(sv, t.rest));
@@ -614,7 +660,7 @@ mod avx {
     /// # Safety
     /// As [`pools`], with the pools in the records.
     #[target_feature(enable = "avx512f,avx512vl")]
-    pub(super) unsafe fn forces<const D: usize, const LEVER: bool>(
+    pub(super) unsafe fn forces<const D: usize, const LEVER: bool, const STORED: bool>(
         rk: &RowKernel,
         src: &Src,
         _pool: &[Real],
@@ -632,7 +678,7 @@ mod avx {
             let z = _mm512_setzero_pd();
             let mut f = [z; 3];
             for slot in s.start[g] as usize..s.start[g + 1] as usize {
-                let t = slot_at::<D, LEVER>(rk, base, &me, 8 * slot);
+                let t = slot_at::<D, LEVER, STORED>(rk, base, &me, 8 * slot);
                 let l = _mm512_sqrt_pd(t.d2);
                 let inv = _mm512_div_pd(one, l);
                 let dl = _mm512_div_pd(t.num, _mm512_add_pd(l, t.rest));
@@ -667,14 +713,19 @@ mod tests {
         Scalar,
     }
 
-    fn body(dim: usize, q: Real, levers: bool) -> Body {
+    /// With `stored`, one rest length is not `|X_j - X_i|` to the bit, so the kernel streams
+    /// the rest lengths instead of recomputing them.
+    fn body_with(dim: usize, q: Real, levers: bool, stored: bool) -> Body {
         let spec = RandomSpec::default();
         let hi = if dim == 3 {
             [7.0, 6.0, 5.0]
         } else {
             [23.0, 17.0, 0.0]
         };
-        let lat = Lattice::random(dim, [0.0; 3], hi, 1.0, 1.0, spec, &|_| true).unwrap();
+        let mut lat = Lattice::random(dim, [0.0; 3], hi, 1.0, 1.0, spec, &|_| true).unwrap();
+        if stored {
+            lat.bonds.rest[3] *= 1.0 + 4.0 * Real::EPSILON;
+        }
         let mut body = Body::uniform(lat, 1.0, q, 1.0);
         for (b, k) in body.k.iter_mut().enumerate() {
             *k = 0.7 + 0.6 * ((b * 7919) % 101) as Real / 101.0;
@@ -756,8 +807,16 @@ mod tests {
     fn rows_give_the_bits_of_the_csr_kernel() {
         let avx = super::super::stencil::simd_available();
         for dim in [2, 3] {
-            for (q, levers) in [(0.3, false), (-0.2, true), (0.0, false)] {
-                let body = body(dim, q, levers);
+            for (q, levers, stored) in [
+                (0.3, false, false),
+                (-0.2, true, false),
+                (0.0, false, false),
+                (0.3, false, true),
+                (-0.2, true, true),
+            ] {
+                let body = body_with(dim, q, levers, stored);
+                let k = super::RowKernel::new(&body, &State::new(&body)).unwrap();
+                assert_eq!(k.slots.rest.is_empty(), !stored, "rest lengths recomputed");
                 let (csr, name) = run(&body, Path::Csr);
                 assert_eq!(name, "csr");
                 assert!(csr.u.as_flat().iter().any(|&x| x != 0.0));
@@ -773,7 +832,7 @@ mod tests {
                     }
                     assert!(
                         bits(&s) == bits(&csr) && s.alive == csr.alive,
-                        "dim {dim} q {q} levers {levers} {path:?}: states differ"
+                        "dim {dim} q {q} levers {levers} stored {stored} {path:?}: states differ"
                     );
                 }
             }
