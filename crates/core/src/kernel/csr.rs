@@ -410,7 +410,7 @@ fn vector_open<const D: usize>(
 /// `|d|^2` and the numerator `2 D.w + w.w` of the extension ([`crate::law::spring_geometry`]'s
 /// operations in its order; in 2D its z terms are exact zeros and are left out).
 #[inline(always)]
-fn geometry<const D: usize>(big: [Real; 3], w: [Real; 3]) -> ([Real; 3], Real, Real) {
+pub(crate) fn geometry<const D: usize>(big: [Real; 3], w: [Real; 3]) -> ([Real; 3], Real, Real) {
     let d = [big[0] + w[0], big[1] + w[1], big[2] + w[2]];
     if D == 3 {
         (

@@ -35,6 +35,7 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
+use super::csr::geometry;
 use super::stencil::{Src, Stencil};
 use super::{StepParams, SweepSums, CHUNK};
 use crate::body::Body;
@@ -250,54 +251,28 @@ pub(crate) fn refresh_displacements(rk: &RowKernel, body: &Body, state: &mut Sta
         ]));
     }
     let u = &state.u;
-    state.rec[..n]
-        .par_chunks_mut(CHUNK)
-        .enumerate()
-        .for_each(|(c, recs)| {
-            let first = c * CHUNK;
-            for (k, r) in recs.iter_mut().enumerate() {
-                let i = first + k;
-                r.0[3] = u.x()[i];
-                r.0[4] = u.y()[i];
-                r.0[5] = u.z()[i];
-            }
-        });
+    each_record(&mut state.rec[..n], |i, r| {
+        r[3] = u.x()[i];
+        r[4] = u.y()[i];
+        r[5] = u.z()[i];
+    });
 }
 
 /// Write the pools into the records (before sweep 2, after any repair).
 pub(crate) fn refresh_pools(rk: &RowKernel, state: &mut State) {
-    let n = rk.n;
     let pool = &state.pool;
-    state.rec[..n]
-        .par_chunks_mut(CHUNK)
-        .enumerate()
-        .for_each(|(c, recs)| {
-            let first = c * CHUNK;
-            for (k, r) in recs.iter_mut().enumerate() {
-                r.0[6] = pool[first + k];
-            }
-        });
+    each_record(&mut state.rec[..rk.n], |i, r| r[6] = pool[i]);
 }
 
-/// One spring seen from a node: the reference vector `big`, the displacement difference `w`
-/// (both from the node to its neighbour), in the CSR kernel's operations.
-#[inline(always)]
-fn geometry<const D: usize>(big: [Real; 3], w: [Real; 3]) -> ([Real; 3], Real, Real) {
-    let d = [big[0] + w[0], big[1] + w[1], big[2] + w[2]];
-    if D == 3 {
-        (
-            d,
-            d[0] * d[0] + d[1] * d[1] + d[2] * d[2],
-            2.0 * (big[0] * w[0] + big[1] * w[1] + big[2] * w[2])
-                + (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]),
-        )
-    } else {
-        (
-            d,
-            d[0] * d[0] + d[1] * d[1],
-            2.0 * (big[0] * w[0] + big[1] * w[1]) + (w[0] * w[0] + w[1] * w[1]),
-        )
-    }
+/// `f(node, its record)` for every record, in parallel over fixed chunks.
+fn each_record(recs: &mut [Record], f: impl Fn(usize, &mut [Real; 8]) + Sync) {
+    recs.par_chunks_mut(CHUNK)
+        .enumerate()
+        .for_each(|(c, recs)| {
+            for (k, r) in recs.iter_mut().enumerate() {
+                f(c * CHUNK + k, &mut r.0);
+            }
+        });
 }
 
 /// The rest length from the reference vector, in [`crate::lattice::Bonds::from_pairs`]'s
