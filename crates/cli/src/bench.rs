@@ -24,11 +24,13 @@ pub enum LawArg {
 
 #[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
 pub enum KernelArg {
-    /// The fastest kernel for the body (the vector stencil for cubic boxes).
+    /// The fastest kernel for the body (the vector stencil for cubic and hexagonal boxes, the
+    /// row kernel for other lattices where the processor has AVX-512).
     Auto,
-    /// The stencil kernel without vector instructions.
+    /// The same kernel without vector instructions (the stencils' and the row kernel's
+    /// portable paths).
     Portable,
-    /// The general CSR kernel (what random lattices use).
+    /// The general CSR kernel (random lattices without AVX-512; the row kernel gives its bits).
     Csr,
 }
 
