@@ -240,9 +240,14 @@ impl RowKernel {
 /// Write `u` (and at the first call the reference positions and the dummy) into the records.
 pub(crate) fn refresh_displacements(rk: &RowKernel, body: &Body, state: &mut State) {
     let n = rk.n;
-    if state.rec.len() != n + 1 {
-        // Sized once per state (the first sweep), not per step.
-        let pos = &body.lattice.pos;
+    let pos = &body.lattice.pos;
+    // Built once per state (the first sweep), not per step; rebuilt if the state was last swept
+    // with another body (a cheap check of the dummy and three nodes' positions).
+    let same = |i: usize| state.rec[i].0[..3] == [pos.x()[i], pos.y()[i], pos.z()[i]];
+    let built = state.rec.len() == n + 1
+        && state.rec[n].0[..3] == rk.far
+        && (n == 0 || (same(0) && same(n / 2) && same(n - 1)));
+    if !built {
         state.rec = (0..n)
             .map(|i| Record([pos.x()[i], pos.y()[i], pos.z()[i], 0.0, 0.0, 0.0, 0.0, 0.0]))
             .collect();
@@ -773,6 +778,53 @@ mod tests {
             .chain(&s.pool)
             .map(|x| x.to_bits())
             .collect()
+    }
+
+    /// A state swept with one body and then with another of as many nodes (here the same
+    /// lattice stretched by half) gets its records rebuilt: the forces are the CSR kernel's.
+    #[test]
+    fn records_follow_the_body() {
+        use crate::kernel::{partials_len, Kernel, StepParams};
+        use crate::lattice::Bonds;
+        use crate::math::Coords;
+        let a = body_with(3, 0.3, false, false);
+        let mut b = a.clone();
+        let mut pos = b.lattice.pos.clone();
+        for c in pos.xyz_mut() {
+            c.iter_mut().for_each(|x| *x *= 1.5);
+        }
+        let ends = b.lattice.bonds.ends.clone();
+        b.lattice.bonds = Bonds::from_pairs(b.nodes(), &ends, &pos, [0.0; 3]).unwrap();
+        b.lattice.pos = pos;
+        let mut state = State::new(&a);
+        for i in 0..a.nodes() {
+            state.u.x_mut()[i] = 0.01 * (1.3 * a.lattice.pos.y()[i]).sin();
+        }
+        let p = StepParams {
+            dt: 0.01,
+            damping: 0.0,
+            accel: [0.0; 3],
+            plane: false,
+        };
+        let n = a.nodes();
+        let step = |body: &Body, kernel: &Kernel, state: &mut State| {
+            let (mut un, mut parts) = (Coords::zeros(n), vec![Default::default(); partials_len(n)]);
+            kernel.pools(body, state);
+            kernel.force_kick_drift(body, state, &vec![1.0; n], &p, &mut un, &mut parts);
+            un
+        };
+        let rows_a = Kernel::for_body(&a, &state);
+        step(&a, &rows_a, &mut state);
+        let mut again = state.clone();
+        let (rows_b, csr) = (Kernel::for_body(&b, &state), Kernel::Csr { plain: false });
+        let via_rows = step(&b, &rows_b, &mut state);
+        let via_csr = step(&b, &csr, &mut again);
+        assert!(via_rows
+            .as_flat()
+            .iter()
+            .zip(via_csr.as_flat())
+            .all(|(x, y)| x.to_bits() == y.to_bits()));
+        assert_ne!(via_rows, step(&a, &csr, &mut again));
     }
 
     /// The row kernel, vector and scalar, gives the CSR kernel's bits: 2D and 3D, with broken
