@@ -24,9 +24,12 @@
 //! force term `T (d / l)` is the CSR record's term with its sign. Each node adds its terms in
 //! its row's order, as the CSR sweep does; a padding slot or a broken spring points at a far
 //! dummy record with zero stiffness and adds a signed zero, which leaves a sum that started at
-//! +0 unchanged. The scalar path (the tail group, repairs, a processor without AVX-512) performs
-//! the same operations one lane at a time. Tested bit for bit against the CSR kernel, with
-//! broken and softened springs and dispersion levers, in 2D and 3D.
+//! +0 unchanged. The rest length `L` is recomputed as `|X_j - X_i|` in the operations that
+//! built it (checked for every spring at set-up; otherwise it is streamed). The scalar path (the
+//! last, incomplete group of 8; the whole body after `set_simd(false)`) performs the same
+//! operations one lane at a time; where AVX-512 is missing, `Kernel::for_body` takes the CSR
+//! kernel itself. Tested bit for bit against the CSR kernel, with broken and softened springs,
+//! dispersion levers and stored or recomputed rest lengths, in 2D and 3D.
 //!
 //! Periodic lattices keep the CSR kernel (their minimum-image wrap is not needed on the fast
 //! path of any shipped case).
