@@ -351,9 +351,9 @@ fn relaxed_bulk_tensor_is_symmetric_and_below_the_affine_one() {
 /// (the entry's own value, or C11 where the target's entry is zero), on the default cubes
 /// (32 spacings in 3D, 64 in 2D), 4 node sets each. The calibration came from block tests with
 /// free faces; this is an independent check. Measured: 3D within 1.3 % for nu in
-/// [-0.5, 0.45] (C11 0.7-0.9 % high: the faces' boundary layer, which shrinks like a/L);
-/// 2D within 1.5 % for nu_2D in [-0.9, 0.45]. At 3D nu = -0.9 the entries are off by 5 % of
-/// C11: they scale like 1/(1 + nu), and the calibration's nu is -0.904 there.
+/// [-0.9, 0.45] (C11 0.7-0.9 % high: the faces' boundary layer, which shrinks like a/L);
+/// 2D within 1.5 % for nu_2D in [-0.9, 0.45]. At 3D nu = -0.9 the entries scale like
+/// 1/(1 + nu): with the calibration's first row at q = -0.49 they were 5 % off.
 #[test]
 #[ignore]
 fn relaxed_bulk_ensembles_match_the_calibrated_targets() {
@@ -363,7 +363,7 @@ fn relaxed_bulk_ensembles_match_the_calibrated_targets() {
         (LatticeKind::Random3d, 0.0, 32.0, 0.02),
         (LatticeKind::Random3d, 0.25, 32.0, 0.02),
         (LatticeKind::Random3d, 0.45, 32.0, 0.02),
-        (LatticeKind::Random3d, -0.9, 32.0, 0.06),
+        (LatticeKind::Random3d, -0.9, 32.0, 0.02),
         (LatticeKind::Random2d, -0.9, 64.0, 0.02),
         (LatticeKind::Random2d, -0.5, 64.0, 0.02),
         (LatticeKind::Random2d, 0.0, 64.0, 0.02),

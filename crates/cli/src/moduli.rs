@@ -580,9 +580,15 @@ fn random_table(args: &ModuliArgs) -> Result<()> {
     if !kind.is_random() {
         return Err(InputError("--table measures the random lattices' calibration: give --lattice random2d or random3d".into()).into());
     }
-    let qs = [
+    // Dense near q = -1/2 in 3D, where nu falls steeply towards -1 and the correction moves.
+    let near: &[Real] = if kind.dim() == 3 {
+        &[-0.4975, -0.495, -0.4925]
+    } else {
+        &[]
+    };
+    let qs = near.iter().chain(&[
         -0.49, -0.45, -0.4, -0.3, -0.2, -0.1, 0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 40.0,
-    ];
+    ]);
     let jitter = matches!(args.sampler, SamplerArg::Jitter);
     let name = match (kind.dim(), jitter) {
         (3, false) => "RANDOM3D",
@@ -591,7 +597,7 @@ fn random_table(args: &ModuliArgs) -> Result<()> {
         (_, true) => "JITTER2D",
     };
     let mut rows = Vec::new();
-    for &q in &qs {
+    for &q in qs {
         let nu_aff = calibration::nu_affine(kind, q);
         let mut t = test_for(args, nu_aff.min(0.49))?;
         t.q = Some(q);
