@@ -294,18 +294,23 @@ pub fn frame_fields(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> 
     let lat = &body.lattice;
     let bonds = &lat.bonds;
     let q = body.q;
-    // Pass 1, over the springs: each extension once (8 bytes a spring, for this frame only).
-    let dl: Vec<Real> = (0..bonds.len())
+    // Pass 1, over the springs: each spring's vector from its first end, length and extension
+    // once (40 bytes a spring, for this frame only). Seen from the other end the vector is the
+    // exact negation (every rounded difference negates), the length and extension the same
+    // bits, so both ends read what they would compute.
+    let geo: Vec<[Real; 5]> = (0..bonds.len())
         .into_par_iter()
         .with_min_len(MIN_NODES_PER_TASK)
         .map(|b| {
             if !sp.alive[b] {
-                return 0.0;
+                return [0.0; 5];
             }
             let [i, j] = bonds.ends[b].map(|v| v as usize);
-            spring_geometry(lat, u, i, j, bonds.rest[b]).dl
+            let g = spring_geometry(lat, u, i, j, bonds.rest[b]);
+            [g.d[0], g.d[1], g.d[2], g.l, g.dl]
         })
         .collect();
+    let dl = |b: usize| geo[b][4];
     // Pass 2, over the nodes: the pool Pi_n and a quarter of the springs' direct energy (the
     // extension is the same bits from either end: `spring_geometry` is symmetric).
     let mut pi = vec![0.0; n];
@@ -319,7 +324,7 @@ pub fn frame_fields(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> 
             for e in bonds.row(i) {
                 let b = bonds.bond[e] as usize;
                 if sp.alive[b] {
-                    let (lever, x) = (sp.lever[b], dl[b]);
+                    let (lever, x) = (sp.lever[b], dl(b));
                     d += 0.25 * sp.k[b] * x * x;
                     s += sp.k[b] * lever * x;
                 }
@@ -358,10 +363,14 @@ pub fn frame_fields(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> 
                     continue;
                 }
                 let j = bonds.nbr[e] as usize;
-                let (dx, dy, dz) = spring_vector(lat, u, i, j);
-                let d = [dx, dy, dz];
-                let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                let t = tension(sp.k[b], sp.lever[b], dl[b], q, pool[i], pool[j]);
+                let g = &geo[b];
+                let d = if bonds.ends[b][0] as usize == i {
+                    [g[0], g[1], g[2]]
+                } else {
+                    [-g[0], -g[1], -g[2]]
+                };
+                let l = g[3];
+                let t = tension(sp.k[b], sp.lever[b], g[4], q, pool[i], pool[j]);
                 let s = t / l;
                 for c in 0..3 {
                     f[c] += s * d[c];
@@ -386,7 +395,7 @@ pub fn frame_fields(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> 
             *st = m.map(|x| x / v);
         });
     // The energy, summed in the order of `energy`.
-    let direct = ordered_sum(bonds.len(), |b| 0.5 * sp.k[b] * dl[b] * dl[b]);
+    let direct = ordered_sum(bonds.len(), |b| 0.5 * sp.k[b] * dl(b) * dl(b));
     let dispersive = if q == 0.0 {
         0.0
     } else {

@@ -115,7 +115,8 @@ pub fn write_atomic(
     ));
     {
         let file = fs::File::create(&tmp).map_err(io(&tmp))?;
-        let mut w = BufWriter::new(file);
+        // Large writes: a frame is megabytes, and each 8 KiB write was a system call.
+        let mut w = BufWriter::with_capacity(1 << 20, file);
         write(&mut w)?;
         let file = w.into_inner().map_err(|e| IoError::Io {
             path: tmp.clone(),
