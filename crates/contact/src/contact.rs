@@ -126,6 +126,10 @@ pub struct Contact {
     /// penetration (NaN when not in contact); and the ranks' parts of the candidates.
     hits: Vec<Real>,
     parts: Vec<std::ops::Range<usize>>,
+    /// Each process's largest move since the rebuild, and the one-value parts to gather them
+    /// by (see [`Contact::lists_valid`]; sized by [`Contact::distribute`]).
+    moves: Vec<Real>,
+    one_each: Vec<std::ops::Range<usize>>,
 }
 
 /// Reals per candidate in `Contact::hits`.
@@ -139,6 +143,8 @@ impl Contact {
     /// of one process. Needs every node's velocity current on every process when friction
     /// acts (a shared integrator gathers them on steps with contact).
     pub fn distribute(&mut self, team: std::sync::Arc<dyn Team>) {
+        self.moves = vec![0.0; team.size()];
+        self.one_each = (0..team.size()).map(|r| r..r + 1).collect();
         self.team = (team.size() > 1).then_some(team);
     }
 
@@ -201,6 +207,8 @@ impl Contact {
             team: None,
             hits: Vec::new(),
             parts: Vec::new(),
+            moves: Vec::new(),
+            one_each: Vec::new(),
             steps: 0,
         }
     }
@@ -306,23 +314,39 @@ impl Contact {
     }
 
     /// Whether the lists built at the last rebuild still hold every pair that can be in range.
-    fn lists_valid(&self, body: &Body, u: &Coords) -> bool {
+    fn lists_valid(&mut self, body: &Body, u: &Coords) -> bool {
         if !self.built {
             return false;
         }
-        let moved = (0..body.nodes())
-            .into_par_iter()
-            .with_min_len(4096)
-            .map(|i| {
-                let d = [
-                    u.x()[i] - self.u_build.x()[i],
-                    u.y()[i] - self.u_build.y()[i],
-                    u.z()[i] - self.u_build.z()[i],
-                ];
-                d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
-            })
-            .reduce(|| 0.0, Real::max)
-            .sqrt();
+        // The largest move since the rebuild: a pass over every node, each step. Shared between
+        // the processes of a run (each its part of the nodes, then the parts' maxima gathered):
+        // a maximum is exact in any grouping, so every process gets the one-process value.
+        let n = body.nodes();
+        let (size, rank) = self.team.as_ref().map_or((1, 0), |t| (t.size(), t.rank()));
+        let largest = |nodes: std::ops::Range<usize>| {
+            nodes
+                .into_par_iter()
+                .with_min_len(4096)
+                .map(|i| {
+                    let d = [
+                        u.x()[i] - self.u_build.x()[i],
+                        u.y()[i] - self.u_build.y()[i],
+                        u.z()[i] - self.u_build.z()[i],
+                    ];
+                    d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+                })
+                .reduce(|| 0.0, Real::max)
+        };
+        let moved = match &self.team {
+            None => largest(0..n),
+            Some(t) => {
+                let mine = largest(n * rank / size..n * (rank + 1) / size);
+                self.moves[rank] = mine;
+                t.gather(&mut self.moves, &self.one_each);
+                self.moves.iter().fold(0.0 as Real, |m, &x| m.max(x))
+            }
+        }
+        .sqrt();
         let body_moved = self
             .bodies
             .iter()

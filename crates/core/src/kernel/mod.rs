@@ -192,7 +192,7 @@ impl Kernel {
             Kernel::Cubic(s) => stencil::pools(s, state, screen, share.map(|s| s.chunks())),
             Kernel::Hex(s) => stencil::pools(s, state, screen, share.map(|s| s.chunks())),
             Kernel::Rows(r) => {
-                rows::refresh_displacements(r, body, state);
+                rows::refresh_displacements(r, body, state, share.map(|s| s.chunks()));
                 stencil::pools(r, state, screen, share.map(|s| s.chunks()))
             }
         }
@@ -271,7 +271,7 @@ impl Kernel {
                 stencil::force_kick_drift(s, state, inv_mass, p, u_next, partials, chunks)
             }
             Kernel::Rows(r) => {
-                rows::refresh_pools(r, state);
+                rows::refresh_pools(r, state, Some(chunks.clone()));
                 stencil::force_kick_drift(r, state, inv_mass, p, u_next, partials, chunks)
             }
         }

@@ -80,6 +80,9 @@ pub struct RowKernel {
     /// finite, non-zero length.
     far: [Real; 3],
     simd: bool,
+    /// For one rank's node chunks (a distributed run): which chunks' records their rows read
+    /// (see [`RowKernel::reads`]), found at the first sweep.
+    reads: Arc<std::sync::OnceLock<(std::ops::Range<usize>, Vec<bool>)>>,
 }
 
 impl RowKernel {
@@ -177,7 +180,35 @@ impl RowKernel {
             slots: Arc::new(s),
             far,
             simd: super::stencil::simd_available(),
+            reads: Arc::default(),
         })
+    }
+
+    /// The chunks whose records the rows of the node chunks `own` read: their own and their
+    /// neighbours' (a flag per chunk); `None` for every chunk. A rank of a distributed run
+    /// refreshes only these (the other records are never read there): the refresh was a tenth
+    /// of a rank's step at two ranks when every rank refreshed every record. Springs only
+    /// break, so the flags found at the first sweep cover every later one.
+    fn reads(&self, own: Option<std::ops::Range<usize>>) -> Option<&[bool]> {
+        let chunks = self.n.div_ceil(CHUNK);
+        let own = own.filter(|r| *r != (0..chunks))?;
+        let (range, flags) = self.reads.get_or_init(|| {
+            let mut flags = vec![false; chunks];
+            for c in own.clone() {
+                flags[c] = true;
+                for i in c * CHUNK..((c + 1) * CHUNK).min(self.n) {
+                    for e in self.lane(i) {
+                        let j = self.slots.j[e] as usize;
+                        if j < self.n {
+                            flags[j / CHUNK] = true;
+                        }
+                    }
+                }
+            }
+            (own.clone(), flags)
+        });
+        // Another range than the first one's (not a case any run makes): every record.
+        (*range == own).then_some(flags.as_slice())
     }
 
     pub fn name(&self) -> &'static str {
@@ -240,8 +271,14 @@ impl RowKernel {
     }
 }
 
-/// Write `u` (and at the first call the reference positions and the dummy) into the records.
-pub(crate) fn refresh_displacements(rk: &RowKernel, body: &Body, state: &mut State) {
+/// Write `u` (and at the first call the reference positions and the dummy) into the records:
+/// every record, or with `own` (one rank's node chunks) those its rows read.
+pub(crate) fn refresh_displacements(
+    rk: &RowKernel,
+    body: &Body,
+    state: &mut State,
+    own: Option<std::ops::Range<usize>>,
+) {
     let n = rk.n;
     let pos = &body.lattice.pos;
     // Built once per state (the first sweep), not per step; rebuilt if the state was last swept
@@ -259,23 +296,34 @@ pub(crate) fn refresh_displacements(rk: &RowKernel, body: &Body, state: &mut Sta
         ]));
     }
     let u = &state.u;
-    each_record(&mut state.rec[..n], |i, r| {
+    each_record(&mut state.rec[..n], rk.reads(own), |i, r| {
         r[3] = u.x()[i];
         r[4] = u.y()[i];
         r[5] = u.z()[i];
     });
 }
 
-/// Write the pools into the records (before sweep 2, after any repair).
-pub(crate) fn refresh_pools(rk: &RowKernel, state: &mut State) {
+/// Write the pools into the records (before sweep 2, after any repair): every record, or with
+/// `own` those the rows of one rank's node chunks read.
+pub(crate) fn refresh_pools(
+    rk: &RowKernel,
+    state: &mut State,
+    own: Option<std::ops::Range<usize>>,
+) {
     let pool = &state.pool;
-    each_record(&mut state.rec[..rk.n], |i, r| r[6] = pool[i]);
+    each_record(&mut state.rec[..rk.n], rk.reads(own), |i, r| r[6] = pool[i]);
 }
 
-/// `f(node, its record)` for every record, in parallel over fixed chunks.
-fn each_record(recs: &mut [Record], f: impl Fn(usize, &mut [Real; 8]) + Sync) {
+/// `f(node, its record)` for every record of the chunks flagged in `only` (all: `None`), in
+/// parallel over fixed chunks.
+fn each_record(
+    recs: &mut [Record],
+    only: Option<&[bool]>,
+    f: impl Fn(usize, &mut [Real; 8]) + Sync,
+) {
     recs.par_chunks_mut(CHUNK)
         .enumerate()
+        .filter(|(c, _)| only.is_none_or(|flags| flags[*c]))
         .for_each(|(c, recs)| {
             for (k, r) in recs.iter_mut().enumerate() {
                 f(c * CHUNK + k, &mut r.0);
