@@ -371,17 +371,24 @@ impl Contact {
             self.x_build[k] = b.position;
             self.q_build[k] = b.orientation;
         }
+        // The passes over every node run in parallel; each list comes out in node order, as
+        // a serial pass makes it, and the sorts have unique keys, so nothing depends on the
+        // thread count.
         let reach = self.opts.radius + self.skin;
+        let dim = self.dim;
         for (k, b) in self.bodies.iter().enumerate() {
             let (lo, hi) = b.bounds();
             let list = &mut self.candidates[k];
             list.clear();
-            for i in 0..n {
-                let x = Self::position(body, &state.u, i);
-                if (0..self.dim).all(|c| x[c] >= lo[c] - reach && x[c] <= hi[c] + reach) {
-                    list.push(i as u32);
-                }
-            }
+            list.par_extend(
+                (0..n as u32)
+                    .into_par_iter()
+                    .with_min_len(4096)
+                    .filter(|&i| {
+                        let x = Self::position(body, &state.u, i as usize);
+                        (0..dim).all(|c| x[c] >= lo[c] - reach && x[c] <= hi[c] + reach)
+                    }),
+            );
         }
         self.frag_nbr.clear();
         self.frag_nodes.clear();
@@ -393,6 +400,8 @@ impl Contact {
         // fragments: an intact lattice has none and skips the search.
         let bonds = &body.lattice.bonds;
         let damaged: Vec<u32> = (0..n as u32)
+            .into_par_iter()
+            .with_min_len(4096)
             .filter(|&i| {
                 bonds
                     .row(i as usize)
@@ -406,14 +415,23 @@ impl Contact {
         // Cell list: cells of side df + skin, nodes sorted by cell.
         let h = df + self.skin;
         let x = |i: usize| Self::position(body, &state.u, i);
-        let (mut lo, mut hi) = ([Real::INFINITY; 3], [Real::NEG_INFINITY; 3]);
-        for i in 0..n {
-            let p = x(i);
-            for c in 0..3 {
-                lo[c] = lo[c].min(p[c]);
-                hi[c] = hi[c].max(p[c]);
-            }
-        }
+        // (Minima and maxima are exact in any grouping.)
+        let (lo, hi) = (0..n)
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|i| {
+                let p = x(i);
+                (p, p)
+            })
+            .reduce(
+                || ([Real::INFINITY; 3], [Real::NEG_INFINITY; 3]),
+                |(a, b), (c, d)| {
+                    (
+                        [0, 1, 2].map(|k| a[k].min(c[k])),
+                        [0, 1, 2].map(|k| b[k].max(d[k])),
+                    )
+                },
+            );
         let cell = |p: &[Real; 3]| [0, 1, 2].map(|c| ((p[c] - lo[c]) / h).floor() as i64);
         // Only nodes in the cells next to a damaged node's can pair with one: mark those cells
         // in a bitmap over the body's grid of cells and sort just their nodes (sorting every
@@ -443,6 +461,8 @@ impl Contact {
             bits
         });
         let mut order: Vec<([i64; 3], u32)> = (0..n)
+            .into_par_iter()
+            .with_min_len(4096)
             .filter_map(|i| {
                 let k = cell(&x(i));
                 let listed = near.as_ref().is_none_or(|bits| {
@@ -452,7 +472,7 @@ impl Contact {
                 listed.then_some((k, i as u32))
             })
             .collect();
-        order.sort_unstable();
+        order.par_sort_unstable();
         let bonded = |i: usize, j: u32| -> bool {
             let r = bonds.row(i);
             match bonds.nbr[r.clone()].binary_search(&j) {
@@ -462,44 +482,49 @@ impl Contact {
         };
         let pos = &body.lattice.pos;
         // Pairs (i, j) from every damaged i, then both directions, sorted: a CSR by node.
-        let mut pairs: Vec<(u32, u32)> = Vec::new();
-        for &i in &damaged {
-            let i = i as usize;
-            let xi = x(i);
-            let ci = cell(&xi);
-            for dz in -1..=1i64 {
-                for dy in -1..=1i64 {
-                    for dx in -1..=1i64 {
-                        let key = [ci[0] + dx, ci[1] + dy, ci[2] + dz];
-                        let start = order.partition_point(|e| e.0 < key);
-                        for &(k, j) in &order[start..] {
-                            if k != key {
-                                break;
+        let mut pairs: Vec<(u32, u32)> = damaged
+            .par_iter()
+            .with_min_len(64)
+            .flat_map_iter(|&i| {
+                let mut pairs = Vec::new();
+                let i = i as usize;
+                let xi = x(i);
+                let ci = cell(&xi);
+                for dz in -1..=1i64 {
+                    for dy in -1..=1i64 {
+                        for dx in -1..=1i64 {
+                            let key = [ci[0] + dx, ci[1] + dy, ci[2] + dz];
+                            let start = order.partition_point(|e| e.0 < key);
+                            for &(k, j) in &order[start..] {
+                                if k != key {
+                                    break;
+                                }
+                                let jj = j as usize;
+                                if jj == i {
+                                    continue;
+                                }
+                                let xj = x(jj);
+                                let d2: Real = (0..3).map(|c| (xi[c] - xj[c]).powi(2)).sum();
+                                if d2 >= h * h {
+                                    continue;
+                                }
+                                let r0 = ((pos.x()[i] - pos.x()[jj]).powi(2)
+                                    + (pos.y()[i] - pos.y()[jj]).powi(2)
+                                    + (pos.z()[i] - pos.z()[jj]).powi(2))
+                                .sqrt();
+                                if r0 < 1e-12 * h || bonded(i, j) {
+                                    continue;
+                                }
+                                pairs.push((i as u32, j));
+                                pairs.push((j, i as u32));
                             }
-                            let jj = j as usize;
-                            if jj == i {
-                                continue;
-                            }
-                            let xj = x(jj);
-                            let d2: Real = (0..3).map(|c| (xi[c] - xj[c]).powi(2)).sum();
-                            if d2 >= h * h {
-                                continue;
-                            }
-                            let r0 = ((pos.x()[i] - pos.x()[jj]).powi(2)
-                                + (pos.y()[i] - pos.y()[jj]).powi(2)
-                                + (pos.z()[i] - pos.z()[jj]).powi(2))
-                            .sqrt();
-                            if r0 < 1e-12 * h || bonded(i, j) {
-                                continue;
-                            }
-                            pairs.push((i as u32, j));
-                            pairs.push((j, i as u32));
                         }
                     }
                 }
-            }
-        }
-        pairs.sort_unstable();
+                pairs
+            })
+            .collect();
+        pairs.par_sort_unstable();
         pairs.dedup();
         for &(i, _) in &pairs {
             self.frag_offsets[i as usize + 1] += 1;
