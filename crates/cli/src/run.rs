@@ -343,11 +343,26 @@ pub fn run(args: RunArgs) -> Result<()> {
     // Under `mpirun -np N` (feature `mpi`), N processes run this same function; each builds the
     // same simulation, rank 0 alone writes and prints (`docs/mpi.md`).
     #[cfg(feature = "mpi")]
-    let mpi = crate::mpi::start()?;
-    #[cfg(feature = "mpi")]
-    let team = mpi.team.clone();
+    {
+        let mpi = crate::mpi::start()?;
+        let result = run_in(args, mpi.team.clone());
+        if let Err(e) = &result {
+            if mpi.team.is_some() && !crate::quiet() {
+                // Rank 0 says why before MPI is finalised: the other ranks wait in
+                // MPI_Finalize for it, whereas once they have exited with an error the
+                // launcher may kill rank 0 before main() prints.
+                eprintln!("error: {e:#}");
+                crate::set_quiet();
+            }
+        }
+        drop(mpi);
+        result
+    }
     #[cfg(not(feature = "mpi"))]
-    let team: Option<Arc<dyn hooke_core::team::Team>> = None;
+    run_in(args, None)
+}
+
+fn run_in(args: RunArgs, team: Option<Arc<dyn hooke_core::team::Team>>) -> Result<()> {
     let processes = team.as_ref().map_or(1, |t| t.size());
     if team.as_ref().is_some_and(|t| t.rank() != 0) {
         crate::set_quiet();
