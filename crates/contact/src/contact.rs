@@ -326,6 +326,7 @@ impl Contact {
         // a maximum is exact in any grouping, so every process gets the one-process value.
         let n = body.nodes();
         let (size, rank) = self.team.as_ref().map_or((1, 0), |t| (t.size(), t.rank()));
+        let plane = self.dim == 2;
         let largest = |nodes: std::ops::Range<usize>| {
             nodes
                 .into_par_iter()
@@ -334,9 +335,16 @@ impl Contact {
                     let d = [
                         u.x()[i] - self.u_build.x()[i],
                         u.y()[i] - self.u_build.y()[i],
-                        u.z()[i] - self.u_build.z()[i],
                     ];
-                    d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+                    // A plate's z components stay exact zeros (as the integrator's exchange
+                    // between ranks also relies on), which add +0 to the sum: not read, a
+                    // third of this per-step pass's memory traffic, the same bits.
+                    let dz = if plane {
+                        0.0
+                    } else {
+                        u.z()[i] - self.u_build.z()[i]
+                    };
+                    d[0] * d[0] + d[1] * d[1] + dz * dz
                 })
                 .reduce(|| 0.0, Real::max)
         };
