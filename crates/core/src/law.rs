@@ -295,19 +295,20 @@ pub fn frame_fields(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> 
     let bonds = &lat.bonds;
     let q = body.q;
     // Pass 1, over the springs: each spring's vector from its first end, length and extension
-    // once (40 bytes a spring, for this frame only). Seen from the other end the vector is the
-    // exact negation (every rounded difference negates), the length and extension the same
-    // bits, so both ends read what they would compute.
-    let geo: Vec<[Real; 5]> = (0..bonds.len())
+    // once, with its stiffness and lever (56 bytes a spring, for this frame only: the node
+    // passes then read one place per spring instead of five arrays at random). Seen from the
+    // other end the vector is the exact negation (every rounded difference negates), the
+    // length and extension the same bits, so both ends read what they would compute.
+    let geo: Vec<[Real; 7]> = (0..bonds.len())
         .into_par_iter()
         .with_min_len(MIN_NODES_PER_TASK)
         .map(|b| {
             if !sp.alive[b] {
-                return [0.0; 5];
+                return [0.0; 7];
             }
             let [i, j] = bonds.ends[b].map(|v| v as usize);
             let g = spring_geometry(lat, u, i, j, bonds.rest[b]);
-            [g.d[0], g.d[1], g.d[2], g.l, g.dl]
+            [g.d[0], g.d[1], g.d[2], g.l, g.dl, sp.k[b], sp.lever[b]]
         })
         .collect();
     let dl = |b: usize| geo[b][4];
@@ -324,9 +325,10 @@ pub fn frame_fields(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> 
             for e in bonds.row(i) {
                 let b = bonds.bond[e] as usize;
                 if sp.alive[b] {
-                    let (lever, x) = (sp.lever[b], dl(b));
-                    d += 0.25 * sp.k[b] * x * x;
-                    s += sp.k[b] * lever * x;
+                    let g = &geo[b];
+                    let (x, k, lever) = (g[4], g[5], g[6]);
+                    d += 0.25 * k * x * x;
+                    s += k * lever * x;
                 }
             }
             (*p, *e4) = (s, d);
@@ -364,13 +366,14 @@ pub fn frame_fields(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> 
                 }
                 let j = bonds.nbr[e] as usize;
                 let g = &geo[b];
-                let d = if bonds.ends[b][0] as usize == i {
+                // A spring's first end is its lower node (`Bonds::from_pairs`).
+                let d = if i < j {
                     [g[0], g[1], g[2]]
                 } else {
                     [-g[0], -g[1], -g[2]]
                 };
                 let l = g[3];
-                let t = tension(sp.k[b], sp.lever[b], g[4], q, pool[i], pool[j]);
+                let t = tension(g[5], g[6], g[4], q, pool[i], pool[j]);
                 let s = t / l;
                 for c in 0..3 {
                     f[c] += s * d[c];
