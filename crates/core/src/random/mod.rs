@@ -263,7 +263,8 @@ fn shares(
     // Node by node, each node's sums in the order of its simplices: in parallel over blocks of
     // nodes whose results are joined in node order, so the same bits for any thread count.
     const BLOCK: usize = 4096;
-    let blocks: Vec<(Vec<Real>, Vec<([u32; 2], Real)>)> = (0..n.div_ceil(BLOCK))
+    type Shares = (Vec<Real>, Vec<([u32; 2], Real)>);
+    let blocks: Vec<Shares> = (0..n.div_ceil(BLOCK))
         .into_par_iter()
         .map(|b| {
             let nodes = b * BLOCK..((b + 1) * BLOCK).min(n);
