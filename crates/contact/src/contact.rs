@@ -129,8 +129,6 @@ pub struct Contact {
     /// Each process's largest move since the rebuild, and the one-value parts to gather them
     /// by (see [`Contact::lists_valid`]; sized by [`Contact::distribute`]).
     moves: Vec<Real>,
-    /// Scratch of the rebuild: whether each node has lost a spring.
-    is_damaged: Vec<bool>,
     one_each: Vec<std::ops::Range<usize>>,
 }
 
@@ -210,7 +208,6 @@ impl Contact {
             hits: Vec::new(),
             parts: Vec::new(),
             moves: Vec::new(),
-            is_damaged: Vec::new(),
             one_each: Vec::new(),
             steps: 0,
         }
@@ -413,14 +410,12 @@ impl Contact {
         // From the broken springs' ends (a contiguous scan of the flags, then the few broken
         // ones) rather than from every node's row (an indirect read per row entry): the same
         // list, in node order.
-        self.is_damaged.clear();
-        self.is_damaged.resize(n, false);
+        let mut flags = vec![false; n];
         for (b, _) in state.alive().iter().enumerate().filter(|(_, &a)| !a) {
             let [i, j] = bonds.ends[b];
-            self.is_damaged[i as usize] = true;
-            self.is_damaged[j as usize] = true;
+            flags[i as usize] = true;
+            flags[j as usize] = true;
         }
-        let flags = &self.is_damaged;
         let damaged: Vec<u32> = (0..n as u32)
             .into_par_iter()
             .with_min_len(4096)

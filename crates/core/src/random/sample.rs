@@ -460,18 +460,17 @@ impl Grid {
                 continue;
             }
             let at = i as usize + self.n[0] * (j as usize + self.n[1] * kz as usize);
-            if self.full[at >> 6] & (1 << (at & 63)) != 0 {
-                let q = self.coarse_node(at, [i as usize, j as usize, kz as usize]);
-                let d2c = (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2);
-                if d2c < sure_near && self.loose[at >> 6] & (1 << (at & 63)) == 0 {
+            if bit(&self.full, at) {
+                let coarse = dist2(
+                    p,
+                    self.coarse_node(at, [i as usize, j as usize, kz as usize]),
+                );
+                let loose = bit(&self.loose, at);
+                if !loose && coarse < sure_near {
                     return false;
                 }
-                if d2c <= sure_far || self.loose[at >> 6] & (1 << (at & 63)) != 0 {
-                    let q = self.node[at];
-                    let d2 = (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2);
-                    if d2 < r2 {
-                        return false;
-                    }
+                if (loose || coarse <= sure_far) && dist2(p, self.node[at]) < r2 {
+                    return false;
                 }
             }
         }
@@ -532,6 +531,16 @@ impl Grid {
             self.loose[at >> 6] |= 1 << (at & 63);
         }
     }
+}
+
+/// Bit `at` of a bitmap.
+fn bit(bits: &[u64], at: usize) -> bool {
+    bits[at >> 6] & (1 << (at & 63)) != 0
+}
+
+/// Squared distance between two points.
+fn dist2(p: [f64; 3], q: [f64; 3]) -> f64 {
+    (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)
 }
 
 /// A stratum of the box: each coordinate is fixed (at a face) or free within the box.
