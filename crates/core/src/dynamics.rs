@@ -236,8 +236,12 @@ impl Integrator {
         // its lambda bounds the dispersive law's lambda for the intact body as for any pattern
         // of broken springs (stability.rs), so estimating that one too would only cost a second
         // Lanczos run (as many force sweeps as 20 steps) at set-up.
+        // The estimate's drift scratch is the integrator's own, cleared after it (a plate's
+        // drift leaves z alone, so z must start at zero).
+        let mut u_next = Coords::zeros(body.nodes());
         let stable = if opts.damage_proof {
-            let plain = stability::estimate_in(body, state, &kernel.plain(), 40, 1e-3);
+            let plain =
+                stability::estimate_using(body, state, &kernel.plain(), 40, 1e-3, &mut u_next);
             let lambda = (1.0 + 2.0 * body.q.max(0.0)) * plain.lambda_max;
             StableStep {
                 lambda_max: lambda,
@@ -245,8 +249,9 @@ impl Integrator {
                 ..plain
             }
         } else {
-            stability::estimate_in(body, state, &kernel, 40, 1e-3)
+            stability::estimate_using(body, state, &kernel, 40, 1e-3, &mut u_next)
         };
+        u_next.fill_zero();
         let dt = match opts.time_step {
             TimeStep::Auto { safety } => {
                 if !(safety > 0.0 && safety <= 1.0) {
@@ -277,7 +282,7 @@ impl Integrator {
                 dt
             }
         };
-        let mut it = Self::assemble(body, loading, opts, kernel, dt, stable);
+        let mut it = Self::assemble(body, loading, opts, kernel, dt, stable, u_next);
         it.synced = state.breaks();
         it.plane &= Self::flat(state);
         // The CSR kernel's scratch is sized here, so that no step allocates (the pools it also
@@ -326,6 +331,7 @@ impl Integrator {
         kernel: Kernel,
         dt: Real,
         stable: StableStep,
+        u_next: Coords,
     ) -> Self {
         let mut motions = Vec::new();
         let mut dofs = Vec::new();
@@ -378,7 +384,7 @@ impl Integrator {
             dof_loads,
             first_load,
             inv_mass: body.mass.iter().map(|&m| 1.0 / m).collect(),
-            u_next: Coords::zeros(body.nodes()),
+            u_next,
             ledger: Ledger::default(),
             initial: 0.0,
             initial_power: 0.0,
@@ -433,7 +439,8 @@ impl Integrator {
         if opts.portable {
             kernel.set_simd(false);
         }
-        let mut it = Self::assemble(body, loading, opts, kernel, ck.dt, ck.stable);
+        let u_next = Coords::zeros(body.nodes());
+        let mut it = Self::assemble(body, loading, opts, kernel, ck.dt, ck.stable, u_next);
         it.synced = state.breaks();
         it.plane &= Self::flat(state);
         it.ledger = ck.ledger;

@@ -88,10 +88,12 @@ impl Bonds {
     }
 
     /// Build from a list of undirected springs `(i, j)` with `i != j`; rest lengths from `pos`
-    /// (minimum image along the axes where `period` is non-zero).
+    /// (minimum image along the axes where `period` is non-zero). The list becomes the springs'
+    /// `ends` in place: a large block's pairs are its largest set-up array, and a copy of them
+    /// was a second one to allocate and first touch.
     pub fn from_pairs(
         n_nodes: usize,
-        pairs: &[[u32; 2]],
+        pairs: Vec<[u32; 2]>,
         pos: &Coords,
         period: [Real; 3],
     ) -> Result<Self> {
@@ -104,10 +106,12 @@ impl Bonds {
                 ),
             });
         }
-        let mut ends: Vec<[u32; 2]> = pairs
-            .iter()
-            .map(|&[i, j]| if i < j { [i, j] } else { [j, i] })
-            .collect();
+        let mut ends = pairs;
+        for e in ends.iter_mut() {
+            if e[0] > e[1] {
+                e.swap(0, 1);
+            }
+        }
         ends.sort_unstable();
         ends.dedup();
         let mut deg = vec![0u32; n_nodes + 1];
@@ -366,7 +370,7 @@ impl Lattice {
             }
         }
         let period = [0, 1, 2].map(|c| if periodic[c] { n[c] as Real * a } else { 0.0 });
-        let bonds = Bonds::from_pairs(total, &pairs, &pos, period)?;
+        let bonds = Bonds::from_pairs(total, pairs, &pos, period)?;
         Ok(Lattice {
             kind: LatticeKind::Cubic,
             spacing: a,
@@ -473,7 +477,7 @@ impl Lattice {
             if periodic[1] { rows as Real * dy } else { 0.0 },
             0.0,
         ];
-        let bonds = Bonds::from_pairs(total, &pairs, &pos, period)?;
+        let bonds = Bonds::from_pairs(total, pairs, &pos, period)?;
         Ok(Lattice {
             kind: LatticeKind::Hex,
             spacing: a,
@@ -530,7 +534,7 @@ impl Lattice {
                 [new_index[i as usize], new_index[j as usize]]
             })
             .collect();
-        let bonds = Bonds::from_pairs(pos.len(), &pairs, &pos, self.period)?;
+        let bonds = Bonds::from_pairs(pos.len(), pairs, &pos, self.period)?;
         let cells = self.cells.as_ref().map(|c| Cells {
             node: (0..n).filter(|&i| kept[i]).map(|i| c.node[i]).collect(),
             spring: kept_bonds.iter().map(|&b| c.spring[b]).collect(),
@@ -567,8 +571,7 @@ impl Lattice {
             (x[i], y[i], z[i]) = (p.x, p.y, p.z);
         }
         let pos = Coords::from_components(&x, &y, &z);
-        let pairs: Vec<[u32; 2]> = self.bonds.ends.clone();
-        let bonds = Bonds::from_pairs(n, &pairs, &pos, self.period)?;
+        let bonds = Bonds::from_pairs(n, self.bonds.ends.clone(), &pos, self.period)?;
         Ok(Lattice {
             pos,
             bonds,

@@ -81,10 +81,26 @@ pub fn estimate_in(
     iterations: usize,
     tolerance: Real,
 ) -> StableStep {
+    let mut u_next = Coords::zeros(body.nodes());
+    estimate_using(body, state, kernel, iterations, tolerance, &mut u_next)
+}
+
+/// [`estimate_in`] with the drift's scratch `u_next` (as many nodes as the body) from the
+/// caller, who may keep it: an integrator's own, which it clears afterwards. Large bodies'
+/// set-up is dominated by first touches of fresh memory, so the estimate allocates as little
+/// as it can.
+pub(crate) fn estimate_using(
+    body: &Body,
+    state: &mut State,
+    kernel: &Kernel,
+    iterations: usize,
+    tolerance: Real,
+    u_next: &mut Coords,
+) -> StableStep {
     let n = body.nodes();
     let inv_sqrt_m: Vec<Real> = body.mass.iter().map(|m| 1.0 / m.sqrt()).collect();
     let dims = body.lattice.dim();
-    let mut op = KernelJacobian::new(body, state);
+    let mut op = KernelJacobian::new(body, state, u_next);
     // A deterministic, non-special start vector (a hash of the index), so dt is reproducible.
     let mut q = Coords::zeros(n);
     for i in 0..n {
@@ -97,28 +113,21 @@ pub fn estimate_in(
     scale(&mut q, 1.0 / qn);
     let mut q_prev = Coords::zeros(n);
     let mut w = Coords::zeros(n);
-    let mut tmp = Coords::zeros(n);
+    // max |M^-1/2 q|, for the difference step; later ones come with each new q.
+    let mut vmax = 0.0;
+    for c in 0..3 {
+        for (x, s) in q.comp(c).iter().zip(&inv_sqrt_m) {
+            vmax = Real::max(vmax, (x * s).abs());
+        }
+    }
     let mut alpha = Vec::new();
     let mut beta: Vec<Real> = Vec::new();
     let mut last = 0.0;
     for it in 0..iterations.max(2) {
-        // w = M^-1/2 K M^-1/2 q, and alpha = w.q in the same pass (the vector passes cost a
-        // third of a large body's estimate when each was a pass of its own).
-        for c in 0..3 {
-            for ((t, x), s) in tmp.comp_mut(c).iter_mut().zip(q.comp(c)).zip(&inv_sqrt_m) {
-                *t = x * s;
-            }
-        }
-        op.apply(body, kernel, &tmp, &mut w);
-        let mut a = 0.0;
-        for c in 0..3 {
-            let mut part = 0.0;
-            for ((y, x), s) in w.comp_mut(c).iter_mut().zip(q.comp(c)).zip(&inv_sqrt_m) {
-                *y *= s;
-                part += *y * x;
-            }
-            a += part;
-        }
+        // w = M^-1/2 K M^-1/2 q and alpha = w.q (the vector passes are fused, and M^-1/2 q is
+        // formed where it is read rather than stored: on a large body they cost as much as
+        // the force sweeps, and each array a large body allocates is also first touched).
+        let a = op.apply(body, kernel, &q, &inv_sqrt_m, vmax, &mut w);
         alpha.push(a);
         // w -= alpha q + beta q_prev, and beta' = |w|.
         let b_last = beta.last().copied().unwrap_or(0.0);
@@ -144,15 +153,23 @@ pub fn estimate_in(
         beta.push(b);
         std::mem::swap(&mut q_prev, &mut q);
         let inv = 1.0 / b;
+        vmax = 0.0;
         for c in 0..3 {
-            for (x, y) in q.comp_mut(c).iter_mut().zip(w.comp(c)) {
+            for ((x, y), s) in q.comp_mut(c).iter_mut().zip(w.comp(c)).zip(&inv_sqrt_m) {
                 *x = y * inv;
+                vmax = Real::max(vmax, (*x * s).abs());
             }
         }
     }
     let lambda_max = last;
-    op.scratch.u.clone_from(&op.base);
-    op.scratch.v.clone_from(&op.saved_v);
+    match &op.base {
+        Some(u) => op.scratch.u.clone_from(u),
+        None => op.scratch.u.fill_zero(),
+    }
+    match &op.saved_v {
+        Some(v) => op.scratch.v.clone_from(v),
+        None => op.scratch.v.fill_zero(),
+    }
     StableStep {
         lambda_max,
         dt_critical: 2.0 / lambda_max.sqrt(),
@@ -162,11 +179,13 @@ pub fn estimate_in(
 
 /// `K v` as the forward difference of a force kernel (see the module docs).
 struct KernelJacobian<'a> {
-    base: Coords,
-    /// The velocities to give back.
-    saved_v: Coords,
+    /// The displacements to linearise about and give back; `None` for +0 everywhere (a body at
+    /// rest, the usual set-up: no copy of a large array).
+    base: Option<Coords>,
+    /// The velocities to give back; `None` for +0 everywhere.
+    saved_v: Option<Coords>,
     scratch: &'a mut State,
-    u_next: Coords,
+    u_next: &'a mut Coords,
     unit_inv_mass: Vec<Real>,
     spacing: Real,
     partials: Vec<crate::kernel::SweepSums>,
@@ -175,30 +194,49 @@ struct KernelJacobian<'a> {
 }
 
 impl<'a> KernelJacobian<'a> {
-    fn new(body: &Body, state: &'a mut State) -> Self {
+    fn new(body: &Body, state: &'a mut State, u_next: &'a mut Coords) -> Self {
+        // Only +0 itself may stand for a zero array: `0.0 + x` and `-0.0 + x` differ for x = -0.
+        let copy = |v: &Coords| {
+            if v.as_flat().iter().all(|x| x.to_bits() == 0) {
+                None
+            } else {
+                Some(v.clone())
+            }
+        };
+        let n = body.nodes();
         KernelJacobian {
-            base: state.u.clone(),
-            saved_v: state.v.clone(),
+            base: copy(&state.u),
+            saved_v: copy(&state.v),
             scratch: state,
-            u_next: Coords::zeros(body.nodes()),
-            unit_inv_mass: vec![1.0; body.nodes()],
+            u_next,
+            unit_inv_mass: vec![1.0; n],
             spacing: body.lattice.spacing,
-            partials: vec![Default::default(); crate::kernel::partials_len(body.nodes())],
+            partials: vec![Default::default(); crate::kernel::partials_len(n)],
             at_base: None,
         }
     }
 
-    /// Force at `base + s v` into `out` (one pool sweep and one force sweep: with unit inverse
-    /// masses, zero velocity and dt = 1 the kick leaves exactly the force in the velocity).
-    fn force(&mut self, body: &Body, kernel: &Kernel, v: &Coords, s: Real) {
+    /// Force at `base + eps M^-1/2 q` into `scratch.v` (one pool sweep and one force sweep:
+    /// with unit inverse masses, zero velocity and dt = 1 the kick leaves exactly the force in
+    /// the velocity).
+    fn force(&mut self, body: &Body, kernel: &Kernel, q: &Coords, inv_sqrt_m: &[Real], eps: Real) {
         for c in 0..3 {
             let u = self.scratch.u.comp_mut(c).iter_mut();
-            for ((u, b), x) in u.zip(self.base.comp(c)).zip(v.comp(c)) {
-                *u = b + s * x;
+            match &self.base {
+                Some(base) => {
+                    for (((u, b), x), s) in u.zip(base.comp(c)).zip(q.comp(c)).zip(inv_sqrt_m) {
+                        *u = b + eps * (x * s);
+                    }
+                }
+                None => {
+                    for ((u, x), s) in u.zip(q.comp(c)).zip(inv_sqrt_m) {
+                        *u = 0.0 + eps * (x * s);
+                    }
+                }
             }
         }
         self.scratch.v.fill_zero();
-        kernel.pools(body, &mut self.scratch);
+        kernel.pools(body, self.scratch);
         let p = StepParams {
             dt: 1.0,
             damping: 0.0,
@@ -207,37 +245,52 @@ impl<'a> KernelJacobian<'a> {
         };
         kernel.force_kick_drift(
             body,
-            &mut self.scratch,
+            self.scratch,
             &self.unit_inv_mass,
             &p,
-            &mut self.u_next,
+            self.u_next,
             &mut self.partials,
         );
     }
 
-    fn apply(&mut self, body: &Body, kernel: &Kernel, v: &Coords, out: &mut Coords) {
-        let vmax = v.as_flat().iter().fold(0.0 as Real, |m, x| m.max(x.abs()));
+    /// `w = M^-1/2 K M^-1/2 q`, returning `w.q`; `vmax` is `max |M^-1/2 q|`.
+    fn apply(
+        &mut self,
+        body: &Body,
+        kernel: &Kernel,
+        q: &Coords,
+        inv_sqrt_m: &[Real],
+        vmax: Real,
+        w: &mut Coords,
+    ) -> Real {
         if vmax == 0.0 {
-            out.fill_zero();
-            return;
+            w.fill_zero();
+            return 0.0;
         }
         let eps = 1e-7 * self.spacing / vmax;
         let base = match self.at_base.take() {
             Some(f) => f,
             None => {
-                self.force(body, kernel, v, 0.0);
+                self.force(body, kernel, q, inv_sqrt_m, 0.0);
                 self.scratch.v.clone()
             }
         };
-        self.force(body, kernel, v, eps);
-        // K v = -(f(u + eps v) - f(u)) / eps
+        self.force(body, kernel, q, inv_sqrt_m, eps);
+        // K v = -(f(u + eps v) - f(u)) / eps, scaled by M^-1/2 and dotted with q, summed per
+        // component in node order.
+        let mut a = 0.0;
         for c in 0..3 {
-            let o = out.comp_mut(c).iter_mut();
-            for ((o, b), f) in o.zip(base.comp(c)).zip(self.scratch.v.comp(c)) {
-                *o = (b - f) / eps;
+            let mut part = 0.0;
+            let w = w.comp_mut(c).iter_mut();
+            let bf = base.comp(c).iter().zip(self.scratch.v.comp(c));
+            for (((y, (b, f)), x), s) in w.zip(bf).zip(q.comp(c)).zip(inv_sqrt_m) {
+                *y = (b - f) / eps * s;
+                part += *y * x;
             }
+            a += part;
         }
         self.at_base = Some(base);
+        a
     }
 }
 

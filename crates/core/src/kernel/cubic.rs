@@ -151,13 +151,23 @@ impl CubicStencil {
     fn direction_of(&self, body: &Body, b: usize) -> (usize, usize) {
         let lat = &body.lattice;
         let [i, j] = lat.bonds.ends[b].map(|v| v as usize);
-        let dx = lat.pos.get(j) - lat.pos.get(i);
-        let r = |v: Real| (v / lat.spacing).round() as i32;
-        let dir = [r(dx.x), r(dx.y), r(dx.z)];
-        let d = DIRS
+        // On the box's grid a spring's direction is its index step `j - i` (the 18 steps are
+        // distinct with at least 3 nodes along x and y), found without the positions: reading
+        // them at random and rounding was most of this set-up on large blocks.
+        let step = j as isize - i as isize;
+        let d = self
+            .off
             .iter()
-            .position(|&e| e == dir)
+            .position(|&o| o == step)
             .expect("a cubic-lattice spring has one of the 18 directions");
+        debug_assert_eq!(
+            {
+                let dx = lat.pos.get(j) - lat.pos.get(i);
+                let r = |v: Real| (v / lat.spacing).round() as i32;
+                [r(dx.x), r(dx.y), r(dx.z)]
+            },
+            DIRS[d]
+        );
         (i, d)
     }
 

@@ -845,7 +845,7 @@ mod tests {
             c.iter_mut().for_each(|x| *x *= 1.5);
         }
         let ends = b.lattice.bonds.ends.clone();
-        b.lattice.bonds = Bonds::from_pairs(b.nodes(), &ends, &pos, [0.0; 3]).unwrap();
+        b.lattice.bonds = Bonds::from_pairs(b.nodes(), ends, &pos, [0.0; 3]).unwrap();
         b.lattice.pos = pos;
         let mut state = State::new(&a);
         for i in 0..a.nodes() {

@@ -205,7 +205,7 @@ impl Lattice {
             .map(|(e, _)| [new_index[e[0] as usize], new_index[e[1] as usize]])
             .collect();
         let spring: Vec<Real> = merged.iter().map(|m| m.1).collect();
-        let bonds = Bonds::from_pairs(pos.len(), &pairs, &pos, [0.0; 3])?;
+        let bonds = Bonds::from_pairs(pos.len(), pairs, &pos, [0.0; 3])?;
         debug_assert_eq!(bonds.len(), spring.len());
         let total: Real = node.iter().sum();
         let n = pos.len();
