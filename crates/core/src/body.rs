@@ -1,6 +1,8 @@
 //! A body: a lattice with its material constants (spring stiffnesses, q, node masses).
 //! Immutable during a run; everything that changes lives in [`crate::State`].
 
+use rayon::prelude::*;
+
 use crate::error::{Error, Result};
 use crate::lattice::Lattice;
 use crate::material::{self, Elastic, PlaneModel};
@@ -69,11 +71,17 @@ impl Body {
     pub fn uniform(lattice: Lattice, k: Real, q: Real, node_mass: Real) -> Self {
         let nb = lattice.bonds.len();
         let nn = lattice.len();
+        // Filled in parallel: first writes to a large body's fresh memory share the cores.
+        let fill = |len: usize, v: Real| {
+            let mut out = Vec::with_capacity(len);
+            out.par_extend(rayon::iter::repeat_n(v, len));
+            out
+        };
         Body {
             lattice,
-            k: vec![k; nb],
+            k: fill(nb, k),
             q,
-            mass: vec![node_mass; nn],
+            mass: fill(nn, node_mass),
             lever: None,
         }
     }

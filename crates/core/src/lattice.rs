@@ -13,6 +13,8 @@
 //! The topology is immutable once built; whether a spring is intact lives in
 //! [`crate::State`].
 
+use rayon::prelude::*;
+
 use crate::error::{Error, Result};
 use crate::math::{Coords, Real, Vector};
 
@@ -107,13 +109,16 @@ impl Bonds {
             });
         }
         let mut ends = pairs;
-        for e in ends.iter_mut() {
+        ends.par_iter_mut().with_min_len(1 << 16).for_each(|e| {
             if e[0] > e[1] {
                 e.swap(0, 1);
             }
+        });
+        // Regular lattices list their springs in order already.
+        if !ends.is_sorted_by(|a, b| a < b) {
+            ends.sort_unstable();
+            ends.dedup();
         }
-        ends.sort_unstable();
-        ends.dedup();
         let mut deg = vec![0u32; n_nodes + 1];
         for &[i, j] in &ends {
             deg[i as usize] += 1;
@@ -142,7 +147,8 @@ impl Bonds {
             debug_assert!(nbr[s..t].windows(2).all(|w| w[0] < w[1]));
         }
         let rest = ends
-            .iter()
+            .par_iter()
+            .with_min_len(1 << 16)
             .map(|&[i, j]| {
                 let d = reference_vector(pos, period, i as usize, j as usize);
                 (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
@@ -311,16 +317,21 @@ impl Lattice {
                 })
             }
         };
+        // Positions and springs are made a layer of constant z at a time, in parallel: a large
+        // block's set-up is mostly first writes to fresh memory, which then share the cores.
+        let layer = n[0] * n[1];
         let mut pos = Coords::zeros(total);
-        let idx = |ix: usize, iy: usize, iz: usize| ix + n[0] * (iy + n[1] * iz);
-        for iz in 0..n[2] {
-            for iy in 0..n[1] {
-                for ix in 0..n[0] {
-                    let i = idx(ix, iy, iz);
-                    pos.set(i, Vector::new(ix as Real, iy as Real, iz as Real) * a);
-                }
-            }
+        for (c, comp) in pos.xyz_mut().into_iter().enumerate() {
+            comp.par_chunks_mut(layer)
+                .enumerate()
+                .for_each(|(iz, out)| {
+                    for (k, x) in out.iter_mut().enumerate() {
+                        let g = [k % n[0], k / n[0], iz];
+                        *x = g[c] as Real * a;
+                    }
+                });
         }
+        let idx = |ix: usize, iy: usize, iz: usize| ix + n[0] * (iy + n[1] * iz);
         // The 18-neighbour star, each spring taken from its lower-numbered end, so that the
         // list comes out sorted as `Bonds::from_pairs` wants it (sorting 9 springs per node
         // took a tenth of a large block's set-up).
@@ -335,40 +346,71 @@ impl Lattice {
             [0, 1, 1],
             [0, 1, -1],
         ];
-        let mut pairs = Vec::with_capacity(total * 9);
-        let mut row: Vec<u32> = Vec::with_capacity(18);
-        for iz in 0..n[2] {
-            for iy in 0..n[1] {
-                for ix in 0..n[0] {
-                    let i = idx(ix, iy, iz) as u32;
-                    row.clear();
-                    for d in HALF_STAR {
-                        for sign in [1, -1] {
-                            let mut j = [
-                                ix as i64 + sign * d[0],
-                                iy as i64 + sign * d[1],
-                                iz as i64 + sign * d[2],
-                            ];
-                            let mut inside = true;
-                            for c in 0..3 {
-                                if periodic[c] {
-                                    j[c] = j[c].rem_euclid(n[c] as i64);
-                                }
-                                inside &= (0..n[c] as i64).contains(&j[c]);
-                            }
-                            if inside {
-                                let j = idx(j[0] as usize, j[1] as usize, j[2] as usize) as u32;
-                                if j > i {
-                                    row.push(j);
-                                }
-                            }
+        // Node (ix, iy, iz)'s springs to higher-numbered nodes, ascending, into `row`.
+        let star = |ix: usize, iy: usize, iz: usize, row: &mut Vec<u32>| {
+            let i = idx(ix, iy, iz) as u32;
+            row.clear();
+            for d in HALF_STAR {
+                for sign in [1, -1] {
+                    let mut j = [
+                        ix as i64 + sign * d[0],
+                        iy as i64 + sign * d[1],
+                        iz as i64 + sign * d[2],
+                    ];
+                    let mut inside = true;
+                    for c in 0..3 {
+                        if periodic[c] {
+                            j[c] = j[c].rem_euclid(n[c] as i64);
+                        }
+                        inside &= (0..n[c] as i64).contains(&j[c]);
+                    }
+                    if inside {
+                        let j = idx(j[0] as usize, j[1] as usize, j[2] as usize) as u32;
+                        if j > i {
+                            row.push(j);
                         }
                     }
-                    row.sort_unstable();
-                    pairs.extend(row.iter().map(|&j| [i, j]));
                 }
             }
+            row.sort_unstable();
+        };
+        // Each layer's springs counted, then written into its own part of the list.
+        let counts: Vec<usize> = (0..n[2])
+            .into_par_iter()
+            .map(|iz| {
+                let mut row = Vec::with_capacity(18);
+                let mut count = 0;
+                for iy in 0..n[1] {
+                    for ix in 0..n[0] {
+                        star(ix, iy, iz, &mut row);
+                        count += row.len();
+                    }
+                }
+                count
+            })
+            .collect();
+        let mut pairs = vec![[0u32; 2]; counts.iter().sum()];
+        let mut parts = Vec::with_capacity(n[2]);
+        let mut rest = &mut pairs[..];
+        for &c in &counts {
+            let (part, tail) = rest.split_at_mut(c);
+            parts.push(part);
+            rest = tail;
         }
+        parts.into_par_iter().enumerate().for_each(|(iz, out)| {
+            let mut row = Vec::with_capacity(18);
+            let mut k = 0;
+            for iy in 0..n[1] {
+                for ix in 0..n[0] {
+                    star(ix, iy, iz, &mut row);
+                    let i = idx(ix, iy, iz) as u32;
+                    for &j in &row {
+                        out[k] = [i, j];
+                        k += 1;
+                    }
+                }
+            }
+        });
         let period = [0, 1, 2].map(|c| if periodic[c] { n[c] as Real * a } else { 0.0 });
         let bonds = Bonds::from_pairs(total, pairs, &pos, period)?;
         Ok(Lattice {
@@ -667,6 +709,47 @@ mod tests {
         }
         assert!(h.bonds.rest.iter().all(|&r| (r - 1.0).abs() < 1e-12));
         assert!(Lattice::hex_box_periodic(5, 5, 1.0, 1.0, [false, true]).is_err());
+    }
+
+    /// The layer-parallel generation gives exactly the springs of a brute-force search (every
+    /// pair at a or a sqrt(2), nearest image along periodic axes), in order, and the same bits
+    /// for any thread count.
+    #[test]
+    fn cubic_boxes_hold_every_neighbour_pair_once_in_order() {
+        for periodic in [[false; 3], [true, false, true], [false, true, true]] {
+            let n = [4, 3, 5];
+            let a = 0.3;
+            let l = Lattice::cubic_box_periodic(n, a, periodic).unwrap();
+            let mut expect = Vec::new();
+            for i in 0..l.len() {
+                for j in i + 1..l.len() {
+                    let g = |k: usize| [k % n[0], k / n[0] % n[1], k / (n[0] * n[1])];
+                    let (gi, gj) = (g(i), g(j));
+                    let mut r2 = 0;
+                    for c in 0..3 {
+                        let mut d = gj[c].abs_diff(gi[c]);
+                        if periodic[c] {
+                            d = d.min(n[c] - d);
+                        }
+                        r2 += d * d;
+                    }
+                    if r2 == 1 || r2 == 2 {
+                        expect.push([i as u32, j as u32]);
+                    }
+                }
+            }
+            assert_eq!(l.bonds.ends, expect, "{periodic:?}");
+            for threads in [1, 3] {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                let m = pool.install(|| Lattice::cubic_box_periodic(n, a, periodic).unwrap());
+                assert_eq!(m.bonds.ends, l.bonds.ends);
+                assert_eq!(m.bonds.nbr, l.bonds.nbr);
+                assert_eq!(m.bonds.bond, l.bonds.bond);
+                let bits = |v: &[Real]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&m.bonds.rest), bits(&l.bonds.rest));
+                assert_eq!(bits(m.pos.as_flat()), bits(l.pos.as_flat()));
+            }
+        }
     }
 
     #[test]

@@ -18,6 +18,8 @@
 
 use super::stencil::{simd_available, Src, Stencil};
 use super::{StepParams, SweepSums};
+use rayon::prelude::*;
+
 use crate::body::Body;
 use crate::lattice::LatticeKind;
 use crate::math::{Coords, Real};
@@ -25,6 +27,20 @@ use crate::state::State;
 
 /// Nodes per flag of the break screen.
 pub const SCREEN: usize = super::stencil::SCREEN;
+
+/// `1/S_n` of a node whose intact springs are the directions set in `mask` (`S_n = sum k L^2`
+/// in direction order), or 0 for a node without springs.
+fn inv_norm(mask: u32, k: Real, rest: &[Real; 18]) -> Real {
+    let s: Real = (0..18)
+        .filter(|d| mask & (1 << d) != 0)
+        .map(|d| k * rest[d] * rest[d])
+        .sum();
+    if s > 0.0 {
+        1.0 / s
+    } else {
+        0.0
+    }
+}
 
 /// The 18 directions of the Ladd star, in opposite pairs: `opposite(d) = d ^ 1`.
 pub const DIRS: [[i32; 3]; 18] = [
@@ -108,17 +124,32 @@ impl CubicStencil {
             reach,
             simd: simd_available(),
         };
-        for b in 0..lat.bonds.len() {
-            if state.alive[b] {
-                let (i, d) = s.direction_of(body, b);
-                let j = (i as isize + s.off[d]) as usize;
-                s.mask[i] |= 1 << d;
-                s.mask[j] |= 1 << (d ^ 1);
-            }
-        }
-        for i in 0..s.n {
-            s.refresh_norm(i);
-        }
+        // Each node's mask from its own row (a gather, in parallel: on a large block this is
+        // mostly first writes to fresh memory), then its 1/S_n.
+        let bonds = &lat.bonds;
+        let off = s.off;
+        s.mask
+            .par_iter_mut()
+            .with_min_len(1 << 12)
+            .enumerate()
+            .for_each(|(i, m)| {
+                for e in bonds.row(i) {
+                    if state.alive[bonds.bond[e] as usize] {
+                        let step = bonds.nbr[e] as isize - i as isize;
+                        let d = off
+                            .iter()
+                            .position(|&o| o == step)
+                            .expect("a cubic-lattice spring has one of the 18 directions");
+                        *m |= 1 << d;
+                    }
+                }
+            });
+        let (mask, k, rest) = (&s.mask, s.k, s.rest);
+        s.inv_norm
+            .par_iter_mut()
+            .with_min_len(1 << 12)
+            .enumerate()
+            .for_each(|(i, v)| *v = inv_norm(mask[i], k, &rest));
         Some(s)
     }
 
@@ -172,12 +203,7 @@ impl CubicStencil {
     }
 
     fn refresh_norm(&mut self, i: usize) {
-        let m = self.mask[i];
-        let s: Real = (0..18)
-            .filter(|d| m & (1 << d) != 0)
-            .map(|d| self.k * self.rest[d] * self.rest[d])
-            .sum();
-        self.inv_norm[i] = if s > 0.0 { 1.0 / s } else { 0.0 };
+        self.inv_norm[i] = inv_norm(self.mask[i], self.k, &self.rest);
     }
 
     /// Clear spring `b` from the masks and refresh both ends' `1/S_n`.
