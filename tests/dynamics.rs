@@ -460,6 +460,23 @@ fn stable_step_estimate_gives_the_state_back() {
         let again = stability::estimate(&body, &state, &kernel, 40, 1e-3);
         assert_eq!(again.lambda_max.to_bits(), est.lambda_max.to_bits());
     }
+    // The same bits for any thread count, on a body of several parallel blocks.
+    let big = cube(28, 0.3);
+    let mut state = State::new(&big);
+    state.v = smooth_field(&big, 2.0);
+    let kernel = Kernel::for_body(&big, &state);
+    let est: Vec<u64> = [1, 2, 3]
+        .map(|threads| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| stability::estimate(&big, &state, &kernel, 40, 1e-3))
+                .lambda_max
+                .to_bits()
+        })
+        .to_vec();
+    assert!(est.iter().all(|&e| e == est[0]), "{est:?}");
 }
 
 /// A time step above the limit is refused with the limit in the message; forced, the run blows

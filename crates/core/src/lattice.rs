@@ -740,7 +740,10 @@ mod tests {
             }
             assert_eq!(l.bonds.ends, expect, "{periodic:?}");
             for threads in [1, 3] {
-                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
                 let m = pool.install(|| Lattice::cubic_box_periodic(n, a, periodic).unwrap());
                 assert_eq!(m.bonds.ends, l.bonds.ends);
                 assert_eq!(m.bonds.nbr, l.bonds.nbr);

@@ -31,11 +31,15 @@
 //! true 12 k/m for the intact Ladd lattice) and serves as a check.
 
 use nalgebra::DMatrix;
+use rayon::prelude::*;
 
 use crate::body::Body;
 use crate::kernel::{Kernel, StepParams};
 use crate::math::{Coords, Real};
 use crate::state::State;
+
+/// Nodes per parallel task of the estimate's element-wise passes.
+const BLOCK: usize = 1 << 14;
 
 /// Default safety factor on the critical step.
 ///
@@ -98,16 +102,25 @@ pub(crate) fn estimate_using(
     u_next: &mut Coords,
 ) -> StableStep {
     let n = body.nodes();
-    let inv_sqrt_m: Vec<Real> = body.mass.iter().map(|m| 1.0 / m.sqrt()).collect();
+    let inv_sqrt_m: Vec<Real> = body
+        .mass
+        .par_iter()
+        .with_min_len(BLOCK)
+        .map(|m| 1.0 / m.sqrt())
+        .collect();
     let dims = body.lattice.dim();
     let mut op = KernelJacobian::new(body, state, u_next);
     // A deterministic, non-special start vector (a hash of the index), so dt is reproducible.
     let mut q = Coords::zeros(n);
-    for i in 0..n {
-        for c in 0..dims {
-            let h = (i as u64 * 3 + c as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 11;
-            q.comp_mut(c)[i] = (h as Real / (1u64 << 53) as Real) - 0.5;
-        }
+    for c in 0..dims {
+        q.comp_mut(c)
+            .par_iter_mut()
+            .with_min_len(BLOCK)
+            .enumerate()
+            .for_each(|(i, x)| {
+                let h = (i as u64 * 3 + c as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 11;
+                *x = (h as Real / (1u64 << 53) as Real) - 0.5;
+            });
     }
     let qn = q.norm();
     scale(&mut q, 1.0 / qn);
@@ -153,12 +166,21 @@ pub(crate) fn estimate_using(
         beta.push(b);
         std::mem::swap(&mut q_prev, &mut q);
         let inv = 1.0 / b;
+        // The maximum is exact in any order, so this pass runs in parallel.
         vmax = 0.0;
         for c in 0..3 {
-            for ((x, y), s) in q.comp_mut(c).iter_mut().zip(w.comp(c)).zip(&inv_sqrt_m) {
-                *x = y * inv;
-                vmax = Real::max(vmax, (*x * s).abs());
-            }
+            let top = q
+                .comp_mut(c)
+                .par_iter_mut()
+                .with_min_len(BLOCK)
+                .zip(w.comp(c))
+                .zip(&inv_sqrt_m)
+                .map(|((x, y), s)| {
+                    *x = y * inv;
+                    (*x * s).abs()
+                })
+                .reduce(|| 0.0, Real::max);
+            vmax = Real::max(vmax, top);
         }
     }
     let lambda_max = last;
@@ -209,7 +231,11 @@ impl<'a> KernelJacobian<'a> {
             saved_v: copy(&state.v),
             scratch: state,
             u_next,
-            unit_inv_mass: vec![1.0; n],
+            unit_inv_mass: {
+                let mut v = Vec::with_capacity(n);
+                v.par_extend(rayon::iter::repeat_n(1.0, n));
+                v
+            },
             spacing: body.lattice.spacing,
             partials: vec![Default::default(); crate::kernel::partials_len(n)],
             at_base: None,
@@ -220,22 +246,27 @@ impl<'a> KernelJacobian<'a> {
     /// with unit inverse masses, zero velocity and dt = 1 the kick leaves exactly the force in
     /// the velocity).
     fn force(&mut self, body: &Body, kernel: &Kernel, q: &Coords, inv_sqrt_m: &[Real], eps: Real) {
+        // Element by element, so in parallel (the reductions elsewhere stay in node order).
         for c in 0..3 {
-            let u = self.scratch.u.comp_mut(c).iter_mut();
+            let u = self
+                .scratch
+                .u
+                .comp_mut(c)
+                .par_iter_mut()
+                .with_min_len(BLOCK);
+            let xs = q.comp(c).par_iter().zip(inv_sqrt_m);
             match &self.base {
-                Some(base) => {
-                    for (((u, b), x), s) in u.zip(base.comp(c)).zip(q.comp(c)).zip(inv_sqrt_m) {
-                        *u = b + eps * (x * s);
-                    }
-                }
-                None => {
-                    for ((u, x), s) in u.zip(q.comp(c)).zip(inv_sqrt_m) {
-                        *u = 0.0 + eps * (x * s);
-                    }
-                }
+                Some(base) => u.zip(base.comp(c)).zip(xs).for_each(|((u, b), (x, s))| {
+                    *u = b + eps * (x * s);
+                }),
+                None => u.zip(xs).for_each(|(u, (x, s))| {
+                    *u = 0.0 + eps * (x * s);
+                }),
             }
         }
-        self.scratch.v.fill_zero();
+        for v in self.scratch.v.xyz_mut() {
+            v.par_iter_mut().with_min_len(BLOCK).for_each(|v| *v = 0.0);
+        }
         kernel.pools(body, self.scratch);
         let p = StepParams {
             dt: 1.0,
