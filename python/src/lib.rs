@@ -7,6 +7,11 @@
 
 mod spec;
 
+// Large arrays at staggered offsets into their pages, as in the `hooke` binary
+// (hooke_core::memory): the extension's own allocations only; Python's are its own.
+#[global_allocator]
+static ALLOC: hooke_core::memory::Staggered = hooke_core::memory::Staggered;
+
 use std::path::PathBuf;
 use std::time::Instant;
 

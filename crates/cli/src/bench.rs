@@ -190,6 +190,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
         it.distribute(&body, t.clone());
     }
     let setup_seconds = setup.elapsed().as_secs_f64();
+    // As `hooke run` does after its set-up (hooke_sim::Run::start).
+    hooke_core::memory::release_free_memory();
     if let Some(path) = &args.export_lammps {
         write_lammps(path, &body, &state, it.dt)
             .with_context(|| format!("writing the LAMMPS data file {}", path.display()))?;

@@ -5,6 +5,11 @@ use std::process::ExitCode;
 
 use clap::Parser;
 
+// Large arrays start at staggered offsets into their pages, so that the kernels' streams do
+// not alias modulo 4 KiB (hooke_core::memory).
+#[global_allocator]
+static ALLOC: hooke_core::memory::Staggered = hooke_core::memory::Staggered;
+
 fn main() -> ExitCode {
     // `hooke check case.toml | head` closes our stdout early. Rust ignores SIGPIPE, so the next
     // println! would panic with a backtrace; the Unix convention (and what users of `head` and
@@ -15,6 +20,9 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    // Large blocks in mappings of their own, given back when freed: a body's set-up
+    // temporaries otherwise stay resident for the whole run (hooke_core::memory).
+    hooke_core::memory::map_large_blocks();
     let cli = match hooke_cli::Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {

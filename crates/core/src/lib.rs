@@ -26,6 +26,7 @@ pub mod law;
 pub mod loading;
 pub mod material;
 pub mod math;
+pub mod memory;
 pub mod moduli;
 pub mod random;
 pub mod relax;

@@ -377,6 +377,8 @@ impl Run {
                 c.distribute(team.clone());
             }
         }
+        // The set-up's temporaries are gone: give their memory back for the run.
+        hooke_core::memory::release_free_memory();
         let resuming = opts.resume.is_some();
         let until = sim.state.time;
         // VTK frames in pieces, one per process, when shared.

@@ -288,12 +288,13 @@ pub(crate) fn refresh_displacements(
         && state.rec[n].0[..3] == rk.far
         && (n == 0 || (same(0) && same(n / 2) && same(n - 1)));
     if !built {
+        // The nodes, then the dummy, collected at their exact length (a push after the
+        // collect doubled the capacity).
+        let far = Record([rk.far[0], rk.far[1], rk.far[2], 0.0, 0.0, 0.0, 0.0, 0.0]);
         state.rec = (0..n)
             .map(|i| Record([pos.x()[i], pos.y()[i], pos.z()[i], 0.0, 0.0, 0.0, 0.0, 0.0]))
+            .chain(std::iter::once(far))
             .collect();
-        state.rec.push(Record([
-            rk.far[0], rk.far[1], rk.far[2], 0.0, 0.0, 0.0, 0.0, 0.0,
-        ]));
     }
     let u = &state.u;
     each_record(&mut state.rec[..n], rk.reads(own), |i, r| {
