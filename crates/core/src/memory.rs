@@ -186,7 +186,7 @@ mod tests {
             // layout.
             unsafe {
                 let p = a.alloc_zeroed(layout);
-                assert!(!p.is_null() && p as usize % 64 == 0);
+                assert!(!p.is_null() && (p as usize).is_multiple_of(64));
                 if size >= LARGE_BLOCK {
                     offsets.push(p as usize % SPAN);
                 }
