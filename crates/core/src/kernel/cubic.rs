@@ -42,6 +42,16 @@ fn inv_norm(mask: u32, k: Real, rest: &[Real; 18]) -> Real {
     }
 }
 
+/// The direction from node `i` to its neighbour `j` on the box's grid, from the index step
+/// `j - i` alone (the 18 steps `off` are distinct with at least 3 nodes along x and y): reading
+/// positions at random and rounding them was most of a large block's stencil set-up.
+fn direction(off: &[isize; 18], i: usize, j: usize) -> usize {
+    let step = j as isize - i as isize;
+    off.iter()
+        .position(|&o| o == step)
+        .expect("a cubic-lattice spring has one of the 18 directions")
+}
+
 /// The 18 directions of the Ladd star, in opposite pairs: `opposite(d) = d ^ 1`.
 pub const DIRS: [[i32; 3]; 18] = [
     [1, 0, 0],
@@ -135,12 +145,7 @@ impl CubicStencil {
             .for_each(|(i, m)| {
                 for e in bonds.row(i) {
                     if state.alive[bonds.bond[e] as usize] {
-                        let step = bonds.nbr[e] as isize - i as isize;
-                        let d = off
-                            .iter()
-                            .position(|&o| o == step)
-                            .expect("a cubic-lattice spring has one of the 18 directions");
-                        *m |= 1 << d;
+                        *m |= 1 << direction(&off, i, bonds.nbr[e] as usize);
                     }
                 }
             });
@@ -182,15 +187,7 @@ impl CubicStencil {
     fn direction_of(&self, body: &Body, b: usize) -> (usize, usize) {
         let lat = &body.lattice;
         let [i, j] = lat.bonds.ends[b].map(|v| v as usize);
-        // On the box's grid a spring's direction is its index step `j - i` (the 18 steps are
-        // distinct with at least 3 nodes along x and y), found without the positions: reading
-        // them at random and rounding was most of this set-up on large blocks.
-        let step = j as isize - i as isize;
-        let d = self
-            .off
-            .iter()
-            .position(|&o| o == step)
-            .expect("a cubic-lattice spring has one of the 18 directions");
+        let d = direction(&self.off, i, j);
         debug_assert_eq!(
             {
                 let dx = lat.pos.get(j) - lat.pos.get(i);
