@@ -40,22 +40,27 @@ pub(crate) trait Stencil: Sync {
     fn q(&self) -> Real;
     /// Dimension of the body (2: a plate, whose z components may be left alone).
     fn dim(&self) -> usize;
-    /// Whether the 8 nodes from `i` run on the vector path (it is on, the processor has it, and
-    /// the block and its neighbours lie inside the arrays).
+    /// Nodes in a block of the vector path: 8 (one vector of lanes), or a multiple of 8 that
+    /// divides [`SCREEN`] for a kernel that deals a block's nodes to its lanes in another order.
+    fn block_len(&self) -> usize {
+        8
+    }
+    /// Whether the block of [`Stencil::block_len`] nodes from `i` runs on the vector path (it
+    /// is on, the processor has it, and the block and its neighbours lie inside the arrays).
     fn vector_block(&self, i: usize) -> bool;
     /// Node i's pool and whether one of its intact springs has `dL > screen L`.
     fn pool_one(&self, u: &Src, i: usize, screen: Real) -> (Real, bool);
     /// Node i's force.
     fn force_one(&self, u: &Src, pool: &[Real], i: usize) -> [Real; 3];
-    /// Pools of the 8 nodes from `i` into `out`, and whether one of their springs is past the
-    /// screen.
+    /// Pools of the block's nodes from `i` into `out`, and whether one of their springs is past
+    /// the screen.
     ///
     /// # Safety
     /// Only when [`Stencil::vector_block`] holds for `i`.
     #[cfg(target_arch = "x86_64")]
     unsafe fn pool_block(&self, u: &Src, i: usize, out: &mut [Real], screen: Real) -> bool;
-    /// Force, kick and drift of the 8 nodes from `i` (`v` and `un` hold their 8 entries), their
-    /// shares of the sums added to `sums` node by node.
+    /// Force, kick and drift of the block's nodes from `i` (`v` and `un` hold their entries),
+    /// their shares of the sums added to `sums` node by node.
     ///
     /// # Safety
     /// Only when [`Stencil::vector_block`] holds for `i`.
@@ -140,17 +145,18 @@ fn pool_chunk<S: Stencil>(
 ) {
     hot.fill(false);
     let start = c * CHUNK;
+    let b = s.block_len();
     let mut k = 0;
     while k < out.len() {
         let i = start + k;
         #[cfg(target_arch = "x86_64")]
-        if k + 8 <= out.len() && s.vector_block(i) {
+        if k + b <= out.len() && s.vector_block(i) {
             // SAFETY: `vector_block` holds for i.
-            let h = unsafe { s.pool_block(u, i, &mut out[k..k + 8], screen) };
-            // A block of 8 may straddle two screen blocks (scalar steps shift it).
+            let h = unsafe { s.pool_block(u, i, &mut out[k..k + b], screen) };
+            // A block may straddle two screen blocks (scalar steps shift it).
             hot[k / SCREEN] |= h;
-            hot[(k + 7) / SCREEN] |= h;
-            k += 8;
+            hot[(k + b - 1) / SCREEN] |= h;
+            k += b;
             continue;
         }
         let (p, h) = s.pool_one(u, i, screen);
@@ -221,12 +227,13 @@ pub(crate) fn force_kick_drift<S: Stencil>(
         } = o;
         let mut sums = SweepSums::default();
         let len = r.len();
+        let b = s.block_len();
         let mut k = 0;
         while k < len {
             let i = r.start + k;
             #[cfg(target_arch = "x86_64")]
-            if k + 8 <= len && s.vector_block(i) {
-                // SAFETY: `vector_block` holds for i; the output slices hold the block's 8
+            if k + b <= len && s.vector_block(i) {
+                // SAFETY: `vector_block` holds for i; the output slices hold the block's
                 // nodes.
                 unsafe {
                     s.force_kick_drift_block(
@@ -235,12 +242,12 @@ pub(crate) fn force_kick_drift<S: Stencil>(
                         inv_mass,
                         p,
                         i,
-                        [&mut vx[k..k + 8], &mut vy[k..k + 8], &mut vz[k..k + 8]],
-                        [&mut nx[k..k + 8], &mut ny[k..k + 8], &mut nz[k..k + 8]],
+                        [&mut vx[k..k + b], &mut vy[k..k + b], &mut vz[k..k + b]],
+                        [&mut nx[k..k + b], &mut ny[k..k + b], &mut nz[k..k + b]],
                         &mut sums,
                     )
                 };
-                k += 8;
+                k += b;
                 continue;
             }
             let f = s.force_one(u, pool, i);
