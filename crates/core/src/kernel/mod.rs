@@ -271,7 +271,9 @@ impl Kernel {
                 stencil::force_kick_drift(s, state, inv_mass, p, u_next, partials, chunks)
             }
             Kernel::Rows(r) => {
-                rows::refresh_pools(r, state, Some(chunks.clone()));
+                if r.q != 0.0 {
+                    rows::refresh_pools(r, state, Some(chunks.clone()));
+                }
                 stencil::force_kick_drift(r, state, inv_mass, p, u_next, partials, chunks)
             }
         }

@@ -86,7 +86,7 @@ struct Slots {
 pub struct RowKernel {
     n: usize,
     dim: usize,
-    q: Real,
+    pub(crate) q: Real,
     slots: Arc<Slots>,
     /// The dummy record's position: far from every node, so that its (ignored) spring has a
     /// finite, non-zero length.
@@ -625,11 +625,11 @@ mod avx {
         d: [__m512d; 3],
         d2: __m512d,
         num: __m512d,
-        nb: [__m512d; 7],
         k: __m512d,
         rest: __m512d,
         lever: __m512d,
         real: __mmask8,
+        nb: [__m512d; 7],
     }
 
     /// The operations of one slot.
@@ -683,11 +683,11 @@ mod avx {
                 d,
                 d2,
                 num,
-                nb,
                 k,
                 rest,
                 lever,
                 real,
+                nb,
             }
         }
     }
@@ -790,6 +790,7 @@ mod avx {
         let s = &rk.slots;
         let q = _mm512_set1_pd(rk.q);
         let one = _mm512_set1_pd(1.0);
+        let plain = rk.q == 0.0;
         // SAFETY (caller): in bounds as stated.
         unsafe {
             for g in i / 8..(i + WINDOW) / 8 {
@@ -797,6 +798,9 @@ mod avx {
                 let js = group_nodes(rk, g);
                 let me = records(base, &js);
                 let z = _mm512_setzero_pd();
+                // The plain law's pools are all +0: it reads none (the records may hold
+                // another law's, and need no refresh).
+                let pi = if plain { z } else { me[6] };
                 let mut acc = [z; 3];
                 for slot in s.start[g] as usize..s.start[g + 1] as usize {
                     let t = slot_at::<D, LEVER, STORED>(rk, base, &me, 8 * slot);
@@ -804,9 +808,10 @@ mod avx {
                     let inv = _mm512_div_pd(one, l);
                     let dl = _mm512_div_pd(t.num, _mm512_add_pd(l, t.rest));
                     let r1 = _mm512_mul_pd(_mm512_mul_pd(q, t.k), t.lever);
+                    let pj = if plain { z } else { t.nb[6] };
                     let tt = _mm512_add_pd(
                         _mm512_mul_pd(t.k, dl),
-                        _mm512_mul_pd(r1, _mm512_add_pd(me[6], t.nb[6])),
+                        _mm512_mul_pd(r1, _mm512_add_pd(pi, pj)),
                     );
                     for c in 0..D {
                         acc[c] =
