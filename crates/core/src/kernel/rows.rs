@@ -101,6 +101,17 @@ impl RowKernel {
     /// The row kernel of `body` in `state` (its intact springs and current stiffnesses); `None`
     /// for a periodic lattice.
     pub fn new(body: &Body, state: &State) -> Option<Self> {
+        Self::build(body, state, true)
+    }
+
+    /// The same kernel with each group holding 8 consecutive nodes, as before windows dealt
+    /// them by row length (the same bits; for measuring what [`deal`] gains).
+    #[doc(hidden)]
+    pub fn undealt(body: &Body, state: &State) -> Option<Self> {
+        Self::build(body, state, false)
+    }
+
+    fn build(body: &Body, state: &State, dealt: bool) -> Option<Self> {
         let lat = &body.lattice;
         if lat.is_periodic() {
             return None;
@@ -115,7 +126,11 @@ impl RowKernel {
             rest_of::<3>(big).to_bits() != l.to_bits()
         });
         let groups = n.div_ceil(8);
-        let (lanes, at) = deal(n, |i| bonds.row(i).len());
+        let (lanes, at) = if dealt {
+            deal(n, |i| bonds.row(i).len())
+        } else {
+            deal(n, |_| 0)
+        };
         let node = |p: usize| WINDOW * (p / WINDOW) + lanes[p] as usize;
         let width = |g: usize| {
             (8 * g..8 * g + 8)
