@@ -949,6 +949,68 @@ mod tests {
             .collect()
     }
 
+    /// Each whole window deals every one of its nodes to exactly one lane, `at` inverts
+    /// `lanes`, a partial last window keeps its order, and the dealt groups store at most 6 %
+    /// more entries than the rows hold (groups of consecutive nodes: about 20 % more).
+    #[test]
+    fn windows_deal_their_nodes_once_and_cut_the_padding() {
+        for dim in [2, 3] {
+            let spec = RandomSpec::default();
+            let hi = if dim == 3 {
+                [24.0, 22.0, 20.0]
+            } else {
+                [140.0, 120.0, 0.0]
+            };
+            let lat = Lattice::random(dim, [0.0; 3], hi, 1.0, 1.0, spec, &|_| true).unwrap();
+            let body = Body::uniform(lat, 1.0, 0.2, 1.0);
+            let n = body.nodes();
+            assert!(
+                n % super::WINDOW != 0,
+                "a partial last window is part of the test"
+            );
+            let len = |i: usize| body.lattice.bonds.row(i).len();
+            let (lanes, at) = super::deal(n, len);
+            for i in 0..n {
+                let p = super::WINDOW * (i / super::WINDOW) + at[i] as usize;
+                assert_eq!(super::WINDOW * (p / super::WINDOW) + lanes[p] as usize, i);
+            }
+            for i in super::WINDOW * (n / super::WINDOW)..n {
+                assert_eq!(
+                    at[i] as usize,
+                    i % super::WINDOW,
+                    "the partial window keeps its order"
+                );
+            }
+            let stored = |lanes: &[u8]| -> usize {
+                (0..lanes.len() / 8)
+                    .map(|g| {
+                        let w = (0..8)
+                            .map(|l| super::WINDOW * (g / 8) + lanes[8 * g + l] as usize)
+                            .filter(|&i| i < n)
+                            .map(len)
+                            .max()
+                            .unwrap_or(0);
+                        8 * w
+                    })
+                    .sum()
+            };
+            let real: usize = (0..n).map(len).sum();
+            let (dealt, consecutive) = (stored(&lanes), stored(&super::deal(n, |_| 0).0));
+            let (dealt, consecutive) = (
+                dealt as Real / real as Real,
+                consecutive as Real / real as Real,
+            );
+            assert!(
+                dealt < 1.06 && consecutive > 1.15,
+                "dim {dim}: {dealt} {consecutive}"
+            );
+            // The kernel on the dealt rows gives the CSR kernel's bits (the test below, on
+            // smaller bodies); here the same for a body of several hundred windows.
+            let (rows, csr) = (run(&body, Path::Vector).0, run(&body, Path::Csr).0);
+            assert!(bits(&rows) == bits(&csr), "dim {dim}");
+        }
+    }
+
     /// A state swept with one body and then with another of as many nodes (here the same
     /// lattice stretched by half) gets its records rebuilt: the forces are the CSR kernel's.
     #[test]
