@@ -965,7 +965,7 @@ mod tests {
             let body = Body::uniform(lat, 1.0, 0.2, 1.0);
             let n = body.nodes();
             assert!(
-                n % super::WINDOW != 0,
+                !n.is_multiple_of(super::WINDOW),
                 "a partial last window is part of the test"
             );
             let len = |i: usize| body.lattice.bonds.row(i).len();
