@@ -40,8 +40,9 @@ pub const KEPT_BLOCK: usize = 32 << 20;
 static MAPPING: AtomicBool = AtomicBool::new(false);
 
 /// Give every block of at least [`LARGE_BLOCK`] bytes its own mapping, returned to the system
-/// when it is freed (glibc's `M_MMAP_THRESHOLD`, fixed), while a body is set up. A
-/// process-wide policy, for a program to set at its start: the `hooke` binary does. The hot
+/// when it is freed (glibc's `M_MMAP_THRESHOLD`, fixed), until a set-up is done
+/// ([`release_free_memory`]; a later set-up in the same process keeps the heap's policy then).
+/// A process-wide policy, for a program to set at its start: the `hooke` binary does. The hot
 /// loop allocates nothing, so only set-up and output see it.
 ///
 /// Fixing the mapping threshold also fixes glibc's trim threshold, at 128 KiB unless set: every
@@ -64,8 +65,8 @@ pub fn map_large_blocks() {
 /// it when freed: an output frame allocates and frees megabytes (the springs' geometry, the
 /// stresses, the encoded arrays), and in fresh mappings each of its pages was faulted in anew
 /// every frame (this machine does that at about 1 GB/s). On the random glass plate (`hooke
-/// bench --frame --case cases/glass_branching_random.toml`) the frame's call took 27 ms
-/// against 9 ms with the heap's pages reused.
+/// bench --frame --case cases/glass_branching_random.toml`) the frame's call took 21-29 ms,
+/// and takes 13-14 ms with the heap's pages reused (9-14 ms without a fixed threshold at all).
 pub fn release_free_memory() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     // SAFETY: `malloc_trim` only returns free pages of the allocator's own arenas to the
