@@ -271,9 +271,7 @@ impl Kernel {
                 stencil::force_kick_drift(s, state, inv_mass, p, u_next, partials, chunks)
             }
             Kernel::Rows(r) => {
-                if r.q != 0.0 {
-                    rows::refresh_pools(r, state, Some(chunks.clone()));
-                }
+                rows::refresh_pools(r, state, Some(chunks.clone()));
                 stencil::force_kick_drift(r, state, inv_mass, p, u_next, partials, chunks)
             }
         }

@@ -86,7 +86,7 @@ struct Slots {
 pub struct RowKernel {
     n: usize,
     dim: usize,
-    pub(crate) q: Real,
+    q: Real,
     slots: Arc<Slots>,
     /// The dummy record's position: far from every node, so that its (ignored) spring has a
     /// finite, non-zero length.
@@ -333,12 +333,16 @@ pub(crate) fn refresh_displacements(
 }
 
 /// Write the pools into the records (before sweep 2, after any repair): every record, or with
-/// `own` those the rows of one rank's node chunks read.
+/// `own` those the rows of one rank's node chunks read. None for the plain law, whose pools
+/// are all +0 and whose sweep 2 reads none from the records.
 pub(crate) fn refresh_pools(
     rk: &RowKernel,
     state: &mut State,
     own: Option<std::ops::Range<usize>>,
 ) {
+    if rk.q == 0.0 {
+        return;
+    }
     let pool = &state.pool;
     each_record(&mut state.rec[..rk.n], rk.reads(own), |i, r| r[6] = pool[i]);
 }
@@ -727,6 +731,17 @@ mod avx {
     #[repr(C, align(64))]
     pub(super) struct Window(pub [[Real; WINDOW]; 3]);
 
+    /// Lane `l` of `v` into `out[js[l] - i]`: a group's values into its window's node order.
+    #[inline(always)]
+    unsafe fn scatter(v: __m512d, js: &[u32; 8], i: usize, out: &mut [Real; WINDOW]) {
+        let mut lane = [0.0; 8];
+        // SAFETY (caller): AVX-512F.
+        unsafe { _mm512_storeu_pd(lane.as_mut_ptr(), v) };
+        for l in 0..8 {
+            out[js[l] as usize - i] = lane[l];
+        }
+    }
+
     /// The nodes of group `g`'s lanes.
     #[inline(always)]
     fn group_nodes(rk: &RowKernel, g: usize) -> [u32; 8] {
@@ -771,11 +786,7 @@ mod avx {
                     );
                     acc = _mm512_add_pd(acc, _mm512_mul_pd(_mm512_mul_pd(t.k, t.lever), dl));
                 }
-                let mut lane = [0.0; 8];
-                _mm512_storeu_pd(lane.as_mut_ptr(), acc);
-                for l in 0..8 {
-                    sums.0[0][js[l] as usize - i] = lane[l];
-                }
+                scatter(acc, &js, i, &mut sums.0[0]);
             }
             for b in 0..WINDOW / 8 {
                 let acc = _mm512_load_pd(sums.0[0].as_ptr().add(8 * b));
@@ -834,11 +845,7 @@ mod avx {
                     }
                 }
                 for c in 0..D {
-                    let mut lane = [0.0; 8];
-                    _mm512_storeu_pd(lane.as_mut_ptr(), acc[c]);
-                    for l in 0..8 {
-                        f.0[c][js[l] as usize - i] = lane[l];
-                    }
+                    scatter(acc[c], &js, i, &mut f.0[c]);
                 }
             }
         }
