@@ -93,7 +93,7 @@ impl Lattice {
         a: Real,
         h: Real,
         spec: RandomSpec,
-        inside: &dyn Fn([Real; 3]) -> bool,
+        inside: &(dyn Fn([Real; 3]) -> bool + Sync),
     ) -> Result<Lattice> {
         Self::random_conforming(dim, lo, hi, a, h, spec, inside, &[])
     }
@@ -110,7 +110,7 @@ impl Lattice {
         a: Real,
         h: Real,
         spec: RandomSpec,
-        inside: &dyn Fn([Real; 3]) -> bool,
+        inside: &(dyn Fn([Real; 3]) -> bool + Sync),
         curved: &[sample::Curved],
     ) -> Result<Lattice> {
         if !(a.is_finite() && a > 0.0) {
@@ -263,6 +263,7 @@ fn shares(
     // Node by node, each node's sums in the order of its simplices: in parallel over blocks of
     // nodes whose results are joined in node order, so the same bits for any thread count.
     const BLOCK: usize = 4096;
+    const AHEAD: usize = 4;
     type Shares = (Vec<Real>, Vec<([u32; 2], Real)>);
     let blocks: Vec<Shares> = (0..n.div_ceil(BLOCK))
         .into_par_iter()
@@ -272,6 +273,14 @@ fn shares(
             let mut edges = Vec::new();
             let mut row: Vec<(u32, Real)> = Vec::new();
             for i in nodes.clone() {
+                // The simplices around a node are scattered through the list: load those of a
+                // node a few ahead while this one's are summed.
+                if let Some(ahead) = offsets.get(i + AHEAD + 1) {
+                    for &s in &around[offsets[i + AHEAD]..*ahead] {
+                        crate::memory::prefetch(&verts[s as usize * nodes_per]);
+                        crate::memory::prefetch(&measures[s as usize]);
+                    }
+                }
                 row.clear();
                 let vi = &mut node_vol[i - nodes.start];
                 for &s in &around[offsets[i]..offsets[i + 1]] {
@@ -323,18 +332,26 @@ fn morton_sort(pts: &mut [[Real; 3]], flag: &mut [bool], lo: [Real; 3], hi: [Rea
 fn simplices<const N: usize>(
     pts: &[[Real; 3]],
     a: Real,
-    inside: &dyn Fn([Real; 3]) -> bool,
-    chord: &dyn Fn(u32, u32) -> bool,
+    inside: &(dyn Fn([Real; 3]) -> bool + Sync),
+    chord: &(dyn Fn(u32, u32) -> bool + Sync),
 ) -> Result<(Vec<u32>, Vec<Real>, Vec<[Real; 3]>)> {
     let mesh = delaunay::triangulate::<N>(pts)?;
     let tiny = 1e-12 * a.powi(N as i32 - 1);
     let at = |i: u32| pts[i as usize];
-    let keep: Vec<bool> = mesh
+    // Each simplex's measure, or NaN for one the shape drops: a simplex is judged on its own,
+    // so in parallel.
+    let kept: Vec<Real> = mesh
         .simplices
-        .iter()
+        .par_iter()
+        .with_min_len(1 << 14)
         .map(|v| {
-            if delaunay::measure(pts, v) <= tiny {
-                return false;
+            let m = delaunay::measure(pts, v);
+            if m <= 0.0 {
+                // Exact orientation: the triangulation gives none of these (delaunay.rs).
+                return Real::NEG_INFINITY;
+            }
+            if m <= tiny {
+                return Real::NAN;
             }
             let mut c = [0.0; 3];
             for &i in v {
@@ -359,21 +376,34 @@ fn simplices<const N: usize>(
                     }
                 }
             }
-            ok
+            if ok {
+                m
+            } else {
+                Real::NAN
+            }
         })
         .collect();
+    if kept.contains(&Real::NEG_INFINITY) {
+        return Err(Error::InvalidInput {
+            what: "random lattice",
+            why: "the Delaunay triangulation of the nodes holds an inverted simplex, which it \
+                  should never do: please report the case (a different random seed may avoid it)"
+                .into(),
+        });
+    }
+    let keep = |s: usize| !kept[s].is_nan();
     let mut verts = Vec::new();
     let mut measures = Vec::new();
     let mut surface = vec![[0.0; 3]; pts.len()];
     for (s, v) in mesh.simplices.iter().enumerate() {
-        if !keep[s] {
+        if !keep(s) {
             continue;
         }
         verts.extend_from_slice(v);
-        measures.push(delaunay::measure(pts, v));
+        measures.push(kept[s]);
         for k in 0..N {
             let t = mesh.nbr[s][k];
-            if t != u32::MAX && keep[t as usize] {
+            if t != u32::MAX && keep(t as usize) {
                 continue;
             }
             // Boundary facet opposite vertex k: area vector pointing away from v[k].

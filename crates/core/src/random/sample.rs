@@ -359,6 +359,12 @@ struct Grid {
     lo: [f64; 3],
     cell: f64,
     n: [usize; 3],
+    /// Index steps along x, y and z of the arrays below, which hold a border of two empty
+    /// cells around the box on each sampled axis: a cell's neighbours within two cells are
+    /// then at fixed index offsets, with no test of the box's edges.
+    stride: [usize; 3],
+    /// The border's width on each axis (none on a plate's z).
+    border: [usize; 3],
     /// The node of each cell, by value: a read at a random place (the Bridson front wanders)
     /// then misses the cache once, not twice as an index into the node list would.
     node: Vec<[f64; 3]>,
@@ -374,18 +380,26 @@ struct Grid {
     /// Cells whose node is further from its coarse position than the bound allows (only
     /// possible for a node clamped into an edge cell): always read exactly.
     loose: Vec<u64>,
-    /// The cell offsets that can hold a node closer than `r`, nearest first (see
-    /// [`Grid::far_from_all`]).
-    near: Vec<[i32; 3]>,
+    /// The cell offsets that can hold a node closer than `r`, nearest first, each with its
+    /// index offset (see [`Grid::far_from_all`]).
+    near: Vec<([i32; 3], isize)>,
 }
+
+/// Empty cells on each side of a sampled axis (the reach of [`Grid::far_from_all`]).
+const BORDER: usize = 2;
 
 impl Grid {
     fn new(dim: usize, lo: [f64; 3], hi: [f64; 3], r: f64) -> Self {
         let cell = r / (dim as f64).sqrt();
         let mut n = [1usize; 3];
+        let mut padded = [1usize; 3];
+        let mut border = [0usize; 3];
         for c in 0..dim {
             n[c] = ((hi[c] - lo[c]) / cell).floor() as usize + 1;
+            border[c] = BORDER;
+            padded[c] = n[c] + 2 * BORDER;
         }
+        let stride = [1, padded[0], padded[0] * padded[1]];
         // Offsets within two cells (ceil(sqrt(3)) cells of side r/sqrt(d) cover the distance
         // r), ordered by the whole cells between (a gap of g cells on an axis keeps a node g
         // cells away) and then by distance: a rejected candidate usually meets its blocker in
@@ -396,23 +410,27 @@ impl Grid {
         for k in span {
             for j in -2..=2i32 {
                 for i in -2..=2i32 {
-                    near.push([i, j, k]);
+                    let d = [i, j, k];
+                    let step = (0..3).map(|a| d[a] as isize * stride[a] as isize).sum();
+                    near.push((d, step));
                 }
             }
         }
-        near.sort_by_key(|d| {
+        near.sort_by_key(|(d, _)| {
             let g2 = gap(d[0]).pow(2) + gap(d[1]).pow(2) + gap(d[2]).pow(2);
             (g2, d[0].pow(2) + d[1].pow(2) + d[2].pow(2))
         });
-        let coarse = vec![[0; 3]; n[0] * n[1] * n[2]];
+        let cells = padded[0] * padded[1] * padded[2];
         Grid {
             lo,
             cell,
             n,
-            node: vec![[0.0; 3]; n[0] * n[1] * n[2]],
-            full: vec![0; (n[0] * n[1] * n[2]).div_ceil(64)],
-            coarse,
-            loose: vec![0; (n[0] * n[1] * n[2]).div_ceil(64)],
+            stride,
+            border,
+            node: vec![[0.0; 3]; cells],
+            full: vec![0; cells.div_ceil(64)],
+            coarse: vec![[0; 3]; cells],
+            loose: vec![0; cells.div_ceil(64)],
             near,
         }
     }
@@ -420,14 +438,20 @@ impl Grid {
     fn cell_of(&self, p: [f64; 3]) -> [usize; 3] {
         let mut c = [0usize; 3];
         for a in 0..3 {
-            c[a] = (((p[a] - self.lo[a]) / self.cell).floor().max(0.0) as usize).min(self.n[a] - 1);
+            // Truncation is the floor here: the quotient is clamped at 0 first (a NaN too).
+            c[a] = (((p[a] - self.lo[a]) / self.cell).max(0.0) as usize).min(self.n[a] - 1);
         }
         c
     }
 
+    /// Where cell `c` (of the box, not counting the border) sits in the arrays.
+    fn index(&self, c: [usize; 3]) -> usize {
+        (0..3).map(|a| (c[a] + self.border[a]) * self.stride[a]).sum()
+    }
+
     /// Whether no node lies closer than `r` to `p`. The answer does not depend on the order
-    /// in which cells are visited, so visiting the nearest first (and skipping cells that
-    /// cannot hold a node within `r`) changes no node set, only the time a rejection takes.
+    /// in which cells are visited, so visiting the nearest first changes no node set, only the
+    /// time a rejection takes.
     ///
     /// Each full cell is first judged from its node's coarse position `q'`, which is within
     /// `e = (1/2 + 10^-6) cell / 255` of the node on each axis, so `| |p - q| - |p - q'| | <=
@@ -440,31 +464,17 @@ impl Grid {
     /// r^2` on the node's own coordinates.
     fn far_from_all(&self, p: [f64; 3], r: f64) -> bool {
         let c = self.cell_of(p);
+        let base = self.index(c) as isize;
         let r2 = r * r;
         let big = 3f64.sqrt() * (0.5 + 1e-6) * self.cell / 255.0;
         let sure_near = ((r - big) * (1.0 - 1e-7)).max(0.0).powi(2);
         let sure_far = ((r + big) * (1.0 + 1e-7)).powi(2);
-        for d in &self.near {
-            let (i, j, kz) = (
-                c[0] as i64 + d[0] as i64,
-                c[1] as i64 + d[1] as i64,
-                c[2] as i64 + d[2] as i64,
-            );
-            if i < 0
-                || j < 0
-                || kz < 0
-                || i >= self.n[0] as i64
-                || j >= self.n[1] as i64
-                || kz >= self.n[2] as i64
-            {
-                continue;
-            }
-            let at = i as usize + self.n[0] * (j as usize + self.n[1] * kz as usize);
+        for &(d, step) in &self.near {
+            // Within the border, so inside the arrays; a full cell lies in the box.
+            let at = (base + step) as usize;
             if bit(&self.full, at) {
-                let coarse = dist2(
-                    p,
-                    self.coarse_node(at, [i as usize, j as usize, kz as usize]),
-                );
+                let cd = [0, 1, 2].map(|a| (c[a] as i64 + d[a] as i64) as usize);
+                let coarse = dist2(p, self.coarse_node(at, cd));
                 let loose = bit(&self.loose, at);
                 if !loose && coarse < sure_near {
                     return false;
@@ -477,47 +487,40 @@ impl Grid {
         true
     }
 
-    /// The coarse position of cell `c`'s node (`at` its index): the cell's corner plus whole
-    /// 255ths of the cell.
+    /// The coarse position of the node of cell `c` (`at` its index): the cell's corner plus
+    /// whole 255ths of the cell.
     fn coarse_node(&self, at: usize, c: [usize; 3]) -> [f64; 3] {
         let w = self.coarse[at];
         let step = self.cell / 255.0;
-        [0, 1, 2].map(|a| (self.lo[a] + c[a] as f64 * self.cell) + w[a] as f64 * step)
+        [
+            (self.lo[0] + c[0] as f64 * self.cell) + w[0] as f64 * step,
+            (self.lo[1] + c[1] as f64 * self.cell) + w[1] as f64 * step,
+            (self.lo[2] + c[2] as f64 * self.cell) + w[2] as f64 * step,
+        ]
     }
 
     /// Start loading the coarse cells within `reach` cells of `p` (a front node, around which
     /// its candidates are checked): the loads then overlap instead of each check waiting for
     /// its own. A prefetch changes no value.
     fn prefetch(&self, p: [f64; 3], reach: usize) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            let c = self.cell_of(p);
-            let span = |a: usize| c[a].saturating_sub(reach)..(c[a] + reach + 1).min(self.n[a]);
-            let xs = span(0);
-            for k in span(2) {
-                for j in span(1) {
-                    let row = self.n[0] * (j + self.n[1] * k);
-                    let (first, last) = (row + xs.start, row + xs.end - 1);
-                    let base = self.coarse.as_ptr();
-                    // SAFETY: both indices are inside `coarse`; a prefetch reads nothing.
-                    unsafe {
-                        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-                        let mut at = base.add(first) as *const i8;
-                        let end = base.add(last) as *const i8;
-                        while at <= end {
-                            _mm_prefetch(at, _MM_HINT_T0);
-                            at = at.add(64);
-                        }
-                        _mm_prefetch(end, _MM_HINT_T0);
-                    }
+        let c = self.cell_of(p);
+        let span = |a: usize| c[a].saturating_sub(reach)..(c[a] + reach + 1).min(self.n[a]);
+        let xs = span(0);
+        for k in span(2) {
+            for j in span(1) {
+                let first = self.index([xs.start, j, k]);
+                let last = self.index([xs.end - 1, j, k]);
+                for at in (first..=last).step_by(64 / 3) {
+                    crate::memory::prefetch(&self.coarse[at]);
                 }
+                crate::memory::prefetch(&self.coarse[last]);
             }
         }
     }
 
     fn insert(&mut self, p: [f64; 3]) {
         let c = self.cell_of(p);
-        let at = c[0] + self.n[0] * (c[1] + self.n[1] * c[2]);
+        let at = self.index(c);
         self.node[at] = p;
         self.full[at >> 6] |= 1 << (at & 63);
         let step = self.cell / 255.0;
