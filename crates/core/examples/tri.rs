@@ -10,8 +10,14 @@ fn main() {
     let dim: usize = arg(2).and_then(|s| s.parse().ok()).unwrap_or(3);
     let repeats: usize = arg(3).and_then(|s| s.parse().ok()).unwrap_or(5).max(1);
     let side = nodes.powf(1.0 / dim as f64).round() - 1.0;
-    let hi = if dim == 3 { [side; 3] } else { [side, side, 0.0] };
-    let pts = sample::sample_box(dim, [0.0; 3], hi, 1.0, sample::Sampler::Poisson, 1, &|_| true);
+    let hi = if dim == 3 {
+        [side; 3]
+    } else {
+        [side, side, 0.0]
+    };
+    let pts = sample::sample_box(dim, [0.0; 3], hi, 1.0, sample::Sampler::Poisson, 1, &|_| {
+        true
+    });
     let mut seconds = Vec::new();
     let mut count = 0;
     for _ in 0..repeats {

@@ -103,13 +103,7 @@ fn in_sphere<const N: usize>(p: &[[f64; 3]], v: &[u32; N], q: [f64; 3]) -> f64 {
 /// predicate as before. Spreads of `M` below `1e-40` (whose fifth power leaves the normal
 /// range) or above `1e40` always go there.
 #[inline(always)]
-fn insphere_fast(
-    a: [f64; 3],
-    b: [f64; 3],
-    c: [f64; 3],
-    d: [f64; 3],
-    e: [f64; 3],
-) -> Option<f64> {
+fn insphere_fast(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3], e: [f64; 3]) -> Option<f64> {
     const EPS: f64 = f64::EPSILON / 2.0;
     const BOUND: f64 = 73.0 * (16.0 + 224.0 * EPS) * EPS;
     let (aex, aey, aez) = (a[0] - e[0], a[1] - e[1], a[2] - e[2]);
@@ -445,11 +439,14 @@ impl<const N: usize> Builder<N> {
         created.clear();
         let mut facets = std::mem::take(&mut self.facets);
         facets.clear();
-        facets.extend(
-            boundary
-                .iter()
-                .map(|&(s, k)| (self.with_vertex(s, k, p), s, self.simplex[s as usize].nbr[k], k)),
-        );
+        facets.extend(boundary.iter().map(|&(s, k)| {
+            (
+                self.with_vertex(s, k, p),
+                s,
+                self.simplex[s as usize].nbr[k],
+                k,
+            )
+        }));
         for &s in cavity.iter() {
             self.simplex[s as usize].v[0] = NONE;
         }

@@ -446,7 +446,9 @@ impl Grid {
 
     /// Where cell `c` (of the box, not counting the border) sits in the arrays.
     fn index(&self, c: [usize; 3]) -> usize {
-        (0..3).map(|a| (c[a] + self.border[a]) * self.stride[a]).sum()
+        (0..3)
+            .map(|a| (c[a] + self.border[a]) * self.stride[a])
+            .sum()
     }
 
     /// Whether no node lies closer than `r` to `p`. The answer does not depend on the order
