@@ -613,6 +613,44 @@ mod tests {
         assert!(vol > 0.75 && vol < 1.0, "{vol}");
     }
 
+    /// The cavity needs no star-shape test (module docs): with ties everywhere (unperturbed
+    /// grids, where every cell's corners are co-circular or co-spherical) and on conforming
+    /// Poisson sets (flat faces, co-spherical box corners), every simplex is positive, no point
+    /// lies inside a circumsphere, the neighbours are mutual and the grid's hull is filled.
+    #[test]
+    fn ties_leave_every_simplex_positive_and_the_mesh_delaunay() {
+        let grid2: Vec<[f64; 3]> = (0..15 * 15)
+            .map(|k| [(k % 15) as f64, (k / 15) as f64, 0.0])
+            .collect();
+        let m2 = triangulate::<3>(&grid2).unwrap();
+        check_delaunay(&grid2, &m2);
+        let area: f64 = m2.simplices.iter().map(|v| measure(&grid2, v)).sum();
+        assert!((area - 196.0).abs() < 1e-9, "{area}");
+        let grid3: Vec<[f64; 3]> = (0..8 * 8 * 8)
+            .map(|k| [(k % 8) as f64, ((k / 8) % 8) as f64, (k / 64) as f64])
+            .collect();
+        let m3 = triangulate::<4>(&grid3).unwrap();
+        check_delaunay(&grid3, &m3);
+        let vol: f64 = m3.simplices.iter().map(|v| measure(&grid3, v)).sum();
+        assert!((vol - 343.0).abs() < 1e-9, "{vol}");
+        for (dim, hi) in [(2, [9.0, 7.0, 0.0]), (3, [5.0, 4.0, 3.0])] {
+            let pts = crate::random::sample::sample_box(
+                dim,
+                [0.0; 3],
+                hi,
+                1.0,
+                crate::random::Sampler::Poisson,
+                3,
+                &|_| true,
+            );
+            if dim == 2 {
+                check_delaunay(&pts, &triangulate::<3>(&pts).unwrap());
+            } else {
+                check_delaunay(&pts, &triangulate::<4>(&pts).unwrap());
+            }
+        }
+    }
+
     #[test]
     fn a_grid_with_cospherical_points_is_triangulated_validly() {
         // The worst case for ties: an unperturbed cubic grid (every cube co-spherical).
