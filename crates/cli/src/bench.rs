@@ -116,6 +116,11 @@ struct BenchJson {
     peak_memory_bytes: Option<u64>,
     /// Resident memory after the timed steps (the steady state: set-up scratch returned).
     resident_memory_bytes: Option<u64>,
+    /// What the body, state, integrator and kernel hold on the heap, by part, in bytes per
+    /// node (capacities: what was allocated, whether or not the system has paged it in).
+    memory_parts: std::collections::BTreeMap<&'static str, f64>,
+    /// Their sum, bytes per node.
+    memory_bytes_per_node: f64,
     setup_seconds: f64,
     /// With --contact: step time with contact over step time without (medians of alternating
     /// windows).
@@ -235,6 +240,17 @@ pub fn run(args: BenchArgs) -> Result<()> {
         None
     };
     let springs = body.springs();
+    let mut memory_parts = std::collections::BTreeMap::new();
+    for (name, b) in body
+        .footprint()
+        .into_iter()
+        .chain(state.footprint())
+        .chain(it.footprint())
+    {
+        *memory_parts.entry(name).or_insert(0.0) += b as f64 / body.nodes() as f64;
+    }
+    memory_parts.retain(|_, b| *b > 0.0);
+    let memory_bytes_per_node = memory_parts.values().sum();
     let out = BenchJson {
         law: match args.law {
             LawArg::Plain => "plain",
@@ -252,6 +268,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
         node_updates_per_s: body.nodes() as f64 * args.steps as f64 / seconds,
         peak_memory_bytes: peak_memory(),
         resident_memory_bytes: resident_memory(),
+        memory_parts,
+        memory_bytes_per_node,
         setup_seconds,
         contact_overhead,
         processes: team.as_ref().map_or(1, |t| t.size()),
@@ -326,7 +344,9 @@ fn bench_lattice(args: &BenchArgs) -> Result<Lattice> {
 /// A body on `lattice` in lattice units with ratio `q`, moving with a smooth velocity field (so
 /// the springs do real work), and its integrator on the kernel `args` asks for.
 fn bench_run(args: &BenchArgs, lattice: Lattice, q: Real) -> Result<(Body, State, Integrator)> {
-    let body = Body::uniform(lattice, 1.0, q, 1.0);
+    let mut body = Body::uniform(lattice, 1.0, q, 1.0);
+    // As a case's set-up does (hooke_sim's builder), once nothing more is built from them.
+    body.lattice.shed_setup();
     let mut state = State::new(&body);
     for i in 0..body.nodes() {
         let p = body.lattice.pos.get(i);

@@ -27,6 +27,33 @@ pub struct Body {
 }
 
 impl Body {
+    /// The body's heap memory by part (see [`crate::memory::Footprint`]).
+    pub fn footprint(&self) -> crate::memory::Footprint {
+        use crate::memory::bytes;
+        let lat = &self.lattice;
+        let b = &lat.bonds;
+        let mut parts = vec![
+            ("positions", lat.pos.heap_bytes()),
+            (
+                "rows (offsets, neighbours, springs)",
+                bytes(&b.offsets) + bytes(&b.nbr) + bytes(&b.bond),
+            ),
+            ("spring ends", bytes(&b.ends)),
+            ("rest lengths", bytes(&b.rest)),
+            ("stiffnesses", bytes(&self.k)),
+            ("masses", bytes(&self.mass)),
+        ];
+        if let Some(c) = &lat.cells {
+            parts.push(("node volumes", bytes(&c.node)));
+            parts.push(("spring volumes", bytes(&c.spring)));
+            parts.push(("boundary areas", bytes(&c.surface)));
+        }
+        if let Some(l) = &self.lever {
+            parts.push(("levers", bytes(l)));
+        }
+        parts
+    }
+
     /// A body of one material. For 2D lattices the plate thickness is the lattice's and `plane`
     /// says how the plate stands for the 3D material.
     pub fn new(lattice: Lattice, m: &Elastic, plane: PlaneModel) -> Result<Self> {
@@ -45,6 +72,10 @@ impl Body {
             let mass = density * lattice.cell_volume;
             return Self::uniform(lattice, kappa, q, mass);
         };
+        assert!(
+            !lattice.is_shed(),
+            "a body built from a lattice whose spring volumes were shed (Lattice::shed_setup): build bodies before shedding"
+        );
         let per = if lattice.dim() == 2 {
             lattice.thickness
         } else {

@@ -206,6 +206,33 @@ struct Shared {
 }
 
 impl Integrator {
+    /// The integrator's heap memory by part, its kernel's included (see
+    /// [`crate::memory::Footprint`]).
+    pub fn footprint(&self) -> crate::memory::Footprint {
+        use crate::memory::bytes;
+        let mut parts = vec![
+            ("inverse masses", bytes(&self.inv_mass)),
+            ("next displacements", self.u_next.heap_bytes()),
+            (
+                "step bookkeeping",
+                bytes(&self.motions)
+                    + bytes(&self.dofs)
+                    + bytes(&self.loaded)
+                    + bytes(&self.dof_loads)
+                    + bytes(&self.first_load)
+                    + bytes(&self.v_before)
+                    + bytes(&self.f_before)
+                    + bytes(&self.v_kernel)
+                    + bytes(&self.partials)
+                    + bytes(&self.contact)
+                    + bytes(&self.v_contact)
+                    + bytes(&self.killed),
+            ),
+        ];
+        parts.extend(self.kernel.footprint());
+        parts
+    }
+
     /// Prepare a run: validate the loading, estimate the stable step, apply the prescribed
     /// motion at `state.time`, and turn the full-step velocity in `state.v` into the half-step
     /// velocity the leapfrog needs.

@@ -207,10 +207,13 @@ pub fn reference_vector(pos: &Coords, period: [Real; 3], i: usize, j: usize) -> 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Cells {
     pub node: Vec<Real>,
+    /// Each spring's volume. Only a body's set-up reads it (its stiffness `kappa V_s / L_s^2`):
+    /// empty once [`Lattice::shed_setup`] freed it.
     pub spring: Vec<Real>,
     /// Each node's share of the body's boundary as an area vector (m^2, outward; a 2D plate's
     /// edge lengths times its thickness): a third (3D) or a half (2D) of each boundary facet
-    /// around it. Zero inside. Tractions are spread over faces with it.
+    /// around it. Zero inside. Tractions are spread over faces with it; empty once
+    /// [`Lattice::shed_setup`] freed it.
     pub surface: Vec<[Real; 3]>,
     /// How the nodes were scattered: the calibration depends on it.
     pub sampler: crate::random::Sampler,
@@ -259,6 +262,27 @@ impl Lattice {
     /// True when some axis is periodic.
     pub fn is_periodic(&self) -> bool {
         self.period.iter().any(|&p| p > 0.0)
+    }
+
+    /// Free what only a set-up reads, once the body is built and its loads are spread: each
+    /// spring's volume (the stiffnesses hold it) and each node's boundary area (tractions are
+    /// spread with it). On a random3d body that is 91 of its 811 bytes per node at steady state
+    /// (`hooke bench --json`, `memory_parts`). A body built from the lattice afterwards
+    /// ([`crate::body::Body::from_cells`]) or a traction spread over it would need them: both
+    /// refuse a shed lattice. Regular lattices keep nothing of the kind.
+    pub fn shed_setup(&mut self) {
+        if let Some(c) = &mut self.cells {
+            c.spring = Vec::new();
+            c.surface = Vec::new();
+            c.node.shrink_to_fit();
+        }
+    }
+
+    /// Whether [`Lattice::shed_setup`] freed the set-up's volumes.
+    pub fn is_shed(&self) -> bool {
+        self.cells
+            .as_ref()
+            .is_some_and(|c| c.spring.len() != self.bonds.len() || c.surface.len() != self.len())
     }
 
     /// The volume node `n` stands for (m^3): its cell in a random lattice, `cell_volume` in a
@@ -579,8 +603,15 @@ impl Lattice {
         let bonds = Bonds::from_pairs(pos.len(), pairs, &pos, self.period)?;
         let cells = self.cells.as_ref().map(|c| Cells {
             node: (0..n).filter(|&i| kept[i]).map(|i| c.node[i]).collect(),
-            spring: kept_bonds.iter().map(|&b| c.spring[b]).collect(),
-            surface: (0..n).filter(|&i| kept[i]).map(|i| c.surface[i]).collect(),
+            // What a shed lattice no longer has stays empty.
+            spring: kept_bonds
+                .iter()
+                .filter_map(|&b| c.spring.get(b).copied())
+                .collect(),
+            surface: (0..n)
+                .filter(|&i| kept[i])
+                .filter_map(|i| c.surface.get(i).copied())
+                .collect(),
             sampler: c.sampler,
         });
         Ok(Lattice {

@@ -41,6 +41,11 @@ impl Clone for Coords {
 }
 
 impl Coords {
+    /// Heap bytes held (see [`crate::memory::Footprint`]).
+    pub fn heap_bytes(&self) -> usize {
+        crate::memory::bytes(&self.data)
+    }
+
     /// `n` nodes, all zero.
     pub fn zeros(n: usize) -> Self {
         Coords {

@@ -80,6 +80,18 @@ pub fn release_free_memory() {
     }
 }
 
+/// Where a run's memory lies: named parts with their heap bytes (capacity, not length), as
+/// [`crate::body::Body::footprint`], [`crate::state::State::footprint`] and
+/// [`crate::dynamics::Integrator::footprint`] list them. `hooke bench --json` prints them per
+/// node (`memory_parts`), beside the resident memory that the system reports.
+pub type Footprint = Vec<(&'static str, usize)>;
+
+/// Heap bytes of a vector (its capacity).
+#[allow(clippy::ptr_arg)] // the capacity, which a slice does not have
+pub fn bytes<T>(v: &Vec<T>) -> usize {
+    v.capacity() * std::mem::size_of::<T>()
+}
+
 /// A global allocator: the system's, with every block of at least [`LARGE_BLOCK`] bytes
 /// starting on a cache line at a page offset that varies from block to block (see the module
 /// docs). Install it in a program with

@@ -116,6 +116,28 @@ impl PartialEq for State {
 }
 
 impl State {
+    /// The state's heap memory by part, scratch included (see [`crate::memory::Footprint`]).
+    pub fn footprint(&self) -> crate::memory::Footprint {
+        use crate::memory::bytes;
+        vec![
+            ("displacements", self.u.heap_bytes()),
+            ("velocities", self.v.heap_bytes()),
+            ("forces", self.f.heap_bytes()),
+            ("intact flags", bytes(&self.alive)),
+            (
+                "damage (weights, stiffnesses)",
+                bytes(&self.weight) + bytes(&self.k_eff),
+            ),
+            ("normalisers", bytes(&self.norm)),
+            ("pools", bytes(&self.pool)),
+            (
+                "spring records (csr)",
+                bytes(&self.spring) + bytes(&self.spring_pi) + bytes(&self.hot),
+            ),
+            ("node records (rows)", bytes(&self.rec)),
+        ]
+    }
+
     /// The body at rest in its reference configuration, every spring intact.
     pub fn new(body: &Body) -> Self {
         let n = body.nodes();

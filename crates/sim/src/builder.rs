@@ -343,7 +343,7 @@ impl Builder {
 
     /// Check everything and build the simulation.
     pub fn build(self) -> Result<Simulation, BuildError> {
-        let (body, k, h) = self.body()?;
+        let (mut body, k, h) = self.body()?;
         let mut state = State::new(&body);
         let (mut fracture, precracked) = self.fracture(&body, &mut state, k, h)?;
         let (loading, regions, boundaries) = self.loading(&body, &mut state, &mut fracture)?;
@@ -359,6 +359,8 @@ impl Builder {
         loading
             .validate(body.nodes())
             .map_err(|e| BuildError::new("boundary", e.to_string()))?;
+        // Stiffnesses, masses and tractions are set: what only they read goes.
+        body.lattice.shed_setup();
         let options = IntegratorOptions {
             time_step: self.time_step,
             damping: self.damping,

@@ -410,6 +410,10 @@ pub fn traction_loads(
 ) -> Vec<hooke_core::loading::Load> {
     use hooke_core::loading::Load;
     let lat = &body.lattice;
+    assert!(
+        !lat.is_shed(),
+        "tractions spread over a body whose boundary areas were shed (Lattice::shed_setup): spread them before shedding"
+    );
     match &lat.cells {
         Some(cells) => nodes
             .iter()

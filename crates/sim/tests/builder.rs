@@ -135,3 +135,54 @@ fn a_built_simulation_runs_and_its_grips_balance() {
     assert!(csv.lines().any(|l| l.contains(",top,")), "{csv}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A random body keeps what a run reads, not what only its set-up read: the springs' volumes
+/// (in its stiffnesses now) and the boundary areas (in its traction loads now) are freed once
+/// it is built, and the loads still add up to the traction times the loaded face's area.
+#[test]
+fn a_random_body_sheds_its_set_up_volumes_once_built() {
+    let (w, h, t) = (10e-3, 5e-3, 1e-3);
+    let traction = 2e6;
+    let sim = Builder::new(LatticeKind::Random2d, 0.5e-3)
+        .thickness(t)
+        .solid(Solid::cuboid([0.0; 3], [w, h, 0.0]))
+        .material(70e9, 0.25, 2500.0)
+        .boundary(
+            Bc::on(Region::Face(Face {
+                axis: 1,
+                high: false,
+            }))
+            .fixed(0)
+            .fixed(1),
+        )
+        .boundary(
+            Bc::on(Region::Face(Face {
+                axis: 1,
+                high: true,
+            }))
+            .traction([0.0, traction, 0.0], 1, TimeFunction::Constant(1.0)),
+        )
+        .end_time(1e-6)
+        .build()
+        .unwrap();
+    let lat = &sim.body.lattice;
+    let cells = lat.cells.as_ref().expect("a random lattice has cells");
+    assert!(lat.is_shed());
+    assert!(cells.spring.is_empty() && cells.surface.is_empty());
+    assert_eq!(cells.node.len(), sim.body.nodes());
+    let parts: Vec<_> = sim.body.footprint().into_iter().map(|(p, _)| p).collect();
+    assert!(parts.contains(&"node volumes") && parts.contains(&"stiffnesses"));
+    // The top face's area is w t; the loads spread the traction over exactly that (to the
+    // rounding of the boundary facets' areas).
+    let total: f64 = sim.loading.loads.iter().map(|l| l.force[1]).sum();
+    let want = traction * w * t;
+    assert!(
+        ((total - want) / want).abs() < 1e-9,
+        "loads add up to {total} N, the traction over the face to {want} N"
+    );
+    // A body cannot be built again from the shed lattice: it would have no spring volumes.
+    let again = std::panic::catch_unwind(|| {
+        hooke_core::body::Body::from_cells(sim.body.lattice.clone(), 1.0, 0.0, 1.0)
+    });
+    assert!(again.is_err());
+}

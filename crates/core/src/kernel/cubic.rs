@@ -96,6 +96,15 @@ pub struct CubicStencil {
 }
 
 impl CubicStencil {
+    /// Heap memory by part (see [`crate::memory::Footprint`]).
+    pub fn footprint(&self) -> crate::memory::Footprint {
+        use crate::memory::bytes;
+        vec![(
+            "stencil masks and normalisers",
+            bytes(&self.mask) + bytes(&self.inv_norm),
+        )]
+    }
+
     /// The stencil for `body` if it is a non-periodic box of the cubic lattice (at least 3 nodes
     /// per axis) with a single stiffness; `None` otherwise.
     pub fn new(body: &Body, state: &State) -> Option<Self> {

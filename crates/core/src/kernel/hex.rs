@@ -59,6 +59,15 @@ pub struct HexStencil {
 }
 
 impl HexStencil {
+    /// Heap memory by part (see [`crate::memory::Footprint`]).
+    pub fn footprint(&self) -> crate::memory::Footprint {
+        use crate::memory::bytes;
+        vec![(
+            "stencil masks and normalisers",
+            bytes(&self.mask) + bytes(&self.inv_norm),
+        )]
+    }
+
     /// The stencil for `body` if it is a non-periodic box of the hexagonal lattice (at least 2
     /// nodes per row and 2 rows) with a single stiffness and the isotropic law; `None`
     /// otherwise.

@@ -120,6 +120,16 @@ impl Kernel {
     }
 
     /// Name for reports.
+    /// The kernel's heap memory by part (see [`crate::memory::Footprint`]).
+    pub fn footprint(&self) -> crate::memory::Footprint {
+        match self {
+            Kernel::Csr { .. } => Vec::new(),
+            Kernel::Cubic(s) => s.footprint(),
+            Kernel::Hex(s) => s.footprint(),
+            Kernel::Rows(r) => r.footprint(),
+        }
+    }
+
     pub fn name(&self) -> &'static str {
         match self {
             Kernel::Csr { .. } => "csr",

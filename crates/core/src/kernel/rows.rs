@@ -98,6 +98,24 @@ pub struct RowKernel {
 }
 
 impl RowKernel {
+    /// Heap memory by part (see [`crate::memory::Footprint`]).
+    pub fn footprint(&self) -> crate::memory::Footprint {
+        use crate::memory::bytes;
+        let s = &self.slots;
+        vec![
+            ("row slots: neighbours", bytes(&s.j)),
+            ("row slots: stiffnesses", bytes(&s.k)),
+            (
+                "row slots: rest lengths, levers",
+                bytes(&s.rest) + bytes(&s.lever),
+            ),
+            (
+                "row slots: lanes",
+                bytes(&s.start) + bytes(&s.lanes) + bytes(&s.at),
+            ),
+        ]
+    }
+
     /// The row kernel of `body` in `state` (its intact springs and current stiffnesses); `None`
     /// for a periodic lattice.
     pub fn new(body: &Body, state: &State) -> Option<Self> {
