@@ -302,6 +302,20 @@ pub fn run(args: BenchArgs) -> Result<()> {
             out.seconds_per_step * 1e3,
             out.peak_memory_bytes.map_or("unknown".into(), |b| format!("{:.2} GiB", b as f64 / (1u64 << 30) as f64)),
         );
+        let largest: Vec<String> = {
+            let mut parts: Vec<_> = out.memory_parts.iter().collect();
+            parts.sort_by(|a, b| b.1.total_cmp(a.1));
+            parts
+                .iter()
+                .take(4)
+                .map(|(name, b)| format!("{name} {b:.0}"))
+                .collect()
+        };
+        println!(
+            "  arrays {:.0} bytes per node ({}, ...; --json lists them all)",
+            out.memory_bytes_per_node,
+            largest.join(", ")
+        );
         if out.processes > 1 {
             println!(
                 "  {} MPI ranks: {:.2} MB received per rank and step in {} collectives",

@@ -759,6 +759,42 @@ fn bench_json_has_the_contract_keys() {
     assert_eq!(o.status.code(), Some(2));
 }
 
+/// `hooke bench --json` says where a run's memory is: its parts add up to the total, the
+/// per-spring arrays hold what their sizes say, and a random body has freed what only its
+/// set-up read (the springs' volumes, the boundary areas).
+#[test]
+fn bench_json_lists_the_memory_by_array() {
+    let o = hooke(&[
+        "bench",
+        "--lattice",
+        "random3d",
+        "--nodes",
+        "20000",
+        "--steps",
+        "2",
+        "--threads",
+        "1",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let parts = v["memory_parts"].as_object().expect("memory_parts");
+    let sum: f64 = parts.values().map(|b| b.as_f64().unwrap()).sum();
+    let total = v["memory_bytes_per_node"].as_f64().unwrap();
+    assert!((sum - total).abs() <= 1e-9 * total, "{sum} against {total}");
+    let (nodes, springs) = (v["nodes"].as_f64().unwrap(), v["springs"].as_f64().unwrap());
+    // Two u32 ends per spring; three reals per node for each of u, v and f.
+    let ends = parts["spring ends"].as_f64().unwrap();
+    assert!(ends >= 8.0 * springs / nodes && ends < 16.0 * springs / nodes, "{ends}");
+    assert_eq!(parts["displacements"].as_f64().unwrap(), 24.0);
+    assert!(!parts.contains_key("spring volumes") && !parts.contains_key("boundary areas"));
+    assert!(parts.contains_key("node volumes"), "{parts:?}");
+    // The arrays are what the process keeps: within a few percent of its resident memory
+    // after the steps (the binary, libraries and stacks on top), never above it by much.
+    let resident = v["resident_memory_bytes"].as_f64().unwrap() / nodes;
+    assert!(total < 1.05 * resident, "{total} bytes per node of arrays, {resident} resident");
+}
+
 #[test]
 fn toughness_json_reports_g_measured_near_g_c() {
     let o = hooke(&[
