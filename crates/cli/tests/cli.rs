@@ -785,14 +785,20 @@ fn bench_json_lists_the_memory_by_array() {
     let (nodes, springs) = (v["nodes"].as_f64().unwrap(), v["springs"].as_f64().unwrap());
     // Two u32 ends per spring; three reals per node for each of u, v and f.
     let ends = parts["spring ends"].as_f64().unwrap();
-    assert!(ends >= 8.0 * springs / nodes && ends < 16.0 * springs / nodes, "{ends}");
+    assert!(
+        ends >= 8.0 * springs / nodes && ends < 16.0 * springs / nodes,
+        "{ends}"
+    );
     assert_eq!(parts["displacements"].as_f64().unwrap(), 24.0);
     assert!(!parts.contains_key("spring volumes") && !parts.contains_key("boundary areas"));
     assert!(parts.contains_key("node volumes"), "{parts:?}");
     // The arrays are what the process keeps: within a few percent of its resident memory
     // after the steps (the binary, libraries and stacks on top), never above it by much.
     let resident = v["resident_memory_bytes"].as_f64().unwrap() / nodes;
-    assert!(total < 1.05 * resident, "{total} bytes per node of arrays, {resident} resident");
+    assert!(
+        total < 1.05 * resident,
+        "{total} bytes per node of arrays, {resident} resident"
+    );
 }
 
 #[test]
