@@ -81,13 +81,8 @@ fn free_vibration_conserves_energy() {
                 .map(|i| 0.5 * body.mass[i] * v_before.get(i).dot(&state.v.get(i)))
                 .sum();
             shadow.push(
-                kin + hooke_core::law::energy(
-                    &body,
-                    &u_before,
-                    state.springs(&body),
-                    &state.norm(),
-                )
-                .total(),
+                kin + hooke_core::law::energy(&body, &u_before, state.springs(&body), state.norm())
+                    .total(),
             );
             let b = it.energy(&body, &mut state);
             energies.push(b.kinetic + b.strain.total());
@@ -275,11 +270,13 @@ fn run_body_with_threads(
         let mut state = State::new(&body);
         kill_random(&body, &mut state, &mut rng, 0.05);
         state.u = random_displacement(&body, &mut rng, 1e-3);
-        let mut loading = Loading::default();
-        loading.body_acceleration = if body.lattice.dim() == 3 {
-            Vector::new(0.0, 0.0, -1e-4)
-        } else {
-            Vector::new(0.0, -1e-4, 0.0)
+        let loading = Loading {
+            body_acceleration: if body.lattice.dim() == 3 {
+                Vector::new(0.0, 0.0, -1e-4)
+            } else {
+                Vector::new(0.0, -1e-4, 0.0)
+            },
+            ..Default::default()
         };
         let opts = IntegratorOptions {
             damping: 0.01,

@@ -156,8 +156,6 @@ fn cut_halves_are_exactly_decoupled() {
     }
 }
 
-/// Dense tangent stiffness over the DOFs the lattice uses.
-
 /// After killing 50 % of the springs at random, at nu = -0.98 and nu = 0.49 (and the 2D
 /// extremes), the stiffness has no negative eigenvalue: only zero modes (rigid motions and the
 /// mechanisms of the damaged graph) and positive ones (`design/MODEL.md`, Cauchy-Schwarz bound).
@@ -257,7 +255,7 @@ fn forces_are_bit_identical_for_any_thread_count() {
         pool.install(|| {
             let mut s = state.clone();
             law::update_forces(&body, &mut s);
-            let e = law::energy(&body, &s.u, s.springs(&body), &s.norm());
+            let e = law::energy(&body, &s.u, s.springs(&body), s.norm());
             (s.f, s.pool, e.direct.to_bits(), e.dispersive.to_bits())
         })
     };

@@ -124,7 +124,7 @@ fn vtk_frames_read_back_exactly() {
         let w: Real =
             f64s(get("strain_energy_density")).iter().sum::<Real>() * body.lattice.cell_volume;
         let u_total =
-            hooke_core::law::energy(&body, &state.u, state.springs(&body), &state.norm()).total();
+            hooke_core::law::energy(&body, &state.u, state.springs(&body), state.norm()).total();
         assert!((w / u_total - 1.0).abs() < 1e-12, "{w} vs {u_total}");
     }
     let pvd = std::fs::read_to_string(series.pvd_path()).unwrap();

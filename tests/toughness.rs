@@ -155,7 +155,7 @@ fn dynamic_strip(nu: Real, over: Real, ramp: Real, damping: Real) -> (Real, usiz
                     }
                 }
             }
-            was_alive.copy_from_slice(&state.alive());
+            was_alive.copy_from_slice(state.alive());
         }
     }
     it.check(&body, &state).unwrap();
@@ -349,7 +349,7 @@ fn dynamic_strip_random(nu: Real, over: Real, height: Real, seed: u64) -> Dynami
                     }
                 }
             }
-            was_alive.copy_from_slice(&state.alive());
+            was_alive.copy_from_slice(state.alive());
         }
     }
     it.check(&body, &state).unwrap();

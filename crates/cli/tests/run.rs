@@ -184,7 +184,7 @@ fn interrupted_run_resumes_to_the_same_result() {
         let f = pvd
             .lines()
             .filter_map(|l| l.split("file=\"").nth(1))
-            .last()
+            .next_back()
             .unwrap()
             .split('"')
             .next()

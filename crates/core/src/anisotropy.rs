@@ -689,12 +689,12 @@ impl Body {
             // An axis spring has one non-zero component; a face diagonal two, and the plane it
             // lies in is normal to the zero one.
             let zero: Vec<usize> = (0..3).filter(|&c| d[c].abs() < 0.25 * a).collect();
-            match zero.as_slice() {
-                &[p, q] => {
+            match *zero.as_slice() {
+                [p, q] => {
                     let axis = 3 - p - q;
                     Ok((f.axis_k[axis], f.axis_w[axis]))
                 }
-                &[p] => Ok((f.diagonal_k[p], f.diagonal_w[p])),
+                [p] => Ok((f.diagonal_k[p], f.diagonal_w[p])),
                 _ => Err(Error::InvalidInput {
                     what: "anisotropic material",
                     why: format!("a spring along {w:?} is neither along a material axis nor a face diagonal of two: an orthotropic material needs the lattice laid along its material axes (the body's, or material.axes, which turn the lattice with them)"),

@@ -665,6 +665,112 @@ fn check_spacing(a: Real) -> Result<()> {
     }
 }
 
+impl Lattice {
+    /// The share of a bulk spring's and a bulk node's material each spring and node of a regular
+    /// lattice stands for (1 inside): the fraction of the cells that would hold it in the bulk
+    /// (cubes of the Ladd lattice, triangles of the hexagonal one) that lie in the body. `None`
+    /// for random lattices (their `Cells` are exact volumes already) and periodic ones.
+    pub fn cell_fractions(&self) -> Option<(Vec<Real>, Vec<Real>)> {
+        if self.cells.is_some() || self.period.iter().any(|&p| p != 0.0) {
+            return None;
+        }
+        let bonds = &self.bonds;
+        let n = self.len();
+        match self.kind {
+            LatticeKind::Cubic => {
+                let a = self.spacing;
+                let lo = [0, 1, 2].map(|c| {
+                    self.pos
+                        .comp(c)
+                        .iter()
+                        .cloned()
+                        .fold(Real::INFINITY, Real::min)
+                });
+                let cell = |i: usize| -> [i64; 3] {
+                    [0, 1, 2].map(|c| ((self.pos.comp(c)[i] - lo[c]) / a).round() as i64)
+                };
+                let nodes: std::collections::HashSet<[i64; 3]> = (0..n).map(cell).collect();
+                let cube = |c: [i64; 3]| {
+                    (0..8).all(|k| {
+                        nodes.contains(&[
+                            c[0] + (k & 1),
+                            c[1] + ((k >> 1) & 1),
+                            c[2] + ((k >> 2) & 1),
+                        ])
+                    })
+                };
+                // The cubes that would hold the segment from p to q: each axis along which the
+                // two ends differ fixes the cube's corner; each other axis leaves two choices.
+                let share = |p: [i64; 3], q: [i64; 3]| -> Real {
+                    let mut count = 0;
+                    let mut total = 0;
+                    for k in 0..8 {
+                        let mut c = [0i64; 3];
+                        let mut ok = true;
+                        for ax in 0..3 {
+                            let bit = (k >> ax) & 1;
+                            if p[ax] == q[ax] {
+                                c[ax] = p[ax] - bit;
+                            } else if bit == 1 {
+                                ok = false;
+                            } else {
+                                c[ax] = p[ax].min(q[ax]);
+                            }
+                        }
+                        if ok {
+                            total += 1;
+                            if cube(c) {
+                                count += 1;
+                            }
+                        }
+                    }
+                    count as Real / total as Real
+                };
+                let springs = bonds
+                    .ends
+                    .iter()
+                    .map(|e| share(cell(e[0] as usize), cell(e[1] as usize)))
+                    .collect();
+                let node = (0..n).map(|i| share(cell(i), cell(i))).collect();
+                Some((springs, node))
+            }
+            LatticeKind::Hex => {
+                // Triangles: a spring's common neighbours (at most two in the bulk); a node's
+                // bonded pairs of neighbours (six in the bulk).
+                let linked = |i: usize, j: u32| bonds.nbr[bonds.row(i)].binary_search(&j).is_ok();
+                let springs = bonds
+                    .ends
+                    .iter()
+                    .map(|e| {
+                        let (i, j) = (e[0] as usize, e[1]);
+                        let common = bonds.nbr[bonds.row(i)]
+                            .iter()
+                            .filter(|&&k| linked(k as usize, j))
+                            .count();
+                        common as Real / 2.0
+                    })
+                    .collect();
+                let node = (0..n)
+                    .map(|i| {
+                        let row = &bonds.nbr[bonds.row(i)];
+                        let mut t = 0;
+                        for (x, &j) in row.iter().enumerate() {
+                            for &k in &row[x + 1..] {
+                                if linked(j as usize, k) {
+                                    t += 1;
+                                }
+                            }
+                        }
+                        t as Real / 6.0
+                    })
+                    .collect();
+                Some((springs, node))
+            }
+            _ => None,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -792,111 +898,5 @@ mod tests {
         assert!(Lattice::cubic_box([4, 4, 4], 0.0).is_err());
         assert!(Lattice::hex_box(4, 1, 1.0, 1.0).is_err());
         assert!(Lattice::hex_box(4, 4, 1.0, -1.0).is_err());
-    }
-}
-
-impl Lattice {
-    /// The share of a bulk spring's and a bulk node's material each spring and node of a regular
-    /// lattice stands for (1 inside): the fraction of the cells that would hold it in the bulk
-    /// (cubes of the Ladd lattice, triangles of the hexagonal one) that lie in the body. `None`
-    /// for random lattices (their `Cells` are exact volumes already) and periodic ones.
-    pub fn cell_fractions(&self) -> Option<(Vec<Real>, Vec<Real>)> {
-        if self.cells.is_some() || self.period.iter().any(|&p| p != 0.0) {
-            return None;
-        }
-        let bonds = &self.bonds;
-        let n = self.len();
-        match self.kind {
-            LatticeKind::Cubic => {
-                let a = self.spacing;
-                let lo = [0, 1, 2].map(|c| {
-                    self.pos
-                        .comp(c)
-                        .iter()
-                        .cloned()
-                        .fold(Real::INFINITY, Real::min)
-                });
-                let cell = |i: usize| -> [i64; 3] {
-                    [0, 1, 2].map(|c| ((self.pos.comp(c)[i] - lo[c]) / a).round() as i64)
-                };
-                let nodes: std::collections::HashSet<[i64; 3]> = (0..n).map(cell).collect();
-                let cube = |c: [i64; 3]| {
-                    (0..8).all(|k| {
-                        nodes.contains(&[
-                            c[0] + (k & 1),
-                            c[1] + ((k >> 1) & 1),
-                            c[2] + ((k >> 2) & 1),
-                        ])
-                    })
-                };
-                // The cubes that would hold the segment from p to q: each axis along which the
-                // two ends differ fixes the cube's corner; each other axis leaves two choices.
-                let share = |p: [i64; 3], q: [i64; 3]| -> Real {
-                    let mut count = 0;
-                    let mut total = 0;
-                    for k in 0..8 {
-                        let mut c = [0i64; 3];
-                        let mut ok = true;
-                        for ax in 0..3 {
-                            let bit = (k >> ax) & 1;
-                            if p[ax] == q[ax] {
-                                c[ax] = p[ax] - bit;
-                            } else if bit == 1 {
-                                ok = false;
-                            } else {
-                                c[ax] = p[ax].min(q[ax]);
-                            }
-                        }
-                        if ok {
-                            total += 1;
-                            if cube(c) {
-                                count += 1;
-                            }
-                        }
-                    }
-                    count as Real / total as Real
-                };
-                let springs = bonds
-                    .ends
-                    .iter()
-                    .map(|e| share(cell(e[0] as usize), cell(e[1] as usize)))
-                    .collect();
-                let node = (0..n).map(|i| share(cell(i), cell(i))).collect();
-                Some((springs, node))
-            }
-            LatticeKind::Hex => {
-                // Triangles: a spring's common neighbours (at most two in the bulk); a node's
-                // bonded pairs of neighbours (six in the bulk).
-                let linked = |i: usize, j: u32| bonds.nbr[bonds.row(i)].binary_search(&j).is_ok();
-                let springs = bonds
-                    .ends
-                    .iter()
-                    .map(|e| {
-                        let (i, j) = (e[0] as usize, e[1]);
-                        let common = bonds.nbr[bonds.row(i)]
-                            .iter()
-                            .filter(|&&k| linked(k as usize, j))
-                            .count();
-                        common as Real / 2.0
-                    })
-                    .collect();
-                let node = (0..n)
-                    .map(|i| {
-                        let row = &bonds.nbr[bonds.row(i)];
-                        let mut t = 0;
-                        for (x, &j) in row.iter().enumerate() {
-                            for &k in &row[x + 1..] {
-                                if linked(j as usize, k) {
-                                    t += 1;
-                                }
-                            }
-                        }
-                        t as Real / 6.0
-                    })
-                    .collect();
-                Some((springs, node))
-            }
-            _ => None,
-        }
     }
 }

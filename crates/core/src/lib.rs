@@ -16,6 +16,10 @@
 //!
 //! Units: SI throughout. No I/O here.
 
+// Checks are written `!(x > 0.0)` on purpose: a NaN fails them, where `x <= 0.0` would let it
+// through; clippy's suggestion (partial_cmp) would hide that.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod anisotropy;
 pub mod body;
 pub mod dynamics;

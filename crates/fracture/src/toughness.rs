@@ -292,7 +292,7 @@ fn g_calibrated(t: &StripTest) -> Real {
 }
 
 fn stored(body: &Body, state: &State) -> Real {
-    let e = law::energy(body, &state.u, state.springs(body), &state.norm());
+    let e = law::energy(body, &state.u, state.springs(body), state.norm());
     e.direct + e.dispersive
 }
 

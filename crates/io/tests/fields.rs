@@ -56,7 +56,7 @@ fn strain_energy_density_integrates_to_the_strain_energy_on_random_lattices() {
         let sum: f64 = (0..body.nodes())
             .map(|i| d.energy_density[i] * body.lattice.node_volume(i))
             .sum();
-        let u = law::energy(&body, &state.u, state.springs(&body), &state.norm()).total();
+        let u = law::energy(&body, &state.u, state.springs(&body), state.norm()).total();
         let rel = ((sum - u) / u).abs();
         eprintln!("random{dim}d: sum(w V_n) = {sum:.12e} J, U = {u:.12e} J, relative {rel:.1e}");
         assert!(rel < 1e-9, "dim {dim}: {sum} vs {u} ({rel:.1e})");

@@ -636,7 +636,7 @@ impl Builder {
         for (n, c) in self.cracks.iter().enumerate() {
             let f = fracture.get_or_insert_with(|| {
                 Fracture::new(
-                    &body,
+                    body,
                     Box::new(CriticalStretch {
                         s_c: Real::INFINITY,
                     }),

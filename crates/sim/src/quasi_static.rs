@@ -156,7 +156,7 @@ fn drive(
         }
         // Then breaking rounds at fixed supports and loads (see the module's docs).
         let potential = |state: &State| {
-            let e = law::energy(body, &state.u, state.springs(body), &state.norm()).total();
+            let e = law::energy(body, &state.u, state.springs(body), state.norm()).total();
             let mut w = 0.0;
             for c in 0..3 {
                 for i in 0..n {
@@ -214,7 +214,7 @@ fn drive(
                     &sim.body,
                     &sim.state.u,
                     sim.state.springs(&sim.body),
-                    &sim.state.norm(),
+                    sim.state.norm(),
                 );
                 obs.progress(&Progress {
                     time: t,
@@ -298,7 +298,7 @@ fn write(
         body,
         &sim.state.u,
         sim.state.springs(body),
-        &sim.state.norm(),
+        sim.state.norm(),
     );
     let released = sim.broken().1;
     let energy = EnergyRow {

@@ -121,7 +121,7 @@ pub fn free_space(dir: &Path) -> Option<u64> {
     }
     // SAFETY: statvfs succeeded, so it filled the struct.
     let s = unsafe { s.assume_init() };
-    Some(s.f_bavail as u64 * s.f_frsize as u64)
+    Some(s.f_bavail * s.f_frsize)
 }
 
 /// Checks before anything is written: no earlier run in the folder (unless resuming), room on
@@ -527,7 +527,7 @@ impl Run {
             }
             None => self.it.step_with(body, &mut sim.state, contact),
         }
-        if sim.state.step % 64 == 0 {
+        if sim.state.step.is_multiple_of(64) {
             // Every member holds the same state: an instability stops all of them alike.
             self.it.gather_velocities(&mut sim.state);
             self.it.check(&sim.body, &sim.state)?;

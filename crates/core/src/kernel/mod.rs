@@ -87,6 +87,9 @@ impl std::ops::AddAssign for SweepSums {
 }
 
 /// The force kernel a run uses.
+// One per integrator, read at every sweep: the stencil's tables inline (under a kilobyte)
+// rather than behind a pointer.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 pub enum Kernel {
     /// Any lattice: gathers over CSR rows. `plain` drops the dispersion (q = 0), for the
