@@ -122,7 +122,6 @@ impl Kernel {
         }
     }
 
-    /// Name for reports.
     /// The kernel's heap memory by part (see [`crate::memory::Footprint`]).
     pub fn footprint(&self) -> crate::memory::Footprint {
         match self {
@@ -133,6 +132,7 @@ impl Kernel {
         }
     }
 
+    /// Name for reports.
     pub fn name(&self) -> &'static str {
         match self {
             Kernel::Csr { .. } => "csr",
