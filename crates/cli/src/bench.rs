@@ -359,8 +359,14 @@ fn bench_lattice(args: &BenchArgs) -> Result<Lattice> {
 /// the springs do real work), and its integrator on the kernel `args` asks for.
 fn bench_run(args: &BenchArgs, lattice: Lattice, q: Real) -> Result<(Body, State, Integrator)> {
     let mut body = Body::uniform(lattice, 1.0, q, 1.0);
-    // As a case's set-up does (hooke_sim's builder), once nothing more is built from them.
-    body.lattice.shed_setup();
+    // As a case's set-up does (hooke_sim's builder), once nothing more is built from them; the
+    // CSR kernel, asked for, keeps the neighbours it streams.
+    if args.kernel == KernelArg::Csr {
+        body.lattice.shed_volumes();
+        body.lattice.bonds.keep_neighbours();
+    } else {
+        body.lattice.shed_setup();
+    }
     let mut state = State::new(&body);
     for i in 0..body.nodes() {
         let p = body.lattice.pos.get(i);

@@ -487,11 +487,9 @@ impl Contact {
             .collect();
         order.par_sort_unstable();
         let bonded = |i: usize, j: u32| -> bool {
-            let r = bonds.row(i);
-            match bonds.nbr[r.clone()].binary_search(&j) {
-                Ok(e) => state.alive()[bonds.bond[r.start + e] as usize],
-                Err(_) => false,
-            }
+            bonds
+                .entry(i, j as usize)
+                .is_some_and(|e| state.alive()[bonds.bond[e] as usize])
         };
         let pos = &body.lattice.pos;
         // Pairs (i, j) from every damaged i, then both directions, sorted: a CSR by node.

@@ -18,7 +18,8 @@ fn main() {
         let side = nodes.sqrt().round() - 1.0;
         Lattice::random(2, [0.0; 3], [side, side, 0.0], 1.0, 1.0, spec, &|_| true).unwrap()
     };
-    let body = Body::uniform(lat, 1.0, 0.2, 1.0);
+    let mut body = Body::uniform(lat, 1.0, 0.2, 1.0);
+    body.lattice.bonds.keep_neighbours();
     let mut state = State::new(&body);
     for i in 0..body.nodes() {
         state.u.x_mut()[i] = 1e-3 * (0.1 * body.lattice.pos.y()[i]).sin();

@@ -69,13 +69,21 @@ impl LatticeKind {
 /// Spring topology in compressed-row form: every spring is listed from both of its ends, so a
 /// node's row holds all of its springs and force kernels can gather into the node alone.
 ///
-/// Entries of row `n` are `offsets[n]..offsets[n+1]`; entry `e` names the neighbour `nbr[e]` and
-/// the undirected spring `bond[e]`. Rows are sorted by neighbour index, which fixes the order of
-/// every per-node sum and so makes results independent of how the lattice was generated.
+/// Entries of row `n` are `offsets[n]..offsets[n+1]`; entry `e` names the undirected spring
+/// `bond[e]` and the neighbour at its other end ([`Bonds::neighbour`]). Rows are sorted by
+/// neighbour index, which fixes the order of every per-node sum and so makes results
+/// independent of how the lattice was generated.
+///
+/// Each neighbour is read as the other end of the entry's spring, `ends[b][0] ^ ends[b][1] ^ n`.
+/// The one reader that streams them every step, the CSR kernel, has them as an array of their
+/// own (4 bytes per entry), built only for lattices the CSR kernel may run
+/// ([`crate::kernel::Kernel::csr_may_run`]; [`Bonds::keep_neighbours`] builds it for a caller that
+/// asks for that kernel anyway). On random3d that is 59 bytes per node, on Ladd's lattice 72.
 #[derive(Clone, Debug, Default)]
 pub struct Bonds {
     pub offsets: Vec<u32>,
-    pub nbr: Vec<u32>,
+    /// Neighbour of each entry, or empty once shed.
+    nbr: Vec<u32>,
     pub bond: Vec<u32>,
     /// End nodes of each undirected spring, `ends[b][0] < ends[b][1]`.
     pub ends: Vec<[u32; 2]>,
@@ -129,22 +137,15 @@ impl Bonds {
             offsets[n + 1] = offsets[n] + deg[n];
         }
         let m = offsets[n_nodes] as usize;
-        let mut nbr = vec![0u32; m];
         let mut bond = vec![0u32; m];
         let mut fill: Vec<u32> = offsets[..n_nodes].to_vec();
         // Springs are sorted by (i, j), so filling in this order gives rows sorted by neighbour:
         // for node n, entries with a smaller neighbour arrive (as the j end) before larger ones.
         for (b, &[i, j]) in ends.iter().enumerate() {
-            for (a, o) in [(i, j), (j, i)] {
-                let e = fill[a as usize] as usize;
-                nbr[e] = o;
-                bond[e] = b as u32;
+            for a in [i, j] {
+                bond[fill[a as usize] as usize] = b as u32;
                 fill[a as usize] += 1;
             }
-        }
-        for n in 0..n_nodes {
-            let (s, t) = (offsets[n] as usize, offsets[n + 1] as usize);
-            debug_assert!(nbr[s..t].windows(2).all(|w| w[0] < w[1]));
         }
         let rest = ends
             .par_iter()
@@ -154,13 +155,20 @@ impl Bonds {
                 (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
             })
             .collect();
-        Ok(Bonds {
+        let mut bonds = Bonds {
             offsets,
-            nbr,
+            nbr: Vec::new(),
             bond,
             ends,
             rest,
-        })
+        };
+        debug_assert!(
+            (0..n_nodes).all(|n| bonds.links(n).map(|(j, _)| j).is_sorted_by(|a, b| a < b))
+        );
+        if crate::kernel::Kernel::csr_may_run_with(period) {
+            bonds.keep_neighbours();
+        }
+        Ok(bonds)
     }
 
     /// Number of undirected springs.
@@ -177,6 +185,84 @@ impl Bonds {
     #[inline]
     pub fn row(&self, n: usize) -> std::ops::Range<usize> {
         self.offsets[n] as usize..self.offsets[n + 1] as usize
+    }
+
+    /// The neighbour of node `n` across its row entry `e`.
+    #[inline(always)]
+    pub fn neighbour(&self, n: usize, e: usize) -> usize {
+        match self.nbr.get(e) {
+            Some(&j) => j as usize,
+            None => self.other_end(n, self.bond[e] as usize),
+        }
+    }
+
+    /// The end of spring `b` that is not node `n` (`n` must be one of its ends).
+    #[inline(always)]
+    pub fn other_end(&self, n: usize, b: usize) -> usize {
+        let [i, j] = self.ends[b];
+        debug_assert!(i as usize == n || j as usize == n);
+        (i ^ j) as usize ^ n
+    }
+
+    /// Node `n`'s neighbours and springs, `(j, b)`, in row order.
+    #[inline]
+    pub fn links(&self, n: usize) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.row(n)
+            .map(move |e| (self.neighbour(n, e), self.bond[e] as usize))
+    }
+
+    /// The entry of node `n`'s row whose neighbour is `j`, if they are linked (a binary search:
+    /// rows are sorted by neighbour).
+    pub fn entry(&self, n: usize, j: usize) -> Option<usize> {
+        let r = self.row(n);
+        let at = if self.nbr.is_empty() {
+            self.bond[r.clone()].binary_search_by(|&b| self.other_end(n, b as usize).cmp(&j))
+        } else {
+            self.nbr[r.clone()].binary_search(&(j as u32))
+        };
+        at.ok().map(|k| r.start + k)
+    }
+
+    /// The neighbour array, when kept (see [`Bonds::shed_neighbours`]).
+    #[inline]
+    pub fn neighbours(&self) -> Option<&[u32]> {
+        (!self.nbr.is_empty() || self.bond.is_empty()).then_some(&self.nbr[..])
+    }
+
+    /// Heap bytes of the rows: offsets, neighbours (while kept), springs.
+    pub fn row_bytes(&self) -> usize {
+        use crate::memory::bytes;
+        bytes(&self.offsets) + bytes(&self.nbr) + bytes(&self.bond)
+    }
+
+    /// Build the neighbour array, if it is not kept (see [`Bonds::shed_neighbours`]): for a
+    /// caller that runs the CSR kernel on a lattice built without it.
+    pub fn keep_neighbours(&mut self) {
+        if !self.nbr.is_empty() {
+            return;
+        }
+        let mut nbr = vec![0u32; self.bond.len()];
+        nbr.par_chunks_mut(1 << 16)
+            .enumerate()
+            .for_each(|(c, out)| {
+                let start = c << 16;
+                // The node of entry `start`: the last row that begins at or before it.
+                let mut n = self.offsets.partition_point(|&o| o as usize <= start) - 1;
+                for (k, v) in out.iter_mut().enumerate() {
+                    let e = start + k;
+                    while self.offsets[n + 1] as usize <= e {
+                        n += 1;
+                    }
+                    *v = self.other_end(n, self.bond[e] as usize) as u32;
+                }
+            });
+        self.nbr = nbr;
+    }
+
+    /// Free the neighbour array: every neighbour is then read from the springs' ends (one more
+    /// indirection, 4 bytes fewer per entry).
+    pub fn shed_neighbours(&mut self) {
+        self.nbr = Vec::new();
     }
 }
 
@@ -266,11 +352,22 @@ impl Lattice {
 
     /// Free what only a set-up reads, once the body is built and its loads are spread: each
     /// spring's volume (the stiffnesses hold it) and each node's boundary area (tractions are
-    /// spread with it). On a random3d body that is 91 of its 811 bytes per node at steady state
-    /// (`hooke bench --json`, `memory_parts`). A body built from the lattice afterwards
+    /// spread with it), [`Lattice::shed_volumes`]; and the rows' neighbour array, if a caller
+    /// built it ([`Bonds::keep_neighbours`]) where the CSR kernel, its only reader, cannot run.
+    /// On a random3d body the volumes are 91 bytes per node (`hooke bench --json`,
+    /// `memory_parts`).
+    pub fn shed_setup(&mut self) {
+        self.shed_volumes();
+        if !crate::kernel::Kernel::csr_may_run(self) {
+            self.bonds.shed_neighbours();
+        }
+    }
+
+    /// Free each spring's volume and each node's boundary area, and shrink the node volumes to
+    /// their length. A body built from the lattice afterwards
     /// ([`crate::body::Body::from_cells`]) or a traction spread over it would need them: both
     /// refuse a shed lattice. Regular lattices keep nothing of the kind.
-    pub fn shed_setup(&mut self) {
+    pub fn shed_volumes(&mut self) {
         if let Some(c) = &mut self.cells {
             c.spring = Vec::new();
             c.surface = Vec::new();
@@ -278,7 +375,7 @@ impl Lattice {
         }
     }
 
-    /// Whether [`Lattice::shed_setup`] freed the set-up's volumes.
+    /// Whether [`Lattice::shed_volumes`] freed the set-up's volumes.
     pub fn is_shed(&self) -> bool {
         self.cells
             .as_ref()
@@ -737,26 +834,23 @@ impl Lattice {
             LatticeKind::Hex => {
                 // Triangles: a spring's common neighbours (at most two in the bulk); a node's
                 // bonded pairs of neighbours (six in the bulk).
-                let linked = |i: usize, j: u32| bonds.nbr[bonds.row(i)].binary_search(&j).is_ok();
+                let linked = |i: usize, j: usize| bonds.entry(i, j).is_some();
                 let springs = bonds
                     .ends
                     .iter()
                     .map(|e| {
-                        let (i, j) = (e[0] as usize, e[1]);
-                        let common = bonds.nbr[bonds.row(i)]
-                            .iter()
-                            .filter(|&&k| linked(k as usize, j))
-                            .count();
+                        let (i, j) = (e[0] as usize, e[1] as usize);
+                        let common = bonds.links(i).filter(|&(k, _)| linked(k, j)).count();
                         common as Real / 2.0
                     })
                     .collect();
                 let node = (0..n)
                     .map(|i| {
-                        let row = &bonds.nbr[bonds.row(i)];
+                        let row = bonds.row(i);
                         let mut t = 0;
-                        for (x, &j) in row.iter().enumerate() {
-                            for &k in &row[x + 1..] {
-                                if linked(j as usize, k) {
+                        for x in row.clone() {
+                            for y in x + 1..row.end {
+                                if linked(bonds.neighbour(i, x), bonds.neighbour(i, y)) {
                                     t += 1;
                                 }
                             }
@@ -822,11 +916,45 @@ mod tests {
                 let b = l.bonds.bond[e] as usize;
                 let [i, j] = l.bonds.ends[b];
                 assert!(n as u32 == i || n as u32 == j);
-                assert_eq!(l.bonds.nbr[e], if n as u32 == i { j } else { i });
+                assert_eq!(
+                    l.bonds.neighbour(n, e) as u32,
+                    if n as u32 == i { j } else { i }
+                );
                 count[b] += 1;
             }
         }
         assert!(count.iter().all(|&c| c == 2));
+    }
+
+    /// With the neighbour array built or freed, every neighbour, link and entry reads the same;
+    /// each spring is found from both ends, rows are sorted by neighbour, and a pair that is not
+    /// linked is found in neither.
+    #[test]
+    fn neighbours_read_the_same_with_and_without_their_array() {
+        let spec = crate::random::RandomSpec::default();
+        let l = Lattice::random(3, [0.0; 3], [5.0, 4.0, 3.0], 1.0, 1.0, spec, &|_| true).unwrap();
+        let (mut kept, mut shed) = (l.clone(), l.clone());
+        kept.bonds.keep_neighbours();
+        shed.bonds.shed_neighbours();
+        assert!(shed.bonds.neighbours().is_none());
+        let nbr = kept.bonds.neighbours().unwrap();
+        assert_eq!(nbr.len(), 2 * l.bonds.len());
+        for (b, &[i, j]) in l.bonds.ends.iter().enumerate() {
+            for (n, m) in [(i as usize, j as usize), (j as usize, i as usize)] {
+                let e = shed.bonds.entry(n, m).unwrap();
+                assert_eq!((nbr[e] as usize, shed.bonds.bond[e] as usize), (m, b));
+                assert_eq!(kept.bonds.entry(n, m), Some(e));
+            }
+        }
+        for n in 0..l.len() {
+            assert!(shed.bonds.links(n).eq(kept.bonds.links(n)));
+            assert!(nbr[l.bonds.row(n)].is_sorted_by(|a, b| a < b));
+            for j in 0..l.len() {
+                let linked = nbr[l.bonds.row(n)].contains(&(j as u32));
+                assert_eq!(shed.bonds.entry(n, j).is_some(), linked);
+                assert_eq!(kept.bonds.entry(n, j).is_some(), linked);
+            }
+        }
     }
 
     #[test]
@@ -883,6 +1011,10 @@ mod tests {
                     .unwrap();
                 let m = pool.install(|| Lattice::cubic_box_periodic(n, a, periodic).unwrap());
                 assert_eq!(m.bonds.ends, l.bonds.ends);
+                assert_eq!(m.bonds.nbr, l.bonds.nbr);
+                let (mut m, mut l) = (m.clone(), l.clone());
+                m.bonds.keep_neighbours();
+                l.bonds.keep_neighbours();
                 assert_eq!(m.bonds.nbr, l.bonds.nbr);
                 assert_eq!(m.bonds.bond, l.bonds.bond);
                 let bits = |v: &[Real]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();

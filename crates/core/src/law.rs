@@ -124,7 +124,7 @@ fn node_pool(body: &Body, u: &Coords, sp: Springs<'_>, n: usize) -> Real {
             let rest = bonds.rest[b];
             pi += sp.k[b]
                 * sp.lever[b]
-                * spring_geometry(&body.lattice, u, n, bonds.nbr[e] as usize, rest).dl;
+                * spring_geometry(&body.lattice, u, n, bonds.neighbour(n, e), rest).dl;
         }
     }
     pi
@@ -168,7 +168,7 @@ pub fn node_force(
         if !sp.alive[b] {
             continue;
         }
-        let j = bonds.nbr[e] as usize;
+        let j = bonds.neighbour(n, e);
         let rest = bonds.rest[b];
         let g = spring_geometry(lat, u, n, j, rest);
         let s = tension(sp.k[b], sp.lever[b], g.dl, q, pool[n], pool[j]) / g.l;
@@ -364,7 +364,7 @@ pub fn frame_fields(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> 
                 if !sp.alive[b] {
                     continue;
                 }
-                let j = bonds.nbr[e] as usize;
+                let j = bonds.neighbour(i, e);
                 let g = &geo[b];
                 // A spring's first end is its lower node (`Bonds::from_pairs`).
                 let d = if i < j {
@@ -428,7 +428,7 @@ pub fn node_virial(body: &Body, u: &Coords, tension: &[Real], n: usize) -> Matri
     let mut s = Matrix::zeros();
     for e in bonds.row(n) {
         let b = bonds.bond[e] as usize;
-        let j = bonds.nbr[e] as usize;
+        let j = bonds.neighbour(n, e);
         let (dx, dy, dz) = spring_vector(&body.lattice, u, n, j);
         let d = Vector::new(dx, dy, dz);
         let l = d.norm();

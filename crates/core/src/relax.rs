@@ -86,7 +86,7 @@ fn fictitious_mass(body: &Body, state: &State) -> Vec<Real> {
                 if !state.alive[b] {
                     continue;
                 }
-                let j = bonds.nbr[e] as usize;
+                let j = bonds.neighbour(i, e);
                 let rest = bonds.rest[b];
                 let g = law::spring_geometry(&body.lattice, &state.u, i, j, rest);
                 let t = law::tension(kk[b], lever[b], g.dl, body.q, state.pool[i], state.pool[j]);

@@ -111,7 +111,7 @@ impl Tangent {
                 .for_each(|(n, dp)| {
                     let mut s = 0.0;
                     for e in bonds.row(n) {
-                        let j = bonds.nbr[e] as usize;
+                        let j = bonds.neighbour(n, e);
                         let d = &this.data[bonds.bond[e] as usize];
                         let u = Self::unit(d, n, j);
                         s += d[4]
@@ -139,7 +139,7 @@ impl Tangent {
             .for_each(|(n, ((ox, oy), oz))| {
                 let mut acc = [0.0; 3];
                 for e in bonds.row(n) {
-                    let j = bonds.nbr[e] as usize;
+                    let j = bonds.neighbour(n, e);
                     let d = &this.data[bonds.bond[e] as usize];
                     let u = Self::unit(d, n, j);
                     let w = [
@@ -189,7 +189,7 @@ impl Tangent {
             for c in 0..3 {
                 let (mut direct, mut own, mut others) = (0.0, 0.0, 0.0);
                 for e in bonds.row(n) {
-                    let j = bonds.nbr[e] as usize;
+                    let j = bonds.neighbour(n, e);
                     let d = &self.data[bonds.bond[e] as usize];
                     let ec = Self::unit(d, n, j)[c];
                     direct += d[3] * ec * ec + d[5] * (1.0 - ec * ec);

@@ -167,7 +167,7 @@ impl Fracture {
                     continue;
                 }
                 for e in bonds.row(i) {
-                    let j = bonds.nbr[e] as usize;
+                    let j = bonds.neighbour(i, e);
                     let b = bonds.bond[e] as usize;
                     // Each spring once, from its lower end; rows are sorted, so the lists come
                     // out in a fixed order.
@@ -398,7 +398,7 @@ fn shifted_dispersive_energy(body: &Body, state: &State, h: Real, n: usize) -> R
         if state.alive()[b] {
             let rest = bonds.rest[b];
             pi +=
-                k[b] * lever[b] * shifted_extension(body, state, h, n, bonds.nbr[e] as usize, rest);
+                k[b] * lever[b] * shifted_extension(body, state, h, n, bonds.neighbour(n, e), rest);
         }
     }
     0.5 * body.q * pi * pi / s

@@ -500,9 +500,7 @@ fn fkd<const D: usize, const W: usize>(
             for (k, i) in r.enumerate() {
                 let mut f = [0.0; 3];
                 let pi = pool[i];
-                let row = bonds.row(i);
-                for (&j, &b) in bonds.nbr[row.clone()].iter().zip(&bonds.bond[row]) {
-                    let (j, b) = (j as usize, b as usize);
+                let mut add = |j: usize, b: usize| {
                     let r = &rec[b];
                     let t = r[0] + r[1] * (pi + pool[j]);
                     // The record's vector points from the lower end to the upper end.
@@ -510,6 +508,16 @@ fn fkd<const D: usize, const W: usize>(
                     for c in 0..D {
                         f[c] += t * r[2 + c];
                     }
+                };
+                let row = bonds.row(i);
+                match bonds.neighbours() {
+                    Some(nbr) => {
+                        for (&j, &b) in nbr[row.clone()].iter().zip(&bonds.bond[row]) {
+                            add(j as usize, b as usize);
+                        }
+                    }
+                    // A body that was not meant for this kernel (see `csr_may_run`).
+                    None => bonds.links(i).for_each(|(j, b)| add(j, b)),
                 }
                 let (d, w) = kick_drift(
                     dims,

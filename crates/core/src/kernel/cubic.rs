@@ -154,7 +154,7 @@ impl CubicStencil {
             .for_each(|(i, m)| {
                 for e in bonds.row(i) {
                     if state.alive[bonds.bond[e] as usize] {
-                        *m |= 1 << direction(&off, i, bonds.nbr[e] as usize);
+                        *m |= 1 << direction(&off, i, bonds.neighbour(i, e));
                     }
                 }
             });

@@ -176,7 +176,7 @@ impl RowKernel {
                     let b = e.map(|e| bonds.bond[e] as usize);
                     match (e, b) {
                         (Some(e), Some(b)) if springs.alive[b] => {
-                            j.push(bonds.nbr[e]);
+                            j.push(bonds.neighbour(i, e) as u32);
                             k.push(springs.k[b]);
                             if stored {
                                 rest.push(bonds.rest[b]);
