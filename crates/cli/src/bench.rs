@@ -122,6 +122,9 @@ struct BenchJson {
     /// Their sum, bytes per node.
     memory_bytes_per_node: f64,
     setup_seconds: f64,
+    /// Where the set-up's seconds went: the lattice (nodes, springs), the body (stiffnesses,
+    /// masses, state) and the integrator (its stable-step estimate, mostly).
+    setup_parts: std::collections::BTreeMap<&'static str, f64>,
     /// With --contact: step time with contact over step time without (medians of alternating
     /// windows).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -184,13 +187,22 @@ pub fn run(args: BenchArgs) -> Result<()> {
     }
     let setup = Instant::now();
     let lattice = bench_lattice(&args)?;
+    let lattice_seconds = setup.elapsed().as_secs_f64();
     let kind = lattice.kind;
     let nu = match (args.law, kind) {
         (LawArg::Plain, _) => hooke_core::material::nu_from_q(kind, 0.0),
         (LawArg::Dispersive, LatticeKind::Cubic | LatticeKind::Random3d) => 0.3,
         (LawArg::Dispersive, LatticeKind::Hex | LatticeKind::Random2d) => 0.45,
     };
-    let (body, mut state, mut it) = bench_run(&args, lattice, q_from_nu(kind, nu)?)?;
+    let (body, mut state, mut it, [body_seconds, integrator_seconds]) =
+        bench_run_timed(&args, lattice, q_from_nu(kind, nu)?)?;
+    let setup_parts = [
+        ("lattice", lattice_seconds),
+        ("body", body_seconds),
+        ("integrator", integrator_seconds),
+    ]
+    .into_iter()
+    .collect();
     if let Some(t) = &team {
         it.distribute(&body, t.clone());
     }
@@ -271,6 +283,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         memory_parts,
         memory_bytes_per_node,
         setup_seconds,
+        setup_parts,
         contact_overhead,
         processes: team.as_ref().map_or(1, |t| t.size()),
         halo_bytes_per_step: it
@@ -311,6 +324,13 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 .map(|(name, b)| format!("{name} {b:.0}"))
                 .collect()
         };
+        println!(
+            "  set-up {:.2} s: lattice {:.2}, body {:.2}, integrator (stable step) {:.2}",
+            out.setup_seconds,
+            out.setup_parts["lattice"],
+            out.setup_parts["body"],
+            out.setup_parts["integrator"],
+        );
         println!(
             "  arrays {:.0} bytes per node ({}, ...; --json lists them all)",
             out.memory_bytes_per_node,
@@ -358,6 +378,17 @@ fn bench_lattice(args: &BenchArgs) -> Result<Lattice> {
 /// A body on `lattice` in lattice units with ratio `q`, moving with a smooth velocity field (so
 /// the springs do real work), and its integrator on the kernel `args` asks for.
 fn bench_run(args: &BenchArgs, lattice: Lattice, q: Real) -> Result<(Body, State, Integrator)> {
+    bench_run_timed(args, lattice, q).map(|(b, s, i, _)| (b, s, i))
+}
+
+/// [`bench_run`], with the seconds spent on the body (and state) and on the integrator (its
+/// stable-step estimate, mostly).
+fn bench_run_timed(
+    args: &BenchArgs,
+    lattice: Lattice,
+    q: Real,
+) -> Result<(Body, State, Integrator, [f64; 2])> {
+    let start = Instant::now();
     let mut body = Body::uniform(lattice, 1.0, q, 1.0);
     // As a case's set-up does (hooke_sim's builder), once nothing more is built from them; the
     // CSR kernel, asked for, keeps the neighbours it streams.
@@ -368,14 +399,19 @@ fn bench_run(args: &BenchArgs, lattice: Lattice, q: Real) -> Result<(Body, State
         body.lattice.shed_setup();
     }
     let mut state = State::new(&body);
+    let body_seconds = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    // Set up at rest, as a case usually is (a moving start would make the estimate keep a copy
+    // of the velocities), then moving: the velocities below are the half-step ones.
+    let it = Integrator::new(&body, &mut state, Loading::default(), &bench_opts(args))
+        .context("setting up the integrator")?;
+    let integrator_seconds = start.elapsed().as_secs_f64();
     for i in 0..body.nodes() {
         let p = body.lattice.pos.get(i);
         state.v.x_mut()[i] = 1e-3 * (0.1 * p.y).sin();
         state.v.y_mut()[i] = 1e-3 * (0.13 * p.z + 0.07 * p.x).cos();
     }
-    let it = Integrator::new(&body, &mut state, Loading::default(), &bench_opts(args))
-        .context("setting up the integrator")?;
-    Ok((body, state, it))
+    Ok((body, state, it, [body_seconds, integrator_seconds]))
 }
 
 /// The integrator options `--kernel` asks for.

@@ -34,7 +34,7 @@ impl Body {
         let b = &lat.bonds;
         let mut parts = vec![
             ("positions", lat.pos.heap_bytes()),
-            ("rows (offsets, neighbours, springs)", b.row_bytes()),
+            ("rows (offsets, springs; neighbours if kept)", b.row_bytes()),
             ("spring ends", bytes(&b.ends)),
             ("rest lengths", bytes(&b.rest)),
             ("stiffnesses", bytes(&self.k)),

@@ -21,6 +21,8 @@
 //! prescribed DOFs, `R = m (v+ - v-)/dt - f - F_ext`. `E_released` is the energy that broken
 //! springs took with them (fracture).
 
+use rayon::prelude::*;
+
 use crate::body::Body;
 use crate::error::{Error, Result};
 use crate::kernel::{Kernel, StepParams};
@@ -266,9 +268,19 @@ impl Integrator {
         // The estimate's drift scratch is the integrator's own, cleared after it (a plate's
         // drift leaves z alone, so z must start at zero).
         let mut u_next = Coords::zeros(body.nodes());
+        // The estimate's unit masses become the inverse masses afterwards (one array fewer to
+        // first-touch).
+        let mut inv_mass = Vec::new();
         let stable = if opts.damage_proof {
-            let plain =
-                stability::estimate_using(body, state, &kernel.plain(), 40, 1e-3, &mut u_next);
+            let plain = stability::estimate_using(
+                body,
+                state,
+                &kernel.plain(),
+                40,
+                1e-3,
+                &mut u_next,
+                &mut inv_mass,
+            );
             let lambda = (1.0 + 2.0 * body.q.max(0.0)) * plain.lambda_max;
             StableStep {
                 lambda_max: lambda,
@@ -276,9 +288,14 @@ impl Integrator {
                 ..plain
             }
         } else {
-            stability::estimate_using(body, state, &kernel, 40, 1e-3, &mut u_next)
+            stability::estimate_using(body, state, &kernel, 40, 1e-3, &mut u_next, &mut inv_mass)
         };
         u_next.fill_zero();
+        inv_mass
+            .par_iter_mut()
+            .with_min_len(1 << 14)
+            .zip(&body.mass)
+            .for_each(|(x, &m)| *x = 1.0 / m);
         let dt = match opts.time_step {
             TimeStep::Auto { safety } => {
                 if !(safety > 0.0 && safety <= 1.0) {
@@ -309,7 +326,7 @@ impl Integrator {
                 dt
             }
         };
-        let mut it = Self::assemble(body, loading, opts, kernel, dt, stable, u_next);
+        let mut it = Self::assemble(body, loading, opts, kernel, dt, stable, (u_next, inv_mass));
         it.synced = state.breaks();
         it.plane &= Self::flat(state);
         // The CSR kernel's scratch is sized here, so that no step allocates (the pools it also
@@ -358,7 +375,7 @@ impl Integrator {
         kernel: Kernel,
         dt: Real,
         stable: StableStep,
-        u_next: Coords,
+        (u_next, inv_mass): (Coords, Vec<Real>),
     ) -> Self {
         let mut motions = Vec::new();
         let mut dofs = Vec::new();
@@ -410,7 +427,7 @@ impl Integrator {
             loaded,
             dof_loads,
             first_load,
-            inv_mass: body.mass.iter().map(|&m| 1.0 / m).collect(),
+            inv_mass,
             u_next,
             ledger: Ledger::default(),
             initial: 0.0,
@@ -467,7 +484,16 @@ impl Integrator {
             kernel.set_simd(false);
         }
         let u_next = Coords::zeros(body.nodes());
-        let mut it = Self::assemble(body, loading, opts, kernel, ck.dt, ck.stable, u_next);
+        let inv_mass = body.mass.iter().map(|&m| 1.0 / m).collect();
+        let mut it = Self::assemble(
+            body,
+            loading,
+            opts,
+            kernel,
+            ck.dt,
+            ck.stable,
+            (u_next, inv_mass),
+        );
         it.synced = state.breaks();
         it.plane &= Self::flat(state);
         it.ledger = ck.ledger;

@@ -34,7 +34,7 @@ use nalgebra::DMatrix;
 use rayon::prelude::*;
 
 use crate::body::Body;
-use crate::kernel::{Kernel, StepParams};
+use crate::kernel::{Kernel, StepParams, CHUNK};
 use crate::math::{Coords, Real};
 use crate::state::State;
 
@@ -86,13 +86,27 @@ pub fn estimate_in(
     tolerance: Real,
 ) -> StableStep {
     let mut u_next = Coords::zeros(body.nodes());
-    estimate_using(body, state, kernel, iterations, tolerance, &mut u_next)
+    let mut ones = Vec::new();
+    estimate_using(
+        body,
+        state,
+        kernel,
+        iterations,
+        tolerance,
+        &mut u_next,
+        &mut ones,
+    )
 }
 
-/// [`estimate_in`] with the drift's scratch `u_next` (as many nodes as the body) from the
-/// caller, who may keep it: an integrator's own, which it clears afterwards. Large bodies'
-/// set-up is dominated by first touches of fresh memory, so the estimate allocates as little
-/// as it can.
+/// [`estimate_in`] with the drift's scratch `u_next` (as many nodes as the body) and a vector
+/// `ones` from the caller, who may keep them: an integrator's own drift scratch, which it
+/// clears afterwards, and its inverse masses, which the estimate leaves holding 1 per node (the
+/// unit masses of its force evaluations). Large bodies' set-up is dominated by first touches
+/// of fresh memory, so the estimate allocates as little as it can: with `state.f` at +0 (a
+/// fresh state) the force at the base point is kept there, and `state.f` is given back at +0.
+///
+/// Its sums (the Lanczos coefficients) are formed per chunk of [`crate::kernel::CHUNK`] nodes
+/// and added in chunk order, in parallel and the same for any thread count.
 pub(crate) fn estimate_using(
     body: &Body,
     state: &mut State,
@@ -100,6 +114,7 @@ pub(crate) fn estimate_using(
     iterations: usize,
     tolerance: Real,
     u_next: &mut Coords,
+    ones: &mut Vec<Real>,
 ) -> StableStep {
     let n = body.nodes();
     let inv_sqrt_m: Vec<Real> = body
@@ -109,7 +124,7 @@ pub(crate) fn estimate_using(
         .map(|m| 1.0 / m.sqrt())
         .collect();
     let dims = body.lattice.dim();
-    let mut op = KernelJacobian::new(body, state, u_next);
+    let mut op = KernelJacobian::new(body, state, u_next, ones);
     // A deterministic, non-special start vector (a hash of the index), so dt is reproducible.
     let mut q = Coords::zeros(n);
     for c in 0..dims {
@@ -126,13 +141,20 @@ pub(crate) fn estimate_using(
     scale(&mut q, 1.0 / qn);
     let mut q_prev = Coords::zeros(n);
     let mut w = Coords::zeros(n);
-    // max |M^-1/2 q|, for the difference step; later ones come with each new q.
+    // max |M^-1/2 q|, for the difference step; later ones come with each new q. The maximum
+    // is exact in any order.
     let mut vmax = 0.0;
     for c in 0..3 {
-        for (x, s) in q.comp(c).iter().zip(&inv_sqrt_m) {
-            vmax = Real::max(vmax, (x * s).abs());
-        }
+        let top = q
+            .comp(c)
+            .par_iter()
+            .with_min_len(BLOCK)
+            .zip(&inv_sqrt_m)
+            .map(|(x, s)| (x * s).abs())
+            .reduce(|| 0.0, Real::max);
+        vmax = Real::max(vmax, top);
     }
+    let mut partial = vec![0.0; n.div_ceil(CHUNK)];
     let mut alpha = Vec::new();
     let mut beta: Vec<Real> = Vec::new();
     let mut last = 0.0;
@@ -146,12 +168,21 @@ pub(crate) fn estimate_using(
         let b_last = beta.last().copied().unwrap_or(0.0);
         let mut b2 = 0.0;
         for c in 0..3 {
-            let mut part = 0.0;
-            for ((y, x), p) in w.comp_mut(c).iter_mut().zip(q.comp(c)).zip(q_prev.comp(c)) {
-                *y += -a * x + -b_last * p;
-                part += *y * *y;
-            }
-            b2 += part;
+            let (x, p) = (q.comp(c), q_prev.comp(c));
+            w.comp_mut(c)
+                .par_chunks_mut(CHUNK)
+                .zip(partial.par_iter_mut())
+                .enumerate()
+                .for_each(|(k, (y, out))| {
+                    let r = k * CHUNK..k * CHUNK + y.len();
+                    let mut part = 0.0;
+                    for ((y, x), p) in y.iter_mut().zip(&x[r.clone()]).zip(&p[r]) {
+                        *y += -a * x + -b_last * p;
+                        part += *y * *y;
+                    }
+                    *out = part;
+                });
+            b2 += in_order(&partial);
         }
         let b = b2.sqrt();
         let top = largest_ritz(&alpha, &beta);
@@ -184,6 +215,9 @@ pub(crate) fn estimate_using(
         }
     }
     let lambda_max = last;
+    if op.base_force_in_f {
+        op.scratch.f.fill_zero();
+    }
     match &op.base {
         Some(u) => op.scratch.u.clone_from(u),
         None => op.scratch.u.fill_zero(),
@@ -208,37 +242,43 @@ struct KernelJacobian<'a> {
     saved_v: Option<Coords>,
     scratch: &'a mut State,
     u_next: &'a mut Coords,
-    unit_inv_mass: Vec<Real>,
+    unit_inv_mass: &'a [Real],
     spacing: Real,
     partials: Vec<crate::kernel::SweepSums>,
-    /// The force at `u`, once the first product needs it.
+    /// Per-chunk partial sums of a product's dot product.
+    partial: Vec<Real>,
+    /// The force at `u`, once the first product needs it: in `scratch.f` if that was free (+0
+    /// everywhere), else here.
     at_base: Option<Coords>,
+    base_force_in_f: bool,
+    base_force_known: bool,
 }
 
 impl<'a> KernelJacobian<'a> {
-    fn new(body: &Body, state: &'a mut State, u_next: &'a mut Coords) -> Self {
+    fn new(
+        body: &Body,
+        state: &'a mut State,
+        u_next: &'a mut Coords,
+        ones: &'a mut Vec<Real>,
+    ) -> Self {
         // Only +0 itself may stand for a zero array: `0.0 + x` and `-0.0 + x` differ for x = -0.
-        let copy = |v: &Coords| {
-            if v.as_flat().iter().all(|x| x.to_bits() == 0) {
-                None
-            } else {
-                Some(v.clone())
-            }
-        };
+        let zero = |v: &Coords| v.as_flat().par_iter().all(|x| x.to_bits() == 0);
+        let copy = |v: &Coords| (!zero(v)).then(|| v.clone());
         let n = body.nodes();
+        ones.clear();
+        ones.par_extend(rayon::iter::repeat_n(1.0, n));
         KernelJacobian {
             base: copy(&state.u),
             saved_v: copy(&state.v),
+            base_force_in_f: zero(&state.f),
             scratch: state,
             u_next,
-            unit_inv_mass: {
-                let mut v = Vec::with_capacity(n);
-                v.par_extend(rayon::iter::repeat_n(1.0, n));
-                v
-            },
+            unit_inv_mass: ones,
             spacing: body.lattice.spacing,
             partials: vec![Default::default(); crate::kernel::partials_len(n)],
+            partial: vec![0.0; n.div_ceil(CHUNK)],
             at_base: None,
+            base_force_known: false,
         }
     }
 
@@ -277,7 +317,7 @@ impl<'a> KernelJacobian<'a> {
         kernel.force_kick_drift(
             body,
             self.scratch,
-            &self.unit_inv_mass,
+            self.unit_inv_mass,
             &p,
             self.u_next,
             &mut self.partials,
@@ -299,30 +339,48 @@ impl<'a> KernelJacobian<'a> {
             return 0.0;
         }
         let eps = 1e-7 * self.spacing / vmax;
-        let base = match self.at_base.take() {
-            Some(f) => f,
-            None => {
-                self.force(body, kernel, q, inv_sqrt_m, 0.0);
-                self.scratch.v.clone()
+        if !self.base_force_known {
+            self.force(body, kernel, q, inv_sqrt_m, 0.0);
+            if self.base_force_in_f {
+                self.scratch.f.copy_from(&self.scratch.v);
+            } else {
+                self.at_base = Some(self.scratch.v.clone());
             }
-        };
+            self.base_force_known = true;
+        }
         self.force(body, kernel, q, inv_sqrt_m, eps);
         // K v = -(f(u + eps v) - f(u)) / eps, scaled by M^-1/2 and dotted with q, summed per
-        // component in node order.
+        // component by chunks in chunk order.
+        let state = &*self.scratch;
+        let base = self.at_base.as_ref().unwrap_or(&state.f);
         let mut a = 0.0;
         for c in 0..3 {
-            let mut part = 0.0;
-            let w = w.comp_mut(c).iter_mut();
-            let bf = base.comp(c).iter().zip(self.scratch.v.comp(c));
-            for (((y, (b, f)), x), s) in w.zip(bf).zip(q.comp(c)).zip(inv_sqrt_m) {
-                *y = (b - f) / eps * s;
-                part += *y * x;
-            }
-            a += part;
+            let (b, f, x) = (base.comp(c), state.v.comp(c), q.comp(c));
+            w.comp_mut(c)
+                .par_chunks_mut(CHUNK)
+                .zip(self.partial.par_iter_mut())
+                .enumerate()
+                .for_each(|(k, (y, out))| {
+                    let r = k * CHUNK..k * CHUNK + y.len();
+                    let mut part = 0.0;
+                    let bf = b[r.clone()].iter().zip(&f[r.clone()]);
+                    for (((y, (b, f)), x), s) in
+                        y.iter_mut().zip(bf).zip(&x[r.clone()]).zip(&inv_sqrt_m[r])
+                    {
+                        *y = (b - f) / eps * s;
+                        part += *y * x;
+                    }
+                    *out = part;
+                });
+            a += in_order(&self.partial);
         }
-        self.at_base = Some(base);
         a
     }
+}
+
+/// The sum of per-chunk partial sums, first to last (fixed, so the same for any thread count).
+fn in_order(partial: &[Real]) -> Real {
+    partial.iter().fold(0.0, |s, &p| s + p)
 }
 
 fn scale(v: &mut Coords, s: Real) {
@@ -347,10 +405,14 @@ fn largest_ritz(alpha: &[Real], beta: &[Real]) -> Real {
 /// `(1 + 2 max(q,0)) max_n 2 sum_t k_t / m_n`: holds for any pattern of broken springs.
 pub fn damage_bound(body: &Body) -> Real {
     let bonds = &body.lattice.bonds;
-    let mut worst: Real = 0.0;
-    for n in 0..body.nodes() {
-        let ks: Real = bonds.row(n).map(|e| body.k[bonds.bond[e] as usize]).sum();
-        worst = worst.max(2.0 * ks / body.mass[n]);
-    }
+    // Each node's sum in row order; the maximum is exact in any order.
+    let worst = (0..body.nodes())
+        .into_par_iter()
+        .with_min_len(BLOCK)
+        .map(|n| {
+            let ks: Real = bonds.row(n).map(|e| body.k[bonds.bond[e] as usize]).sum();
+            2.0 * ks / body.mass[n]
+        })
+        .reduce(|| 0.0, Real::max);
     (1.0 + 2.0 * body.q.max(0.0)) * worst
 }
