@@ -224,6 +224,7 @@ pub(crate) fn estimate_using(
     }
     match &op.saved_v {
         Some(v) => op.scratch.v.clone_from(v),
+        None if op.v_zero => {}
         None => op.scratch.v.fill_zero(),
     }
     StableStep {
@@ -252,6 +253,8 @@ struct KernelJacobian<'a> {
     at_base: Option<Coords>,
     base_force_in_f: bool,
     base_force_known: bool,
+    /// Whether `scratch.v` is +0 everywhere (an evaluation's kick adds the force to it).
+    v_zero: bool,
 }
 
 impl<'a> KernelJacobian<'a> {
@@ -270,6 +273,7 @@ impl<'a> KernelJacobian<'a> {
         KernelJacobian {
             base: copy(&state.u),
             saved_v: copy(&state.v),
+            v_zero: zero(&state.v),
             base_force_in_f: zero(&state.f),
             scratch: state,
             u_next,
@@ -304,9 +308,12 @@ impl<'a> KernelJacobian<'a> {
                 }),
             }
         }
-        for v in self.scratch.v.xyz_mut() {
-            v.par_iter_mut().with_min_len(BLOCK).for_each(|v| *v = 0.0);
+        if !self.v_zero {
+            for v in self.scratch.v.xyz_mut() {
+                v.par_iter_mut().with_min_len(BLOCK).for_each(|v| *v = 0.0);
+            }
         }
+        self.v_zero = false;
         kernel.pools(body, self.scratch);
         let p = StepParams {
             dt: 1.0,
@@ -342,7 +349,9 @@ impl<'a> KernelJacobian<'a> {
         if !self.base_force_known {
             self.force(body, kernel, q, inv_sqrt_m, 0.0);
             if self.base_force_in_f {
-                self.scratch.f.copy_from(&self.scratch.v);
+                // `f` is +0 everywhere: the swap keeps the force and clears the velocities.
+                std::mem::swap(&mut self.scratch.f, &mut self.scratch.v);
+                self.v_zero = true;
             } else {
                 self.at_base = Some(self.scratch.v.clone());
             }
@@ -351,29 +360,33 @@ impl<'a> KernelJacobian<'a> {
         self.force(body, kernel, q, inv_sqrt_m, eps);
         // K v = -(f(u + eps v) - f(u)) / eps, scaled by M^-1/2 and dotted with q, summed per
         // component by chunks in chunk order.
-        let state = &*self.scratch;
-        let base = self.at_base.as_ref().unwrap_or(&state.f);
+        // The velocities (the force) are cleared as they are read, for the next evaluation.
+        let State { f: base_f, v, .. } = &mut *self.scratch;
+        let base = self.at_base.as_ref().unwrap_or(base_f);
         let mut a = 0.0;
         for c in 0..3 {
-            let (b, f, x) = (base.comp(c), state.v.comp(c), q.comp(c));
+            let (b, x) = (base.comp(c), q.comp(c));
             w.comp_mut(c)
                 .par_chunks_mut(CHUNK)
+                .zip(v.comp_mut(c).par_chunks_mut(CHUNK))
                 .zip(self.partial.par_iter_mut())
                 .enumerate()
-                .for_each(|(k, (y, out))| {
+                .for_each(|(k, ((y, f), out))| {
                     let r = k * CHUNK..k * CHUNK + y.len();
                     let mut part = 0.0;
-                    let bf = b[r.clone()].iter().zip(&f[r.clone()]);
+                    let bf = b[r.clone()].iter().zip(f.iter_mut());
                     for (((y, (b, f)), x), s) in
                         y.iter_mut().zip(bf).zip(&x[r.clone()]).zip(&inv_sqrt_m[r])
                     {
-                        *y = (b - f) / eps * s;
+                        *y = (b - *f) / eps * s;
+                        *f = 0.0;
                         part += *y * x;
                     }
                     *out = part;
                 });
             a += in_order(&self.partial);
         }
+        self.v_zero = true;
         a
     }
 }
