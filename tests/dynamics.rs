@@ -446,17 +446,30 @@ fn stable_step_estimate_gives_the_state_back() {
     let mut signed = State::new(&body);
     signed.v.x_mut()[3] = -0.0;
     signed.u.y_mut()[5] = -0.0;
-    for state in [State::new(&body), moving, signed] {
+    // Forces left from an evaluation: the estimate cannot use their array.
+    let mut forced = State::new(&body);
+    forced.f = smooth_field(&body, 5.0);
+    let mut at_rest = Vec::new();
+    for state in [State::new(&body), moving, signed, forced] {
         let mut s = state.clone();
         let est = stability::estimate_in(&body, &mut s, &kernel, 40, 1e-3);
         assert!(est.lambda_max > 0.0);
         let bits = |c: &Coords| c.as_flat().iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&s.u), bits(&state.u));
         assert_eq!(bits(&s.v), bits(&state.v));
+        assert_eq!(bits(&s.f), bits(&state.f));
         // The same estimate from a copy.
         let again = stability::estimate(&body, &state, &kernel, 40, 1e-3);
         assert_eq!(again.lambda_max.to_bits(), est.lambda_max.to_bits());
+        if state.u.as_flat().iter().all(|&x| x == 0.0) {
+            at_rest.push(est.lambda_max.to_bits());
+        }
     }
+    // At rest, whether the base force is found to be zero (a fresh state, whose force array
+    // then serves as a Lanczos vector; one with forces left, whose array does not) or kept in the
+    // force array (a signed zero displacement, not taken for rest): the same bits.
+    assert_eq!(at_rest.len(), 3);
+    assert!(at_rest.iter().all(|&e| e == at_rest[0]), "{at_rest:?}");
     // The same bits for any thread count, on a body of several parallel blocks.
     let big = cube(28, 0.3);
     let mut state = State::new(&big);

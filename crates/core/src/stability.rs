@@ -139,7 +139,10 @@ pub(crate) fn estimate_using(
     }
     let qn = q.norm();
     scale(&mut q, 1.0 / qn);
-    let mut q_prev = Coords::zeros(n);
+    // The previous Lanczos vector; none is read in the first iteration (its beta is 0), so the
+    // buffer is found after it: the state's force array when the estimate does not need it.
+    let mut q_prev = Coords::default();
+    let mut lent = false;
     let mut w = Coords::zeros(n);
     // max |M^-1/2 q|, for the difference step; later ones come with each new q. The maximum
     // is exact in any order.
@@ -168,7 +171,7 @@ pub(crate) fn estimate_using(
         let b_last = beta.last().copied().unwrap_or(0.0);
         let mut b2 = 0.0;
         for c in 0..3 {
-            let (x, p) = (q.comp(c), q_prev.comp(c));
+            let (x, p) = (q.comp(c), (it > 0).then(|| q_prev.comp(c)));
             w.comp_mut(c)
                 .par_chunks_mut(CHUNK)
                 .zip(partial.par_iter_mut())
@@ -176,9 +179,20 @@ pub(crate) fn estimate_using(
                 .for_each(|(k, (y, out))| {
                     let r = k * CHUNK..k * CHUNK + y.len();
                     let mut part = 0.0;
-                    for ((y, x), p) in y.iter_mut().zip(&x[r.clone()]).zip(&p[r]) {
-                        *y += -a * x + -b_last * p;
-                        part += *y * *y;
+                    match p {
+                        Some(p) => {
+                            for ((y, x), p) in y.iter_mut().zip(&x[r.clone()]).zip(&p[r]) {
+                                *y += -a * x + -b_last * p;
+                                part += *y * *y;
+                            }
+                        }
+                        // The first q_prev: +0 everywhere.
+                        None => {
+                            for (y, x) in y.iter_mut().zip(&x[r]) {
+                                *y += -a * x + -b_last * 0.0;
+                                part += *y * *y;
+                            }
+                        }
                     }
                     *out = part;
                 });
@@ -195,6 +209,12 @@ pub(crate) fn estimate_using(
         }
         last = top;
         beta.push(b);
+        if it == 0 {
+            match op.lend_force_array() {
+                Some(f) => (q_prev, lent) = (f, true),
+                None => q_prev = Coords::zeros(n),
+            }
+        }
         std::mem::swap(&mut q_prev, &mut q);
         let inv = 1.0 / b;
         // The maximum is exact in any order, so this pass runs in parallel.
@@ -215,6 +235,10 @@ pub(crate) fn estimate_using(
         }
     }
     let lambda_max = last;
+    if lent {
+        // Either Lanczos buffer will do: both are as long as the body.
+        op.scratch.f = q_prev;
+    }
     if op.base_force_in_f {
         op.scratch.f.fill_zero();
     }
@@ -255,6 +279,9 @@ struct KernelJacobian<'a> {
     base_force_known: bool,
     /// Whether `scratch.v` is +0 everywhere (an evaluation's kick adds the force to it).
     v_zero: bool,
+    /// Whether the force at the base point is zero everywhere (a body at rest and unstrained:
+    /// every extension is exactly 0), so that it needs no array.
+    base_zero: bool,
 }
 
 impl<'a> KernelJacobian<'a> {
@@ -274,6 +301,7 @@ impl<'a> KernelJacobian<'a> {
             base: copy(&state.u),
             saved_v: copy(&state.v),
             v_zero: zero(&state.v),
+            base_zero: false,
             base_force_in_f: zero(&state.f),
             scratch: state,
             u_next,
@@ -331,6 +359,12 @@ impl<'a> KernelJacobian<'a> {
         );
     }
 
+    /// The state's force array (+0 everywhere), for the caller to use and give back, when the
+    /// base point's force needs no array; call after the first product.
+    fn lend_force_array(&mut self) -> Option<Coords> {
+        (self.base_zero && self.base_force_in_f).then(|| std::mem::take(&mut self.scratch.f))
+    }
+
     /// `w = M^-1/2 K M^-1/2 q`, returning `w.q`; `vmax` is `max |M^-1/2 q|`.
     fn apply(
         &mut self,
@@ -348,7 +382,16 @@ impl<'a> KernelJacobian<'a> {
         let eps = 1e-7 * self.spacing / vmax;
         if !self.base_force_known {
             self.force(body, kernel, q, inv_sqrt_m, 0.0);
-            if self.base_force_in_f {
+            let v = &mut self.scratch.v;
+            if self.base.is_none() && v.as_flat().par_iter().all(|&x| x == 0.0) {
+                // Then `u = 0 + eps M^-1/2 q` wherever the force is read, so a zero's sign
+                // cannot reach a displacement, nor a sum: +0 stands for it.
+                self.base_zero = true;
+                for c in v.xyz_mut() {
+                    c.par_iter_mut().with_min_len(BLOCK).for_each(|x| *x = 0.0);
+                }
+                self.v_zero = true;
+            } else if self.base_force_in_f {
                 // `f` is +0 everywhere: the swap keeps the force and clears the velocities.
                 std::mem::swap(&mut self.scratch.f, &mut self.scratch.v);
                 self.v_zero = true;
@@ -362,10 +405,10 @@ impl<'a> KernelJacobian<'a> {
         // component by chunks in chunk order.
         // The velocities (the force) are cleared as they are read, for the next evaluation.
         let State { f: base_f, v, .. } = &mut *self.scratch;
-        let base = self.at_base.as_ref().unwrap_or(base_f);
+        let base = (!self.base_zero).then(|| self.at_base.as_ref().unwrap_or(base_f));
         let mut a = 0.0;
         for c in 0..3 {
-            let (b, x) = (base.comp(c), q.comp(c));
+            let (b, x) = (base.map(|b| b.comp(c)), q.comp(c));
             w.comp_mut(c)
                 .par_chunks_mut(CHUNK)
                 .zip(v.comp_mut(c).par_chunks_mut(CHUNK))
@@ -374,11 +417,15 @@ impl<'a> KernelJacobian<'a> {
                 .for_each(|(k, ((y, f), out))| {
                     let r = k * CHUNK..k * CHUNK + y.len();
                     let mut part = 0.0;
-                    let bf = b[r.clone()].iter().zip(f.iter_mut());
-                    for (((y, (b, f)), x), s) in
-                        y.iter_mut().zip(bf).zip(&x[r.clone()]).zip(&inv_sqrt_m[r])
+                    let b = b.map(|b| &b[r.clone()]);
+                    for (i, ((y, f), x)) in y
+                        .iter_mut()
+                        .zip(f.iter_mut())
+                        .zip(&x[r.clone()])
+                        .enumerate()
                     {
-                        *y = (b - *f) / eps * s;
+                        let b = b.map_or(0.0, |b| b[i]);
+                        *y = (b - *f) / eps * inv_sqrt_m[r.start + i];
                         *f = 0.0;
                         part += *y * x;
                     }
