@@ -165,7 +165,7 @@ impl Bonds {
         debug_assert!(
             (0..n_nodes).all(|n| bonds.links(n).map(|(j, _)| j).is_sorted_by(|a, b| a < b))
         );
-        if crate::kernel::Kernel::csr_may_run_with(period) {
+        if crate::kernel::Kernel::csr_may_run(period) {
             bonds.keep_neighbours();
         }
         Ok(bonds)
@@ -352,22 +352,11 @@ impl Lattice {
 
     /// Free what only a set-up reads, once the body is built and its loads are spread: each
     /// spring's volume (the stiffnesses hold it) and each node's boundary area (tractions are
-    /// spread with it), [`Lattice::shed_volumes`]; and the rows' neighbour array, if a caller
-    /// built it ([`Bonds::keep_neighbours`]) where the CSR kernel, its only reader, cannot run.
-    /// On a random3d body the volumes are 91 bytes per node (`hooke bench --json`,
-    /// `memory_parts`).
+    /// spread with it); the node volumes shrink to their length. On a random3d body that is 91
+    /// bytes per node (`hooke bench --json`, `memory_parts`). A body built from the lattice
+    /// afterwards ([`crate::body::Body::from_cells`]) or a traction spread over it would need
+    /// them: both refuse a shed lattice. Regular lattices keep nothing of the kind.
     pub fn shed_setup(&mut self) {
-        self.shed_volumes();
-        if !crate::kernel::Kernel::csr_may_run(self) {
-            self.bonds.shed_neighbours();
-        }
-    }
-
-    /// Free each spring's volume and each node's boundary area, and shrink the node volumes to
-    /// their length. A body built from the lattice afterwards
-    /// ([`crate::body::Body::from_cells`]) or a traction spread over it would need them: both
-    /// refuse a shed lattice. Regular lattices keep nothing of the kind.
-    pub fn shed_volumes(&mut self) {
         if let Some(c) = &mut self.cells {
             c.spring = Vec::new();
             c.surface = Vec::new();
@@ -375,7 +364,7 @@ impl Lattice {
         }
     }
 
-    /// Whether [`Lattice::shed_volumes`] freed the set-up's volumes.
+    /// Whether [`Lattice::shed_setup`] freed the set-up's volumes.
     pub fn is_shed(&self) -> bool {
         self.cells
             .as_ref()

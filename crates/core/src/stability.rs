@@ -239,7 +239,7 @@ pub(crate) fn estimate_using(
         // Either Lanczos buffer will do: both are as long as the body.
         op.scratch.f = q_prev;
     }
-    if op.base_force_in_f {
+    if op.f_free {
         op.scratch.f.fill_zero();
     }
     match &op.base {
@@ -272,16 +272,25 @@ struct KernelJacobian<'a> {
     partials: Vec<crate::kernel::SweepSums>,
     /// Per-chunk partial sums of a product's dot product.
     partial: Vec<Real>,
-    /// The force at `u`, once the first product needs it: in `scratch.f` if that was free (+0
-    /// everywhere), else here.
-    at_base: Option<Coords>,
-    base_force_in_f: bool,
-    base_force_known: bool,
+    /// The force at `u`, once the first product has evaluated it.
+    base_force: BaseForce,
+    /// Whether `scratch.f` was +0 everywhere (a fresh state's): then it may hold the base force
+    /// or serve as a Lanczos vector, and is given back at +0.
+    f_free: bool,
     /// Whether `scratch.v` is +0 everywhere (an evaluation's kick adds the force to it).
     v_zero: bool,
-    /// Whether the force at the base point is zero everywhere (a body at rest and unstrained:
-    /// every extension is exactly 0), so that it needs no array.
-    base_zero: bool,
+}
+
+/// Where the estimate keeps the force at its base point.
+enum BaseForce {
+    /// Not evaluated yet.
+    Unknown,
+    /// Zero everywhere (a body at rest and unstrained: every extension is exactly 0): no array.
+    Zero,
+    /// In the state's force array (free, see `KernelJacobian::f_free`).
+    InF,
+    /// In an array of its own.
+    Apart(Coords),
 }
 
 impl<'a> KernelJacobian<'a> {
@@ -297,20 +306,19 @@ impl<'a> KernelJacobian<'a> {
         let n = body.nodes();
         ones.clear();
         ones.par_extend(rayon::iter::repeat_n(1.0, n));
+        let v_zero = zero(&state.v);
         KernelJacobian {
             base: copy(&state.u),
-            saved_v: copy(&state.v),
-            v_zero: zero(&state.v),
-            base_zero: false,
-            base_force_in_f: zero(&state.f),
+            saved_v: (!v_zero).then(|| state.v.clone()),
+            v_zero,
+            base_force: BaseForce::Unknown,
+            f_free: zero(&state.f),
             scratch: state,
             u_next,
             unit_inv_mass: ones,
             spacing: body.lattice.spacing,
             partials: vec![Default::default(); crate::kernel::partials_len(n)],
             partial: vec![0.0; n.div_ceil(CHUNK)],
-            at_base: None,
-            base_force_known: false,
         }
     }
 
@@ -362,7 +370,8 @@ impl<'a> KernelJacobian<'a> {
     /// The state's force array (+0 everywhere), for the caller to use and give back, when the
     /// base point's force needs no array; call after the first product.
     fn lend_force_array(&mut self) -> Option<Coords> {
-        (self.base_zero && self.base_force_in_f).then(|| std::mem::take(&mut self.scratch.f))
+        (matches!(self.base_force, BaseForce::Zero) && self.f_free)
+            .then(|| std::mem::take(&mut self.scratch.f))
     }
 
     /// `w = M^-1/2 K M^-1/2 q`, returning `w.q`; `vmax` is `max |M^-1/2 q|`.
@@ -380,32 +389,36 @@ impl<'a> KernelJacobian<'a> {
             return 0.0;
         }
         let eps = 1e-7 * self.spacing / vmax;
-        if !self.base_force_known {
+        if let BaseForce::Unknown = self.base_force {
             self.force(body, kernel, q, inv_sqrt_m, 0.0);
             let v = &mut self.scratch.v;
-            if self.base.is_none() && v.as_flat().par_iter().all(|&x| x == 0.0) {
+            self.base_force = if self.base.is_none() && v.as_flat().par_iter().all(|&x| x == 0.0) {
                 // Then `u = 0 + eps M^-1/2 q` wherever the force is read, so a zero's sign
                 // cannot reach a displacement, nor a sum: +0 stands for it.
-                self.base_zero = true;
                 for c in v.xyz_mut() {
                     c.par_iter_mut().with_min_len(BLOCK).for_each(|x| *x = 0.0);
                 }
                 self.v_zero = true;
-            } else if self.base_force_in_f {
+                BaseForce::Zero
+            } else if self.f_free {
                 // `f` is +0 everywhere: the swap keeps the force and clears the velocities.
                 std::mem::swap(&mut self.scratch.f, &mut self.scratch.v);
                 self.v_zero = true;
+                BaseForce::InF
             } else {
-                self.at_base = Some(self.scratch.v.clone());
-            }
-            self.base_force_known = true;
+                BaseForce::Apart(v.clone())
+            };
         }
         self.force(body, kernel, q, inv_sqrt_m, eps);
         // K v = -(f(u + eps v) - f(u)) / eps, scaled by M^-1/2 and dotted with q, summed per
         // component by chunks in chunk order.
         // The velocities (the force) are cleared as they are read, for the next evaluation.
         let State { f: base_f, v, .. } = &mut *self.scratch;
-        let base = (!self.base_zero).then(|| self.at_base.as_ref().unwrap_or(base_f));
+        let base = match &self.base_force {
+            BaseForce::Zero => None,
+            BaseForce::Apart(b) => Some(b),
+            BaseForce::InF | BaseForce::Unknown => Some(&*base_f),
+        };
         let mut a = 0.0;
         for c in 0..3 {
             let (b, x) = (base.map(|b| b.comp(c)), q.comp(c));

@@ -122,17 +122,13 @@ impl Kernel {
         }
     }
 
-    /// Whether [`Kernel::for_body`] could ever give `lattice`'s bodies the CSR kernel: on a
-    /// periodic lattice, or where the vector paths are unavailable (no AVX-512, or
-    /// `HOOKE_NO_SIMD`), since a stencil body that softens moves to a general kernel. Only
-    /// then is the rows' neighbour array worth keeping ([`crate::lattice::Bonds::shed_neighbours`];
-    /// the CSR kernel also runs without it, with one more indirection per row entry).
-    pub fn csr_may_run(lattice: &crate::lattice::Lattice) -> bool {
-        Self::csr_may_run_with(lattice.period)
-    }
-
-    /// [`Kernel::csr_may_run`] for a lattice with periods `period` (0: not periodic).
-    pub fn csr_may_run_with(period: [Real; 3]) -> bool {
+    /// Whether [`Kernel::for_body`] could ever give the CSR kernel to bodies of a lattice with
+    /// periods `period` (0: not periodic): on a periodic lattice, or where the vector paths are
+    /// unavailable (no AVX-512, or `HOOKE_NO_SIMD`), since a stencil body that softens moves to
+    /// a general kernel. Only then is the rows' neighbour array built
+    /// ([`crate::lattice::Bonds::keep_neighbours`]; the CSR kernel also runs without it, with
+    /// one more indirection per row entry).
+    pub fn csr_may_run(period: [Real; 3]) -> bool {
         period.iter().any(|&p| p > 0.0) || !stencil::simd_available()
     }
 
