@@ -317,10 +317,16 @@ fn runs_are_bit_identical_for_any_thread_count() {
 /// takes which path depends on where the chunks and rows begin); a plate's z components stay
 /// exact zeros; and the hexagonal stencil integrates the CSR kernel's motion to round-off (the
 /// same law; its reference vectors and rest lengths are the lattice's to round-off).
+///
+/// Cell-weighted bodies (their face and edge springs at a half or a quarter of the bulk
+/// stiffness) run on the stencils too, with the same guarantees.
 #[test]
 fn stencil_paths_and_thread_counts_give_the_same_bits() {
     let cube24 = || cube(24, 0.45);
-    let bodies: [&(dyn Fn() -> Body + Send + Sync); 2] = [&hex_plate, &cube24];
+    let weighted_cube = || cube(24, 0.45).with_cell_weights().unwrap();
+    let weighted_plate = || hex_plate().with_cell_weights().unwrap();
+    let bodies: [&(dyn Fn() -> Body + Send + Sync); 4] =
+        [&hex_plate, &cube24, &weighted_cube, &weighted_plate];
     for body in bodies {
         let vector = run_body_with_threads(body, 1, false, false);
         for (threads, portable) in [(2, false), (1, true), (2, true)] {
@@ -836,14 +842,18 @@ fn springs_broken_between_steps_reach_the_kernel() {
 /// with a fifth of the springs broken and a random displacement, every kernel (the CSR kernel
 /// computes each spring's length, extension and unit vector once and shares them between its
 /// ends; the stencils compute them from each end) to 1e-12 of the largest force. The forces are read from one sweep with dt = 1, no damping and
-/// unit inverse masses from rest, where the kicked velocity is the force itself.
+/// unit inverse masses from rest, where the kicked velocity is the force itself. Regular boxes
+/// are also checked cell-weighted (their stencils then scale each spring by its node class's
+/// factor), and must keep their stencil.
 #[test]
 fn kernel_forces_match_the_reference_law_on_every_lattice() {
     use hooke_core::random::RandomSpec;
     let lattices = [
         Lattice::cubic_box([7, 6, 5], 1.0).unwrap(),
+        Lattice::cubic_box([13, 10, 9], 1.0).unwrap(),
         Lattice::cubic_box_periodic([7, 6, 5], 1.0, [true, false, true]).unwrap(),
         Lattice::hex_box(12, 10, 1.0, 1.0).unwrap(),
+        Lattice::hex_box(30, 12, 1.0, 1.0).unwrap(),
         Lattice::random(
             2,
             [0.0; 3],
@@ -865,9 +875,14 @@ fn kernel_forces_match_the_reference_law_on_every_lattice() {
         )
         .unwrap(),
     ];
-    for lattice in lattices {
+    let bodies = lattices.into_iter().flat_map(|lattice| {
         let kind = lattice.kind;
         let body = Body::uniform(lattice, 1.0, q_from_nu(kind, 0.3).unwrap(), 1.0);
+        let weighted = body.clone().with_cell_weights().ok();
+        std::iter::once(body).chain(weighted)
+    });
+    for body in bodies {
+        let kind = body.lattice.kind;
         let mut rng = Rng::new(5);
         let mut state = State::new(&body);
         kill_random(&body, &mut state, &mut rng, 0.2);

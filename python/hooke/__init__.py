@@ -99,6 +99,12 @@ class Simulation:
         return self._inner.springs
 
     @property
+    def cell_weighted(self) -> bool:
+        """Whether a regular lattice's springs and nodes are weighted by their cells (the
+        default; ``Builder.cell_weights(False)`` turns it off)."""
+        return self._inner.cell_weighted
+
+    @property
     def out(self) -> str:
         """The output folder."""
         return self._inner.out
@@ -285,6 +291,12 @@ class Builder:
         """Lay the cubic lattice along ``direction`` (a fibre's), as ``lattice.rotate_to``."""
         return self._call("rotate_lattice", [float(v) for v in direction])
 
+    def cell_weights(self, on: bool) -> "Builder":
+        """Weight a regular lattice's springs and nodes by the share of the bulk's cells each
+        stands for, as ``lattice.cell_weights`` (on by default where the lattice allows it: no
+        free-surface bias in the moduli); ``False`` gives every spring the bulk stiffness."""
+        return self._call("cell_weights", bool(on))
+
     def orthotropic(self, youngs: Any, poisson: Any, shear: Any, density: float,
                     axes: Any = None) -> "Builder":
         """An orthotropic material, as ``kind = "orthotropic"``: ``youngs`` [E_x, E_y, E_z],
@@ -469,13 +481,19 @@ def moduli(lattice: str = "cubic", nu: Optional[float] = 0.3, **flags: Any) -> D
     """The paper's block test, as ``hooke moduli --lattice LATTICE --nu NU ... --json``: the
     same keys and numbers. Other flags by name (``size=[21, 6, 6]``, ``samples=4``,
     ``sampler="jitter"``; ``bulk=True``: the exact bulk test's 6x6 ``C_measured`` and
-    ``C_target``, on random lattices the relaxed one's with ``C_spread`` and ``C_affine``; ``cell_weights=True``: springs and nodes weighted by their cells, no surface
-    bias; ``transverse=[E_p, E_t, nu_p, nu_tp, G_t]`` with ``fibre="z"``, or
+    ``C_target``, on random lattices the relaxed one's with ``C_spread`` and ``C_affine``;
+    regular lattices' springs and nodes are weighted by their cells (no surface bias) unless
+    ``cell_weights=False`` (``--equal-weights``, the paper's plain block);
+    ``transverse=[E_p, E_t, nu_p, nu_tp, G_t]`` with ``fibre="z"``, or
     ``orthotropic=[E_x, E_y, E_z, nu_xy, nu_xz, nu_yz, G_yz, G_xz, G_xy]``, with
     ``axes=[X1, Y1, Z1, X2, Y2, Z2]`` turned against the body: an anisotropic material instead
     of ``nu``)."""
     if flags.get("transverse") is not None or flags.get("orthotropic") is not None:
         nu = None
+    if flags.get("cell_weights") is False:
+        # Weighted is the default: False asks for the old equal weights, not for nothing.
+        flags = {k: v for k, v in flags.items() if k != "cell_weights"}
+        flags["equal_weights"] = True
     return json.loads(_hooke.command_json("moduli", _flags(lattice, nu, flags)))
 
 

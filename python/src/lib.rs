@@ -396,6 +396,12 @@ impl PySimulation {
         self.sim().body.springs()
     }
 
+    /// Whether the body's springs and nodes are weighted by their cells (`lattice.cell_weights`).
+    #[getter]
+    fn cell_weighted(&self) -> bool {
+        self.sim().cell_weighted
+    }
+
     /// The output folder.
     #[getter]
     fn out(&self) -> String {

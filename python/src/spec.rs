@@ -396,6 +396,10 @@ pub fn build(spec: &Value) -> R<Simulation> {
                 })
             }
             "rotate_lattice" => b.rotate_lattice(point(&a, key)?),
+            "cell_weights" => b.cell_weights(
+                a.as_bool()
+                    .ok_or_else(|| format!("{key}: give true or false"))?,
+            ),
             "fracture_energy" => b.fracture_energy(num(&a, key)?),
             "precrack_segment" => {
                 let (p, q) = (

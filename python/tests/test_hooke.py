@@ -53,12 +53,29 @@ def test_relaxed_bulk_moduli_of_a_random_lattice_match_the_command_line():
     assert (np.array(mine["C_affine"])[[0, 1], [0, 1]] > c[[0, 1], [0, 1]]).all()
 
 
-def test_cell_weights_remove_the_surface_bias():
-    plain = hooke.moduli(lattice="cubic", nu=0.3)
-    weighted = hooke.moduli(lattice="cubic", nu=0.3, cell_weights=True)
+def test_cell_weights_remove_the_surface_bias(tmp_path):
+    plain = hooke.moduli(lattice="cubic", nu=0.3, cell_weights=False)
+    weighted = hooke.moduli(lattice="cubic", nu=0.3)
+    assert weighted == {**hooke.moduli(lattice="cubic", nu=0.3, cell_weights=True),
+                        "seconds": weighted["seconds"]}
     assert weighted["cell_weights"] and not plain["cell_weights"]
     assert abs(plain["nu_error"]) > 5e-3 and abs(weighted["nu_error"]) < 1e-5
     assert abs(weighted["E_relative_error"]) < 1e-4
+    # A built body is weighted by default too (as a case's), and cell_weights(False) is the
+    # old behaviour; a random lattice refuses the key with the reason.
+    def plate(tag, weights=None):
+        b = (hooke.Builder("hex", spacing=1e-3).thickness(1e-3).box([0, 0], [1e-2, 1e-2])
+             .material(72e9, 0.22, 2440).end_time(1e-7))
+        if weights is not None:
+            b = b.cell_weights(weights)
+        return b.build(tmp_path / tag, tag)
+    for tag, weights, on in (("default", None, True), ("equal", False, False)):
+        sim = plate(tag, weights)
+        assert sim.cell_weighted is on
+        sim.finish()
+    with pytest.raises(hooke.CaseError, match="by the volumes"):
+        (hooke.Builder("random2d", spacing=1e-3).thickness(1e-3).box([0, 0], [1e-2, 1e-2])
+         .material(72e9, 0.22, 2440).cell_weights(True).end_time(1e-7).build(tmp_path / "r"))
 
 
 def test_anisotropic_moduli_match_the_command_line_exactly():

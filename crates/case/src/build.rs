@@ -1292,6 +1292,11 @@ fn lattice(
         };
         b = b.rotate_lattice([x, y, z]);
     }
+    if let Some(w) = &l.cell_weights {
+        // The builder checks it against the lattice (random, turned, periodic, too thin).
+        spans.at("lattice.cell_weights", w.span());
+        b = b.cell_weights(*w.get_ref());
+    }
     Ok((b, kind, h))
 }
 

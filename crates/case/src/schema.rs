@@ -128,6 +128,9 @@ pub struct RawLattice {
     /// The cubic lattice: lay it along this direction (the lattice axis nearest to it turned
     /// onto it), e.g. a fibre's.
     pub rotate_to: Option<Spanned<Vec<Real>>>,
+    /// Regular lattices: weight springs and nodes by the share of the bulk's cells they stand
+    /// for (default true where the lattice allows; false: every spring and node as in the bulk).
+    pub cell_weights: Option<Spanned<bool>>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -51,6 +51,10 @@ pub struct BenchArgs {
     /// Kernel to use.
     #[arg(long, value_enum, default_value = "auto")]
     pub kernel: KernelArg,
+    /// Weight the block's springs and nodes by their cells (regular lattices: what a case's
+    /// body has by default, `lattice.cell_weights`), so the stencils carry their face classes.
+    #[arg(long)]
+    pub cell_weights: bool,
     /// Instead: time the plain and the dispersive law on the same block, alternating windows of
     /// --steps steps --repeats times in one process, and report the medians and their ratio
     /// (this machine is noisy; interleaving and medians make the ratio reproducible).
@@ -390,6 +394,11 @@ fn bench_run_timed(
 ) -> Result<(Body, State, Integrator, [f64; 2])> {
     let start = Instant::now();
     let mut body = Body::uniform(lattice, 1.0, q, 1.0);
+    if args.cell_weights {
+        body = body
+            .with_cell_weights()
+            .context("--cell-weights (regular lattices only)")?;
+    }
     // As a case's set-up does (hooke_sim's builder), once nothing more is built from them.
     body.lattice.shed_setup();
     // The CSR kernel, asked for where it would not run, streams the neighbours.

@@ -122,6 +122,7 @@ pub fn check(args: CheckArgs) -> Result<()> {
             "nodes": n,
             "springs": s,
             "springs_precracked": sim.precracked,
+            "cell_weights": sim.cell_weighted,
             "q": sim.q,
             "nu": hooke_core::material::nu_from_q(kind, sim.q),
             "criterion": sim.fracture.as_ref().map(|f| format!("{:?}", f.criterion())),
@@ -164,6 +165,16 @@ pub fn check(args: CheckArgs) -> Result<()> {
         "  springs      {s} ({} removed by pre-cracks)",
         sim.precracked
     );
+    if !sim.body.lattice.kind.is_random() {
+        println!(
+            "  cell weights {}",
+            if sim.cell_weighted {
+                "on: face and edge springs and nodes stand for their share of the bulk's cells (lattice.cell_weights)"
+            } else {
+                "off: every spring and node as in the bulk (lattice.cell_weights = false, or a body too thin, turned or periodic)"
+            }
+        );
+    }
     if sim.body.lattice.kind.is_random() {
         let unit = if sim.body.lattice.dim() == 3 {
             "Pa"

@@ -232,7 +232,54 @@ fn moduli_json_has_the_contract_keys() {
     }
     assert_eq!(v["nodes"], 21 * 36);
     assert!(v["residual"].as_f64().unwrap() <= 1e-9);
-    assert!((v["nu_measured"].as_f64().unwrap() - 0.3).abs() < 0.05);
+    // Cell weights by default on a regular lattice: no surface layer, nu exact even on a
+    // block 5 spacings wide; --equal-weights is the paper's plain block, biased by about a/W.
+    assert_eq!(v["cell_weights"], true);
+    assert!(
+        (v["nu_measured"].as_f64().unwrap() - 0.3).abs() < 1e-5,
+        "{v}"
+    );
+    let o = hooke(&[
+        "moduli",
+        "--nu",
+        "0.3",
+        "--size",
+        "21,6,6",
+        "--equal-weights",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["cell_weights"], false);
+    assert!(
+        (v["nu_measured"].as_f64().unwrap() - 0.3).abs() > 5e-3,
+        "{v}"
+    );
+    for (args, why) in [
+        (
+            &["moduli", "--cell-weights", "--equal-weights"][..],
+            "cannot be used with",
+        ),
+        (
+            &[
+                "moduli",
+                "--equal-weights",
+                "--lattice",
+                "random2d",
+                "--nu",
+                "0.3",
+            ][..],
+            "by volume",
+        ),
+        (
+            &["moduli", "--equal-weights", "--bulk", "--nu", "0.3"][..],
+            "no faces",
+        ),
+    ] {
+        let o = hooke(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(why), "{args:?}: {}", stderr(&o));
+    }
 }
 
 /// `hooke moduli --bulk --json`: the exact bulk test's full stiffness tensor (`C_measured`,

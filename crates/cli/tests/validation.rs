@@ -80,7 +80,11 @@ fn damage(path: &Path) -> Vec<(f64, f64, f64, f64)> {
 /// its tip stays slower than the Rayleigh wave (about 3.1 km/s for this glass). With the
 /// measured lattice toughness (G_c matched in steady growth) the crack runs straight for only
 /// about 4 mm before it roughens and branches, near 62 mm: the straight stretch checked is
-/// 1 to 4 mm past the notch.
+/// 1 to 4 mm past the notch. The tip speed is taken over two frame intervals (4 us, about
+/// 10 mm of growth): over one, the farthest damaged node jumps when damage nucleates ahead of
+/// the tip as the crack branches, and that jump is chaotic. Measured with `tools/crack_tip.py
+/// OUT --rayleigh 3100 --window K` on runs at `solver.safety` 0.76, 0.78 and 0.80, with and
+/// without cell weights: over one interval 0.71 to 1.33 c_R, over two 0.68 to 0.86 c_R.
 #[test]
 #[ignore = "full resolution: about a minute"]
 fn glass_plate_branches_below_the_rayleigh_speed() {
@@ -101,8 +105,8 @@ fn glass_plate_branches_below_the_rayleigh_speed() {
         tips.push((*t, tip));
     }
     let speed = tips
-        .windows(2)
-        .map(|w| (w[1].1 - w[0].1) / (w[1].0 - w[0].0))
+        .windows(3)
+        .map(|w| (w[2].1 - w[0].1) / (w[2].0 - w[0].0))
         .fold(0.0, f64::max);
     let c_r = 3100.0;
     // Branching: far from the notch, damage on both sides of the notch line, well apart.

@@ -124,6 +124,12 @@ impl Body {
     /// Refused for random and periodic lattices (nothing to weight) and where a spring or node
     /// lies in no cell (a body one cell thin).
     pub fn with_cell_weights(mut self) -> Result<Self> {
+        self.weigh_by_cells()?;
+        Ok(self)
+    }
+
+    /// [`Body::with_cell_weights`] in place; on an error the body is left as it was.
+    pub fn weigh_by_cells(&mut self) -> Result<()> {
         let Some((springs, nodes)) = self.lattice.cell_fractions() else {
             return Err(Error::InvalidInput {
                 what: "cell weights",
@@ -148,7 +154,7 @@ impl Body {
         for (m, f) in self.mass.iter_mut().zip(nodes) {
             *m *= f;
         }
-        Ok(self)
+        Ok(())
     }
 
     /// Check the constants are usable (positive stiffness and mass, q above the stability limit).

@@ -775,15 +775,34 @@ impl Lattice {
                 let cell = |i: usize| -> [i64; 3] {
                     [0, 1, 2].map(|c| ((self.pos.comp(c)[i] - lo[c]) / a).round() as i64)
                 };
-                let nodes: std::collections::HashSet<[i64; 3]> = (0..n).map(cell).collect();
-                let cube = |c: [i64; 3]| {
-                    (0..8).all(|k| {
+                // A lattice turned against the axes (`Lattice::rotated`) has no axis-aligned
+                // cubes to count.
+                let on_grid = (0..n).into_par_iter().all(|i| {
+                    (0..3).all(|c| {
+                        let v = (self.pos.comp(c)[i] - lo[c]) / a;
+                        (v - v.round()).abs() < 1e-6
+                    })
+                });
+                if !on_grid {
+                    return None;
+                }
+                // A whole box (every grid node present): a cube is in the body when its corner
+                // is; a shaped body looks its cubes' corners up.
+                let whole = self.grid.filter(|g| g[0] * g[1] * g[2] == n);
+                let nodes: std::collections::HashSet<[i64; 3]> = if whole.is_some() {
+                    Default::default()
+                } else {
+                    (0..n).map(cell).collect()
+                };
+                let cube = |c: [i64; 3]| match whole {
+                    Some(g) => (0..3).all(|ax| c[ax] >= 0 && c[ax] + 1 < g[ax] as i64),
+                    None => (0..8).all(|k| {
                         nodes.contains(&[
                             c[0] + (k & 1),
                             c[1] + ((k >> 1) & 1),
                             c[2] + ((k >> 2) & 1),
                         ])
-                    })
+                    }),
                 };
                 // The cubes that would hold the segment from p to q: each axis along which the
                 // two ends differ fixes the cube's corner; each other axis leaves two choices.
@@ -814,10 +833,15 @@ impl Lattice {
                 };
                 let springs = bonds
                     .ends
-                    .iter()
+                    .par_iter()
+                    .with_min_len(1 << 12)
                     .map(|e| share(cell(e[0] as usize), cell(e[1] as usize)))
                     .collect();
-                let node = (0..n).map(|i| share(cell(i), cell(i))).collect();
+                let node = (0..n)
+                    .into_par_iter()
+                    .with_min_len(1 << 12)
+                    .map(|i| share(cell(i), cell(i)))
+                    .collect();
                 Some((springs, node))
             }
             LatticeKind::Hex => {

@@ -162,6 +162,7 @@ pub struct Builder {
     material: Option<Elastic>,
     anisotropic: Option<Anisotropic>,
     rotate_to: Option<[Real; 3]>,
+    cell_weights: Option<bool>,
     breaking: Option<BreakRule>,
     cracks: Vec<Crack>,
     bcs: Vec<Bc>,
@@ -192,6 +193,7 @@ impl Builder {
             material: None,
             anisotropic: None,
             rotate_to: None,
+            cell_weights: None,
             breaking: None,
             cracks: Vec::new(),
             bcs: Vec::new(),
@@ -261,6 +263,17 @@ impl Builder {
         self
     }
     /// Whether the lattice is laid along a fibre or material axes (its faces are then steps).
+    /// Weight the springs and nodes of a regular lattice by the share of the bulk's cells each
+    /// stands for ([`Body::with_cell_weights`]: no free-surface bias in the moduli; tractions
+    /// spread by the trapezoid rule). By default they are, wherever the lattice allows it (a
+    /// regular lattice, not periodic, not turned, at least two node planes across); `false`
+    /// gives every spring the bulk stiffness and every node the bulk mass, as before. `true`
+    /// on a lattice that cannot be weighted is refused with the reason.
+    pub fn cell_weights(mut self, on: bool) -> Self {
+        self.cell_weights = Some(on);
+        self
+    }
+
     fn turned(&self) -> bool {
         self.rotate_to.is_some()
             || matches!(&self.anisotropic, Some(Anisotropic::Orthotropic(o)) if !o.along_body_axes())
@@ -343,10 +356,11 @@ impl Builder {
 
     /// Check everything and build the simulation.
     pub fn build(self) -> Result<Simulation, BuildError> {
-        let (mut body, k, h) = self.body()?;
+        let (mut body, k, h, weighted) = self.body()?;
         let mut state = State::new(&body);
         let (mut fracture, precracked) = self.fracture(&body, &mut state, k, h)?;
-        let (loading, regions, boundaries) = self.loading(&body, &mut state, &mut fracture)?;
+        let (loading, regions, boundaries) =
+            self.loading(&body, weighted, &mut state, &mut fracture)?;
         let (end_time, output_every, checkpoint_every, reactions_every) = self.times()?;
         let q = body.q;
         let contact = match &self.contact {
@@ -388,12 +402,51 @@ impl Builder {
             precracked,
             contact,
             anisotropic: self.anisotropic,
+            cell_weighted: weighted,
         })
     }
 
-    /// The lattice filled into the solid, with the material's constants: the body, its
-    /// stiffness constant (k, or kappa on random lattices) and the plate thickness (1 in 3D).
-    fn body(&self) -> Result<(Body, Real, Real), BuildError> {
+    /// The lattice filled into the solid, with the material's constants and the cell weights:
+    /// the body, its bulk stiffness constant (k, or kappa on random lattices), the plate
+    /// thickness (1 in 3D) and whether the body is cell-weighted.
+    fn body(&self) -> Result<(Body, Real, Real, bool), BuildError> {
+        let (body, k, h) = self.unweighted_body()?;
+        let (body, weighted) = self.weigh(body)?;
+        Ok((body, k, h, weighted))
+    }
+
+    /// [`Builder::cell_weights`] applied to `body`, and whether it was.
+    fn weigh(&self, body: Body) -> Result<(Body, bool), BuildError> {
+        let key = "lattice.cell_weights";
+        let why_not = if self.kind.is_random() {
+            Some("a random lattice weights its springs and nodes by the volumes they stand for already; remove it")
+        } else if self.turned() {
+            Some("a lattice laid along a fibre or material axes (lattice.rotate_to, material.axes) has stepped faces, which no cell fraction describes; set cell_weights = false")
+        } else if body.lattice.is_periodic() {
+            Some("a periodic lattice has no free faces to weight; remove it")
+        } else {
+            None
+        };
+        match (self.cell_weights, why_not) {
+            (Some(false), _) => Ok((body, false)),
+            (Some(true), Some(why)) => Err(BuildError::new(key, why)),
+            (None, Some(_)) => Ok((body, false)),
+            (Some(true), None) => body
+                .with_cell_weights()
+                .map(|b| (b, true))
+                .map_err(|e| BuildError::new(key, format!("{e}; set cell_weights = false"))),
+            // The default: a body too thin to weight (one node plane across) keeps equal
+            // weights, and `hooke check` says so.
+            (None, None) => {
+                let mut body = body;
+                let weighted = body.weigh_by_cells().is_ok();
+                Ok((body, weighted))
+            }
+        }
+    }
+
+    /// [`Builder::body`] before the cell weights.
+    fn unweighted_body(&self) -> Result<(Body, Real, Real), BuildError> {
         let kind = self.kind;
         let dim = kind.dim();
         let a = self.spacing;
@@ -659,6 +712,7 @@ impl Builder {
     fn loading(
         &self,
         body: &Body,
+        weighted: bool,
         state: &mut State,
         fracture: &mut Option<Fracture>,
     ) -> Result<(Loading, Vec<u32>, Vec<Boundary>), BuildError> {
@@ -736,9 +790,14 @@ impl Builder {
                         "a traction needs faces on node planes, and a lattice laid along a fibre or material axes (lattice.rotate_to, material.axes) has stepped faces; load it by a prescribed velocity or displacement of a box region instead",
                     ));
                 }
-                loading
-                    .loads
-                    .extend(traction_loads(body, &nodes, *t, *normal, scale.clone()));
+                loading.loads.extend(traction_loads(
+                    body,
+                    &nodes,
+                    *t,
+                    *normal,
+                    scale.clone(),
+                    weighted,
+                ));
             }
             if bc.no_fail {
                 if let Some(f) = fracture.as_mut() {

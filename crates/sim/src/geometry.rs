@@ -400,13 +400,18 @@ impl Region {
 /// The nodal loads that apply the traction `t` (Pa) on the face of `nodes` whose outward
 /// normal is along `normal`, scaled in time by `scale`: each node carries its share of the face,
 /// its boundary area on random lattices, its cell volume over the lattice pitch along the normal
-/// on regular ones (a^2 for a cubic face; a h along a hex row, (sqrt(3)/2) a h across).
+/// on regular ones (a^2 for a cubic face; a h along a hex row, (sqrt(3)/2) a h across). On a
+/// cell-weighted regular body (`weighted`) the face is the one between its outer node lines,
+/// as the body's material is: the trapezoid rule, a node at either end of the face along an
+/// axis in its plane carries half its share (a quarter at a corner of a cubic face), so the
+/// loads add up to the traction times that face's area.
 pub fn traction_loads(
     body: &Body,
     nodes: &[u32],
     t: Vector,
     normal: usize,
     scale: hooke_core::loading::TimeFunction,
+    weighted: bool,
 ) -> Vec<hooke_core::loading::Load> {
     use hooke_core::loading::Load;
     let lat = &body.lattice;
@@ -433,11 +438,57 @@ pub fn traction_loads(
                 _ => a,
             };
             let cell_area = lat.cell_volume / pitch;
-            vec![Load {
-                nodes: nodes.to_vec(),
-                force: t * cell_area,
-                scale,
-            }]
+            if !weighted {
+                return vec![Load {
+                    nodes: nodes.to_vec(),
+                    force: t * cell_area,
+                    scale,
+                }];
+            }
+            // Each node's share: halved per in-plane axis along which it is at an end.
+            let tol = 1e-6 * a;
+            let extent = |c: usize| {
+                nodes
+                    .iter()
+                    .fold((Real::INFINITY, -Real::INFINITY), |(l, h), &j| {
+                        let x = lat.pos.comp(c)[j as usize];
+                        (l.min(x), h.max(x))
+                    })
+            };
+            let ends: Vec<(usize, Real, Real)> = (0..lat.dim())
+                .filter(|&c| c != normal)
+                .map(|c| (c, extent(c)))
+                .filter(|&(_, (lo, hi))| hi - lo > tol)
+                .map(|(c, (lo, hi))| (c, lo, hi))
+                .collect();
+            let share = |i: u32| -> Real {
+                ends.iter()
+                    .map(|&(c, lo, hi)| {
+                        let x = lat.pos.comp(c)[i as usize];
+                        if (x - lo).abs() < tol || (hi - x).abs() < tol {
+                            0.5
+                        } else {
+                            1.0
+                        }
+                    })
+                    .product()
+            };
+            let mut groups: Vec<(Real, Vec<u32>)> = Vec::new();
+            for &i in nodes {
+                let f = share(i);
+                match groups.iter_mut().find(|(g, _)| *g == f) {
+                    Some((_, v)) => v.push(i),
+                    None => groups.push((f, vec![i])),
+                }
+            }
+            groups
+                .into_iter()
+                .map(|(f, nodes)| Load {
+                    nodes,
+                    force: t * (cell_area * f),
+                    scale: scale.clone(),
+                })
+                .collect()
         }
     }
 }

@@ -78,6 +78,9 @@ pub struct Simulation {
     /// An anisotropic material (`[material] kind = "transverse"` or `"orthotropic"`), or
     /// `None` for an isotropic one.
     pub anisotropic: Option<hooke_core::Anisotropic>,
+    /// Whether the body's springs and nodes are weighted by their cells (regular lattices,
+    /// [`crate::Builder::cell_weights`]).
+    pub cell_weighted: bool,
 }
 
 impl Simulation {

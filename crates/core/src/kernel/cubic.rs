@@ -1,8 +1,9 @@
-//! Stencil kernel for a box of Ladd's cubic lattice with one spring stiffness.
+//! Stencil kernel for a box of Ladd's cubic lattice with one spring stiffness (or one bulk
+//! stiffness and the cell weights of its faces and edges, [`Body::with_cell_weights`]).
 //!
 //! A node's 18 neighbours sit at fixed index offsets `dx + nx (dy + ny dz)`, so no neighbour
-//! index is stored: a node costs one 18-bit mask (which of its springs exist and are intact)
-//! plus its `1/S_n`. Spring vectors are `D_d + (u_j - u_n)` with `D_d` the constant reference
+//! index is stored: a node costs one 18-bit mask (which of its springs exist and are intact),
+//! its weight class in bits [`CLASS_SHIFT`].. of the same word ([`Factors`]), plus its `1/S_n`. Spring vectors are `D_d + (u_j - u_n)` with `D_d` the constant reference
 //! vector of direction `d`.
 //!
 //! On processors with AVX-512F, blocks of 8 consecutive nodes are processed in one vector: the
@@ -16,7 +17,7 @@
 //! spring as the scalar loop does), so the two give the same bits: results depend neither on
 //! which nodes took which path nor on the thread count or the processor.
 
-use super::stencil::{simd_available, Src, Stencil};
+use super::stencil::{simd_available, Factors, Src, Stencil};
 use super::{StepParams, SweepSums};
 use rayon::prelude::*;
 
@@ -28,12 +29,16 @@ use crate::state::State;
 /// Nodes per flag of the break screen.
 pub const SCREEN: usize = super::stencil::SCREEN;
 
-/// `1/S_n` of a node whose intact springs are the directions set in `mask` (`S_n = sum k L^2`
-/// in direction order), or 0 for a node without springs.
-fn inv_norm(mask: u32, k: Real, rest: &[Real; 18]) -> Real {
+/// First bit of a node's weight class in its mask word (the directions take bits 0..18).
+const CLASS_SHIFT: u32 = 24;
+
+/// `1/S_n` of a node whose intact springs are the directions set in `mask` (`S_n = sum k_t
+/// L^2` in direction order, `k_t = k w`), or 0 for a node without springs.
+fn inv_norm(mask: u32, k: Real, rest: &[Real; 18], w: &Factors<18>) -> Real {
+    let c = (mask >> CLASS_SHIFT) as usize;
     let s: Real = (0..18)
         .filter(|d| mask & (1 << d) != 0)
-        .map(|d| k * rest[d] * rest[d])
+        .map(|d| k * rest[d] * rest[d] * w.get(d, c))
         .sum();
     if s > 0.0 {
         1.0 / s
@@ -84,10 +89,14 @@ pub struct CubicStencil {
     dvec: [[Real; 3]; 18],
     /// Rest length of each direction (m).
     rest: [Real; 18],
+    /// Bulk stiffness (N/m); a spring's is `k w` ([`Factors`]).
     k: Real,
     q: Real,
-    /// Bit d set: the spring in direction d exists and is intact.
+    /// Bit d set: the spring in direction d exists and is intact; bits [`CLASS_SHIFT`]..: the
+    /// node's weight class.
     mask: Vec<u32>,
+    /// Spring factors by direction and class (every factor 1 unless cell-weighted).
+    factors: Factors<18>,
     /// `1 / S_n`, 0 for a node with no intact spring.
     inv_norm: Vec<Real>,
     /// Largest |offset|: blocks whose neighbours all lie within the arrays run vectorised.
@@ -106,20 +115,22 @@ impl CubicStencil {
     }
 
     /// The stencil for `body` if it is a non-periodic box of the cubic lattice (at least 3 nodes
-    /// per axis) with a single stiffness; `None` otherwise.
+    /// per axis) with a single stiffness, or one bulk stiffness with factors of at most
+    /// [`super::stencil::CLASSES`] kinds of node (cell weights); `None` otherwise.
     pub fn new(body: &Body, state: &State) -> Option<Self> {
         let lat = &body.lattice;
         let g = lat.grid?;
         if lat.kind != LatticeKind::Cubic || g.iter().any(|&v| v < 3) || lat.is_periodic() {
             return None;
         }
-        let k = *body.k.first()?;
         // Damaged (softened) springs have stiffnesses of their own: the general kernel runs
         // them.
         // Direction-weighted (anisotropic) materials have levers of their own: also general.
-        if body.k.iter().any(|&v| v != k) || state.is_softened() || body.lever.is_some() {
+        if state.is_softened() || body.lever.is_some() {
             return None;
         }
+        // The bulk stiffness: the largest (cell weights only lower a spring's).
+        let k = body.k.par_iter().cloned().reduce(|| 0.0, Real::max);
         let (sy, sz) = (g[0] as isize, (g[0] * g[1]) as isize);
         let a = lat.spacing;
         let mut off = [0isize; 18];
@@ -139,6 +150,10 @@ impl CubicStencil {
             k,
             q: body.q,
             mask: vec![0; lat.len()],
+            factors: Factors {
+                w: [[1.0; super::stencil::CLASSES]; 18],
+                on: false,
+            },
             inv_norm: vec![0.0; lat.len()],
             reach,
             simd: simd_available(),
@@ -147,23 +162,39 @@ impl CubicStencil {
         // mostly first writes to fresh memory), then its 1/S_n.
         let bonds = &lat.bonds;
         let off = s.off;
+        // One stiffness (the common case): every node is of class 0, nothing to classify.
+        let class = if body.k.par_iter().all(|&v| v == k) {
+            Vec::new()
+        } else {
+            let (class, factors) = Factors::classify(lat.len(), k, |i| {
+                let mut f = [None; 18];
+                for e in bonds.row(i) {
+                    let d = direction(&off, i, bonds.neighbour(i, e));
+                    f[d] = Some(body.k[bonds.bond[e] as usize]);
+                }
+                f
+            })?;
+            s.factors = factors;
+            class
+        };
         s.mask
             .par_iter_mut()
             .with_min_len(1 << 12)
             .enumerate()
             .for_each(|(i, m)| {
+                *m = class.get(i).map_or(0, |&c| (c as u32) << CLASS_SHIFT);
                 for e in bonds.row(i) {
                     if state.alive[bonds.bond[e] as usize] {
                         *m |= 1 << direction(&off, i, bonds.neighbour(i, e));
                     }
                 }
             });
-        let (mask, k, rest) = (&s.mask, s.k, s.rest);
+        let (mask, k, rest, w) = (&s.mask, s.k, s.rest, &s.factors);
         s.inv_norm
             .par_iter_mut()
             .with_min_len(1 << 12)
             .enumerate()
-            .for_each(|(i, v)| *v = inv_norm(mask[i], k, &rest));
+            .for_each(|(i, v)| *v = inv_norm(mask[i], k, &rest, w));
         Some(s)
     }
 
@@ -209,7 +240,7 @@ impl CubicStencil {
     }
 
     fn refresh_norm(&mut self, i: usize) {
-        self.inv_norm[i] = inv_norm(self.mask[i], self.k, &self.rest);
+        self.inv_norm[i] = inv_norm(self.mask[i], self.k, &self.rest, &self.factors);
     }
 
     /// Clear spring `b` from the masks and refresh both ends' `1/S_n`.
@@ -244,12 +275,13 @@ impl CubicStencil {
     /// Node i's pool and whether one of its intact springs has `dL > screen L`.
     fn pool_scalar(&self, u: &Coords, i: usize, screen: Real) -> (Real, bool) {
         let m = self.mask[i];
+        let c = (m >> CLASS_SHIFT) as usize;
         let mut pi = 0.0;
         let mut hot = false;
         for d in 0..18 {
             if m & (1 << d) != 0 {
                 let (_, _, _, dl) = self.spring(u, i, d);
-                pi += self.k * self.rest[d] * dl;
+                pi += self.k * self.rest[d] * dl * self.factors.get(d, c);
                 hot |= dl > screen * self.rest[d];
             }
         }
@@ -258,11 +290,13 @@ impl CubicStencil {
 
     fn force_scalar(&self, u: &Coords, pool: &[Real], i: usize) -> [Real; 3] {
         let m = self.mask[i];
+        let c = (m >> CLASS_SHIFT) as usize;
         let mut f = [0.0; 3];
         for d in 0..18 {
             if m & (1 << d) != 0 {
                 let (j, x, l, dl) = self.spring(u, i, d);
-                let t = self.k * dl + self.q * self.k * self.rest[d] * (pool[i] + pool[j]);
+                let t = (self.k * dl + self.q * self.k * self.rest[d] * (pool[i] + pool[j]))
+                    * self.factors.get(d, c);
                 let s = t / l;
                 f[0] += s * x[0];
                 f[1] += s * x[1];
@@ -327,7 +361,7 @@ impl Stencil for CubicStencil {
 mod avx512 {
     use std::arch::x86_64::*;
 
-    use super::{CubicStencil, StepParams, SweepSums};
+    use super::{CubicStencil, StepParams, SweepSums, CLASS_SHIFT};
     use crate::math::{Coords, Real};
 
     /// Current vectors of the springs in direction `d` of the block at `i`, and their squared
@@ -379,6 +413,27 @@ mod avx512 {
         }
     }
 
+    /// The block's weight classes (one 64-bit lane per node), if one of its nodes has factors
+    /// other than 1: then each direction's factors are `classes` permuting that direction's
+    /// row of [`super::Factors`] (multiplying by 1 is exact, so the other blocks skip it).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn classes(s: &CubicStencil, mask: __m256i) -> Option<__m512i> {
+        if !s.factors.on {
+            return None;
+        }
+        let c = _mm512_srli_epi64::<CLASS_SHIFT>(_mm512_cvtepu32_epi64(mask));
+        (_mm512_test_epi64_mask(c, c) != 0).then_some(c)
+    }
+
+    /// The factors of direction `d` for the lanes' classes.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn factors(s: &CubicStencil, c: __m512i, d: usize) -> __m512d {
+        // SAFETY: a row of the table is 8 doubles.
+        unsafe { _mm512_permutexvar_pd(c, _mm512_loadu_pd(s.factors.w[d].as_ptr())) }
+    }
+
     /// Lanes whose spring in direction `d` is intact.
     #[inline]
     #[target_feature(enable = "avx512f")]
@@ -397,6 +452,7 @@ mod avx512 {
         screen: Real,
     ) -> bool {
         let (ui, mask) = unsafe { load_block(s, u, i) };
+        let cls = classes(s, mask);
         let mut acc = _mm512_setzero_pd();
         let mut hot: __mmask8 = 0;
         for d in 0..18 {
@@ -408,7 +464,10 @@ mod avx512 {
             let (_, ss) = unsafe { vector8(s, u, i, d, ui) };
             let l = _mm512_sqrt_pd(ss);
             let dl = _mm512_sub_pd(l, _mm512_set1_pd(s.rest[d]));
-            let share = _mm512_mul_pd(_mm512_set1_pd(s.k * s.rest[d]), dl);
+            let mut share = _mm512_mul_pd(_mm512_set1_pd(s.k * s.rest[d]), dl);
+            if let Some(c) = cls {
+                share = _mm512_mul_pd(share, unsafe { factors(s, c, d) });
+            }
             acc = _mm512_mask_add_pd(acc, m, acc, share);
             hot |= _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m, dl, _mm512_set1_pd(screen * s.rest[d]));
         }
@@ -435,6 +494,7 @@ mod avx512 {
         sums: &mut SweepSums,
     ) {
         let (ui, mask) = unsafe { load_block(s, u, i) };
+        let cls = classes(s, mask);
         let pi = unsafe { _mm512_loadu_pd(pool.as_ptr().add(i)) };
         let kv = _mm512_set1_pd(s.k);
         let mut f = [_mm512_setzero_pd(); 3];
@@ -448,10 +508,13 @@ mod avx512 {
             let l = _mm512_sqrt_pd(ss);
             let dl = _mm512_sub_pd(l, _mm512_set1_pd(s.rest[d]));
             let pj = unsafe { _mm512_loadu_pd(pool.as_ptr().add(j)) };
-            let t = _mm512_add_pd(
+            let mut t = _mm512_add_pd(
                 _mm512_mul_pd(kv, dl),
                 _mm512_mul_pd(_mm512_set1_pd(s.q * s.k * s.rest[d]), _mm512_add_pd(pi, pj)),
             );
+            if let Some(c) = cls {
+                t = _mm512_mul_pd(t, unsafe { factors(s, c, d) });
+            }
             let sc = _mm512_div_pd(t, l);
             for c in 0..3 {
                 f[c] = _mm512_mask_add_pd(f[c], m, f[c], _mm512_mul_pd(sc, x[c]));

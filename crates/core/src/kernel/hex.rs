@@ -1,4 +1,5 @@
-//! Stencil kernel for a box of the hexagonal lattice with one spring stiffness.
+//! Stencil kernel for a box of the hexagonal lattice with one spring stiffness (or one bulk
+//! stiffness and the cell weights of its edges, [`Body::with_cell_weights`]).
 //!
 //! Node `c + nx r` sits in row `r` (odd rows shifted by `a/2`), and its six neighbours are at
 //! index offsets that depend only on the row's parity:
@@ -10,7 +11,8 @@
 //! ```
 //!
 //! so no neighbour index is stored: a node costs a 6-bit mask (which of its springs exist and are
-//! intact) and its `1/S_n`. A spring's current vector is `D_d + w` with `D_d` the direction's
+//! intact) with its weight class in bits [`CLASS_SHIFT`].. of the same word ([`Factors`]), and
+//! its `1/S_n`. A spring's current vector is `D_d + w` with `D_d` the direction's
 //! constant reference vector and `w = u_j - u_n`; its extension is the cancellation-free
 //! `dL = (2 D_d.w + w.w) / (l + L)` of the reference law ([`crate::law::spring_geometry`]), so
 //! a body at rest has exactly zero force and small strains keep their digits.
@@ -22,7 +24,7 @@
 //! bits: results do not depend on which nodes took which path, on the thread count, or on
 //! whether the processor has AVX-512 at all.
 
-use super::stencil::{simd_available, Src, Stencil};
+use super::stencil::{simd_available, Factors, Src, Stencil};
 use super::{StepParams, SweepSums};
 use crate::body::Body;
 use crate::lattice::LatticeKind;
@@ -36,6 +38,9 @@ pub const SCREEN: usize = super::stencil::SCREEN;
 /// Number of directions; opposite pairs are `d` and `d ^ 1`.
 const DIRS: usize = 6;
 
+/// First bit of a node's weight class in its mask word (the directions take bits 0..6).
+const CLASS_SHIFT: u32 = 8;
+
 /// Precomputed stencil of a hexagonal box.
 #[derive(Clone, Debug)]
 pub struct HexStencil {
@@ -45,12 +50,16 @@ pub struct HexStencil {
     off: [[isize; DIRS]; 2],
     /// Reference vector of each direction (m).
     dvec: [[Real; 2]; DIRS],
-    /// Rest length `a` (m), and `k a` and `q k a`.
+    /// Rest length `a` (m).
     rest: Real,
+    /// Bulk stiffness (N/m); a spring's is `k w` ([`Factors`]).
     k: Real,
     q: Real,
-    /// Bit d set: the spring in direction d exists and is intact.
-    mask: Vec<u8>,
+    /// Bit d set: the spring in direction d exists and is intact; bits [`CLASS_SHIFT`]..: the
+    /// node's weight class.
+    mask: Vec<u16>,
+    /// Spring factors by direction and class (every factor 1 unless cell-weighted).
+    factors: Factors<DIRS>,
     /// `1 / S_n`, 0 for a node with no intact spring.
     inv_norm: Vec<Real>,
     /// Largest |offset|: blocks whose neighbours all lie within the arrays may run vectorised.
@@ -69,8 +78,9 @@ impl HexStencil {
     }
 
     /// The stencil for `body` if it is a non-periodic box of the hexagonal lattice (at least 2
-    /// nodes per row and 2 rows) with a single stiffness and the isotropic law; `None`
-    /// otherwise.
+    /// nodes per row and 2 rows) with a single stiffness, or one bulk stiffness with factors of
+    /// at most [`super::stencil::CLASSES`] kinds of node (cell weights), and the isotropic law;
+    /// `None` otherwise.
     pub fn new(body: &Body, state: &State) -> Option<Self> {
         let lat = &body.lattice;
         let g = lat.grid?;
@@ -80,10 +90,11 @@ impl HexStencil {
         if lat.len() != g[0] * g[1] {
             return None;
         }
-        let k = *body.k.first()?;
-        if body.k.iter().any(|&v| v != k) || state.is_softened() || body.lever.is_some() {
+        if state.is_softened() || body.lever.is_some() {
             return None;
         }
+        // The bulk stiffness: the largest (cell weights only lower a spring's).
+        let k = body.k.iter().cloned().fold(0.0, Real::max);
         let nx = g[0] as isize;
         let a = lat.spacing;
         let h = a * (3.0 as Real).sqrt() / 2.0;
@@ -108,19 +119,44 @@ impl HexStencil {
             k,
             q: body.q,
             mask: vec![0; lat.len()],
+            factors: Factors {
+                w: [[1.0; super::stencil::CLASSES]; DIRS],
+                on: false,
+            },
             inv_norm: vec![0.0; lat.len()],
             reach: (nx + 1) as usize,
             simd: simd_available(),
         };
+        // Each node's springs' stiffnesses by direction, for the weight classes.
+        let mut stiff = vec![
+            [None; DIRS];
+            if body.k.iter().all(|&v| v == k) {
+                0
+            } else {
+                s.n
+            }
+        ];
         for b in 0..lat.bonds.len() {
             let (i, d) = s.direction_of(body, b)?;
-            if (i as isize + s.offset(i, d)) as usize != lat.bonds.ends[b][1] as usize {
+            let j = lat.bonds.ends[b][1] as usize;
+            if (i as isize + s.offset(i, d)) as usize != j {
                 return None;
+            }
+            if let Ok([si, sj]) = stiff.get_disjoint_mut([i, j]) {
+                si[d] = Some(body.k[b]);
+                sj[d ^ 1] = Some(body.k[b]);
             }
             if state.alive[b] {
                 let j = (i as isize + s.offset(i, d)) as usize;
                 s.mask[i] |= 1 << d;
                 s.mask[j] |= 1 << (d ^ 1);
+            }
+        }
+        if !stiff.is_empty() {
+            let (class, factors) = Factors::classify(s.n, k, |i| stiff[i])?;
+            s.factors = factors;
+            for (m, c) in s.mask.iter_mut().zip(class) {
+                *m |= (c as u16) << CLASS_SHIFT;
             }
         }
         for i in 0..s.n {
@@ -187,10 +223,11 @@ impl HexStencil {
 
     fn refresh_norm(&mut self, i: usize) {
         let m = self.mask[i];
+        let c = (m >> CLASS_SHIFT) as usize;
         let mut s = 0.0;
         for d in 0..DIRS {
             if m & (1 << d) != 0 {
-                s += self.k * self.rest * self.rest;
+                s += self.k * self.rest * self.rest * self.factors.get(d, c);
             }
         }
         self.inv_norm[i] = if s > 0.0 { 1.0 / s } else { 0.0 };
@@ -230,6 +267,7 @@ impl HexStencil {
     /// Node i's pool and whether one of its intact springs has `dL > screen L`.
     fn pool_scalar(&self, u: &Coords, i: usize, screen: Real) -> (Real, bool) {
         let m = self.mask[i];
+        let c = (m >> CLASS_SHIFT) as usize;
         let (kl, lim) = (self.k * self.rest, screen * self.rest);
         let mut pi = 0.0;
         let mut hot = false;
@@ -237,7 +275,7 @@ impl HexStencil {
             if m & (1 << d) != 0 {
                 let (_, _, d2, num) = self.spring(u, i, d);
                 let dl = num / (d2.sqrt() + self.rest);
-                pi += kl * dl;
+                pi += kl * dl * self.factors.get(d, c);
                 hot |= dl > lim;
             }
         }
@@ -246,6 +284,7 @@ impl HexStencil {
 
     fn force_scalar(&self, u: &Coords, pool: &[Real], i: usize) -> [Real; 3] {
         let m = self.mask[i];
+        let c = (m >> CLASS_SHIFT) as usize;
         let qkl = self.q * self.k * self.rest;
         let mut f = [0.0; 2];
         for d in 0..DIRS {
@@ -253,7 +292,7 @@ impl HexStencil {
                 let (j, x, d2, num) = self.spring(u, i, d);
                 let l = d2.sqrt();
                 let dl = num / (l + self.rest);
-                let t = self.k * dl + qkl * (pool[i] + pool[j]);
+                let t = (self.k * dl + qkl * (pool[i] + pool[j])) * self.factors.get(d, c);
                 let s = t / l;
                 f[0] += s * x[0];
                 f[1] += s * x[1];
@@ -317,7 +356,7 @@ impl Stencil for HexStencil {
 mod avx512 {
     use std::arch::x86_64::*;
 
-    use super::{HexStencil, StepParams, SweepSums, DIRS};
+    use super::{HexStencil, StepParams, SweepSums, CLASS_SHIFT, DIRS};
     use crate::math::{Coords, Real};
 
     /// The block's displacements, intact-spring masks (one 64-bit lane per node) and row
@@ -327,15 +366,35 @@ mod avx512 {
     unsafe fn load_block(s: &HexStencil, u: &Coords, i: usize) -> ([__m512d; 2], __m512i) {
         // SAFETY (caller): i..i+8 is in bounds.
         unsafe {
-            let m = _mm_loadl_epi64(s.mask.as_ptr().add(i) as *const __m128i);
+            let m = _mm_loadu_si128(s.mask.as_ptr().add(i) as *const __m128i);
             (
                 [
                     _mm512_loadu_pd(u.x().as_ptr().add(i)),
                     _mm512_loadu_pd(u.y().as_ptr().add(i)),
                 ],
-                _mm512_cvtepu8_epi64(m),
+                _mm512_cvtepu16_epi64(m),
             )
         }
+    }
+
+    /// The block's weight classes, if one of its nodes has factors other than 1 (as the cubic
+    /// stencil's).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn classes(s: &HexStencil, mask: __m512i) -> Option<__m512i> {
+        if !s.factors.on {
+            return None;
+        }
+        let c = _mm512_srli_epi64::<CLASS_SHIFT>(mask);
+        (_mm512_test_epi64_mask(c, c) != 0).then_some(c)
+    }
+
+    /// The factors of direction `d` for the lanes' classes.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn factors(s: &HexStencil, c: __m512i, d: usize) -> __m512d {
+        // SAFETY: a row of the table is 8 doubles.
+        unsafe { _mm512_permutexvar_pd(c, _mm512_loadu_pd(s.factors.w[d].as_ptr())) }
     }
 
     /// Spring vector, squared length and extension numerator of direction `d` for the block at
@@ -384,6 +443,7 @@ mod avx512 {
         screen: Real,
     ) -> bool {
         let (ui, mask) = unsafe { load_block(s, u, i) };
+        let cls = classes(s, mask);
         let kl = _mm512_set1_pd(s.k * s.rest);
         let rest = _mm512_set1_pd(s.rest);
         let lim = _mm512_set1_pd(screen * s.rest);
@@ -396,7 +456,11 @@ mod avx512 {
             }
             let (_, _, d2, num) = unsafe { spring8(s, u, i, d, ui) };
             let dl = _mm512_div_pd(num, _mm512_add_pd(_mm512_sqrt_pd(d2), rest));
-            acc = _mm512_mask_add_pd(acc, m, acc, _mm512_mul_pd(kl, dl));
+            let mut share = _mm512_mul_pd(kl, dl);
+            if let Some(c) = cls {
+                share = _mm512_mul_pd(share, unsafe { factors(s, c, d) });
+            }
+            acc = _mm512_mask_add_pd(acc, m, acc, share);
             hot |= _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m, dl, lim);
         }
         // SAFETY: out has 8 entries; inv_norm[i..i+8] is in bounds.
@@ -423,6 +487,7 @@ mod avx512 {
         sums: &mut SweepSums,
     ) {
         let (ui, mask) = unsafe { load_block(s, u, i) };
+        let cls = classes(s, mask);
         let pi = unsafe { _mm512_loadu_pd(pool.as_ptr().add(i)) };
         let (kv, qkl, rest) = (
             _mm512_set1_pd(s.k),
@@ -439,10 +504,13 @@ mod avx512 {
             let l = _mm512_sqrt_pd(d2);
             let dl = _mm512_div_pd(num, _mm512_add_pd(l, rest));
             let pj = unsafe { _mm512_loadu_pd(pool.as_ptr().add(j)) };
-            let t = _mm512_add_pd(
+            let mut t = _mm512_add_pd(
                 _mm512_mul_pd(kv, dl),
                 _mm512_mul_pd(qkl, _mm512_add_pd(pi, pj)),
             );
+            if let Some(c) = cls {
+                t = _mm512_mul_pd(t, unsafe { factors(s, c, d) });
+            }
             let sc = _mm512_div_pd(t, l);
             for c in 0..2 {
                 f[c] = _mm512_mask_add_pd(f[c], m, f[c], _mm512_mul_pd(sc, x[c]));

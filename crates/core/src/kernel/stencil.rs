@@ -79,6 +79,102 @@ pub(crate) trait Stencil: Sync {
     );
 }
 
+/// Largest number of weight classes a stencil body may have (one `zmm` of factors per
+/// direction, indexed by the class in the vector path).
+pub(crate) const CLASSES: usize = 8;
+
+/// The spring factors of a stencil body whose stiffnesses are one bulk stiffness `k` times a
+/// factor per spring: a cell-weighted body ([`Body::with_cell_weights`]), whose springs on free
+/// faces and edges stand for a half or a quarter of a bulk spring's material. The factor of a
+/// spring depends only on which faces its ends lie on, so the nodes fall into a few classes,
+/// each with one factor per direction; a node's class rides in spare bits of its mask and the
+/// sweeps multiply each spring's pool share and tension by `w[d][class]`. Where every factor is
+/// 1 (`on` false) nothing is multiplied: the unweighted sweeps are unchanged.
+///
+/// With factors that are powers of two (the cubic and hexagonal cells give 1, 1/2, 1/4), the
+/// products `(k L dL) w` and `(k dL + q k L (p_i + p_j)) w` are exactly the reference law's
+/// `(k w) L dL` and `(k w) dL + q (k w) L (p_i + p_j)`.
+#[derive(Clone, Debug)]
+pub(crate) struct Factors<const D: usize> {
+    /// `w[d][c]`: the factor of the spring in direction d of a class-c node (class 0: all 1).
+    pub w: [[Real; CLASSES]; D],
+    /// Whether some node has a factor other than 1.
+    pub on: bool,
+}
+
+impl<const D: usize> Factors<D> {
+    /// The factor of node class `c`'s spring in direction `d`.
+    #[inline(always)]
+    pub fn get(&self, d: usize, c: usize) -> Real {
+        self.w[d][c]
+    }
+
+    /// Classes of the `n` nodes from each node's springs' stiffnesses by direction (`None`: no
+    /// spring that way), against the bulk stiffness `k`: `None` when a stiffness is not `k`
+    /// times a factor in (0, 1] exactly, or when the nodes need more than [`CLASSES`] classes
+    /// (the general kernels then run the body). A node's missing directions match any factor,
+    /// so the faces of a box share their classes with the opposite faces.
+    pub fn classify(
+        n: usize,
+        k: Real,
+        row: impl Fn(usize) -> [Option<Real>; D] + Sync,
+    ) -> Option<(Vec<u8>, Self)> {
+        let factor = |kb: Real| {
+            let w = kb / k;
+            (w > 0.0 && w <= 1.0 && k * w == kb).then_some(w)
+        };
+        // Most nodes are bulk nodes (class 0): found in parallel, the rest one by one.
+        let bulk: Vec<Option<bool>> = (0..n)
+            .into_par_iter()
+            .with_min_len(1 << 12)
+            .map(|i| {
+                let mut ones = true;
+                for kb in row(i).into_iter().flatten() {
+                    ones &= factor(kb)? == 1.0;
+                }
+                Some(ones)
+            })
+            .collect();
+        let mut class = vec![0u8; n];
+        // Per class: each direction's factor, or None while no member has that spring.
+        let mut table: Vec<[Option<Real>; D]> = vec![[Some(1.0); D]];
+        for i in 0..n {
+            if bulk[i]? {
+                continue;
+            }
+            let f = row(i).map(|kb| kb.and_then(factor));
+            let fits = |t: &[Option<Real>; D]| {
+                (0..D).all(|d| match (f[d], t[d]) {
+                    (Some(a), Some(b)) => a == b,
+                    _ => true,
+                })
+            };
+            let c = match table.iter().position(fits) {
+                Some(c) => c,
+                None if table.len() < CLASSES => {
+                    table.push([None; D]);
+                    table.len() - 1
+                }
+                None => return None,
+            };
+            for d in 0..D {
+                if f[d].is_some() {
+                    table[c][d] = f[d];
+                }
+            }
+            class[i] = c as u8;
+        }
+        let mut w = [[1.0; CLASSES]; D];
+        for (c, t) in table.iter().enumerate() {
+            for d in 0..D {
+                w[d][c] = t[d].unwrap_or(1.0);
+            }
+        }
+        let on = table.len() > 1;
+        Some((class, Factors { w, on }))
+    }
+}
+
 /// True when the vector paths may run: the processor has AVX-512F and `HOOKE_NO_SIMD` is not
 /// set.
 pub(crate) fn simd_available() -> bool {
