@@ -502,29 +502,35 @@ fn softening_strip_dissipates_the_tabulated_g_f() {
 }
 
 /// Softening springs calibrated from G_f (the measured factor F(nu, rho) folded in) dissipate G_f
-/// on strips other than the calibration's: hex 20 rows (the table: 16) and cubic 14 planes (the
-/// table: 12), both shapes, at nu and peak fractions on and between the table's points.
-/// Measured: hex 1.010, 1.022, 1.005, 0.942 and cubic 1.033, 1.055 (in the order below). The
-/// goal is 5 %; two of six miss it (hex nu_2D = -0.5 between the table's peak fractions, where F
-/// is not monotone, and cubic bilinear at 14 planes), so this records 7 %. Random2d is not
+/// on strips other than the calibration's: hex 20 rows (the table: 16) and cubic 14 and 18
+/// planes (the table: 16), both shapes, at nu and peak fractions on and between the table's
+/// points. Measured (in the order below): hex 1.010, 1.022, 1.005, 0.981, 0.98; cubic 1.014,
+/// 1.042, 1.09. Each within 5 % but the last: on the cubic strip at nu = 0.25 F falls by 18 %
+/// between rho = 0.65 and 0.7 (0.674, 0.589 at 0.675, 0.553), a step the table's 0.1 spacing
+/// cannot follow, so rho = 0.65 there is 9 % off (recorded with its own tolerance). Before the
+/// tables were measured at 16 cubic planes with a column at rho = 0.6 (12 planes, no 0.6): hex
+/// nu_2D = -0.5 at rho = 0.6 read 0.942 and cubic bilinear at 14 planes 1.055. Random2d is not
 /// checked: its node sets scatter by 10-30 % at the table's strip size.
 #[test]
-#[ignore = "slow: about 2 minutes of strips"]
+#[ignore = "slow: about 3 minutes of strips"]
 fn softening_springs_dissipate_g_f_on_other_strips() {
     use hooke_fracture::SofteningShape::{Bilinear, Linear};
-    let mut worst: Real = 0.0;
-    for (kind, nu, shape, rho, h) in [
-        (LatticeKind::Hex, 0.0, Linear, 0.5, 20),
-        (LatticeKind::Hex, 0.25, Linear, 0.7, 20),
-        (LatticeKind::Hex, 0.25, Bilinear, 0.5, 20),
-        (LatticeKind::Hex, -0.5, Linear, 0.6, 20),
-        (LatticeKind::Cubic, 0.25, Linear, 0.5, 14),
-        (LatticeKind::Cubic, 0.0, Bilinear, 0.7, 14),
+    for (kind, nu, shape, rho, h, tol) in [
+        (LatticeKind::Hex, 0.0, Linear, 0.5, 20, 0.05),
+        (LatticeKind::Hex, 0.25, Linear, 0.7, 20, 0.05),
+        (LatticeKind::Hex, 0.25, Bilinear, 0.5, 20, 0.05),
+        (LatticeKind::Hex, -0.5, Linear, 0.6, 20, 0.05),
+        (LatticeKind::Hex, 0.0, Linear, 0.55, 20, 0.05),
+        (LatticeKind::Cubic, 0.25, Linear, 0.5, 14, 0.05),
+        (LatticeKind::Cubic, 0.0, Bilinear, 0.7, 14, 0.05),
+        (LatticeKind::Cubic, 0.25, Linear, 0.65, 18, 0.10),
     ] {
         let r = softening_ratio(kind, nu, shape, rho, h);
-        worst = worst.max((r - 1.0).abs());
+        assert!(
+            (r - 1.0).abs() < tol,
+            "{kind:?} nu = {nu} {shape:?} rho = {rho}, {h} rows: G / G_f = {r:.3}"
+        );
     }
-    assert!(worst < 0.07, "worst |G / G_f - 1| = {worst:.3}");
 }
 
 /// The random3d calibration (slabs 16 spacings high, 7 across, free faces) holds on a node set
