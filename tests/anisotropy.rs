@@ -284,3 +284,78 @@ fn wave_speeds_along_and_across_the_fibre_match_christoffel() {
         }
     }
 }
+
+/// On a random3d lattice the calibration's fixed point converges: the mean-field design is far
+/// off (the network's fabric scatter and non-affine relaxation), each correction takes most of
+/// the rest. Small cubes, so it runs in the default suite.
+#[test]
+fn random_lattice_calibration_converges() {
+    use hooke_core::random::anisotropic::{calibrate, CalibrationOptions, Symmetry};
+    let t = carbon([0.0, 0.0, 1.0]);
+    let opts = CalibrationOptions {
+        size: 12.0,
+        samples: 2,
+        iterations: 3,
+        ..Default::default()
+    };
+    let cal = calibrate(
+        &t.local_stiffness(),
+        t.frame().unwrap(),
+        Symmetry::Transverse,
+        &opts,
+    )
+    .unwrap();
+    let r = &cal.residuals;
+    eprintln!("residuals {r:?} in {:.1} s", cal.seconds);
+    assert!(r[0] > 0.05, "the mean field alone is {:.3} off", r[0]);
+    assert!(
+        *r.last().unwrap() < 0.1 * r[0] && *r.last().unwrap() < 0.01,
+        "residuals {r:?}"
+    );
+}
+
+/// The calibrated design on node sets it has not seen (seeds 1-3, cubes of 32 spacings where
+/// it was calibrated on 20): every orthotropic entry of the ensemble's mean within 2 % of the
+/// target, the fibre along [1, 2, 0.5] (a random lattice has no axes to lay along it) and the
+/// tensor turned back to the material axes. Measured: within 1.1 % (C23 +1.06 %, the rest
+/// within 0.6 %), the node sets' spread 0.2-0.8 % per entry; with the fibre along z, within
+/// 1.3 %.
+#[test]
+#[ignore = "slow: about 2 minutes of relaxed cubes"]
+fn random_lattice_design_meets_the_target_on_unseen_node_sets() {
+    use hooke_core::random::anisotropic::{
+        cubes, mean, measure, spread, to_material, ORTHOTROPIC_ENTRIES,
+    };
+    use hooke_core::random::Sampler;
+    let t = carbon([1.0, 2.0, 0.5]);
+    let m = hooke_core::Anisotropic::Transverse(t);
+    let cal = m.random_design(Sampler::Poisson).unwrap();
+    eprintln!(
+        "calibration residuals {:?} in {:.1} s",
+        cal.residuals, cal.seconds
+    );
+    let runs = measure(
+        &cal.design,
+        &cubes(32.0, 3, 1, Sampler::Poisson).unwrap(),
+        32.0,
+        &Default::default(),
+    )
+    .unwrap();
+    let frame = t.frame().unwrap();
+    let local: Vec<_> = runs.iter().map(|c| to_material(c, &frame)).collect();
+    let mean_local = mean(&local);
+    let target = t.local_stiffness();
+    let sds = spread(&local, &mean_local);
+    for &(i, j) in &ORTHOTROPIC_ENTRIES {
+        let sd = sds[i][j];
+        let rel = mean_local[i][j] / target[i][j] - 1.0;
+        eprintln!(
+            "C{}{}: {:+.4} (spread {:.4})",
+            i + 1,
+            j + 1,
+            rel,
+            sd / target[i][j]
+        );
+        assert!(rel.abs() < 0.02, "C{}{} off by {rel:+.4}", i + 1, j + 1);
+    }
+}

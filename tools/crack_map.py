@@ -2,14 +2,15 @@
 """Crack map of a 2D hooke run: the damaged nodes at their reference positions, at chosen times.
 
     python3 tools/crack_map.py OUTDIR [--times T1,T2,...] [--threshold 0.2] [--out PNG] [--dpi 80]
-                                      [--slice-z Z] [--marker 2]
+                                      [--slice-z Z [--slab W]] [--marker 2]
 
 One panel per time (the frame nearest to it; default: a third, two thirds and the end of
 the run). Intact nodes are drawn faintly, nodes with damage >= threshold coloured by damage, so
 crack paths stay readable at any resolution (a damage colour map over every node hides them
 once there are more nodes than pixels). Axes in mm. Writes OUTDIR/crack_map.png unless --out
 is given. A 3D run is drawn as the node plane nearest to z = Z (m) with --slice-z (a plate's
-through-thickness crack, e.g. cases/fibre_notch.toml); without it, 3D runs are refused.
+through-thickness crack, e.g. cases/fibre_notch.toml), or, on a random lattice, as the nodes within
+--slab W (m) of it; without --slice-z, 3D runs are refused.
 """
 import argparse
 import os
@@ -32,6 +33,11 @@ def main():
     ap.add_argument("--dpi", type=int, default=80)
     ap.add_argument("--marker", type=float, default=2.0, help="marker size of damaged nodes (points^2)")
     ap.add_argument("--slice-z", type=float, help="3D runs: draw the node plane nearest to this z (m)")
+    ap.add_argument(
+        "--slab",
+        type=float,
+        help="with --slice-z on a random 3D lattice (no node planes): draw the nodes within this half-width (m) of Z",
+    )
     a = ap.parse_args()
     fs = frames(a.outdir)
     if a.times:
@@ -52,7 +58,10 @@ def main():
                     f"{path}: a 3D run; give --slice-z Z for one node plane (or use render_damage.py)"
                 )
             z = ref[:, 2] / 1e3
-            plane = np.abs(z - z[np.argmin(np.abs(z - a.slice_z))]) < 1e-12 + 1e-9 * np.ptp(z)
+            if a.slab is not None:
+                plane = np.abs(z - a.slice_z) <= a.slab
+            else:
+                plane = np.abs(z - z[np.argmin(np.abs(z - a.slice_z))]) < 1e-12 + 1e-9 * np.ptp(z)
             ref, d = ref[plane], d[plane]
         hit = d >= a.threshold
         ax.scatter(ref[~hit, 0], ref[~hit, 1], s=0.2, c="0.85", linewidths=0)

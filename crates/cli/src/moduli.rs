@@ -384,7 +384,7 @@ fn test_for(args: &ModuliArgs, nu: Real) -> Result<BlockTest> {
     }
     if t.anisotropic.is_some() && kind != LatticeKind::Cubic {
         return Err(InputError(format!(
-            "--transverse, --orthotropic: anisotropic materials are built on the cubic lattice (material axes along the lattice's); the {} lattice is not supported yet",
+            "--transverse, --orthotropic: the block test of an anisotropic material runs on the cubic lattice (material axes along the lattice's); on random3d run the relaxed bulk test (--bulk); the {} lattice's block test is not supported yet",
             kind.name()
         ))
         .into());
@@ -703,9 +703,12 @@ fn bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
         .into());
     }
     if let Some(m) = anisotropic(args)? {
+        if kind == LatticeKind::Random3d {
+            return random_anisotropic_bulk(args, &m);
+        }
         if kind != LatticeKind::Cubic {
             return Err(InputError(format!(
-                "--transverse, --orthotropic: anisotropic materials are built on the cubic lattice; the {} lattice is not supported yet",
+                "--transverse, --orthotropic: anisotropic materials are built on the cubic and random3d lattices; the {} lattice is not supported yet",
                 kind.name()
             ))
             .into());
@@ -887,6 +890,100 @@ fn random_bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
     }))
 }
 
+/// `--bulk --lattice random3d` with an anisotropic material: calibrate the direction functions
+/// on cubes of their own seeds ([`hooke_core::random::anisotropic::calibrate`], seeds 1001 on),
+/// then measure the design on `--samples` unseen node sets (seeds `--seed` on) in cubes of
+/// `--size` nodes per side, turned into the body's frame: the inner cubes' tensor, its mean and
+/// spread per entry against the target.
+fn random_anisotropic_bulk(args: &ModuliArgs, m: &Anisotropic) -> Result<serde_json::Value> {
+    use hooke_core::random::anisotropic::{cubes, mean, measure};
+    if args.rotate_lattice || args.extrapolate || args.cylinder {
+        return Err(InputError(
+            "--rotate-lattice, --extrapolate, --cylinder: not for a random lattice's anisotropic bulk test (a random lattice has no axes to turn; its inner-cube tensor has no face excess to extrapolate)"
+                .into(),
+        )
+        .into());
+    }
+    if args.samples == 0 {
+        return Err(InputError("--samples 0: give at least one sample".into()).into());
+    }
+    let nodes_per_side = match args.size.as_deref() {
+        None => 33,
+        Some([n]) | Some([n, _, _]) => *n,
+        Some(s) => {
+            return Err(InputError(format!(
+                "--size {s:?}: the relaxed bulk test is a cube; give one number N (nodes per side)"
+            ))
+            .into())
+        }
+    };
+    if !(13..=201).contains(&nodes_per_side) {
+        return Err(InputError(format!(
+            "--size {nodes_per_side}: give 13 to 201 nodes per side (the inner cube, two thirds of the side, must hold a network)"
+        ))
+        .into());
+    }
+    let flag = match m {
+        Anisotropic::Transverse(_) => "--transverse",
+        Anisotropic::Orthotropic(_) => "--orthotropic",
+    };
+    let start = Instant::now();
+    let spec = random_spec(args)?;
+    let cal = m
+        .random_design(spec.sampler)
+        .map_err(|e| InputError(format!("{flag}: {e}")))?;
+    let side = nodes_per_side as Real - 1.0;
+    let lattices = cubes(side, args.samples, spec.seed, spec.sampler)?;
+    let runs = measure(&cal.design, &lattices, side, &Default::default())?;
+    let measured = mean(&runs);
+    let spread = hooke_core::random::anisotropic::spread(&runs, &measured);
+    let target = m.stiffness()?;
+    let relative = entry_relative_difference(&measured, &target);
+    let d = &cal.design;
+    // In the material axes every orthotropic entry is sizeable, so each can be held to a
+    // relative tolerance (turned into the body's frame, small entries carry the noise).
+    let frame = match m {
+        Anisotropic::Transverse(t) => t.frame()?,
+        Anisotropic::Orthotropic(o) => o.axes,
+    };
+    let local = hooke_core::random::anisotropic::to_material(&measured, &frame);
+    let local_target = hooke_core::random::anisotropic::to_material(&target, &frame);
+    let material_relative: Vec<Real> = hooke_core::random::anisotropic::ORTHOTROPIC_ENTRIES
+        .iter()
+        .map(|&(i, j)| local[i][j] / local_target[i][j] - 1.0)
+        .collect();
+    let name = match m {
+        Anisotropic::Transverse(_) => "transverse",
+        Anisotropic::Orthotropic(_) => "orthotropic",
+    };
+    let mut v = serde_json::json!({
+        "test": "bulk", "relaxed": true, "lattice": "random3d", "q": d.q,
+        "sampler": spec.sampler.name(), "seed": spec.seed, "samples": args.samples,
+        "cube_spacings": side,
+        "design": {
+            "kappa": d.kappa, "kappa_terms": ["xx", "yy", "zz", "yz", "xz", "xy"],
+            "alpha": d.alpha, "q": d.q, "axes": d.axes,
+        },
+        "calibration": {
+            "residuals": cal.residuals, "seconds": cal.seconds,
+            "cube_spacings": 20.0, "samples": 4, "seeds": [1001, 1004],
+        },
+        "units": "Pa",
+        "voigt": ["xx", "yy", "zz", "yz", "xz", "xy"],
+        "C_target": target, "C_measured": measured, "C_spread": spread,
+        "C_relative_difference": relative,
+        "max_relative_difference": max_relative_difference(&measured, &target),
+        "max_entry_relative_difference": max_abs(&relative),
+        "C_measured_material": local, "C_target_material": local_target,
+        "material_entries": ["11", "22", "33", "12", "13", "23", "44", "55", "66"],
+        "material_relative_difference": material_relative,
+        "max_material_relative_difference": material_relative.iter().fold(0.0 as Real, |a, b| a.max(b.abs())),
+        "seconds": start.elapsed().as_secs_f64(),
+    });
+    v[name] = anisotropic_json(m);
+    Ok(v)
+}
+
 /// The relaxed bulk test over `samples` node sets, seeds from `test.random.seed` on.
 fn relaxed_ensemble(test: &RelaxedBulk, samples: usize) -> Result<Vec<RelaxedBulkResult>> {
     let mut test = test.clone();
@@ -1005,17 +1102,46 @@ fn print_bulk(v: &serde_json::Value) {
         .into_iter()
         .find(|n| v[*n].is_object())
     {
-        println!(
+        if v["design"].is_object() {
+            println!(
+                "relaxed bulk test: random3d lattice, {name} {}; inner cubes (two thirds of the side) of {} cubes of {} spacings, seeds {} on; Voigt xx yy zz yz xz xy ({})",
+                v[name], v["samples"], v["cube_spacings"], v["seed"], v["units"].as_str().unwrap_or("")
+            );
+            let d = &v["design"];
+            println!(
+                "design: kappa(n) = sum kappa_ab n_a^2 n_b^2 over xx yy zz yz xz xy (material axes) = {} Pa; w(n) = sum alpha_a n_a^2, alpha = {}; q = {:.6}",
+                d["kappa"], d["alpha"], v["q"].as_f64().unwrap_or(0.0)
+            );
+            println!(
+                "calibration: largest entry off the target over the largest normal entry after each measurement {} ({:.1} s; 4 cubes of 20 spacings, seeds 1001 to 1004)",
+                v["calibration"]["residuals"], v["calibration"]["seconds"].as_f64().unwrap_or(0.0)
+            );
+            println!(
+                "in the material axes, C11 C22 C33 C12 C13 C23 C44 C55 C66 measured / target - 1: {}",
+                v["material_relative_difference"]
+                    .as_array()
+                    .into_iter()
+                    .flatten()
+                    .map(|x| format!("{:+.4}", x.as_f64().unwrap_or(Real::NAN)))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            );
+        } else {
+            println!(
             "bulk (affine) test: {} lattice, {name} {}, q = {:.6} ({}); Voigt xx yy zz yz xz xy",
             v["lattice"].as_str().unwrap_or(""),
             v[name],
             v["q"].as_f64().unwrap_or(0.0),
             v["units"].as_str().unwrap_or("")
         );
-        println!(
-            "springs: axes x y z k = {} w = {}; face diagonals yz xz xy k = {} w = {} (N/m)",
-            v["axis_stiffness"], v["axis_weights"], v["diagonal_stiffness"], v["diagonal_weights"]
-        );
+            println!(
+                "springs: axes x y z k = {} w = {}; face diagonals yz xz xy k = {} w = {} (N/m)",
+                v["axis_stiffness"],
+                v["axis_weights"],
+                v["diagonal_stiffness"],
+                v["diagonal_weights"]
+            );
+        }
     } else if v["relaxed"].as_bool() == Some(true) {
         println!(
             "relaxed bulk test: {} lattice, cube of {} spacings with its faces on the affine field, {} nodes ({} on the faces), {} sample(s) from seed {}",

@@ -140,7 +140,17 @@ pub fn check(args: CheckArgs) -> Result<()> {
             "output_bytes": sim.output_estimate(),
         });
         v[if kind.is_random() { "kappa" } else { "k" }] = serde_json::json!(sim.k);
-        if let Some(m) = &sim.anisotropic {
+        if let (Some(m), Some(cal)) = (&sim.anisotropic, &sim.random_design) {
+            let d = &cal.design;
+            v["nu"] = serde_json::Value::Null;
+            v["anisotropic"] = serde_json::json!({
+                "material": format!("{m:?}"),
+                "kappa": d.kappa, "kappa_terms": ["xx", "yy", "zz", "yz", "xz", "xy"],
+                "alpha": d.alpha, "axes": d.axes,
+                "calibration_residuals": cal.residuals, "calibration_seconds": cal.seconds,
+                "stiffness": m.stiffness()?,
+            });
+        } else if let Some(m) = &sim.anisotropic {
             let f = m.families(sim.body.lattice.spacing)?;
             v["nu"] = serde_json::Value::Null;
             v["anisotropic"] = serde_json::json!({
@@ -175,7 +185,32 @@ pub fn check(args: CheckArgs) -> Result<()> {
             }
         );
     }
-    if sim.body.lattice.kind.is_random() {
+    if let (Some(m), Some(cal)) = (&sim.anisotropic, &sim.random_design) {
+        print_material(m)?;
+        let d = &cal.design;
+        println!(
+            "  springs      k_s = kappa(n) V_s / L_s^2, kappa(n) = sum kappa_ab n_a^2 n_b^2 over xx yy zz yz xz xy (material axes) = {:.6e} {:.6e} {:.6e} {:.6e} {:.6e} {:.6e} Pa",
+            d.kappa[0], d.kappa[1], d.kappa[2], d.kappa[3], d.kappa[4], d.kappa[5]
+        );
+        println!(
+            "  weights, q   w(n) = sum alpha_a n_a^2, alpha = {:.6} {:.6} {:.6}; q = {:.6}",
+            d.alpha[0], d.alpha[1], d.alpha[2], d.q
+        );
+        println!(
+            "  calibration  largest entry off the target over the largest normal entry: {} ({:.1} s; 4 cubes of 20 spacings)",
+            cal.residuals
+                .iter()
+                .map(|r| format!("{r:.2e}"))
+                .collect::<Vec<_>>()
+                .join(" -> "),
+            cal.seconds
+        );
+        println!("  stiffness    C (Pa, Voigt xx yy zz yz xz xy, global axes):");
+        for row in m.stiffness()? {
+            let cells: Vec<String> = row.iter().map(|x| format!("{x:>12.4e}")).collect();
+            println!("               {}", cells.join(" "));
+        }
+    } else if sim.body.lattice.kind.is_random() {
         let unit = if sim.body.lattice.dim() == 3 {
             "Pa"
         } else {
@@ -187,25 +222,7 @@ pub fn check(args: CheckArgs) -> Result<()> {
         );
     } else if let Some(m) = &sim.anisotropic {
         let f = m.families(sim.body.lattice.spacing)?;
-        match m {
-            hooke_core::Anisotropic::Transverse(t) => println!(
-                "  material     transversely isotropic, fibre {:?}: E_p {:e} Pa, E_t {:e} Pa, nu_p {}, nu_tp {}, G_t {:e} Pa",
-                t.axis()?, t.youngs_plane, t.youngs_fibre, t.poisson_plane, t.poisson_fibre, t.shear_fibre
-            ),
-            hooke_core::Anisotropic::Orthotropic(o) => {
-                println!(
-                    "  material     orthotropic, axes x y z: E {:?} Pa, nu_xy nu_xz nu_yz {:?}, G_yz G_xz G_xy {:?} Pa",
-                    o.youngs, o.poisson, o.shear
-                );
-                if !o.along_body_axes() {
-                    let a = o.axes;
-                    println!(
-                        "  axes         x = [{:.6}, {:.6}, {:.6}], y = [{:.6}, {:.6}, {:.6}], z = [{:.6}, {:.6}, {:.6}] in the body",
-                        a[0][0], a[0][1], a[0][2], a[1][0], a[1][1], a[1][2], a[2][0], a[2][1], a[2][2]
-                    );
-                }
-            }
-        }
+        print_material(m)?;
         println!(
             "  springs k    axes x y z {:.6e} {:.6e} {:.6e}, face diagonals yz xz xy {:.6e} {:.6e} {:.6e} N/m{}",
             f.axis_k[0], f.axis_k[1], f.axis_k[2], f.diagonal_k[0], f.diagonal_k[1], f.diagonal_k[2],
@@ -616,4 +633,28 @@ fn progress_bar(interactive: bool, len: u64) -> indicatif::ProgressBar {
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar());
     bar.set_style(style);
     bar
+}
+
+/// The anisotropic material's engineering constants, as `hooke check` prints them.
+fn print_material(m: &hooke_core::Anisotropic) -> Result<()> {
+    match m {
+        hooke_core::Anisotropic::Transverse(t) => println!(
+            "  material     transversely isotropic, fibre {:?}: E_p {:e} Pa, E_t {:e} Pa, nu_p {}, nu_tp {}, G_t {:e} Pa",
+            t.axis()?, t.youngs_plane, t.youngs_fibre, t.poisson_plane, t.poisson_fibre, t.shear_fibre
+        ),
+        hooke_core::Anisotropic::Orthotropic(o) => {
+            println!(
+                "  material     orthotropic, axes x y z: E {:?} Pa, nu_xy nu_xz nu_yz {:?}, G_yz G_xz G_xy {:?} Pa",
+                o.youngs, o.poisson, o.shear
+            );
+            if !o.along_body_axes() {
+                let a = o.axes;
+                println!(
+                    "  axes         x = [{:.6}, {:.6}, {:.6}], y = [{:.6}, {:.6}, {:.6}], z = [{:.6}, {:.6}, {:.6}] in the body",
+                    a[0][0], a[0][1], a[0][2], a[1][0], a[1][1], a[1][2], a[2][0], a[2][1], a[2][2]
+                );
+            }
+        }
+    }
+    Ok(())
 }

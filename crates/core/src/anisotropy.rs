@@ -201,9 +201,13 @@ impl Transverse {
     /// The stiffness in the global axes, the fibre along [`Transverse::fibre`] (Voigt order,
     /// engineering shears, Pa).
     pub fn stiffness(&self) -> Result<[[Real; 6]; 6]> {
+        Ok(rotate(&self.local_stiffness(), &self.frame()?))
+    }
+
+    /// A right-handed frame whose third axis is the fibre (rows: the axes in the body's
+    /// frame); any one will do (isotropy in the plane).
+    pub fn frame(&self) -> Result<[[Real; 3]; 3]> {
         let m = self.axis()?;
-        // A right-handed frame whose third axis is the fibre; any one will do (isotropy in the
-        // plane).
         let helper = if m[0].abs() < 0.9 {
             [1.0, 0.0, 0.0]
         } else {
@@ -211,8 +215,7 @@ impl Transverse {
         };
         let e1 = normalise(cross(helper, m));
         let e2 = cross(m, e1);
-        let r = [e1, e2, m]; // r[a][i]: component i of local axis a
-        Ok(rotate(&self.local_stiffness(), &r))
+        Ok([e1, e2, m])
     }
 }
 
@@ -438,31 +441,9 @@ pub fn ladd_families(
         return Err(Unreachable::Diagonal(p));
     }
     let d_k = shears.map(|g| a * g);
-    let defect = [c[1][2] - c[3][3], c[0][2] - c[4][4], c[0][1] - c[5][5]];
+    let (s, r) = rank_one(c)?;
     let scale = (0..3).fold(0.0 as Real, |m, i| m.max(c[i][i].abs()));
-    let tiny = |x: Real| x.abs() <= 1e-12 * scale;
-    let nonzero: Vec<usize> = (0..3).filter(|&i| !tiny(defect[i])).collect();
-    // r[i]: R_i (stress units), with s R_i R_j = D_k for {i, j, k} = {0, 1, 2}.
-    let (s, r) = match nonzero.len() {
-        0 => (0.0, [0.0; 3]),
-        1 => {
-            // One plane coupled (say xy): R_x = R_y = sqrt(|D|), R_z = 0.
-            let k = nonzero[0];
-            let s = defect[k].signum();
-            let mut r = [defect[k].abs().sqrt(); 3];
-            r[k] = 0.0;
-            (s, r)
-        }
-        2 => return Err(Unreachable::Coupling(defect)),
-        _ => {
-            let s = (defect[0] * defect[1] * defect[2]).signum();
-            let r0 = (defect[1] * defect[2] / defect[0]).abs().sqrt();
-            // s R_0 R_2 = D_1, s R_0 R_1 = D_2.
-            let r1 = defect[2] / (s * r0);
-            let r2 = defect[1] / (s * r0);
-            (s, [r0, r1, r2])
-        }
-    };
+    let defect = cauchy_defects(c);
     // Axis springs: C_ii = (k_i + the two diagonals through i)/a + s R_i^2.
     let through = [[2, 1], [2, 0], [1, 0]]; // diagonal planes holding axis i (yz=0, xz=1, xy=2)
     let mut axis_k = [0.0; 3];
@@ -525,6 +506,44 @@ pub fn ladd_families(
         axis_w,
         diagonal_w,
         q,
+    })
+}
+
+/// The Cauchy defects `D_yz = C23 - C44`, `D_xz = C13 - C55`, `D_xy = C12 - C66` of an
+/// orthotropic stiffness in its axes: what central springs alone cannot give.
+pub fn cauchy_defects(c: &[[Real; 6]; 6]) -> [Real; 3] {
+    [c[1][2] - c[3][3], c[0][2] - c[4][4], c[0][1] - c[5][5]]
+}
+
+/// The rank-one dispersive part `s R R^T` (normal block) that carries an orthotropic
+/// stiffness's Cauchy defects: `s R_i R_j = D_k` for `{i, j, k} = {0, 1, 2}`, so
+/// `s R_1^2 = D_2 D_3 / D_1` and so on, `s` the sign of the product of the defects (of the one
+/// non-zero defect, or 0 when there is none). Returns `(s, R)` or why no rank-one term fits.
+pub fn rank_one(c: &[[Real; 6]; 6]) -> std::result::Result<(Real, [Real; 3]), Unreachable> {
+    let defect = cauchy_defects(c);
+    let scale = (0..3).fold(0.0 as Real, |m, i| m.max(c[i][i].abs()));
+    let tiny = |x: Real| x.abs() <= 1e-12 * scale;
+    let nonzero: Vec<usize> = (0..3).filter(|&i| !tiny(defect[i])).collect();
+    // r[i]: R_i (stress units), with s R_i R_j = D_k for {i, j, k} = {0, 1, 2}.
+    Ok(match nonzero.len() {
+        0 => (0.0, [0.0; 3]),
+        1 => {
+            // One plane coupled (say xy): R_x = R_y = sqrt(|D|), R_z = 0.
+            let k = nonzero[0];
+            let s = defect[k].signum();
+            let mut r = [defect[k].abs().sqrt(); 3];
+            r[k] = 0.0;
+            (s, r)
+        }
+        2 => return Err(Unreachable::Coupling(defect)),
+        _ => {
+            let s = (defect[0] * defect[1] * defect[2]).signum();
+            let r0 = (defect[1] * defect[2] / defect[0]).abs().sqrt();
+            // s R_0 R_2 = D_1, s R_0 R_1 = D_2.
+            let r1 = defect[2] / (s * r0);
+            let r2 = defect[1] / (s * r0);
+            (s, [r0, r1, r2])
+        }
     })
 }
 
@@ -753,11 +772,52 @@ impl Anisotropic {
         }
     }
 
-    /// The body of this material on `lattice` (the Ladd lattice).
+    /// The body of this material on `lattice`: the Ladd lattice's spring families, or on a
+    /// random3d lattice the calibrated direction functions ([`Anisotropic::random_design`]).
     pub fn body(&self, lattice: Lattice) -> Result<Body> {
+        if lattice.kind == LatticeKind::Random3d {
+            let sampler = lattice
+                .cells
+                .as_ref()
+                .map_or(crate::random::Sampler::Poisson, |c| c.sampler);
+            return self
+                .random_design(sampler)?
+                .design
+                .body(lattice, self.density());
+        }
         match self {
             Anisotropic::Transverse(t) => Body::transverse(lattice, t),
             Anisotropic::Orthotropic(o) => Body::orthotropic(lattice, o),
+        }
+    }
+
+    /// The direction functions that give this material on random3d lattices scattered by
+    /// `sampler`, calibrated on cubes ([`crate::random::anisotropic::calibrate`], default
+    /// options: 4 cubes of 20 spacings, seeds 1001 to 1004; about half a minute).
+    pub fn random_design(
+        &self,
+        sampler: crate::random::Sampler,
+    ) -> Result<crate::random::anisotropic::Calibrated> {
+        self.random_design_with(&crate::random::anisotropic::CalibrationOptions {
+            sampler,
+            ..Default::default()
+        })
+    }
+
+    /// [`Anisotropic::random_design`] with the calibration's options.
+    pub fn random_design_with(
+        &self,
+        opts: &crate::random::anisotropic::CalibrationOptions,
+    ) -> Result<crate::random::anisotropic::Calibrated> {
+        use crate::random::anisotropic::{calibrate, Symmetry};
+        match self {
+            Anisotropic::Transverse(t) => {
+                t.validate()?;
+                calibrate(&t.local_stiffness(), t.frame()?, Symmetry::Transverse, opts)
+            }
+            Anisotropic::Orthotropic(o) => {
+                calibrate(&o.local_stiffness()?, o.axes, Symmetry::Orthotropic, opts)
+            }
         }
     }
 

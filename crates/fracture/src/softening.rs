@@ -311,7 +311,7 @@ pub const REGULAR_RHO: [Real; 5] = [0.35, 0.5, 0.6, 0.7, 0.9];
 /// points), the mean of 3 node sets, which scatter by 10-30 % at this size. Where the strip did
 /// not reach steady growth (the bilinear curve at rho = 0.35, whose process zone outgrows the
 /// strip) the rho = 0.5 value is held; random2d bilinear at nu_2D = 0.25 reached it only at rho
-/// >= 0.7 (its rho <= 0.5 values are the nu_2D = 0 ones), and its rho = 0.9 value is the mean of
+/// 0.7 and above (its rho <= 0.5 values are the nu_2D = 0 ones), and its rho = 0.9 value is the mean of
 /// 6 node sets (1.21 and 0.53 for seeds 1-3 and 4-6).
 const HEX_LINEAR: [[Real; 5]; 3] = [
     [0.6934, 0.6188, 0.6003, 0.6316, 0.9440],

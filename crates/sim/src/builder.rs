@@ -28,6 +28,7 @@
 use hooke_core::dynamics::{IntegratorOptions, TimeStep};
 use hooke_core::loading::{Loading, Motion, Prescribed, TimeFunction};
 use hooke_core::material::{self, Elastic, PlaneModel};
+use hooke_core::random::anisotropic::Calibrated;
 use hooke_core::random::RandomSpec;
 use hooke_core::{Anisotropic, Body, LatticeKind, Orthotropic, Real, State, Transverse, Vector};
 use hooke_fracture::{
@@ -356,7 +357,7 @@ impl Builder {
 
     /// Check everything and build the simulation.
     pub fn build(self) -> Result<Simulation, BuildError> {
-        let (mut body, k, h, weighted) = self.body()?;
+        let (mut body, k, h, weighted, random_design) = self.body()?;
         let mut state = State::new(&body);
         let (mut fracture, precracked) = self.fracture(&body, &mut state, k, h)?;
         let (loading, regions, boundaries) =
@@ -402,6 +403,7 @@ impl Builder {
             precracked,
             contact,
             anisotropic: self.anisotropic,
+            random_design,
             cell_weighted: weighted,
         })
     }
@@ -409,10 +411,11 @@ impl Builder {
     /// The lattice filled into the solid, with the material's constants and the cell weights:
     /// the body, its bulk stiffness constant (k, or kappa on random lattices), the plate
     /// thickness (1 in 3D) and whether the body is cell-weighted.
-    fn body(&self) -> Result<(Body, Real, Real, bool), BuildError> {
-        let (body, k, h) = self.unweighted_body()?;
+    #[allow(clippy::type_complexity)]
+    fn body(&self) -> Result<(Body, Real, Real, bool, Option<Calibrated>), BuildError> {
+        let (body, k, h, design) = self.unweighted_body()?;
         let (body, weighted) = self.weigh(body)?;
-        Ok((body, k, h, weighted))
+        Ok((body, k, h, weighted, design))
     }
 
     /// [`Builder::cell_weights`] applied to `body`, and whether it was.
@@ -446,7 +449,7 @@ impl Builder {
     }
 
     /// [`Builder::body`] before the cell weights.
-    fn unweighted_body(&self) -> Result<(Body, Real, Real), BuildError> {
+    fn unweighted_body(&self) -> Result<(Body, Real, Real, Option<Calibrated>), BuildError> {
         let kind = self.kind;
         let dim = kind.dim();
         let a = self.spacing;
@@ -520,16 +523,30 @@ impl Builder {
                     "give an isotropic material or an anisotropic one, not both",
                 ));
             }
-            if kind != LatticeKind::Cubic {
+            if !matches!(kind, LatticeKind::Cubic | LatticeKind::Random3d) {
                 return Err(BuildError::new(
                     "material.kind",
                     format!(
-                        "anisotropic materials are built on the cubic lattice (material axes along the lattice axes); the {} lattice is not supported yet: use lattice.kind = \"cubic\"",
+                        "anisotropic materials are built on the cubic and random3d lattices; the {} lattice is not supported yet: use lattice.kind = \"cubic\" or \"random3d\"",
                         kind.name()
                     ),
                 ));
             }
-            let body = t.body(lattice).map_err(|e| {
+            // On a random lattice the direction functions are calibrated first (about half a
+            // minute on cubes of their own seeds); `hooke check` prints what they reached.
+            let (body, design) = if kind == LatticeKind::Random3d {
+                let sampler = self.random.sampler;
+                match t.random_design(sampler) {
+                    Ok(cal) => {
+                        let density = t.density();
+                        (cal.design.body(lattice, density), Some(cal))
+                    }
+                    Err(e) => (Err(e), None),
+                }
+            } else {
+                (t.body(lattice), None)
+            };
+            let body = body.map_err(|e| {
                 let msg = e.to_string();
                 // The key the message is about: the constant it names, else the material.
                 let key = [
@@ -568,7 +585,7 @@ impl Builder {
                 ));
             }
             // No single k: the families differ (`hooke check` prints them).
-            return Ok((body, Real::NAN, h));
+            return Ok((body, Real::NAN, h, design));
         }
         let elastic = self.material.ok_or_else(|| {
             BuildError::new(
@@ -598,7 +615,7 @@ impl Builder {
         } else {
             body.k[0]
         };
-        Ok((body, k, h))
+        Ok((body, k, h, None))
     }
 
     /// The breaking rule and the pre-cracks: the fracture state and the springs cut.

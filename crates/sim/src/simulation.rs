@@ -78,6 +78,9 @@ pub struct Simulation {
     /// An anisotropic material (`[material] kind = "transverse"` or `"orthotropic"`), or
     /// `None` for an isotropic one.
     pub anisotropic: Option<hooke_core::Anisotropic>,
+    /// On a random3d lattice, the anisotropic material's calibrated direction functions and
+    /// what the calibration reached ([`hooke_core::random::anisotropic::calibrate`]).
+    pub random_design: Option<hooke_core::random::anisotropic::Calibrated>,
     /// Whether the body's springs and nodes are weighted by their cells (regular lattices,
     /// [`crate::Builder::cell_weights`]).
     pub cell_weighted: bool,

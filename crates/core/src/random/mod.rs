@@ -55,6 +55,7 @@
 //! outside the shape. Degenerate simplices (zero measure to round-off) are dropped, and nodes left
 //! without a spring are removed.
 
+pub mod anisotropic;
 pub mod calibration;
 pub mod delaunay;
 pub mod rng;

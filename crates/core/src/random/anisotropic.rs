@@ -1,0 +1,655 @@
+//! Anisotropic materials on 3D random lattices: continuous direction functions for the spring
+//! stiffness and the dispersion weight, designed by a mean-field theory and calibrated on
+//! ensembles of relaxed cubes (`docs/anisotropy.md`, "Random lattices").
+//!
+//! # The springs and the weights
+//! In the material axes (`n'` a spring's unit direction there) each spring gets
+//!
+//! ```text
+//! k_s = kappa(n'_s) V_s / L_s^2        kappa(n) = sum_{a <= b} kappa_ab n_a^2 n_b^2
+//! w_s = w(n'_s)                        w(n)     = sum_a alpha_a n_a^2
+//! ```
+//!
+//! (`V_s` the volume the spring stands for, [`crate::random`]). Both are even in `n`, so the
+//! two ends of a spring agree; `kappa` is a quartic form with the orthotropic symmetry of the
+//! axes (six coefficients), `w` a quadratic one (three). The isotropic random lattice is
+//! `kappa(n) = kappa` (`kappa_aa = kappa`, `kappa_ab = 2 kappa`, since `(sum n_a^2)^2 = 1`) and
+//! `w = 1`.
+//!
+//! # Mean-field stiffness
+//! With the springs' directions isotropic on average (`sum_s V_s f(n_s) = V <f>` over the
+//! sphere), the spring part of the bulk stiffness is `C^s_ijkl = <kappa n_i n_j n_k n_l>`:
+//! totally symmetric, so it carries Cauchy's relations. Every spring sits in two node stars; if
+//! each star's fabric were its mean, `A_n = (2V/N) P`, `S_n = (2V/N) <w^2 kappa>` with
+//! `P = <w kappa n n>`, and the dispersive part `q/V sum_n A_n (x) A_n / S_n` is
+//!
+//! ```text
+//! C^d = 2 q P (x) P / <w^2 kappa>                       (isotropic: B = 2 q kappa / 9)
+//! ```
+//!
+//! rank one, as on the Ladd lattice. So an orthotropic target `C` splits as on the Ladd lattice
+//! ([`crate::anisotropy::rank_one`]): its Cauchy defects `C23 - C44`, `C13 - C55`, `C12 - C66`
+//! give `s R R^T` with `s` the sign of q, and `C^s = C - s R R^T`. Then
+//!
+//! - `kappa_ab` solve the six linear equations `<kappa n_i^2 n_j^2> = C^s_iijj` (sphere moments
+//!   `<n_x^2a n_y^2b n_z^2c> = (2a-1)!! (2b-1)!! (2c-1)!! / (2(a+b+c)+1)!!`);
+//! - `P = M alpha` with `M_ab = <kappa n_a^2 n_b^2>`, and `alpha = M^-1 R` makes `P = R`;
+//! - `2 q / <w^2 kappa> = s`, and `<w^2 kappa> = alpha^T M alpha`, so `q = s R^T M^-1 R / 2`.
+//!
+//! The isotropic target gives back `kappa = 15 mu`, `w = 1` and the paper's
+//! `q = 0.3 (4 nu - 1)/(1 - 2 nu)` (tested).
+//!
+//! # Reachable set (mean field)
+//! The Cauchy defects must be those of one rank-one term (as on the Ladd lattice), `kappa(n)`
+//! must be positive in every direction (a random lattice has springs in all of them), and
+//! `q > -1/2`. Anything else is refused with the reason.
+//!
+//! # Calibration
+//! A random network is not its mean field: each star's fabric scatters about the mean (adding a
+//! shear stiffening that grows with |q|) and the network relaxes non-affinely (a softening of
+//! about 7 %). As the isotropic tables do ([`crate::random::calibration`]), the design is
+//! corrected by measurement, here by a fixed point on the target: design for `C_d`, measure the
+//! ensemble's relaxed stiffness `C_m` on cubes ([`crate::moduli::relax_cube`], its inner cube),
+//! set `C_d <- C_d + (C - C_m)` on the orthotropic entries, repeat. [`calibrate`] states the
+//! residual it reached.
+
+use crate::anisotropy::{rank_one, rotate, Unreachable, Q_MIN};
+use crate::body::Body;
+use crate::error::{Error, Result};
+use crate::lattice::Lattice;
+use crate::math::Real;
+use crate::moduli::{relax_cube, VOIGT};
+use crate::random::{RandomSpec, Sampler};
+use crate::statics::StaticOptions;
+use rayon::prelude::*;
+
+/// The pairs `(a, b)`, `a <= b`, of the quartic's terms `n_a^2 n_b^2`, in Voigt order.
+const PAIRS: [(usize, usize); 6] = VOIGT;
+
+/// `<n_x^(2e0) n_y^(2e1) n_z^(2e2)>` over the unit sphere.
+fn sphere_moment(e: [u32; 3]) -> Real {
+    let odd_factorial =
+        |m: u32| -> Real { (1..=m).filter(|k| k % 2 == 1).map(|k| k as Real).product() };
+    let num: Real = e
+        .iter()
+        .map(|&k| odd_factorial((2 * k).saturating_sub(1)))
+        .product();
+    num / odd_factorial(2 * e.iter().sum::<u32>() + 1)
+}
+
+/// Exponents (halved) of `n_a^2 n_b^2`.
+fn pair_exponents((a, b): (usize, usize)) -> [u32; 3] {
+    let mut e = [0; 3];
+    e[a] += 1;
+    e[b] += 1;
+    e
+}
+
+fn add(a: [u32; 3], b: [u32; 3]) -> [u32; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+/// The spring and weight functions of an anisotropic material on a random lattice.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RandomDesign {
+    /// `kappa_ab` (Pa) of `kappa(n) = sum kappa_ab n_a^2 n_b^2` over the pairs xx, yy, zz, yz,
+    /// xz, xy of the material axes.
+    pub kappa: [Real; 6],
+    /// `alpha_a` of `w(n) = sum alpha_a n_a^2` (largest magnitude 1).
+    pub alpha: [Real; 3],
+    /// Dispersion ratio.
+    pub q: Real,
+    /// The material axes as rows, in the body's frame.
+    pub axes: [[Real; 3]; 3],
+}
+
+impl RandomDesign {
+    /// The mean-field design for the stiffness `c` given in the material axes `axes` (module
+    /// docs), or why there is none.
+    pub fn mean_field(c: &[[Real; 6]; 6], axes: [[Real; 3]; 3]) -> Result<Self> {
+        let refuse = |why: String| Error::InvalidInput {
+            what: "anisotropic material",
+            why: format!("out of reach of the random3d lattice: {why}"),
+        };
+        for (p, name) in ["yz", "xz", "xy"].iter().enumerate() {
+            if !(c[3 + p][3 + p] > 0.0) {
+                return Err(refuse(format!("the {name} shear modulus must be positive")));
+            }
+        }
+        let (s, r) = rank_one(c).map_err(|e| refuse(e.why()))?;
+        // C^s_iijj: the normal entries less the dispersive part; off the diagonal they are the
+        // shear moduli (Cauchy's relations, by construction of s R R^T).
+        let shear_of = |i: usize, j: usize| c[3 + (3 - i - j)][3 + (3 - i - j)];
+        let mut g = nalgebra::SMatrix::<Real, 6, 6>::zeros();
+        let mut rhs = nalgebra::SVector::<Real, 6>::zeros();
+        for (e, &(i, j)) in VOIGT.iter().enumerate() {
+            rhs[e] = if i == j {
+                c[i][i] - s * r[i] * r[i]
+            } else {
+                shear_of(i, j)
+            };
+            for (p, &pair) in PAIRS.iter().enumerate() {
+                g[(e, p)] = sphere_moment(add(pair_exponents(pair), pair_exponents((i, j))));
+            }
+        }
+        let kappa = g
+            .lu()
+            .solve(&rhs)
+            .ok_or_else(|| refuse("the spring functions' equations are singular".into()))?;
+        let kappa: [Real; 6] = std::array::from_fn(|p| kappa[p]);
+        let mut design = RandomDesign {
+            kappa,
+            alpha: [1.0; 3],
+            q: 0.0,
+            axes,
+        };
+        let (min_dir, min_k) = design.softest_direction();
+        let scale = c[0][0].abs().max(c[1][1].abs()).max(c[2][2].abs());
+        if !(min_k > 1e-6 * scale) {
+            return Err(refuse(format!(
+                "the springs along {min_dir:.3?} (material axes) would need a stiffness kappa = {min_k:.4e} Pa <= 0: soften that direction's coupling to the others, or raise its modulus"
+            )));
+        }
+        if s == 0.0 {
+            return Ok(design);
+        }
+        // M_ab = <kappa n_a^2 n_b^2>.
+        let m = nalgebra::Matrix3::<Real>::from_fn(|a, b| {
+            let mut e = [0; 3];
+            e[a] += 1;
+            e[b] += 1;
+            PAIRS
+                .iter()
+                .zip(&kappa)
+                .map(|(&pair, &k)| k * sphere_moment(add(pair_exponents(pair), e)))
+                .sum()
+        });
+        let rv = nalgebra::Vector3::new(r[0], r[1], r[2]);
+        let alpha = m
+            .try_inverse()
+            .map(|mi| mi * rv)
+            .ok_or_else(|| refuse("the weights' equations are singular".into()))?;
+        let q = 0.5 * s * rv.dot(&alpha);
+        if !(q.is_finite() && q > Q_MIN) {
+            return Err(refuse(Unreachable::Stability(q).why()));
+        }
+        let big = alpha.iter().fold(0.0 as Real, |x, v| x.max(v.abs()));
+        design.alpha = [alpha[0] / big, alpha[1] / big, alpha[2] / big];
+        design.q = q;
+        Ok(design)
+    }
+
+    /// `n` (body frame, unit) in the material axes.
+    #[inline]
+    fn local(&self, n: [Real; 3]) -> [Real; 3] {
+        self.axes.map(|e| e[0] * n[0] + e[1] * n[1] + e[2] * n[2])
+    }
+
+    /// `kappa(n)` (Pa) for a unit direction `n` in the body's frame.
+    #[inline]
+    pub fn kappa_at(&self, n: [Real; 3]) -> Real {
+        let l = self.local(n);
+        let sq = [l[0] * l[0], l[1] * l[1], l[2] * l[2]];
+        PAIRS
+            .iter()
+            .zip(&self.kappa)
+            .map(|(&(a, b), &k)| k * sq[a] * sq[b])
+            .sum()
+    }
+
+    /// `w(n)` for a unit direction `n` in the body's frame.
+    #[inline]
+    pub fn weight_at(&self, n: [Real; 3]) -> Real {
+        let l = self.local(n);
+        (0..3).map(|a| self.alpha[a] * l[a] * l[a]).sum()
+    }
+
+    /// The direction (material axes) where `kappa` is smallest, and its value: a search over a
+    /// Fibonacci sphere of 4000 directions refined around its best.
+    pub fn softest_direction(&self) -> ([Real; 3], Real) {
+        let kappa = |n: [Real; 3]| {
+            let sq = [n[0] * n[0], n[1] * n[1], n[2] * n[2]];
+            PAIRS
+                .iter()
+                .zip(&self.kappa)
+                .map(|(&(a, b), &k)| k * sq[a] * sq[b])
+                .sum::<Real>()
+        };
+        let unit = |v: [Real; 3]| {
+            let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            v.map(|x| x / l)
+        };
+        let count = 4000;
+        let golden = std::f64::consts::PI as Real * (3.0 - (5.0 as Real).sqrt());
+        let mut best = ([0.0, 0.0, 1.0], Real::INFINITY);
+        for i in 0..count {
+            let z = 1.0 - (i as Real + 0.5) / count as Real; // the upper half: kappa is even
+            let rho = (1.0 - z * z).sqrt();
+            let t = golden * i as Real;
+            let n = [rho * t.cos(), rho * t.sin(), z];
+            let k = kappa(n);
+            if k < best.1 {
+                best = (n, k);
+            }
+        }
+        // Refine by shrinking random-free pattern steps about the best sample.
+        let mut step = 0.05;
+        while step > 1e-6 {
+            let mut moved = false;
+            for c in 0..3 {
+                for sign in [-1.0, 1.0] {
+                    let mut v = best.0;
+                    v[c] += sign * step;
+                    let n = unit(v);
+                    let k = kappa(n);
+                    if k < best.1 {
+                        best = (n, k);
+                        moved = true;
+                    }
+                }
+            }
+            if !moved {
+                step *= 0.5;
+            }
+        }
+        best
+    }
+
+    /// The body of this design on a 3D random lattice: `k_s = kappa(n_s) V_s / L_s^2`, lever
+    /// `w(n_s) L_s`, each node `density V_n`.
+    pub fn body(&self, lattice: Lattice, density: Real) -> Result<Body> {
+        let cells = match &lattice.cells {
+            Some(c) if lattice.dim() == 3 && !lattice.is_shed() => c,
+            _ => {
+                return Err(Error::InvalidInput {
+                    what: "anisotropic material",
+                    why: format!(
+                        "the random-lattice design is built on a random3d lattice with its cell volumes (this is a {} lattice{})",
+                        lattice.kind.name(),
+                        if lattice.is_shed() { " whose set-up volumes were shed" } else { "" }
+                    ),
+                })
+            }
+        };
+        let bonds = &lattice.bonds;
+        let (k, lever): (Vec<Real>, Vec<Real>) = (0..bonds.len())
+            .into_par_iter()
+            .map(|b| {
+                let [i, j] = bonds.ends[b].map(|v| v as usize);
+                let d = lattice.reference_vector(i, j);
+                let l = bonds.rest[b];
+                let n = d.map(|x| x / l);
+                (
+                    self.kappa_at(n) * cells.spring[b] / (l * l),
+                    self.weight_at(n) * l,
+                )
+            })
+            .unzip();
+        let mass = cells.node.iter().map(|&v| density * v).collect();
+        let body = Body {
+            lattice,
+            k,
+            q: self.q,
+            mass,
+            lever: Some(lever),
+        };
+        body.validate()?;
+        Ok(body)
+    }
+}
+
+/// Which entries of a stiffness in the material axes are tied by the material's symmetry
+/// (averaged when the calibration corrects the design, to halve the ensemble's noise).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Symmetry {
+    /// Nine independent entries.
+    Orthotropic,
+    /// Fibre along the third axis: C11 = C22, C13 = C23, C44 = C55.
+    Transverse,
+}
+
+/// How [`calibrate`] measures.
+#[derive(Clone, Debug)]
+pub struct CalibrationOptions {
+    /// The cubes' side in spacings.
+    pub size: Real,
+    /// Node sets per measurement (seeds `seed`, `seed + 1`, ...).
+    pub samples: usize,
+    pub seed: u64,
+    /// Corrections at most.
+    pub iterations: usize,
+    /// Stop when every orthotropic entry is this close to the target (relative to the largest
+    /// normal entry).
+    pub tolerance: Real,
+    pub sampler: Sampler,
+    pub solver: StaticOptions,
+}
+
+impl Default for CalibrationOptions {
+    fn default() -> Self {
+        CalibrationOptions {
+            size: 20.0,
+            samples: 4,
+            seed: 1001,
+            iterations: 4,
+            tolerance: 2e-3,
+            sampler: Sampler::Poisson,
+            solver: StaticOptions::default(),
+        }
+    }
+}
+
+/// What [`calibrate`] reached.
+#[derive(Clone, Debug)]
+pub struct Calibrated {
+    pub design: RandomDesign,
+    /// The last measured ensemble mean (inner cubes), in the material axes.
+    pub measured: [[Real; 6]; 6],
+    /// Largest difference of an orthotropic entry from the target over the largest normal
+    /// entry, after each measurement (the first: the mean-field design's).
+    pub residuals: Vec<Real>,
+    /// Seconds spent.
+    pub seconds: Real,
+}
+
+fn tie(c: &mut [[Real; 6]; 6], sym: Symmetry) {
+    for i in 0..6 {
+        for j in 0..i {
+            let m = 0.5 * (c[i][j] + c[j][i]);
+            c[i][j] = m;
+            c[j][i] = m;
+        }
+    }
+    if sym == Symmetry::Transverse {
+        for (a, b) in [((0, 0), (1, 1)), ((0, 2), (1, 2)), ((3, 3), (4, 4))] {
+            let m = 0.5 * (c[a.0][a.1] + c[b.0][b.1]);
+            for (i, j) in [a, b] {
+                c[i][j] = m;
+                c[j][i] = m;
+            }
+        }
+    }
+}
+
+/// The body-to-material turn of a Voigt stiffness: `rotate` takes material to body with the
+/// axes as rows; its transpose takes body to material.
+pub fn to_material(c: &[[Real; 6]; 6], axes: &[[Real; 3]; 3]) -> [[Real; 6]; 6] {
+    let t: [[Real; 3]; 3] = std::array::from_fn(|a| std::array::from_fn(|i| axes[i][a]));
+    rotate(c, &t)
+}
+
+/// The ensemble mean of the inner cubes' stiffness (body frame) of `design` on `lattices`.
+pub fn measure(
+    design: &RandomDesign,
+    lattices: &[Lattice],
+    side: Real,
+    solver: &StaticOptions,
+) -> Result<Vec<[[Real; 6]; 6]>> {
+    lattices
+        .iter()
+        .map(|l| {
+            let body = design.body(l.clone(), 1.0)?;
+            Ok(relax_cube(&body, side, solver)?.c_interior)
+        })
+        .collect()
+}
+
+/// The node sets' spread (sample standard deviation) of each entry about `mean`.
+pub fn spread(cs: &[[[Real; 6]; 6]], mean: &[[Real; 6]; 6]) -> [[Real; 6]; 6] {
+    let mut s = [[0.0; 6]; 6];
+    if cs.len() > 1 {
+        for i in 0..6 {
+            for j in 0..6 {
+                let var: Real = cs.iter().map(|c| (c[i][j] - mean[i][j]).powi(2)).sum();
+                s[i][j] = (var / (cs.len() - 1) as Real).sqrt();
+            }
+        }
+    }
+    s
+}
+
+/// The nine entries of an orthotropic stiffness in its axes, in engineering order: C11, C22,
+/// C33, C12, C13, C23, C44, C55, C66 (Voigt indices).
+pub const ORTHOTROPIC_ENTRIES: [(usize, usize); 9] = [
+    (0, 0),
+    (1, 1),
+    (2, 2),
+    (0, 1),
+    (0, 2),
+    (1, 2),
+    (3, 3),
+    (4, 4),
+    (5, 5),
+];
+
+/// Cubes of side `size` spacings (spacing 1) for a calibration or a check.
+pub fn cubes(size: Real, samples: usize, seed: u64, sampler: Sampler) -> Result<Vec<Lattice>> {
+    (0..samples as u64)
+        .map(|s| {
+            Lattice::random(
+                3,
+                [0.0; 3],
+                [size; 3],
+                1.0,
+                1.0,
+                RandomSpec {
+                    sampler,
+                    seed: seed + s,
+                },
+                &|_| true,
+            )
+        })
+        .collect()
+}
+
+/// Mean of stiffness tensors.
+pub fn mean(cs: &[[[Real; 6]; 6]]) -> [[Real; 6]; 6] {
+    let mut m = [[0.0; 6]; 6];
+    for c in cs {
+        for i in 0..6 {
+            for j in 0..6 {
+                m[i][j] += c[i][j] / cs.len() as Real;
+            }
+        }
+    }
+    m
+}
+
+/// The design whose relaxed random3d network has the stiffness `target` (material axes
+/// `axes`, symmetry `sym`): the mean-field design corrected by the fixed point of the module
+/// docs on `opts.samples` cubes. Fails with the reason when the target, or a corrected one on
+/// the way, is out of the lattice's reach.
+pub fn calibrate(
+    target: &[[Real; 6]; 6],
+    axes: [[Real; 3]; 3],
+    sym: Symmetry,
+    opts: &CalibrationOptions,
+) -> Result<Calibrated> {
+    let start = std::time::Instant::now();
+    let lattices = cubes(opts.size, opts.samples.max(1), opts.seed, opts.sampler)?;
+    let scale = (0..3).fold(0.0 as Real, |m, i| m.max(target[i][i].abs()));
+    let mut wanted = *target;
+    let mut residuals = Vec::new();
+    // The cubes are measured in the material axes' frame directly (a turned design on an
+    // untouched cube): the network is isotropic on average, so the frame is immaterial and
+    // no rotation noise enters the correction.
+    let mut design = RandomDesign::mean_field(&wanted, crate::anisotropy::Orthotropic::AXES)?;
+    let mut measured;
+    loop {
+        let ms = measure(&design, &lattices, opts.size, &opts.solver)?;
+        measured = mean(&ms);
+        tie(&mut measured, sym);
+        let worst = ORTHOTROPIC_ENTRIES
+            .iter()
+            .map(|&(i, j)| (measured[i][j] - target[i][j]).abs() / scale)
+            .fold(0.0, Real::max);
+        residuals.push(worst);
+        if worst <= opts.tolerance || residuals.len() > opts.iterations {
+            break;
+        }
+        // The network answers a change of the design with about its own softening (a gain
+        // near 0.9, smaller in shear): divide the correction by the measured overall gain so
+        // the fixed point converges in two or three corrections instead of five.
+        let norm = |c: &[[Real; 6]; 6]| {
+            ORTHOTROPIC_ENTRIES
+                .iter()
+                .map(|&(i, j)| c[i][j] * c[i][j])
+                .sum::<Real>()
+                .sqrt()
+        };
+        let gain = (norm(&measured) / norm(&wanted)).clamp(0.5, 1.5);
+        for &(i, j) in &ORTHOTROPIC_ENTRIES {
+            wanted[i][j] += (target[i][j] - measured[i][j]) / gain;
+            wanted[j][i] = wanted[i][j];
+        }
+        design = RandomDesign::mean_field(&wanted, crate::anisotropy::Orthotropic::AXES)?;
+    }
+    design.axes = axes;
+    Ok(Calibrated {
+        design,
+        measured,
+        residuals,
+        seconds: start.elapsed().as_secs_f64() as Real,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::anisotropy::Transverse;
+    use crate::moduli::isotropic_stiffness;
+
+    #[test]
+    fn sphere_moments_are_the_known_ones() {
+        assert!((sphere_moment([1, 0, 0]) - 1.0 / 3.0).abs() < 1e-15);
+        assert!((sphere_moment([2, 0, 0]) - 1.0 / 5.0).abs() < 1e-15);
+        assert!((sphere_moment([1, 1, 0]) - 1.0 / 15.0).abs() < 1e-15);
+        assert!((sphere_moment([1, 1, 1]) - 1.0 / 105.0).abs() < 1e-15);
+        assert!((sphere_moment([4, 0, 0]) - 1.0 / 9.0).abs() < 1e-15);
+    }
+
+    /// The isotropic target gives the isotropic random lattice: kappa = 15 mu in every
+    /// direction, w = 1 and the paper's q.
+    #[test]
+    fn isotropic_target_gives_the_papers_law() {
+        for nu in [-0.5, 0.0, 0.25, 0.4] {
+            let e = 2.0e9;
+            let c = isotropic_stiffness(3, e, nu);
+            let d = RandomDesign::mean_field(&c, crate::anisotropy::Orthotropic::AXES).unwrap();
+            let mu = e / (2.0 * (1.0 + nu));
+            for n in [[1.0, 0.0, 0.0], [0.6, 0.8, 0.0], [0.48, 0.6, 0.64]] {
+                assert!(
+                    (d.kappa_at(n) / (15.0 * mu) - 1.0).abs() < 1e-12,
+                    "{nu} {n:?}"
+                );
+                if nu != 0.25 {
+                    assert!((d.weight_at(n) - 1.0).abs() < 1e-12, "{nu} {n:?}");
+                }
+            }
+            let q = 0.3 * (4.0 * nu - 1.0) / (1.0 - 2.0 * nu);
+            assert!((d.q - q).abs() < 1e-12, "nu {nu}: q {} vs {q}", d.q);
+        }
+    }
+
+    /// The mean-field stiffness of a design, `<kappa nnnn> + 2 q P (x) P / <w^2 kappa>`, by
+    /// quadrature over a fine sphere: it reproduces the target (the algebra of the module docs).
+    #[test]
+    fn mean_field_design_reproduces_the_target_by_quadrature() {
+        let t = Transverse {
+            youngs_plane: 10e9,
+            youngs_fibre: 25e9,
+            poisson_plane: 0.35,
+            poisson_fibre: 0.28,
+            shear_fibre: 4e9,
+            density: 1500.0,
+            fibre: [0.0, 0.0, 1.0],
+        };
+        let target = t.local_stiffness();
+        let d = RandomDesign::mean_field(&target, crate::anisotropy::Orthotropic::AXES).unwrap();
+        // Gauss-Legendre in z times uniform in phi integrates these polynomials exactly.
+        let (nz, nphi) = (40, 80);
+        let (zs, ws) = gauss_legendre(nz);
+        let mut cs = [[0.0; 6]; 6];
+        let mut p = [[0.0; 3]; 3];
+        let mut w2k = 0.0;
+        for (&z, &wz) in zs.iter().zip(&ws) {
+            for k in 0..nphi {
+                let phi = 2.0 * std::f64::consts::PI as Real * k as Real / nphi as Real;
+                let r = (1.0 - z * z).sqrt();
+                let n = [r * phi.cos(), r * phi.sin(), z];
+                let wt = wz / (2.0 * nphi as Real); // the sphere's mean
+                let (kap, w) = (d.kappa_at(n), d.weight_at(n));
+                for (a, &(i, j)) in VOIGT.iter().enumerate() {
+                    for (b, &(k2, l)) in VOIGT.iter().enumerate() {
+                        cs[a][b] += wt * kap * n[i] * n[j] * n[k2] * n[l];
+                    }
+                }
+                for i in 0..3 {
+                    for j in 0..3 {
+                        p[i][j] += wt * w * kap * n[i] * n[j];
+                    }
+                }
+                w2k += wt * w * w * kap;
+            }
+        }
+        for (a, &(i, j)) in VOIGT.iter().enumerate() {
+            for (b, &(k, l)) in VOIGT.iter().enumerate() {
+                let c = cs[a][b] + 2.0 * d.q * p[i][j] * p[k][l] / w2k;
+                assert!(
+                    (c - target[a][b]).abs() < 1e-9 * target[2][2],
+                    "C{a}{b}: {c:e} vs {:e}",
+                    target[a][b]
+                );
+            }
+        }
+    }
+
+    fn gauss_legendre(n: usize) -> (Vec<Real>, Vec<Real>) {
+        let (mut x, mut w) = (vec![0.0; n], vec![0.0; n]);
+        // P_n(z) and its derivative by the three-term recurrence.
+        let legendre = |z: Real| {
+            let (mut p0, mut p1) = (1.0, z);
+            for k in 2..=n {
+                let p2 = ((2 * k - 1) as Real * z * p1 - (k - 1) as Real * p0) / k as Real;
+                p0 = p1;
+                p1 = p2;
+            }
+            (p1, n as Real * (z * p1 - p0) / (z * z - 1.0))
+        };
+        for i in 0..n {
+            let mut z =
+                (std::f64::consts::PI as Real * (i as Real + 0.75) / (n as Real + 0.5)).cos();
+            loop {
+                let (p, dp) = legendre(z);
+                z -= p / dp;
+                if (p / dp).abs() < 1e-15 {
+                    let dp = legendre(z).1;
+                    x[i] = z;
+                    w[i] = 2.0 / ((1.0 - z * z) * dp * dp);
+                    break;
+                }
+            }
+        }
+        (x, w)
+    }
+
+    /// A target whose springs would need a negative stiffness in some direction is refused
+    /// with the direction.
+    #[test]
+    fn unreachable_targets_are_refused_with_the_reason() {
+        let t = Transverse {
+            youngs_plane: 1e9,
+            youngs_fibre: 100e9,
+            poisson_plane: 0.3,
+            poisson_fibre: 0.3,
+            shear_fibre: 20e9,
+            density: 1000.0,
+            fibre: [0.0, 0.0, 1.0],
+        };
+        let e =
+            RandomDesign::mean_field(&t.local_stiffness(), crate::anisotropy::Orthotropic::AXES)
+                .unwrap_err()
+                .to_string();
+        assert!(e.contains("random3d"), "{e}");
+    }
+}
