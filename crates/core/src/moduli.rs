@@ -132,6 +132,10 @@ pub struct BlockResult {
     /// cross-section separately (`nu_measured` is their mean), and their targets.
     pub lateral_measured: Option<[Real; 2]>,
     pub lateral_target: Option<[Real; 2]>,
+    /// Random lattices: E from the middle third's axial strain (the least-squares slope of the
+    /// axial displacement there) instead of the end planes' travel, so the ends' own layer
+    /// (held along the load, a layer that cannot relax) is left out.
+    pub e_measured_middle: Option<Real>,
 }
 
 /// Run the block test.
@@ -146,10 +150,10 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
         });
     }
     if t.kind.is_random() {
-        if t.anisotropic.is_some() {
+        if t.anisotropic.is_some() && t.kind != LatticeKind::Random3d {
             return Err(Error::InvalidInput {
                 what: "anisotropic material",
-                why: "the block test builds anisotropic materials on the cubic lattice only".into(),
+                why: "the block test builds anisotropic materials on the cubic and random3d lattices only".into(),
             });
         }
         return random_block_test(t);
@@ -344,6 +348,7 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
         nodes: n,
         springs: body.springs(),
         solve,
+        e_measured_middle: None,
         lateral_measured: lateral,
         lateral_target: (t.kind == LatticeKind::Cubic).then_some(lateral_target),
     })
@@ -367,11 +372,37 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
     }
     let a = t.spacing;
     let sampler = t.random.sampler;
-    let q = match t.q {
-        Some(q) => q,
-        None => calibration::q_for_nu_for(t.kind, sampler, t.nu)?,
-    };
     let ax = t.axis;
+    // An anisotropic material: its calibrated direction functions, and the targets under
+    // uniaxial stress along the load axis from the compliance, E = 1 / S_aa and the lateral
+    // ratios -S_ca / S_aa.
+    let aniso = match &t.anisotropic {
+        Some(m) => {
+            let c = m.stiffness()?;
+            let s = nalgebra::Matrix6::from_fn(|i, j| c[i][j])
+                .try_inverse()
+                .ok_or_else(|| Error::InvalidInput {
+                    what: "anisotropic material",
+                    why: "its stiffness is singular".into(),
+                })?;
+            let lat: Vec<usize> = (0..3).filter(|&c| c != ax).collect();
+            let ratios = [
+                -s[(lat[0], ax)] / s[(ax, ax)],
+                -s[(lat[1], ax)] / s[(ax, ax)],
+            ];
+            Some((m.random_design(sampler)?, 1.0 / s[(ax, ax)], ratios))
+        }
+        None => None,
+    };
+    let q = match (&aniso, t.q) {
+        (Some((cal, ..)), _) => cal.design.q,
+        (None, Some(q)) => q,
+        (None, None) => calibration::q_for_nu_for(t.kind, sampler, t.nu)?,
+    };
+    let nu_guess = match &aniso {
+        Some((.., r)) => [r[0], r[1]],
+        None => [t.nu; 2],
+    };
     // Lateral axes in order, the long side along the load axis.
     let lateral: Vec<usize> = (0..dim).filter(|&c| c != ax).collect();
     let mut ext = [0.0; 3];
@@ -428,10 +459,19 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
     } else {
         Lattice::random(dim, [0.0; 3], ext, a, 1.0, t.random, &|_| true)?
     };
-    let e_target = calibration::youngs_for(t.kind, sampler, t.stiffness, q);
-    // k_s = kappa V_s / L_s^2 with kappa = t.stiffness (statics: the masses play no part).
-    let body = Body::from_cells(lattice, t.stiffness, q, 1.0);
-    body.validate()?;
+    let (body, e_target) = match &aniso {
+        Some((cal, e, _)) => (cal.design.body(lattice, 1.0)?, *e),
+        None => {
+            // k_s = kappa V_s / L_s^2 with kappa = t.stiffness (statics: the masses play no
+            // part).
+            let body = Body::from_cells(lattice, t.stiffness, q, 1.0);
+            body.validate()?;
+            (
+                body,
+                calibration::youngs_for(t.kind, sampler, t.stiffness, q),
+            )
+        }
+    };
     let lat = &body.lattice;
     let pos = &lat.pos;
     let n = body.nodes();
@@ -456,7 +496,8 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
             u[c] = if c == ax {
                 t.strain * d
             } else {
-                -t.nu * t.strain * d
+                let m = lateral.iter().position(|&l| l == c).unwrap_or(0);
+                -nu_guess[m] * t.strain * d
             };
         }
         if dim == 2 {
@@ -501,6 +542,7 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
         lateral.iter().map(|&c| ext[c]).product()
     };
     let mut lateral_strain = 0.0;
+    let mut per_axis = [0.0; 2];
     if t.cylinder {
         // The radial strain of the middle third: the least-squares fit of u_r = eps_r r over
         // its nodes (exact for a uniform lateral strain, whatever the nodes' radii).
@@ -516,21 +558,43 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
         }
         lateral_strain = ur / rr;
     }
-    for &c in lateral.iter().filter(|_| !t.cylinder) {
+    for (m, &c) in lateral.iter().enumerate().filter(|_| !t.cylinder) {
         let side_mean = |at: Real| {
             let sel: Vec<usize> = (0..n)
                 .filter(|&i| coord(c, i) == at && (coord(ax, i) - centre[ax]).abs() <= len / 6.0)
                 .collect();
             sel.iter().map(|&i| state.u.comp(c)[i]).sum::<Real>() / sel.len().max(1) as Real
         };
-        lateral_strain += (side_mean(ext[c]) - side_mean(0.0)) / ext[c];
+        let e = (side_mean(ext[c]) - side_mean(0.0)) / ext[c];
+        per_axis[m] = -e / t.strain;
+        lateral_strain += e;
     }
     if !t.cylinder {
         lateral_strain /= lateral.len() as Real;
     }
     let e_measured = force / area / t.strain;
+    let axial_middle = {
+        let (mut xu, mut xx, mut sx, mut su, mut m) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for i in 0..n {
+            let x = coord(ax, i) - centre[ax];
+            if x.abs() <= len / 6.0 {
+                let u = state.u.comp(ax)[i];
+                xu += x * u;
+                xx += x * x;
+                sx += x;
+                su += u;
+                m += 1.0;
+            }
+        }
+        (xu - sx * su / m) / (xx - sx * sx / m)
+    };
+    let (nu_target, lateral_measured, lateral_target) = match &aniso {
+        Some((.., r)) if dim == 3 && !t.cylinder => (0.5 * (r[0] + r[1]), Some(per_axis), Some(*r)),
+        Some((.., r)) => (0.5 * (r[0] + r[1]), None, Some(*r)),
+        None => (t.nu, None, None),
+    };
     Ok(BlockResult {
-        nu_target: t.nu,
+        nu_target,
         nu_measured: -lateral_strain / t.strain,
         e_target,
         e_measured,
@@ -539,8 +603,9 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
         nodes: n,
         springs: body.springs(),
         solve,
-        lateral_measured: None,
-        lateral_target: None,
+        lateral_measured,
+        lateral_target,
+        e_measured_middle: Some(force / area / axial_middle),
     })
 }
 
@@ -767,6 +832,8 @@ pub struct RelaxedBulkResult {
     pub c_target: [[Real; 6]; 6],
     /// The affine stiffness of the same body: every node on the affine field, no relaxation.
     pub c_affine: [[Real; 6]; 6],
+    /// The inner cube's tensor ([`CubeStiffness::c_interior`]), free of the held faces' excess.
+    pub c_interior: [[Real; 6]; 6],
     pub q: Real,
     pub youngs: Real,
     pub nodes: usize,
@@ -814,6 +881,7 @@ pub fn relaxed_bulk_stiffness(t: &RelaxedBulk) -> Result<RelaxedBulkResult> {
         c_measured: cube.c_measured,
         c_target: isotropic_stiffness(dim, youngs, t.nu),
         c_affine: cube.c_affine,
+        c_interior: cube.c_interior,
         q,
         youngs,
         nodes: body.nodes(),

@@ -465,6 +465,42 @@ pub fn calibrate(
     sym: Symmetry,
     opts: &CalibrationOptions,
 ) -> Result<Calibrated> {
+    // The same material and options give the same design (the cubes are seeded): a process
+    // calibrates each once, however many bodies, samples or builds ask for it.
+    type Key = (Vec<u64>, Symmetry, u64, usize, u64, usize, u64, Sampler);
+    static CACHE: std::sync::Mutex<Vec<(Key, Calibrated)>> = std::sync::Mutex::new(Vec::new());
+    let key: Key = (
+        target.iter().flatten().map(|v| v.to_bits()).collect(),
+        sym,
+        opts.size.to_bits(),
+        opts.samples,
+        opts.seed,
+        opts.iterations,
+        opts.tolerance.to_bits(),
+        opts.sampler,
+    );
+    let hit = CACHE
+        .lock()
+        .ok()
+        .and_then(|c| c.iter().find(|(k, _)| *k == key).map(|(_, v)| v.clone()));
+    if let Some(mut cal) = hit {
+        cal.design.axes = axes;
+        return Ok(cal);
+    }
+    let cal = calibrate_uncached(target, sym, opts)?;
+    if let Ok(mut c) = CACHE.lock() {
+        c.push((key, cal.clone()));
+    }
+    let mut cal = cal;
+    cal.design.axes = axes;
+    Ok(cal)
+}
+
+fn calibrate_uncached(
+    target: &[[Real; 6]; 6],
+    sym: Symmetry,
+    opts: &CalibrationOptions,
+) -> Result<Calibrated> {
     let start = std::time::Instant::now();
     let lattices = cubes(opts.size, opts.samples.max(1), opts.seed, opts.sampler)?;
     let scale = (0..3).fold(0.0 as Real, |m, i| m.max(target[i][i].abs()));
@@ -504,7 +540,6 @@ pub fn calibrate(
         }
         design = RandomDesign::mean_field(&wanted, crate::anisotropy::Orthotropic::AXES)?;
     }
-    design.axes = axes;
     Ok(Calibrated {
         design,
         measured,
