@@ -463,6 +463,7 @@ fn an_oblique_fibre_plate_splits_at_the_fibre_angle() {
 /// damage of the random network rather than a crack (a crack running on along the notch would
 /// break thousands there).
 #[test]
+#[ignore = "slow: half a minute of calibration and a 14 000-node run"]
 fn a_random_lattice_fibre_plate_splits_at_the_fibre_angle() {
     let (broken, _) = broken_midpoints("fibre_notch_random.toml", &[]);
     let (band, angle, ahead) = split_line(&broken);

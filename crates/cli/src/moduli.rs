@@ -986,7 +986,7 @@ fn random_anisotropic_bulk(args: &ModuliArgs, m: &Anisotropic) -> Result<serde_j
         "cube_spacings": side,
         "design": {
             "kappa": d.kappa, "kappa_terms": ["xx", "yy", "zz", "yz", "xz", "xy"],
-            "alpha": d.alpha, "q": d.q, "axes": d.axes,
+            "alpha": d.alpha, "q": d.q, "axes": d.axes, "sharpness": d.sharpness,
         },
         "calibration": {
             "residuals": cal.residuals, "seconds": cal.seconds,
@@ -1133,8 +1133,8 @@ fn print_bulk(v: &serde_json::Value) {
             );
             let d = &v["design"];
             println!(
-                "design: kappa(n) = sum kappa_ab n_a^2 n_b^2 over xx yy zz yz xz xy (material axes) = {} Pa; w(n) = sum alpha_a n_a^2, alpha = {}; q = {:.6}",
-                d["kappa"], d["alpha"], v["q"].as_f64().unwrap_or(0.0)
+                "design: kappa(n) = sum_a kappa_aa n_a^2P + sum_a<b kappa_ab n_a^2 n_b^2, P = {}, over xx yy zz yz xz xy (material axes) = {} Pa; w(n) = sum alpha_a n_a^2, alpha = {}; q = {:.6}",
+                d["sharpness"], d["kappa"], d["alpha"], v["q"].as_f64().unwrap_or(0.0)
             );
             println!(
                 "calibration: largest entry off the target over the largest normal entry after each measurement {} ({:.1} s; 4 cubes of 20 spacings, seeds 1001 to 1004)",

@@ -146,7 +146,7 @@ pub fn check(args: CheckArgs) -> Result<()> {
             v["anisotropic"] = serde_json::json!({
                 "material": format!("{m:?}"),
                 "kappa": d.kappa, "kappa_terms": ["xx", "yy", "zz", "yz", "xz", "xy"],
-                "alpha": d.alpha, "axes": d.axes,
+                "alpha": d.alpha, "axes": d.axes, "sharpness": d.sharpness,
                 "calibration_residuals": cal.residuals, "calibration_seconds": cal.seconds,
                 "stiffness": m.stiffness()?,
             });
@@ -189,8 +189,8 @@ pub fn check(args: CheckArgs) -> Result<()> {
         print_material(m)?;
         let d = &cal.design;
         println!(
-            "  springs      k_s = kappa(n) V_s / L_s^2, kappa(n) = sum kappa_ab n_a^2 n_b^2 over xx yy zz yz xz xy (material axes) = {:.6e} {:.6e} {:.6e} {:.6e} {:.6e} {:.6e} Pa",
-            d.kappa[0], d.kappa[1], d.kappa[2], d.kappa[3], d.kappa[4], d.kappa[5]
+            "  springs      k_s = kappa(n) V_s / L_s^2, kappa(n) = sum_a kappa_aa n_a^2P + sum_a<b kappa_ab n_a^2 n_b^2, P = {}, over xx yy zz yz xz xy (material axes) = {:.6e} {:.6e} {:.6e} {:.6e} {:.6e} {:.6e} Pa",
+            d.sharpness, d.kappa[0], d.kappa[1], d.kappa[2], d.kappa[3], d.kappa[4], d.kappa[5]
         );
         println!(
             "  weights, q   w(n) = sum alpha_a n_a^2, alpha = {:.6} {:.6} {:.6}; q = {:.6}",
