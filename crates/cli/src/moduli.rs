@@ -819,23 +819,13 @@ fn random_bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
     }
     // The cube: N nodes' worth of spacings per side, (N - 1) a, as the block test's boxes.
     let default = if kind.dim() == 3 { 33 } else { 65 };
-    let nodes_per_side = match args.size.as_deref() {
-        None => default,
-        Some([n]) => *n,
-        Some(s) if s.len() == kind.dim() && s.iter().all(|v| *v == s[0]) => s[0],
-        Some(s) => {
-            return Err(InputError(format!(
-                "--size {s:?}: the relaxed bulk test is a cube; give one number N (nodes per side, the side is (N - 1) spacings; default {default})"
-            ))
-            .into())
-        }
-    };
-    if !(5..=201).contains(&nodes_per_side) {
-        return Err(InputError(format!(
-            "--size {nodes_per_side}: give 5 to 201 nodes per side (a cube of 4 to 200 spacings; 33 or more keeps the faces' excess under 1 % in 3D)"
-        ))
-        .into());
-    }
+    let nodes_per_side = cube_nodes(
+        args,
+        kind.dim(),
+        default,
+        5,
+        "a cube of 4 to 200 spacings; 33 or more keeps the faces' excess under 1 % in 3D",
+    )?;
     let start = Instant::now();
     let test = RelaxedBulk {
         kind,
@@ -931,22 +921,13 @@ fn random_anisotropic_bulk(args: &ModuliArgs, m: &Anisotropic) -> Result<serde_j
     if args.samples == 0 {
         return Err(InputError("--samples 0: give at least one sample".into()).into());
     }
-    let nodes_per_side = match args.size.as_deref() {
-        None => 33,
-        Some([n]) | Some([n, _, _]) => *n,
-        Some(s) => {
-            return Err(InputError(format!(
-                "--size {s:?}: the relaxed bulk test is a cube; give one number N (nodes per side)"
-            ))
-            .into())
-        }
-    };
-    if !(13..=201).contains(&nodes_per_side) {
-        return Err(InputError(format!(
-            "--size {nodes_per_side}: give 13 to 201 nodes per side (the inner cube, two thirds of the side, must hold a network)"
-        ))
-        .into());
-    }
+    let nodes_per_side = cube_nodes(
+        args,
+        3,
+        33,
+        13,
+        "the inner cube, two thirds of the side, must hold a network",
+    )?;
     let flag = match m {
         Anisotropic::Transverse(_) => "--transverse",
         Anisotropic::Orthotropic(_) => "--orthotropic",
@@ -1006,6 +987,36 @@ fn random_anisotropic_bulk(args: &ModuliArgs, m: &Anisotropic) -> Result<serde_j
     });
     v[name] = anisotropic_json(m);
     Ok(v)
+}
+
+/// `--size` of a relaxed bulk test: one number N (nodes per side; the side is (N - 1)
+/// spacings), or `dim` equal numbers; `default` without it; `min` to 201 accepted, `why` says
+/// what the range keeps.
+fn cube_nodes(
+    args: &ModuliArgs,
+    dim: usize,
+    default: usize,
+    min: usize,
+    why: &str,
+) -> Result<usize> {
+    let n = match args.size.as_deref() {
+        None => default,
+        Some([n]) => *n,
+        Some(s) if s.len() == dim && s.iter().all(|v| *v == s[0]) => s[0],
+        Some(s) => {
+            return Err(InputError(format!(
+                "--size {s:?}: the relaxed bulk test is a cube; give one number N (nodes per side, the side is (N - 1) spacings; default {default})"
+            ))
+            .into())
+        }
+    };
+    if !(min..=201).contains(&n) {
+        return Err(InputError(format!(
+            "--size {n}: give {min} to 201 nodes per side ({why})"
+        ))
+        .into());
+    }
+    Ok(n)
 }
 
 /// The relaxed bulk test over `samples` node sets, seeds from `test.random.seed` on.

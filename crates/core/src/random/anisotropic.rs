@@ -265,7 +265,8 @@ impl RandomDesign {
                 best = (n, k);
             }
         }
-        // Refine by shrinking random-free pattern steps about the best sample.
+        // Refine by a compass search about the best sample: a step along each axis, halved when
+        // none improves.
         let mut step = 0.05;
         while step > 1e-6 {
             let mut moved = false;
