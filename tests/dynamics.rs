@@ -260,6 +260,18 @@ fn run_body_with_threads(
     force_csr: bool,
     portable: bool,
 ) -> State {
+    run_body(body, threads, force_csr, portable, false)
+}
+
+/// [`run_body_with_threads`], and with `avx2` on the AVX2 vector path (where the processor has
+/// AVX-512 too).
+fn run_body(
+    body: &(dyn Fn() -> Body + Send + Sync),
+    threads: usize,
+    force_csr: bool,
+    portable: bool,
+    avx2: bool,
+) -> State {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -286,6 +298,9 @@ fn run_body_with_threads(
         };
         let mut it = Integrator::new(&body, &mut state, loading, &opts).unwrap();
         assert_eq!(it.kernel.is_stencil(), !force_csr);
+        if avx2 {
+            assert!(it.kernel.use_avx2(), "{}", it.kernel.name());
+        }
         it.run(&body, &mut state, 40).unwrap();
         let e = it.ledger();
         state.time = e.dissipated + e.body_work; // fold the reductions into the comparison
@@ -335,6 +350,16 @@ fn stencil_paths_and_thread_counts_give_the_same_bits() {
                 s.u == vector.u && s.v == vector.v,
                 "threads {threads}, portable {portable}: states differ"
             );
+            assert_eq!(s.time.to_bits(), vector.time.to_bits());
+        }
+        // Where the widest path is AVX-512, the AVX2 path too.
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx2")
+            && std::env::var_os("HOOKE_NO_SIMD").is_none()
+        {
+            let s = run_body(body, 2, false, false, true);
+            assert!(s.u == vector.u && s.v == vector.v, "AVX2: states differ");
             assert_eq!(s.time.to_bits(), vector.time.to_bits());
         }
     }

@@ -17,7 +17,7 @@
 //! spring as the scalar loop does), so the two give the same bits: results depend neither on
 //! which nodes took which path nor on the thread count or the processor.
 
-use super::stencil::{simd_available, Factors, Src, Stencil};
+use super::stencil::{simd_lanes, Factors, Lanes, Src, Stencil};
 use super::{StepParams, SweepSums};
 use rayon::prelude::*;
 
@@ -101,7 +101,8 @@ pub struct CubicStencil {
     inv_norm: Vec<Real>,
     /// Largest |offset|: blocks whose neighbours all lie within the arrays run vectorised.
     reach: usize,
-    simd: bool,
+    /// The vector path's instructions (`None`: the portable path).
+    simd: Option<Lanes>,
 }
 
 impl CubicStencil {
@@ -156,7 +157,7 @@ impl CubicStencil {
             },
             inv_norm: vec![0.0; lat.len()],
             reach,
-            simd: simd_available(),
+            simd: simd_lanes(),
         };
         // Each node's mask from its own row (a gather, in parallel: on a large block this is
         // mostly first writes to fresh memory), then its 1/S_n.
@@ -201,12 +202,23 @@ impl CubicStencil {
     /// Use (or not) the vector path, e.g. to measure the portable one. Ignored where the
     /// processor lacks AVX-512F.
     pub fn set_simd(&mut self, on: bool) {
-        self.simd = on && simd_available();
+        self.simd = if on { simd_lanes() } else { None };
     }
 
     /// Whether the vector path is on.
     pub fn simd(&self) -> bool {
-        self.simd
+        self.simd.is_some()
+    }
+
+    /// Take the AVX2 path where the processor has it, even if it has AVX-512 too (for tests
+    /// and measurements of that path); false (and nothing changed) without AVX2.
+    pub fn use_avx2(&mut self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if super::simd_allowed() && std::arch::is_x86_feature_detected!("avx2") {
+            self.simd = Some(Lanes::Avx2);
+            return true;
+        }
+        false
     }
 
     /// A copy with another dispersion ratio (q = 0: the plain law).
@@ -216,10 +228,10 @@ impl CubicStencil {
 
     /// Kernel name for reports.
     pub fn name(&self) -> &'static str {
-        if self.simd {
-            "cubic-stencil-avx512"
-        } else {
-            "cubic-stencil-portable"
+        match self.simd {
+            Some(Lanes::Avx512) => "cubic-stencil-avx512",
+            Some(Lanes::Avx2) => "cubic-stencil-avx2",
+            None => "cubic-stencil-portable",
         }
     }
 
@@ -322,7 +334,7 @@ impl Stencil for CubicStencil {
 
     #[inline]
     fn vector_block(&self, i: usize) -> bool {
-        self.simd && self.block_inside(i)
+        self.simd.is_some() && self.block_inside(i)
     }
 
     fn pool_one(&self, u: &Src, i: usize, screen: Real) -> (Real, bool) {
@@ -335,9 +347,17 @@ impl Stencil for CubicStencil {
 
     #[cfg(target_arch = "x86_64")]
     unsafe fn pool_block(&self, u: &Src, i: usize, out: &mut [Real], screen: Real) -> bool {
-        // SAFETY (caller): the vector path is on (so the processor has AVX-512F) and the block
-        // and its neighbours are in bounds.
-        unsafe { avx512::pools8(self, u, i, out, screen) }
+        // SAFETY (caller): the vector path is on (so the processor has its instructions) and
+        // the block and its neighbours are in bounds.
+        unsafe {
+            if self.simd == Some(Lanes::Avx2) {
+                let (a, b) = out.split_at_mut(4);
+                let hot = avx2::pools4(self, u, i, a, screen);
+                avx2::pools4(self, u, i + 4, b, screen) | hot
+            } else {
+                avx512::pools8(self, u, i, out, screen)
+            }
+        }
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -353,7 +373,28 @@ impl Stencil for CubicStencil {
         sums: &mut SweepSums,
     ) {
         // SAFETY (caller): as for `pool_block`.
-        unsafe { avx512::force_kick_drift8(self, u, pool, inv_mass, p, i, v, un, sums) }
+        unsafe {
+            if self.simd == Some(Lanes::Avx2) {
+                let [vx, vy, vz] = v;
+                let [nx, ny, nz] = un;
+                for h in [0, 4] {
+                    let r = h..h + 4;
+                    avx2::force_kick_drift4(
+                        self,
+                        u,
+                        pool,
+                        inv_mass,
+                        p,
+                        i + h,
+                        [&mut vx[r.clone()], &mut vy[r.clone()], &mut vz[r.clone()]],
+                        [&mut nx[r.clone()], &mut ny[r.clone()], &mut nz[r.clone()]],
+                        sums,
+                    );
+                }
+            } else {
+                avx512::force_kick_drift8(self, u, pool, inv_mass, p, i, v, un, sums)
+            }
+        }
     }
 }
 
@@ -522,5 +563,174 @@ mod avx512 {
         }
         // SAFETY (caller): the block is in bounds.
         unsafe { super::super::stencil::avx512::kick_drift8(3, f, u, inv_mass, p, i, v, un, sums) }
+    }
+}
+
+/// The vector path on AVX2: 4 nodes to a vector, a block of 8 as two halves; a masked-off
+/// lane keeps its sum by a blend, as the AVX-512 path's masked add does: the same bits.
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::*;
+
+    use super::{CubicStencil, StepParams, SweepSums, CLASS_SHIFT};
+    use crate::math::{Coords, Real};
+
+    /// The 4 nodes' displacements and mask words (one 64-bit lane per node).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn load_block(s: &CubicStencil, u: &Coords, i: usize) -> ([__m256d; 3], __m256i) {
+        // SAFETY (caller): i..i+4 is in bounds.
+        unsafe {
+            let m = _mm_loadu_si128(s.mask.as_ptr().add(i) as *const __m128i);
+            (
+                [
+                    _mm256_loadu_pd(u.x().as_ptr().add(i)),
+                    _mm256_loadu_pd(u.y().as_ptr().add(i)),
+                    _mm256_loadu_pd(u.z().as_ptr().add(i)),
+                ],
+                _mm256_cvtepu32_epi64(m),
+            )
+        }
+    }
+
+    /// The lanes' weight classes, if one of them has factors other than 1.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn classes(s: &CubicStencil, mask: __m256i) -> Option<__m256i> {
+        if !s.factors.on {
+            return None;
+        }
+        let c = _mm256_srli_epi64::<{ CLASS_SHIFT as i32 }>(mask);
+        (_mm256_testz_si256(c, c) == 0).then_some(c)
+    }
+
+    /// The factors of direction `d` for the lanes' classes.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn factors(s: &CubicStencil, c: __m256i, d: usize) -> __m256d {
+        // SAFETY: classes index the row of 8 doubles.
+        unsafe { _mm256_i64gather_pd::<8>(s.factors.w[d].as_ptr(), c) }
+    }
+
+    /// All ones in the lanes whose spring in direction `d` is intact.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn lanes(mask: __m256i, d: usize) -> __m256d {
+        let bit = _mm256_set1_epi64x(1 << d);
+        _mm256_castsi256_pd(_mm256_cmpeq_epi64(_mm256_and_si256(mask, bit), bit))
+    }
+
+    /// Current vectors of the springs in direction `d` of the 4 nodes at `i`, and their
+    /// squared lengths.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn vector4(
+        s: &CubicStencil,
+        u: &Coords,
+        i: usize,
+        d: usize,
+        ui: [__m256d; 3],
+    ) -> ([__m256d; 3], __m256d) {
+        let j = (i as isize + s.off[d]) as usize;
+        let dv = s.dvec[d];
+        let comp = |c: &[Real], k: usize| {
+            // SAFETY (caller): j..j+4 is in bounds because the block is inside.
+            unsafe {
+                _mm256_add_pd(
+                    _mm256_set1_pd(dv[k]),
+                    _mm256_sub_pd(_mm256_loadu_pd(c.as_ptr().add(j)), ui[k]),
+                )
+            }
+        };
+        let (x, y, z) = (comp(u.x(), 0), comp(u.y(), 1), comp(u.z(), 2));
+        (
+            [x, y, z],
+            _mm256_add_pd(
+                _mm256_add_pd(_mm256_mul_pd(x, x), _mm256_mul_pd(y, y)),
+                _mm256_mul_pd(z, z),
+            ),
+        )
+    }
+
+    /// Sweep 1 for the 4 nodes at `i`.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn pools4(
+        s: &CubicStencil,
+        u: &Coords,
+        i: usize,
+        out: &mut [Real],
+        screen: Real,
+    ) -> bool {
+        let (ui, mask) = unsafe { load_block(s, u, i) };
+        let cls = classes(s, mask);
+        let mut acc = _mm256_setzero_pd();
+        let mut hot = _mm256_setzero_pd();
+        for d in 0..18 {
+            let m = lanes(mask, d);
+            if _mm256_movemask_pd(m) == 0 {
+                continue;
+            }
+            let (_, ss) = unsafe { vector4(s, u, i, d, ui) };
+            let l = _mm256_sqrt_pd(ss);
+            let dl = _mm256_sub_pd(l, _mm256_set1_pd(s.rest[d]));
+            let mut share = _mm256_mul_pd(_mm256_set1_pd(s.k * s.rest[d]), dl);
+            if let Some(c) = cls {
+                share = _mm256_mul_pd(share, unsafe { factors(s, c, d) });
+            }
+            acc = _mm256_blendv_pd(acc, _mm256_add_pd(acc, share), m);
+            let past = _mm256_cmp_pd::<_CMP_GT_OQ>(dl, _mm256_set1_pd(screen * s.rest[d]));
+            hot = _mm256_or_pd(hot, _mm256_and_pd(m, past));
+        }
+        // SAFETY: out has 4 entries; inv_norm[i..i+4] is in bounds.
+        unsafe {
+            let inv = _mm256_loadu_pd(s.inv_norm.as_ptr().add(i));
+            _mm256_storeu_pd(out.as_mut_ptr(), _mm256_mul_pd(acc, inv));
+        }
+        _mm256_movemask_pd(hot) != 0
+    }
+
+    /// Sweep 2 for the 4 nodes at `i`: force, kick, drift.
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn force_kick_drift4(
+        s: &CubicStencil,
+        u: &Coords,
+        pool: &[Real],
+        inv_mass: &[Real],
+        p: &StepParams,
+        i: usize,
+        v: [&mut [Real]; 3],
+        un: [&mut [Real]; 3],
+        sums: &mut SweepSums,
+    ) {
+        let (ui, mask) = unsafe { load_block(s, u, i) };
+        let cls = classes(s, mask);
+        let pi = unsafe { _mm256_loadu_pd(pool.as_ptr().add(i)) };
+        let kv = _mm256_set1_pd(s.k);
+        let mut f = [_mm256_setzero_pd(); 3];
+        for d in 0..18 {
+            let m = lanes(mask, d);
+            if _mm256_movemask_pd(m) == 0 {
+                continue;
+            }
+            let j = (i as isize + s.off[d]) as usize;
+            let (x, ss) = unsafe { vector4(s, u, i, d, ui) };
+            let l = _mm256_sqrt_pd(ss);
+            let dl = _mm256_sub_pd(l, _mm256_set1_pd(s.rest[d]));
+            let pj = unsafe { _mm256_loadu_pd(pool.as_ptr().add(j)) };
+            let mut t = _mm256_add_pd(
+                _mm256_mul_pd(kv, dl),
+                _mm256_mul_pd(_mm256_set1_pd(s.q * s.k * s.rest[d]), _mm256_add_pd(pi, pj)),
+            );
+            if let Some(c) = cls {
+                t = _mm256_mul_pd(t, unsafe { factors(s, c, d) });
+            }
+            let sc = _mm256_div_pd(t, l);
+            for c in 0..3 {
+                f[c] = _mm256_blendv_pd(f[c], _mm256_add_pd(f[c], _mm256_mul_pd(sc, x[c])), m);
+            }
+        }
+        // SAFETY (caller): the block is in bounds.
+        unsafe { super::super::stencil::avx2::kick_drift4(3, f, u, inv_mass, p, i, v, un, sums) }
     }
 }

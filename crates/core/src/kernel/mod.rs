@@ -114,8 +114,8 @@ impl Kernel {
         if let Some(s) = hex::HexStencil::new(body, state) {
             return Kernel::Hex(s);
         }
-        // Without AVX-512 the row kernel's scalar path would be slower than the CSR kernel,
-        // which gives the same bits.
+        // Without vector instructions (AVX-512 or AVX2) the row kernel's scalar path would be
+        // slower than the CSR kernel, which gives the same bits.
         match rows::RowKernel::new(body, state).filter(|r| r.simd()) {
             Some(r) => Kernel::Rows(r),
             None => Kernel::Csr { plain: false },
@@ -124,12 +124,12 @@ impl Kernel {
 
     /// Whether [`Kernel::for_body`] could ever give the CSR kernel to bodies of a lattice with
     /// periods `period` (0: not periodic): on a periodic lattice, or where the vector paths are
-    /// unavailable (no AVX-512, or `HOOKE_NO_SIMD`), since a stencil body that softens moves to
+    /// unavailable (neither AVX-512 nor AVX2, or `HOOKE_NO_SIMD`), since a stencil body that softens moves to
     /// a general kernel. Only then is the rows' neighbour array built
     /// ([`crate::lattice::Bonds::keep_neighbours`]; the CSR kernel also runs without it, with
     /// one more indirection per row entry).
     pub fn csr_may_run(period: [Real; 3]) -> bool {
-        period.iter().any(|&p| p > 0.0) || !stencil::simd_available()
+        period.iter().any(|&p| p > 0.0) || stencil::simd_lanes().is_none()
     }
 
     /// The kernel's heap memory by part (see [`crate::memory::Footprint`]).
@@ -171,6 +171,18 @@ impl Kernel {
             Kernel::Cubic(s) => s.set_simd(on),
             Kernel::Hex(s) => s.set_simd(on),
             Kernel::Rows(r) => r.set_simd(on),
+        }
+    }
+
+    /// Take the AVX2 vector path where the processor has it, even if it has AVX-512 too (to
+    /// test and measure that path on such a machine); false (nothing changed) for the CSR
+    /// kernel or without AVX2.
+    pub fn use_avx2(&mut self) -> bool {
+        match self {
+            Kernel::Csr { .. } => false,
+            Kernel::Cubic(s) => s.use_avx2(),
+            Kernel::Hex(s) => s.use_avx2(),
+            Kernel::Rows(r) => r.use_avx2(),
         }
     }
 

@@ -41,7 +41,7 @@ use std::sync::Arc;
 use rayon::prelude::*;
 
 use super::csr::geometry;
-use super::stencil::{Src, Stencil};
+use super::stencil::{simd_lanes, Lanes, Src, Stencil};
 use super::{StepParams, SweepSums, CHUNK};
 use crate::body::Body;
 use crate::math::Real;
@@ -91,7 +91,8 @@ pub struct RowKernel {
     /// The dummy record's position: far from every node, so that its (ignored) spring has a
     /// finite, non-zero length.
     far: [Real; 3],
-    simd: bool,
+    /// The vector path's instructions (`None`: the scalar path).
+    simd: Option<Lanes>,
     /// For one rank's node chunks (a distributed run): which chunks' records their rows read
     /// (see [`RowKernel::reads`]), found at the first sweep.
     reads: Arc<std::sync::OnceLock<(std::ops::Range<usize>, Vec<bool>)>>,
@@ -225,7 +226,7 @@ impl RowKernel {
             q: body.q,
             slots: Arc::new(s),
             far,
-            simd: super::stencil::simd_available(),
+            simd: simd_lanes(),
             reads: Arc::default(),
         })
     }
@@ -258,19 +259,30 @@ impl RowKernel {
     }
 
     pub fn name(&self) -> &'static str {
-        if self.simd {
-            "rows-avx512"
-        } else {
-            "rows"
+        match self.simd {
+            Some(Lanes::Avx512) => "rows-avx512",
+            Some(Lanes::Avx2) => "rows-avx2",
+            None => "rows",
         }
     }
 
     pub fn simd(&self) -> bool {
-        self.simd
+        self.simd.is_some()
     }
 
     pub fn set_simd(&mut self, on: bool) {
-        self.simd = on && super::stencil::simd_available();
+        self.simd = if on { simd_lanes() } else { None };
+    }
+
+    /// Take the AVX2 path where the processor has it, even if it has AVX-512 too (for tests
+    /// and measurements of that path); false (and nothing changed) without AVX2.
+    pub fn use_avx2(&mut self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if super::simd_allowed() && std::arch::is_x86_feature_detected!("avx2") {
+            self.simd = Some(Lanes::Avx2);
+            return true;
+        }
+        false
     }
 
     /// The same kernel with ratio `q` (0: the plain law).
@@ -514,7 +526,7 @@ impl Stencil for RowKernel {
     }
 
     fn vector_block(&self, i: usize) -> bool {
-        self.simd && i.is_multiple_of(WINDOW) && i + WINDOW <= self.n
+        self.simd.is_some() && i.is_multiple_of(WINDOW) && i + WINDOW <= self.n
     }
 
     fn pool_one(&self, u: &Src, i: usize, screen: Real) -> (Real, bool) {
@@ -535,9 +547,22 @@ impl Stencil for RowKernel {
 
     #[cfg(target_arch = "x86_64")]
     unsafe fn pool_block(&self, u: &Src, i: usize, out: &mut [Real], screen: Real) -> bool {
-        // SAFETY (caller): `vector_block(i)`, so AVX-512F is there and i..i+64 are nodes.
+        // SAFETY (caller): `vector_block(i)`, so the path's instructions are there and
+        // i..i+64 are nodes.
         unsafe {
             let s = &self.slots;
+            if self.simd == Some(Lanes::Avx2) {
+                return match (self.dim, !s.lever.is_empty(), !s.rest.is_empty()) {
+                    (2, false, false) => avx2::pools::<2, false, false>(self, u, i, out, screen),
+                    (2, false, true) => avx2::pools::<2, false, true>(self, u, i, out, screen),
+                    (2, true, false) => avx2::pools::<2, true, false>(self, u, i, out, screen),
+                    (2, true, true) => avx2::pools::<2, true, true>(self, u, i, out, screen),
+                    (_, false, false) => avx2::pools::<3, false, false>(self, u, i, out, screen),
+                    (_, false, true) => avx2::pools::<3, false, true>(self, u, i, out, screen),
+                    (_, true, false) => avx2::pools::<3, true, false>(self, u, i, out, screen),
+                    (_, true, true) => avx2::pools::<3, true, true>(self, u, i, out, screen),
+                };
+            }
             match (self.dim, !s.lever.is_empty(), !s.rest.is_empty()) {
                 (2, false, false) => avx::pools::<2, false, false>(self, u, i, out, screen),
                 (2, false, true) => avx::pools::<2, false, true>(self, u, i, out, screen),
@@ -565,6 +590,46 @@ impl Stencil for RowKernel {
     ) {
         // The window's forces in node order (its groups hold its nodes in another order).
         let mut f = avx::Window([[0.0; WINDOW]; 3]);
+        let dims = p.dims(self.dim);
+        let [vx, vy, vz] = v;
+        let [nx, ny, nz] = un;
+        if self.simd == Some(Lanes::Avx2) {
+            // SAFETY (caller): as for `pool_block`.
+            unsafe {
+                let s = &self.slots;
+                match (self.dim, !s.lever.is_empty(), !s.rest.is_empty()) {
+                    (2, false, false) => avx2::forces::<2, false, false>(self, u, i, &mut f),
+                    (2, false, true) => avx2::forces::<2, false, true>(self, u, i, &mut f),
+                    (2, true, false) => avx2::forces::<2, true, false>(self, u, i, &mut f),
+                    (2, true, true) => avx2::forces::<2, true, true>(self, u, i, &mut f),
+                    (_, false, false) => avx2::forces::<3, false, false>(self, u, i, &mut f),
+                    (_, false, true) => avx2::forces::<3, false, true>(self, u, i, &mut f),
+                    (_, true, false) => avx2::forces::<3, true, false>(self, u, i, &mut f),
+                    (_, true, true) => avx2::forces::<3, true, true>(self, u, i, &mut f),
+                }
+            }
+            // Kick and drift 4 nodes at a time, in node order (the sums' order).
+            for b in 0..WINDOW / 4 {
+                let r = 4 * b..4 * b + 4;
+                // SAFETY: as above; `v`, `un` hold the window's entries.
+                unsafe {
+                    let fb = [0, 1, 2]
+                        .map(|c| std::arch::x86_64::_mm256_loadu_pd(f.0[c][r.start..].as_ptr()));
+                    super::stencil::avx2::kick_drift4(
+                        dims,
+                        fb,
+                        u,
+                        inv_mass,
+                        p,
+                        i + 4 * b,
+                        [&mut vx[r.clone()], &mut vy[r.clone()], &mut vz[r.clone()]],
+                        [&mut nx[r.clone()], &mut ny[r.clone()], &mut nz[r.clone()]],
+                        sums,
+                    )
+                };
+            }
+            return;
+        }
         // SAFETY (caller): as for `pool_block`.
         unsafe {
             let s = &self.slots;
@@ -579,9 +644,6 @@ impl Stencil for RowKernel {
                 (_, true, true) => avx::forces::<3, true, true>(self, u, i, &mut f),
             }
         }
-        let dims = p.dims(self.dim);
-        let [vx, vy, vz] = v;
-        let [nx, ny, nz] = un;
         // Kick and drift 8 nodes at a time, in node order (the sums' order).
         for b in 0..WINDOW / 8 {
             let r = 8 * b..8 * b + 8;
@@ -604,6 +666,11 @@ impl Stencil for RowKernel {
         }
     }
 }
+
+/// The AVX2 vector path.
+#[cfg(target_arch = "x86_64")]
+#[path = "rows_avx2.rs"]
+mod avx2;
 
 /// The vector path: 8 nodes in the lanes, their rows slot by slot.
 #[cfg(target_arch = "x86_64")]
@@ -732,7 +799,7 @@ mod avx {
     /// Next group's neighbours into the cache: the records are scattered, the slot arrays
     /// stream (the hardware fetches those itself).
     #[inline(always)]
-    unsafe fn prefetch(rk: &RowKernel, base: *const Real, g: usize) {
+    pub(super) unsafe fn prefetch(rk: &RowKernel, base: *const Real, g: usize) {
         let s = &rk.slots;
         if g + 1 < s.start.len() {
             for e in 8 * s.start[g] as usize..8 * s.start[g + 1] as usize {
@@ -762,7 +829,7 @@ mod avx {
 
     /// The nodes of group `g`'s lanes.
     #[inline(always)]
-    fn group_nodes(rk: &RowKernel, g: usize) -> [u32; 8] {
+    pub(super) fn group_nodes(rk: &RowKernel, g: usize) -> [u32; 8] {
         let lanes = &rk.slots.lanes[8 * g..8 * g + 8];
         std::array::from_fn(|l| (WINDOW * (8 * g / WINDOW) + lanes[l] as usize) as u32)
     }
@@ -883,7 +950,10 @@ mod tests {
     #[derive(Clone, Copy, PartialEq, Debug)]
     enum Path {
         Csr,
+        /// The processor's widest vector path.
         Vector,
+        /// The AVX2 path (where AVX-512 is there too).
+        Avx2,
         Scalar,
     }
 
@@ -950,6 +1020,12 @@ mod tests {
             damage_proof: false,
         };
         let mut it = Integrator::new(body, &mut state, Loading::default(), &opts).unwrap();
+        if path == Path::Avx2 {
+            match &mut it.kernel {
+                crate::kernel::Kernel::Rows(r) => assert!(r.use_avx2()),
+                k => panic!("{}", k.name()),
+            }
+        }
         for step in 0..40 {
             it.step(body, &mut state);
             if step % 9 == 4 {
@@ -1088,7 +1164,13 @@ mod tests {
     /// plain law and damping.
     #[test]
     fn rows_give_the_bits_of_the_csr_kernel() {
-        let avx = super::super::stencil::simd_available();
+        use super::super::stencil::{simd_lanes, Lanes};
+        let lanes = simd_lanes();
+        let mut paths = vec![Path::Vector, Path::Scalar];
+        #[cfg(target_arch = "x86_64")]
+        if lanes == Some(Lanes::Avx512) && std::arch::is_x86_feature_detected!("avx2") {
+            paths.push(Path::Avx2);
+        }
         for dim in [2, 3] {
             for (q, levers, stored) in [
                 (0.3, false, false),
@@ -1103,14 +1185,14 @@ mod tests {
                 let (csr, name) = run(&body, Path::Csr);
                 assert_eq!(name, "csr");
                 assert!(csr.u.as_flat().iter().any(|&x| x != 0.0));
-                for path in [Path::Vector, Path::Scalar] {
+                for &path in &paths {
                     let (s, name) = run(&body, path);
-                    if avx {
-                        let want = if path == Path::Vector {
-                            "rows-avx512"
-                        } else {
-                            "rows"
-                        };
+                    let want = match (path, lanes) {
+                        (Path::Vector, Some(Lanes::Avx512)) => "rows-avx512",
+                        (Path::Vector, Some(Lanes::Avx2)) | (Path::Avx2, _) => "rows-avx2",
+                        _ => "rows",
+                    };
+                    if lanes.is_some() {
                         assert_eq!(name, want);
                     }
                     assert!(

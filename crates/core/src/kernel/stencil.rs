@@ -175,19 +175,34 @@ impl<const D: usize> Factors<D> {
     }
 }
 
-/// True when the vector paths may run: the processor has AVX-512F and `HOOKE_NO_SIMD` is not
-/// set.
-pub(crate) fn simd_available() -> bool {
-    super::simd_allowed() && {
-        #[cfg(target_arch = "x86_64")]
-        {
-            std::arch::is_x86_feature_detected!("avx512f")
+/// The vector instructions the kernels' vector paths use: AVX-512 (8 lanes) where the
+/// processor has it, else AVX2 (4 lanes; a block of 8 nodes as two halves); `None` without
+/// either or with `HOOKE_NO_SIMD`. `HOOKE_SIMD=avx2` takes AVX2 where AVX-512 is there too (to test and
+/// measure that path on such a machine).
+pub(crate) fn simd_lanes() -> Option<Lanes> {
+    if !super::simd_allowed() {
+        return None;
+    }
+    #[cfg(target_arch = "x86_64")]
+    {
+        let want_avx2 = std::env::var("HOOKE_SIMD").is_ok_and(|v| v == "avx2");
+        if !want_avx2 && std::arch::is_x86_feature_detected!("avx512f") {
+            return Some(Lanes::Avx512);
         }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            false
+        if std::arch::is_x86_feature_detected!("avx2") {
+            return Some(Lanes::Avx2);
         }
     }
+    None
+}
+
+/// Which vector instructions a kernel's vector path runs on (see [`simd_lanes`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lanes {
+    /// AVX-512F: 8 doubles to a vector.
+    Avx512,
+    /// AVX2: 4 doubles to a vector.
+    Avx2,
 }
 
 /// Sweep 1, and with a finite `screen` s the break screen: `state.hot` flags each block of
@@ -435,6 +450,87 @@ pub(crate) mod avx512 {
             _mm512_storeu_pd(lane_im.as_mut_ptr(), im);
         }
         for l in 0..8 {
+            let m = if lane_im[l] > 0.0 {
+                1.0 / lane_im[l]
+            } else {
+                0.0
+            };
+            sums.dissipated += p.damping * m * lane_v2[l] * p.dt;
+            sums.body_work += m * lane_gw[l] * p.dt;
+        }
+    }
+}
+
+/// The AVX2 paths' shared kick and drift.
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod avx2 {
+    use std::arch::x86_64::*;
+
+    use super::{StepParams, SweepSums};
+    use crate::math::{Coords, Real};
+
+    /// Kick and drift of the 4 nodes from `i` with forces `f`: [`super::avx512::kick_drift8`]
+    /// on 4 lanes, the scalar [`super::super::kick_drift`]'s operations lane by lane, each
+    /// node's shares of the sums added to `sums` in index order.
+    ///
+    /// # Safety
+    /// The processor has AVX2; `u` and `inv_mass` hold nodes `i..i + 4`; `v` and `un` hold
+    /// the block's 4 entries per component.
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx2")]
+    pub(crate) unsafe fn kick_drift4(
+        dims: usize,
+        f: [__m256d; 3],
+        u: &Coords,
+        inv_mass: &[Real],
+        p: &StepParams,
+        i: usize,
+        v: [&mut [Real]; 3],
+        un: [&mut [Real]; 3],
+        sums: &mut SweepSums,
+    ) {
+        let h = 0.5 * p.damping * p.dt;
+        let shrink = _mm256_set1_pd(1.0 - h);
+        let grow = _mm256_set1_pd(1.0 / (1.0 + h));
+        let dt = _mm256_set1_pd(p.dt);
+        let half = _mm256_set1_pd(0.5);
+        // SAFETY (caller): i..i+4 is in bounds of every array read or written here.
+        let im = unsafe { _mm256_loadu_pd(inv_mass.as_ptr().add(i)) };
+        let mut v2 = _mm256_setzero_pd();
+        let mut gw = _mm256_setzero_pd();
+        let [vx, vy, vz] = v;
+        let [nx, ny, nz] = un;
+        let comps = [(vx, nx, u.x()), (vy, ny, u.y()), (vz, nz, u.z())];
+        for (c, (vs, ns, uc)) in comps.into_iter().enumerate().take(dims) {
+            let g = _mm256_set1_pd(p.accel[c]);
+            unsafe {
+                let old = _mm256_loadu_pd(vs.as_ptr());
+                let acc = _mm256_add_pd(_mm256_mul_pd(f[c], im), g);
+                let new = _mm256_mul_pd(
+                    _mm256_add_pd(_mm256_mul_pd(shrink, old), _mm256_mul_pd(dt, acc)),
+                    grow,
+                );
+                _mm256_storeu_pd(vs.as_mut_ptr(), new);
+                let ui = _mm256_loadu_pd(uc.as_ptr().add(i));
+                _mm256_storeu_pd(ns.as_mut_ptr(), _mm256_add_pd(ui, _mm256_mul_pd(dt, new)));
+                let mid = _mm256_mul_pd(half, _mm256_add_pd(old, new));
+                v2 = _mm256_add_pd(v2, _mm256_mul_pd(mid, mid));
+                gw = _mm256_add_pd(gw, _mm256_mul_pd(g, mid));
+            }
+        }
+        if p.damping == 0.0 && p.accel == [0.0; 3] {
+            // Every node's shares are +0, which would leave the sums' bits as they are.
+            return;
+        }
+        let mut lane_v2 = [0.0; 4];
+        let mut lane_gw = [0.0; 4];
+        let mut lane_im = [0.0; 4];
+        unsafe {
+            _mm256_storeu_pd(lane_v2.as_mut_ptr(), v2);
+            _mm256_storeu_pd(lane_gw.as_mut_ptr(), gw);
+            _mm256_storeu_pd(lane_im.as_mut_ptr(), im);
+        }
+        for l in 0..4 {
             let m = if lane_im[l] > 0.0 {
                 1.0 / lane_im[l]
             } else {
