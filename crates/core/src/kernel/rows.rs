@@ -608,26 +608,20 @@ impl Stencil for RowKernel {
                     (_, true, true) => avx2::forces::<3, true, true>(self, u, i, &mut f),
                 }
             }
-            // Kick and drift 4 nodes at a time, in node order (the sums' order).
-            for b in 0..WINDOW / 4 {
-                let r = 4 * b..4 * b + 4;
-                // SAFETY: as above; `v`, `un` hold the window's entries.
-                unsafe {
-                    let fb = [0, 1, 2]
-                        .map(|c| std::arch::x86_64::_mm256_loadu_pd(f.0[c][r.start..].as_ptr()));
-                    super::stencil::avx2::kick_drift4(
-                        dims,
-                        fb,
-                        u,
-                        inv_mass,
-                        p,
-                        i + 4 * b,
-                        [&mut vx[r.clone()], &mut vy[r.clone()], &mut vz[r.clone()]],
-                        [&mut nx[r.clone()], &mut ny[r.clone()], &mut nz[r.clone()]],
-                        sums,
-                    )
-                };
-            }
+            // SAFETY (caller): as for `pool_block`.
+            unsafe {
+                avx2::kick_drift(
+                    dims,
+                    &f,
+                    u,
+                    inv_mass,
+                    p,
+                    i,
+                    [vx, vy, vz],
+                    [nx, ny, nz],
+                    sums,
+                )
+            };
             return;
         }
         // SAFETY (caller): as for `pool_block`.

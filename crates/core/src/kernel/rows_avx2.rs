@@ -10,9 +10,10 @@
 
 use std::arch::x86_64::*;
 
+use super::super::{StepParams, SweepSums};
 use super::avx::{group_nodes, prefetch, Window};
 use super::{RowKernel, Src, WINDOW};
-use crate::math::Real;
+use crate::math::{Coords, Real};
 
 /// Components 0..4 of four rows `a`, transposed: vector c holds component c of each row.
 #[inline(always)]
@@ -37,9 +38,26 @@ unsafe fn transpose(a: [__m256d; 4]) -> [__m256d; 4] {
 unsafe fn records(base: *const Real, js: &[u32]) -> [__m256d; 7] {
     // SAFETY (caller): every js[l] indexes a record (64-byte aligned, 8 reals).
     unsafe {
-        let at = |l: usize| base.add(8 * js[l] as usize);
-        let lo = transpose([0, 1, 2, 3].map(|l| _mm256_load_pd(at(l))));
-        let hi = transpose([0, 1, 2, 3].map(|l| _mm256_load_pd(at(l).add(4))));
+        // Written out: a closure or `array::map` here is not inlined, and its loads become
+        // calls (the helper has no target features of its own).
+        let (a, b, c, d) = (
+            base.add(8 * js[0] as usize),
+            base.add(8 * js[1] as usize),
+            base.add(8 * js[2] as usize),
+            base.add(8 * js[3] as usize),
+        );
+        let lo = transpose([
+            _mm256_load_pd(a),
+            _mm256_load_pd(b),
+            _mm256_load_pd(c),
+            _mm256_load_pd(d),
+        ]);
+        let hi = transpose([
+            _mm256_load_pd(a.add(4)),
+            _mm256_load_pd(b.add(4)),
+            _mm256_load_pd(c.add(4)),
+            _mm256_load_pd(d.add(4)),
+        ]);
         [lo[0], lo[1], lo[2], lo[3], hi[0], hi[1], hi[2]]
     }
 }
@@ -231,5 +249,49 @@ pub(super) unsafe fn forces<const D: usize, const LEVER: bool, const STORED: boo
                 scatter(acc[1][c], &js[4..], i, &mut f.0[c]);
             }
         }
+    }
+}
+
+/// Kick and drift of the window of nodes i..i+64 with forces `f` (node order), 4 nodes at a
+/// time in node order (the sums' order).
+///
+/// # Safety
+/// AVX2; `u` and `inv_mass` hold the window's nodes, `v` and `un` its 64 entries.
+#[allow(clippy::too_many_arguments)]
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn kick_drift(
+    dims: usize,
+    f: &Window,
+    u: &Coords,
+    inv_mass: &[Real],
+    p: &StepParams,
+    i: usize,
+    v: [&mut [Real]; 3],
+    un: [&mut [Real]; 3],
+    sums: &mut SweepSums,
+) {
+    let [vx, vy, vz] = v;
+    let [nx, ny, nz] = un;
+    for b in 0..WINDOW / 4 {
+        let r = 4 * b..4 * b + 4;
+        // SAFETY (caller): in bounds as stated.
+        unsafe {
+            let fb = [
+                _mm256_load_pd(f.0[0][r.start..].as_ptr()),
+                _mm256_load_pd(f.0[1][r.start..].as_ptr()),
+                _mm256_load_pd(f.0[2][r.start..].as_ptr()),
+            ];
+            super::super::stencil::avx2::kick_drift4(
+                dims,
+                fb,
+                u,
+                inv_mass,
+                p,
+                i + 4 * b,
+                [&mut vx[r.clone()], &mut vy[r.clone()], &mut vz[r.clone()]],
+                [&mut nx[r.clone()], &mut ny[r.clone()], &mut nz[r.clone()]],
+                sums,
+            )
+        };
     }
 }
