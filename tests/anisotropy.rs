@@ -323,12 +323,27 @@ fn random_lattice_calibration_converges() {
 #[test]
 #[ignore = "slow: about 2 minutes of relaxed cubes"]
 fn random_lattice_design_meets_the_target_on_unseen_node_sets() {
+    let t = carbon([1.0, 2.0, 0.5]);
+    unseen_node_sets_within(
+        hooke_core::Anisotropic::Transverse(t),
+        &t.frame().unwrap(),
+        &t.local_stiffness(),
+        0.02,
+    );
+}
+
+/// Calibrate `m`'s random3d design, measure it on 3 unseen node sets (seeds 1-3, cubes of 32
+/// spacings) and hold each orthotropic entry in the material axes `frame` to `tol` of `target`.
+fn unseen_node_sets_within(
+    m: hooke_core::Anisotropic,
+    frame: &[[Real; 3]; 3],
+    target: &[[Real; 6]; 6],
+    tol: Real,
+) {
     use hooke_core::random::anisotropic::{
         cubes, mean, measure, spread, to_material, ORTHOTROPIC_ENTRIES,
     };
     use hooke_core::random::Sampler;
-    let t = carbon([1.0, 2.0, 0.5]);
-    let m = hooke_core::Anisotropic::Transverse(t);
     let cal = m.random_design(Sampler::Poisson).unwrap();
     eprintln!(
         "calibration residuals {:?} in {:.1} s",
@@ -341,23 +356,44 @@ fn random_lattice_design_meets_the_target_on_unseen_node_sets() {
         &Default::default(),
     )
     .unwrap();
-    let frame = t.frame().unwrap();
-    let local: Vec<_> = runs.iter().map(|c| to_material(c, &frame)).collect();
+    let local: Vec<_> = runs.iter().map(|c| to_material(c, frame)).collect();
     let mean_local = mean(&local);
-    let target = t.local_stiffness();
     let sds = spread(&local, &mean_local);
     for &(i, j) in &ORTHOTROPIC_ENTRIES {
-        let sd = sds[i][j];
         let rel = mean_local[i][j] / target[i][j] - 1.0;
         eprintln!(
             "C{}{}: {:+.4} (spread {:.4})",
             i + 1,
             j + 1,
             rel,
-            sd / target[i][j]
+            sds[i][j] / target[i][j]
         );
-        assert!(rel.abs() < 0.02, "C{}{} off by {rel:+.4}", i + 1, j + 1);
+        assert!(rel.abs() < tol, "C{}{} off by {rel:+.4}", i + 1, j + 1);
     }
+}
+
+/// The same for an orthotropic material (three moduli 20, 15 and 10 GPa, a negative q) whose
+/// axes are turned against the body's (x along [1, 1, 0], y along [-1, 1, 1]): the calibrated
+/// design on node sets it was not calibrated on (seeds 1-3, cubes of 32 spacings), each
+/// orthotropic entry in the material axes within 2 % of the target. Measured: within 0.8 %
+/// (C12 +0.8 %), spread 0.2-1.0 %; calibration 0.220 -> 0.0016 in 5 measurements.
+#[test]
+#[ignore = "slow: about 2 minutes of relaxed cubes"]
+fn random_lattice_orthotropic_design_meets_the_target_on_unseen_node_sets() {
+    use hooke_core::anisotropy::Orthotropic;
+    let o = Orthotropic {
+        youngs: [20e9, 15e9, 10e9],
+        poisson: [0.2, 0.25, 0.3],
+        shear: [4e9, 5e9, 6e9],
+        density: 1500.0,
+        axes: Orthotropic::axes_from([1.0, 1.0, 0.0], [-1.0, 1.0, 1.0]).unwrap(),
+    };
+    unseen_node_sets_within(
+        hooke_core::Anisotropic::Orthotropic(o),
+        &o.axes,
+        &o.local_stiffness().unwrap(),
+        0.02,
+    );
 }
 
 /// Block tests (the paper's 71 x 16 x 16-node block, free faces, sliding ends) of the calibrated

@@ -6,7 +6,8 @@
 //! its weight class in bits [`CLASS_SHIFT`].. of the same word ([`Factors`]), plus its `1/S_n`. Spring vectors are `D_d + (u_j - u_n)` with `D_d` the constant reference
 //! vector of direction `d`.
 //!
-//! On processors with AVX-512F, blocks of 8 consecutive nodes are processed in one vector: the
+//! On processors with AVX-512F, blocks of 8 consecutive nodes are processed in one vector (with
+//! AVX2 only, in two vectors of 4, blends standing in for masked adds): the
 //! neighbour rows are unaligned loads at the block index plus the direction's offset. Lengths
 //! use the vector square root and one division per spring and pass: measured on this project's
 //! 2-core AMD machine, that was as fast as the 14-bit reciprocal square root with the two Newton

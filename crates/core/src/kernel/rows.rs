@@ -29,8 +29,9 @@
 //! +0 unchanged. The rest length `L` is recomputed as `|X_j - X_i|` in the operations that
 //! built it (checked for every spring at set-up; otherwise it is streamed). The scalar path (the
 //! last, incomplete group of 8; the whole body after `set_simd(false)`) performs the same
-//! operations one lane at a time; where AVX-512 is missing, `Kernel::for_body` takes the CSR
-//! kernel itself. Tested bit for bit against the CSR kernel, with broken and softened springs,
+//! operations one lane at a time. Without AVX-512, the AVX2 path (`rows_avx2.rs`) walks each
+//! group as two halves of 4 lanes; without either, `Kernel::for_body` takes the CSR kernel
+//! itself. Tested bit for bit against the CSR kernel, with broken and softened springs,
 //! dispersion levers and stored or recomputed rest lengths, in 2D and 3D.
 //!
 //! Periodic lattices keep the CSR kernel (their minimum-image wrap is not needed on the fast
