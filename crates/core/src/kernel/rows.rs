@@ -509,6 +509,25 @@ impl RowKernel {
     }
 }
 
+/// `$m::$f::<D, LEVER, STORED>(args)` for the kernel's dimension, whether its springs carry
+/// levers of their own and whether it streams its rest lengths: one monomorphised sweep per
+/// shape, so the lanes' loop holds no branch on them.
+macro_rules! by_shape {
+    ($rk:expr, $m:ident :: $f:ident, $($arg:expr),*) => {{
+        let s = &$rk.slots;
+        match ($rk.dim, !s.lever.is_empty(), !s.rest.is_empty()) {
+            (2, false, false) => $m::$f::<2, false, false>($($arg),*),
+            (2, false, true) => $m::$f::<2, false, true>($($arg),*),
+            (2, true, false) => $m::$f::<2, true, false>($($arg),*),
+            (2, true, true) => $m::$f::<2, true, true>($($arg),*),
+            (_, false, false) => $m::$f::<3, false, false>($($arg),*),
+            (_, false, true) => $m::$f::<3, false, true>($($arg),*),
+            (_, true, false) => $m::$f::<3, true, false>($($arg),*),
+            (_, true, true) => $m::$f::<3, true, true>($($arg),*),
+        }
+    }};
+}
+
 impl Stencil for RowKernel {
     fn nodes(&self) -> usize {
         self.n
@@ -551,29 +570,10 @@ impl Stencil for RowKernel {
         // SAFETY (caller): `vector_block(i)`, so the path's instructions are there and
         // i..i+64 are nodes.
         unsafe {
-            let s = &self.slots;
             if self.simd == Some(Lanes::Avx2) {
-                return match (self.dim, !s.lever.is_empty(), !s.rest.is_empty()) {
-                    (2, false, false) => avx2::pools::<2, false, false>(self, u, i, out, screen),
-                    (2, false, true) => avx2::pools::<2, false, true>(self, u, i, out, screen),
-                    (2, true, false) => avx2::pools::<2, true, false>(self, u, i, out, screen),
-                    (2, true, true) => avx2::pools::<2, true, true>(self, u, i, out, screen),
-                    (_, false, false) => avx2::pools::<3, false, false>(self, u, i, out, screen),
-                    (_, false, true) => avx2::pools::<3, false, true>(self, u, i, out, screen),
-                    (_, true, false) => avx2::pools::<3, true, false>(self, u, i, out, screen),
-                    (_, true, true) => avx2::pools::<3, true, true>(self, u, i, out, screen),
-                };
+                return by_shape!(self, avx2::pools, self, u, i, out, screen);
             }
-            match (self.dim, !s.lever.is_empty(), !s.rest.is_empty()) {
-                (2, false, false) => avx::pools::<2, false, false>(self, u, i, out, screen),
-                (2, false, true) => avx::pools::<2, false, true>(self, u, i, out, screen),
-                (2, true, false) => avx::pools::<2, true, false>(self, u, i, out, screen),
-                (2, true, true) => avx::pools::<2, true, true>(self, u, i, out, screen),
-                (_, false, false) => avx::pools::<3, false, false>(self, u, i, out, screen),
-                (_, false, true) => avx::pools::<3, false, true>(self, u, i, out, screen),
-                (_, true, false) => avx::pools::<3, true, false>(self, u, i, out, screen),
-                (_, true, true) => avx::pools::<3, true, true>(self, u, i, out, screen),
-            }
+            by_shape!(self, avx::pools, self, u, i, out, screen)
         }
     }
 
@@ -596,19 +596,7 @@ impl Stencil for RowKernel {
         let [nx, ny, nz] = un;
         if self.simd == Some(Lanes::Avx2) {
             // SAFETY (caller): as for `pool_block`.
-            unsafe {
-                let s = &self.slots;
-                match (self.dim, !s.lever.is_empty(), !s.rest.is_empty()) {
-                    (2, false, false) => avx2::forces::<2, false, false>(self, u, i, &mut f),
-                    (2, false, true) => avx2::forces::<2, false, true>(self, u, i, &mut f),
-                    (2, true, false) => avx2::forces::<2, true, false>(self, u, i, &mut f),
-                    (2, true, true) => avx2::forces::<2, true, true>(self, u, i, &mut f),
-                    (_, false, false) => avx2::forces::<3, false, false>(self, u, i, &mut f),
-                    (_, false, true) => avx2::forces::<3, false, true>(self, u, i, &mut f),
-                    (_, true, false) => avx2::forces::<3, true, false>(self, u, i, &mut f),
-                    (_, true, true) => avx2::forces::<3, true, true>(self, u, i, &mut f),
-                }
-            }
+            unsafe { by_shape!(self, avx2::forces, self, u, i, &mut f) }
             // SAFETY (caller): as for `pool_block`.
             unsafe {
                 avx2::kick_drift(
@@ -626,19 +614,7 @@ impl Stencil for RowKernel {
             return;
         }
         // SAFETY (caller): as for `pool_block`.
-        unsafe {
-            let s = &self.slots;
-            match (self.dim, !s.lever.is_empty(), !s.rest.is_empty()) {
-                (2, false, false) => avx::forces::<2, false, false>(self, u, i, &mut f),
-                (2, false, true) => avx::forces::<2, false, true>(self, u, i, &mut f),
-                (2, true, false) => avx::forces::<2, true, false>(self, u, i, &mut f),
-                (2, true, true) => avx::forces::<2, true, true>(self, u, i, &mut f),
-                (_, false, false) => avx::forces::<3, false, false>(self, u, i, &mut f),
-                (_, false, true) => avx::forces::<3, false, true>(self, u, i, &mut f),
-                (_, true, false) => avx::forces::<3, true, false>(self, u, i, &mut f),
-                (_, true, true) => avx::forces::<3, true, true>(self, u, i, &mut f),
-            }
-        }
+        unsafe { by_shape!(self, avx::forces, self, u, i, &mut f) }
         // Kick and drift 8 nodes at a time, in node order (the sums' order).
         for b in 0..WINDOW / 8 {
             let r = 8 * b..8 * b + 8;
