@@ -214,12 +214,11 @@ impl CubicStencil {
     /// Take the AVX2 path where the processor has it, even if it has AVX-512 too (for tests
     /// and measurements of that path); false (and nothing changed) without AVX2.
     pub fn use_avx2(&mut self) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        if super::simd_allowed() && std::arch::is_x86_feature_detected!("avx2") {
-            self.simd = Some(Lanes::Avx2);
-            return true;
+        let lanes = super::stencil::avx2_lanes();
+        if lanes.is_some() {
+            self.simd = lanes;
         }
-        false
+        lanes.is_some()
     }
 
     /// A copy with another dispersion ratio (q = 0: the plain law).
@@ -573,6 +572,7 @@ mod avx512 {
 mod avx2 {
     use std::arch::x86_64::*;
 
+    use super::super::stencil::avx2::{classes, factors, lanes};
     use super::{CubicStencil, StepParams, SweepSums, CLASS_SHIFT};
     use crate::math::{Coords, Real};
 
@@ -592,33 +592,6 @@ mod avx2 {
                 _mm256_cvtepu32_epi64(m),
             )
         }
-    }
-
-    /// The lanes' weight classes, if one of them has factors other than 1.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn classes(s: &CubicStencil, mask: __m256i) -> Option<__m256i> {
-        if !s.factors.on {
-            return None;
-        }
-        let c = _mm256_srli_epi64::<{ CLASS_SHIFT as i32 }>(mask);
-        (_mm256_testz_si256(c, c) == 0).then_some(c)
-    }
-
-    /// The factors of direction `d` for the lanes' classes.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn factors(s: &CubicStencil, c: __m256i, d: usize) -> __m256d {
-        // SAFETY: classes index the row of 8 doubles.
-        unsafe { _mm256_i64gather_pd::<8>(s.factors.w[d].as_ptr(), c) }
-    }
-
-    /// All ones in the lanes whose spring in direction `d` is intact.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn lanes(mask: __m256i, d: usize) -> __m256d {
-        let bit = _mm256_set1_epi64x(1 << d);
-        _mm256_castsi256_pd(_mm256_cmpeq_epi64(_mm256_and_si256(mask, bit), bit))
     }
 
     /// Current vectors of the springs in direction `d` of the 4 nodes at `i`, and their
@@ -663,7 +636,7 @@ mod avx2 {
         screen: Real,
     ) -> bool {
         let (ui, mask) = unsafe { load_block(s, u, i) };
-        let cls = classes(s, mask);
+        let cls = classes::<{ CLASS_SHIFT as i32 }, 18>(&s.factors, mask);
         let mut acc = _mm256_setzero_pd();
         let mut hot = _mm256_setzero_pd();
         for d in 0..18 {
@@ -676,7 +649,7 @@ mod avx2 {
             let dl = _mm256_sub_pd(l, _mm256_set1_pd(s.rest[d]));
             let mut share = _mm256_mul_pd(_mm256_set1_pd(s.k * s.rest[d]), dl);
             if let Some(c) = cls {
-                share = _mm256_mul_pd(share, unsafe { factors(s, c, d) });
+                share = _mm256_mul_pd(share, unsafe { factors(&s.factors, c, d) });
             }
             acc = _mm256_blendv_pd(acc, _mm256_add_pd(acc, share), m);
             let past = _mm256_cmp_pd::<_CMP_GT_OQ>(dl, _mm256_set1_pd(screen * s.rest[d]));
@@ -705,7 +678,7 @@ mod avx2 {
         sums: &mut SweepSums,
     ) {
         let (ui, mask) = unsafe { load_block(s, u, i) };
-        let cls = classes(s, mask);
+        let cls = classes::<{ CLASS_SHIFT as i32 }, 18>(&s.factors, mask);
         let pi = unsafe { _mm256_loadu_pd(pool.as_ptr().add(i)) };
         let kv = _mm256_set1_pd(s.k);
         let mut f = [_mm256_setzero_pd(); 3];
@@ -724,7 +697,7 @@ mod avx2 {
                 _mm256_mul_pd(_mm256_set1_pd(s.q * s.k * s.rest[d]), _mm256_add_pd(pi, pj)),
             );
             if let Some(c) = cls {
-                t = _mm256_mul_pd(t, unsafe { factors(s, c, d) });
+                t = _mm256_mul_pd(t, unsafe { factors(&s.factors, c, d) });
             }
             let sc = _mm256_div_pd(t, l);
             for c in 0..3 {

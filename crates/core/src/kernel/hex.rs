@@ -180,12 +180,11 @@ impl HexStencil {
     /// Take the AVX2 path where the processor has it, even if it has AVX-512 too (for tests
     /// and measurements of that path); false (and nothing changed) without AVX2.
     pub fn use_avx2(&mut self) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        if super::simd_allowed() && std::arch::is_x86_feature_detected!("avx2") {
-            self.simd = Some(Lanes::Avx2);
-            return true;
+        let lanes = super::stencil::avx2_lanes();
+        if lanes.is_some() {
+            self.simd = lanes;
         }
-        false
+        lanes.is_some()
     }
 
     /// A copy with another dispersion ratio (q = 0: the plain law).
@@ -582,6 +581,7 @@ mod avx512 {
 mod avx2 {
     use std::arch::x86_64::*;
 
+    use super::super::stencil::avx2::{classes, factors, lanes};
     use super::{HexStencil, StepParams, SweepSums, CLASS_SHIFT, DIRS};
     use crate::math::{Coords, Real};
 
@@ -600,33 +600,6 @@ mod avx2 {
                 _mm256_cvtepu16_epi64(m),
             )
         }
-    }
-
-    /// The lanes' weight classes, if one of them has factors other than 1.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn classes(s: &HexStencil, mask: __m256i) -> Option<__m256i> {
-        if !s.factors.on {
-            return None;
-        }
-        let c = _mm256_srli_epi64::<{ CLASS_SHIFT as i32 }>(mask);
-        (_mm256_testz_si256(c, c) == 0).then_some(c)
-    }
-
-    /// The factors of direction `d` for the lanes' classes.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn factors(s: &HexStencil, c: __m256i, d: usize) -> __m256d {
-        // SAFETY: classes index the row of 8 doubles.
-        unsafe { _mm256_i64gather_pd::<8>(s.factors.w[d].as_ptr(), c) }
-    }
-
-    /// All ones in the lanes whose spring in direction `d` is intact.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn lanes(mask: __m256i, d: usize) -> __m256d {
-        let bit = _mm256_set1_epi64x(1 << d);
-        _mm256_castsi256_pd(_mm256_cmpeq_epi64(_mm256_and_si256(mask, bit), bit))
     }
 
     /// Spring vector, squared length and extension numerator of direction `d` for the 4
@@ -668,7 +641,7 @@ mod avx2 {
         screen: Real,
     ) -> bool {
         let (ui, mask) = unsafe { load_block(s, u, i) };
-        let cls = classes(s, mask);
+        let cls = classes::<{ CLASS_SHIFT as i32 }, DIRS>(&s.factors, mask);
         let kl = _mm256_set1_pd(s.k * s.rest);
         let rest = _mm256_set1_pd(s.rest);
         let lim = _mm256_set1_pd(screen * s.rest);
@@ -683,7 +656,7 @@ mod avx2 {
             let dl = _mm256_div_pd(num, _mm256_add_pd(_mm256_sqrt_pd(d2), rest));
             let mut share = _mm256_mul_pd(kl, dl);
             if let Some(c) = cls {
-                share = _mm256_mul_pd(share, unsafe { factors(s, c, d) });
+                share = _mm256_mul_pd(share, unsafe { factors(&s.factors, c, d) });
             }
             acc = _mm256_blendv_pd(acc, _mm256_add_pd(acc, share), m);
             let past = _mm256_cmp_pd::<_CMP_GT_OQ>(dl, lim);
@@ -712,7 +685,7 @@ mod avx2 {
         sums: &mut SweepSums,
     ) {
         let (ui, mask) = unsafe { load_block(s, u, i) };
-        let cls = classes(s, mask);
+        let cls = classes::<{ CLASS_SHIFT as i32 }, DIRS>(&s.factors, mask);
         let pi = unsafe { _mm256_loadu_pd(pool.as_ptr().add(i)) };
         let (kv, qkl, rest) = (
             _mm256_set1_pd(s.k),
@@ -734,7 +707,7 @@ mod avx2 {
                 _mm256_mul_pd(qkl, _mm256_add_pd(pi, pj)),
             );
             if let Some(c) = cls {
-                t = _mm256_mul_pd(t, unsafe { factors(s, c, d) });
+                t = _mm256_mul_pd(t, unsafe { factors(&s.factors, c, d) });
             }
             let sc = _mm256_div_pd(t, l);
             for c in 0..2 {

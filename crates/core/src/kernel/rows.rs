@@ -278,12 +278,11 @@ impl RowKernel {
     /// Take the AVX2 path where the processor has it, even if it has AVX-512 too (for tests
     /// and measurements of that path); false (and nothing changed) without AVX2.
     pub fn use_avx2(&mut self) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        if super::simd_allowed() && std::arch::is_x86_feature_detected!("avx2") {
-            self.simd = Some(Lanes::Avx2);
-            return true;
+        let lanes = super::stencil::avx2_lanes();
+        if lanes.is_some() {
+            self.simd = lanes;
         }
-        false
+        lanes.is_some()
     }
 
     /// The same kernel with ratio `q` (0: the plain law).

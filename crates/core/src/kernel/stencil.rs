@@ -196,6 +196,16 @@ pub(crate) fn simd_lanes() -> Option<Lanes> {
     None
 }
 
+/// AVX2 where the processor has it and `HOOKE_NO_SIMD` is not set, whatever else it has: what
+/// the kernels' `use_avx2` switch to (to test and measure that path on an AVX-512 processor).
+pub(crate) fn avx2_lanes() -> Option<Lanes> {
+    #[cfg(target_arch = "x86_64")]
+    if super::simd_allowed() && std::arch::is_x86_feature_detected!("avx2") {
+        return Some(Lanes::Avx2);
+    }
+    None
+}
+
 /// Which vector instructions a kernel's vector path runs on (see [`simd_lanes`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Lanes {
@@ -466,8 +476,43 @@ pub(crate) mod avx512 {
 pub(crate) mod avx2 {
     use std::arch::x86_64::*;
 
-    use super::{StepParams, SweepSums};
+    use super::{Factors, StepParams, SweepSums};
     use crate::math::{Coords, Real};
+
+    /// All ones in the lanes whose spring in direction `d` is intact (bit d of their mask
+    /// words, one 64-bit lane per node).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(crate) fn lanes(mask: __m256i, d: usize) -> __m256d {
+        let bit = _mm256_set1_epi64x(1 << d);
+        _mm256_castsi256_pd(_mm256_cmpeq_epi64(_mm256_and_si256(mask, bit), bit))
+    }
+
+    /// The lanes' weight classes (bits `SHIFT`.. of their mask words), if one of them has
+    /// factors other than 1 (multiplying by 1 is exact, so the other blocks skip it).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(crate) fn classes<const SHIFT: i32, const D: usize>(
+        f: &Factors<D>,
+        mask: __m256i,
+    ) -> Option<__m256i> {
+        if !f.on {
+            return None;
+        }
+        let c = _mm256_srli_epi64::<SHIFT>(mask);
+        (_mm256_testz_si256(c, c) == 0).then_some(c)
+    }
+
+    /// The factors of direction `d` for the lanes' classes `c`.
+    ///
+    /// # Safety
+    /// AVX2; `c` from [`classes`] (each below [`super::CLASSES`]).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(crate) unsafe fn factors<const D: usize>(f: &Factors<D>, c: __m256i, d: usize) -> __m256d {
+        // SAFETY (caller): the classes index the row of CLASSES doubles.
+        unsafe { _mm256_i64gather_pd::<8>(f.w[d].as_ptr(), c) }
+    }
 
     /// Kick and drift of the 4 nodes from `i` with forces `f`: [`super::avx512::kick_drift8`]
     /// on 4 lanes, the scalar [`super::super::kick_drift`]'s operations lane by lane, each
