@@ -36,9 +36,12 @@ check() { # name case scale end_time sizes...
 }
 check kalthoff_winkler cases/kalthoff_winkler.toml 0.3 20e-6 1 2 3 4
 check sphere_impact cases/sphere_impact_glass.toml 0.8 8e-6 2 3
-# (The mode-I plate, with its pre-crack and prescribed velocities, is checked by 2, 3 and 4
-# threads standing in for ranks in `cargo test`: crates/case/tests/team.rs.)
 check compression_block cases/compression_block.toml 1.0 10e-6 3
+# Without contact the ranks trade only their halos between outputs: the mode-I plate (pre-crack,
+# prescribed velocities, breaking; at 4 ranks two of them own no nodes and write no piece) and
+# the random glass plate (random lattice, branching cracks).
+check mode1_plate cases/mode1_plate.toml 1.0 60e-6 3 4
+check glass_branching_random cases/glass_branching_random.toml 0.6 46e-6 2 3
 
 # Checkpointed with 2 ranks, resumed with 3.
 $mpirun -np 2 "$work/hooke-mpi" run cases/kalthoff_winkler.toml --scale 0.3 --set solver.end_time=10e-6 \

@@ -135,9 +135,12 @@ struct BenchJson {
     contact_overhead: Option<f64>,
     /// MPI ranks sharing each step (`mpirun -np N hooke bench`, feature `mpi`), 1 alone.
     processes: usize,
-    /// Bytes each rank receives per step (rank 0's figure), and the collective operations per
-    /// step; zero alone.
+    /// Bytes each rank receives per step (rank 0's figure: its ghosts' pools and
+    /// displacements, and the partial sums), the point-to-point messages it sends per step
+    /// (halo trades), its ghost nodes, and the collective operations per step; zero alone.
     halo_bytes_per_step: usize,
+    halo_messages_per_step: usize,
+    ghost_nodes: usize,
     collectives_per_step: usize,
 }
 
@@ -292,7 +295,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
         processes: team.as_ref().map_or(1, |t| t.size()),
         halo_bytes_per_step: it
             .share()
-            .map_or(0, |s| s.received_per_step(1 + body.lattice.dim())),
+            .map_or(0, |s| s.received_per_step(body.lattice.dim())),
+        halo_messages_per_step: it.share().map_or(0, |s| s.messages_per_step()),
+        ghost_nodes: it.share().map_or(0, |s| s.halo.ghosts()),
         collectives_per_step: if it.share().is_some() {
             hooke_core::team::Share::collectives_per_step(body.lattice.dim())
         } else {
@@ -342,9 +347,12 @@ pub fn run(args: BenchArgs) -> Result<()> {
         );
         if out.processes > 1 {
             println!(
-                "  {} MPI ranks: {:.2} MB received per rank and step in {} collectives",
+                "  {} MPI ranks: {:.2} MB received per rank and step ({} ghost nodes), {} halo \
+                 messages and {} collectives",
                 out.processes,
                 out.halo_bytes_per_step as f64 / 1e6,
+                out.ghost_nodes,
+                out.halo_messages_per_step,
                 out.collectives_per_step
             );
         }

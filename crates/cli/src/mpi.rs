@@ -1,8 +1,9 @@
 //! MPI ranks as a [`Team`] (feature `mpi`): `mpirun -np N hooke run CASE.toml`.
 //!
-//! The library does the sharing (`hooke_core::team`); this module only carries its two
-//! collectives over MPI: an in-place all-gather of doubles (`MPI_Allgatherv`) and a logical or
-//! of flags (`MPI_Allreduce` with `MPI_LOR`).
+//! The library does the sharing (`hooke_core::team`); this module only carries its three
+//! operations over MPI: an in-place all-gather of doubles (`MPI_Allgatherv`), a logical or of
+//! flags (`MPI_Allreduce` with `MPI_LOR`) and the halo trade (`MPI_Isend` and `MPI_Recv`
+//! between the ranks that share a cut).
 
 use std::ops::Range;
 use std::sync::{Arc, Mutex};
@@ -28,9 +29,12 @@ pub struct MpiTeam {
 struct Scratch {
     send: Vec<Real>,
     flags: Vec<bool>,
-    /// Counts and displacements of the part lists seen so far (a run uses three).
-    layouts: Vec<(Vec<Range<usize>>, Vec<Count>, Vec<Count>)>,
+    /// Counts and displacements of the part lists seen so far (a run uses a few).
+    layouts: Vec<Layout>,
 }
+
+/// A part list of an all-gather with its counts and displacements.
+type Layout = (Vec<Range<usize>>, Vec<Count>, Vec<Count>);
 
 // SAFETY: the communicator is a handle that MPI itself owns. hooke calls the collectives from
 // the run's driver only, one at a time (rayon's workers never reach them), which is the
@@ -81,6 +85,32 @@ impl Team for MpiTeam {
         s.flags.extend_from_slice(flags);
         self.world
             .all_reduce_into(&s.flags[..], flags, SystemOperation::logical_or());
+    }
+
+    fn trade(&self, out: &[Vec<Real>], inp: &mut [Vec<Real>]) {
+        // Round k pairs each rank with the one k after it (to send) and k before it (to
+        // receive), so every ordered pair meets in exactly one round and no receive waits on a
+        // send that is not already posted. Every rank knows every message's length (the halo is
+        // computed alike everywhere), so an empty one is neither sent nor awaited.
+        let (rank, size) = (self.rank, self.size);
+        for k in 1..size {
+            let (to, from) = ((rank + k) % size, (rank + size - k) % size);
+            mpi::request::scope(|scope| {
+                let sent = (!out[to].is_empty()).then(|| {
+                    self.world
+                        .process_at_rank(to as i32)
+                        .immediate_send(scope, &out[to][..])
+                });
+                if !inp[from].is_empty() {
+                    self.world
+                        .process_at_rank(from as i32)
+                        .receive_into(&mut inp[from][..]);
+                }
+                if let Some(r) = sent {
+                    r.wait();
+                }
+            });
+        }
     }
 }
 

@@ -195,16 +195,53 @@ pub struct Integrator {
 struct Shared {
     team: std::sync::Arc<dyn Team>,
     share: Share,
-    /// Nodes whose velocities the sparse bookkeeping reads after sweep 2 (loaded and prescribed
-    /// ones), ascending, so grouped by owner; `parts` indexes them per rank.
+    /// Nodes whose velocities and forces the sparse bookkeeping reads (loaded and prescribed
+    /// ones), ascending, so grouped by owner; `parts` indexes them per rank, `parts3` the
+    /// three components of each.
     special: Vec<usize>,
     parts: Vec<std::ops::Range<usize>>,
+    parts3: Vec<std::ops::Range<usize>>,
+    /// Index in `special` of each prescribed DOF's node.
+    dof_slot: Vec<usize>,
     buf: Vec<Real>,
-    /// Whether `state.v` holds other ranks' stale values (only this rank's nodes and the
-    /// special ones are current): velocities are gathered in full only when something reads
-    /// them all (output, checks, contact, breaking), which saves three of the seven values per
-    /// node a step would otherwise move.
+    /// The special nodes' forces at u(t), three components each.
+    forces: Vec<Real>,
+    /// Messages of a halo trade, per rank (kept: a step allocates nothing).
+    out: Vec<Vec<Real>>,
+    inp: Vec<Vec<Real>>,
+    /// Whether `state.u`, `state.pool` and `state.v` hold stale values at other ranks' nodes.
+    /// A step makes current only what the next step reads: displacements and pools on this
+    /// rank's nodes and its ghosts, velocities on its nodes and the special ones. Whatever
+    /// reads the whole state first gathers the rest ([`Integrator::gather_state`]).
+    stale_u: bool,
+    stale_pool: bool,
     v_partial: bool,
+}
+
+impl Shared {
+    /// Send this rank's values of `fields` at the nodes its peers read and take theirs at its
+    /// ghosts (one message per peer, a node's fields side by side).
+    fn trade(&mut self, fields: &mut [&mut [Real]]) {
+        let k = fields.len();
+        let halo = &self.share.halo;
+        for (o, nodes) in self.out.iter_mut().zip(&halo.send) {
+            o.clear();
+            for &i in nodes {
+                o.extend(fields.iter().map(|f| f[i as usize]));
+            }
+        }
+        for (i, nodes) in self.inp.iter_mut().zip(&halo.recv) {
+            i.resize(k * nodes.len(), 0.0);
+        }
+        self.team.trade(&self.out, &mut self.inp);
+        for (inp, nodes) in self.inp.iter().zip(&halo.recv) {
+            for (vals, &i) in inp.chunks_exact(k).zip(nodes) {
+                for (f, &v) in fields.iter_mut().zip(vals) {
+                    f[i as usize] = v;
+                }
+            }
+        }
+    }
 }
 
 impl Integrator {
@@ -610,12 +647,12 @@ impl Integrator {
     /// one process.
     pub fn distribute(&mut self, body: &Body, team: std::sync::Arc<dyn Team>) {
         self.team = (team.size() > 1).then(|| {
-            let share = Share::new(body, team.size(), team.rank());
             let mut special: Vec<usize> = self.loaded.iter().map(|l| l.0).collect();
             special.extend(self.dofs.iter().map(|d| d.node));
             special.sort_unstable();
             special.dedup();
-            let parts = share
+            let share = Share::new(body, team.size(), team.rank(), &special);
+            let parts: Vec<_> = share
                 .nodes
                 .iter()
                 .map(|r| {
@@ -623,12 +660,26 @@ impl Integrator {
                         ..special.partition_point(|&i| i < r.end)
                 })
                 .collect();
+            let parts3 = parts.iter().map(|p| 3 * p.start..3 * p.end).collect();
+            let dof_slot = self
+                .dofs
+                .iter()
+                .map(|d| special.partition_point(|&i| i < d.node))
+                .collect();
+            let size = team.size();
             Shared {
                 team,
                 share,
                 buf: vec![0.0; special.len()],
+                forces: vec![0.0; 3 * special.len()],
                 special,
                 parts,
+                parts3,
+                dof_slot,
+                out: vec![Vec::new(); size],
+                inp: vec![Vec::new(); size],
+                stale_u: false,
+                stale_pool: false,
                 v_partial: false,
             }
         });
@@ -644,40 +695,61 @@ impl Integrator {
         self.team.as_ref().map(|t| &t.share)
     }
 
-    /// Make every node's velocity current on this process (a shared integrator's steps keep only
-    /// its own nodes' and the loaded and prescribed ones'). Whatever reads `state.v` as a whole
-    /// calls it first: output, checkpoints, checks, breaking. Collective: every member calls it
-    /// at the same point. Alone, or when current, it does nothing.
-    pub fn gather_velocities(&mut self, state: &mut State) {
-        if let Some(t) = self.team.as_mut() {
-            if t.v_partial {
-                for c in state.v.xyz_mut() {
-                    t.team.gather(c, &t.share.nodes);
-                }
-                t.v_partial = false;
+    /// Make every node's displacement, pool and velocity current on this process (a shared
+    /// integrator's steps keep current only what its next step reads: see [`crate::team`]).
+    /// Whatever reads the state as a whole calls it first: output, checkpoints, checks,
+    /// breaking. Collective: every member calls it at the same point. Alone, or when current,
+    /// it does nothing.
+    pub fn gather_state(&mut self, state: &mut State) {
+        self.current(state, true, true, true);
+    }
+
+    /// Gather what is stale of the displacements, pools and velocities (as asked) from their
+    /// owners. A plate's z components are exact zeros on every rank and are not gathered.
+    fn current(&mut self, state: &mut State, u: bool, pool: bool, v: bool) {
+        let dims = if self.plane { 2 } else { 3 };
+        let Some(t) = self.team.as_mut() else {
+            return;
+        };
+        if u && t.stale_u {
+            for c in state.u.xyz_mut().into_iter().take(dims) {
+                t.team.gather(c, &t.share.nodes);
             }
+            t.stale_u = false;
+        }
+        if pool && t.stale_pool {
+            t.team.gather(&mut state.pool, &t.share.nodes);
+            t.stale_pool = false;
+        }
+        if v && t.v_partial {
+            for c in state.v.xyz_mut().into_iter().take(dims) {
+                t.team.gather(c, &t.share.nodes);
+            }
+            t.v_partial = false;
         }
     }
 
-    /// Sweep 1 on this process's share, then every rank's pools (and with a screen, the
-    /// screen flags) everywhere.
-    fn pools_everywhere(&self, body: &Body, state: &mut State, screen: Real) {
-        match &self.team {
+    /// Sweep 1 on this process's share, then the pools its peers read traded (and with a
+    /// screen, the screen flags or-ed everywhere).
+    fn pools_everywhere(&mut self, body: &Body, state: &mut State, screen: Real) {
+        match &mut self.team {
             None => self.kernel.pools_screened(body, state, screen),
-            Some(Shared { team, share, .. }) => {
-                self.kernel.pools_shared(body, state, screen, Some(share));
-                team.gather(&mut state.pool, &share.nodes);
+            Some(t) => {
+                self.kernel
+                    .pools_shared(body, state, screen, Some(&t.share));
+                t.trade(&mut [&mut state.pool[..]]);
+                t.stale_pool = true;
                 if screen.is_finite() {
-                    team.any(&mut state.hot);
+                    t.team.any(&mut state.hot);
                 }
             }
         }
     }
 
-    /// Sweep 2 on this process's share, then every rank's new displacements and partial sums
-    /// everywhere, and the velocities the step goes on to read (all of them with `contact`,
-    /// else the loaded and prescribed nodes'); the total in chunk order (the bits of one
-    /// process).
+    /// Sweep 2 on this process's share, then the new displacements its peers read (all of
+    /// them, and every velocity, with `contact`, which reads any node), the loaded and
+    /// prescribed nodes' velocities, and the partial sums everywhere; the total in chunk order
+    /// (the bits of one process).
     fn sweep_everywhere(
         &mut self,
         body: &Body,
@@ -699,30 +771,33 @@ impl Integrator {
         let Some(t) = self.team.as_mut() else {
             return own;
         };
-        let (team, share) = (&t.team, &t.share);
         // A plate's z components stay exact zeros on every rank (no force, load or
         // acceleration acts along z), so they need no exchange.
         let dims = params.dims(body.lattice.dim());
-        for c in self.u_next.xyz_mut().into_iter().take(dims) {
-            team.gather(c, &share.nodes);
-        }
         if contact {
+            for c in self.u_next.xyz_mut().into_iter().take(dims) {
+                t.team.gather(c, &t.share.nodes);
+            }
             for c in state.v.xyz_mut().into_iter().take(dims) {
-                team.gather(c, &share.nodes);
+                t.team.gather(c, &t.share.nodes);
             }
             t.v_partial = false;
         } else {
+            let mut u = self.u_next.xyz_mut();
+            t.trade(&mut u[..dims]);
+            t.stale_u = true;
             for c in state.v.xyz_mut().into_iter().take(dims) {
                 for (b, &i) in t.buf.iter_mut().zip(&t.special) {
                     *b = c[i];
                 }
-                team.gather(&mut t.buf, &t.parts);
+                t.team.gather(&mut t.buf, &t.parts);
                 for (&b, &i) in t.buf.iter().zip(&t.special) {
                     c[i] = b;
                 }
             }
             t.v_partial = true;
         }
+        let (team, share) = (&t.team, &t.share);
         let parts = share.chunk_parts(2);
         let p = &mut self.partials;
         // SAFETY: `SweepSums` is `repr(C)` with two `Real` fields and no padding, so `p` is
@@ -807,6 +882,10 @@ impl Integrator {
             s
         };
         self.pools_everywhere(body, state, screen);
+        if state.hot.iter().any(|&h| h) {
+            // The breaker reads both ends of every flagged spring, wherever it is.
+            self.current(state, true, true, false);
+        }
         b.break_in_step(body, state, self);
         if self.synced != state.breaks() {
             self.sync(body, state);
@@ -842,8 +921,8 @@ impl Integrator {
         self.contact.clear();
         self.v_contact.clear();
         if interaction.is_some() {
-            // Contact reads the velocities of whichever nodes come near.
-            self.gather_velocities(state);
+            // Contact reads the displacements and velocities of whichever nodes come near.
+            self.current(state, true, false, true);
         }
         if let Some(it) = interaction.as_mut() {
             it.forces(body, state, dt, &mut self.contact);
@@ -868,14 +947,27 @@ impl Integrator {
             let i = d.node;
             self.v_before
                 .push([state.v.x()[i], state.v.y()[i], state.v.z()[i]]);
-            self.f_before.push(crate::law::node_force(
-                body,
-                body.q,
-                &state.u,
-                state.springs(body),
-                &state.pool,
-                i,
-            ));
+        }
+        let force =
+            |i| crate::law::node_force(body, body.q, &state.u, state.springs(body), &state.pool, i);
+        match self.team.as_mut() {
+            None => self
+                .f_before
+                .extend(self.dofs.iter().map(|d| force(d.node))),
+            Some(t) if !self.dofs.is_empty() => {
+                // Each rank has current neighbours for its own nodes only: owners compute the
+                // forces, everyone gathers them.
+                let mine = t.parts[t.share.rank].clone();
+                for k in mine {
+                    t.forces[3 * k..3 * k + 3].copy_from_slice(&force(t.special[k]));
+                }
+                t.team.gather(&mut t.forces, &t.parts3);
+                for &k in &t.dof_slot {
+                    let f = &t.forces[3 * k..3 * k + 3];
+                    self.f_before.push([f[0], f[1], f[2]]);
+                }
+            }
+            Some(_) => {}
         }
         let params = StepParams {
             dt,
@@ -988,7 +1080,7 @@ impl Integrator {
         for s in 0..steps {
             self.step(body, state);
             if (s + 1) % 64 == 0 || s + 1 == steps {
-                self.gather_velocities(state);
+                self.gather_state(state);
                 self.check(body, state)?;
             }
         }

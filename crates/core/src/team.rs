@@ -7,20 +7,25 @@
 //! a contiguous range of whole node chunks ([`crate::kernel::CHUNK`] nodes each) and
 //!
 //! - sweep 1: computes the records of the springs in its nodes' rows and its nodes' pools
-//!   `p_n`, which the ranks then exchange (the pools of a spring's far end are read by sweep 2
-//!   and by the fracture criteria);
-//! - sweep 2: forces, kick and drift of its own nodes, after which the ranks exchange the new
-//!   displacements, the half-step velocities and the per-chunk partial sums (damping,
-//!   body-force work).
+//!   `p_n`, and sends the pools its neighbours' sweeps read (its [`Halo`]);
+//! - sweep 2: forces, kick and drift of its own nodes, after which it sends the new
+//!   displacements through the same halo; the per-chunk partial sums (damping, body-force
+//!   work) and the loaded and prescribed nodes' velocities and forces are all-gathered.
+//!
+//! Between steps a rank's copy of the other ranks' nodes is therefore current only on its
+//! ghost nodes (the far ends of its springs, and the loaded and prescribed nodes, which every
+//! rank's bookkeeping reads). Whatever reads the whole state (output, checkpoints, the
+//! blow-up check, contact, the fracture criteria's decisions) first makes every node current
+//! with all-gathers (`Integrator::gather_state`), so every rank still sees one state there.
 //!
 //! Each value is computed by exactly the operations one process would use, and the partial
 //! sums are added in chunk order on every rank, so any number of ranks gives the bits of one.
 //! A spring that crosses two ranks is computed by both from the same displacements, and its
 //! fate (broken or not) is decided by the same replicated criterion: identically on both.
 //!
-//! This is a replicated-data decomposition: the memory per rank does not shrink with the
-//! number of ranks, and each rank receives every other rank's `7 n` values per step
-//! (`docs/mpi.md` says what that costs and where it stops scaling). The transport is behind
+//! The memory per rank does not shrink with the number of ranks (every rank holds the whole
+//! body); what a step moves does: a rank receives its ghosts' `1 + dim` values, the nodes
+//! along its cuts, not every node (`docs/mpi.md`, `docs/scaling.md`). The transport is behind
 //! [`Team`]: MPI in the `hooke` binary (feature `mpi`), threads in the tests.
 
 use std::ops::Range;
@@ -43,6 +48,33 @@ pub trait Team: Send + Sync + std::fmt::Debug {
     fn gather(&self, data: &mut [Real], parts: &[Range<usize>]);
     /// Logical or of `flags` over the ranks, in place.
     fn any(&self, flags: &mut [bool]);
+    /// Point to point: send `out[s]` to each rank s whose `out[s]` is not empty, and fill each
+    /// non-empty `inp[s]` with what rank s sends. Each rank's lengths must match its peers'
+    /// (a [`Halo`] computed alike on every rank guarantees it); `out[rank]` and `inp[rank]` are
+    /// empty.
+    fn trade(&self, out: &[Vec<Real>], inp: &mut [Vec<Real>]);
+}
+
+/// The nodes a rank trades with each other rank every step: those whose values the other
+/// rank's sweeps and bookkeeping read.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Halo {
+    /// Per rank s: this rank's nodes that s reads, ascending (empty for this rank).
+    pub send: Vec<Vec<u32>>,
+    /// Per rank s: rank s's nodes that this rank reads (its ghosts there), ascending.
+    pub recv: Vec<Vec<u32>>,
+}
+
+impl Halo {
+    /// Ghost nodes in all.
+    pub fn ghosts(&self) -> usize {
+        self.recv.iter().map(Vec::len).sum()
+    }
+
+    /// Messages this rank sends per trade.
+    pub fn messages(&self) -> usize {
+        self.send.iter().filter(|s| !s.is_empty()).count()
+    }
 }
 
 /// One process's share of the sweeps of a body (see the module docs).
@@ -58,12 +90,16 @@ pub struct Share {
     /// Springs of this rank's rows outside `springs` (upper end here, lower end on a rank
     /// before): their records are computed one by one. Ascending.
     pub foreign: Vec<u32>,
+    /// What this rank trades with the others each step.
+    pub halo: Halo,
 }
 
 impl Share {
     /// Split the node chunks of `body` into `size` contiguous ranges of about equal spring
-    /// count (each spring counted from both ends), and describe rank `rank`'s share.
-    pub fn new(body: &Body, size: usize, rank: usize) -> Share {
+    /// count (each spring counted from both ends), and describe rank `rank`'s share. `everyone`
+    /// are nodes that every rank reads each step (loaded and prescribed ones): they are in
+    /// every rank's halo.
+    pub fn new(body: &Body, size: usize, rank: usize, everyone: &[usize]) -> Share {
         let n = body.nodes();
         let bonds = &body.lattice.bonds;
         let chunks = n.div_ceil(CHUNK);
@@ -106,11 +142,13 @@ impl Share {
             .collect();
         foreign.sort_unstable();
         foreign.dedup();
+        let halo = halo(body, &nodes, rank, everyone);
         Share {
             nodes,
             rank,
             springs,
             foreign,
+            halo,
         }
     }
 
@@ -125,23 +163,28 @@ impl Share {
         r.start / CHUNK..r.end.div_ceil(CHUNK)
     }
 
-    /// Bytes this rank receives per step of the explicit integrator when every other rank sends
-    /// `per_node` values per node of its own (the pools and `dim` displacement components:
-    /// `1 + dim`; with contact, also `dim` velocity components) and 2 partial sums per chunk.
-    /// The loaded and prescribed nodes' velocities and the gathers that breaking, output and
-    /// checks add are not counted.
-    pub fn received_per_step(&self, per_node: usize) -> usize {
+    /// Bytes this rank receives per step of the explicit integrator without contact: its
+    /// ghosts' pools and `dim` displacement components (`1 + dim` values per ghost) and 2
+    /// partial sums per chunk of the other ranks. The loaded and prescribed nodes' velocities
+    /// and forces and the all-gathers that contact, breaking, output and checks add are not
+    /// counted.
+    pub fn received_per_step(&self, dim: usize) -> usize {
         let n = self.nodes.last().map_or(0, |r| r.end);
         let chunks = n.div_ceil(CHUNK);
-        8 * (per_node * (n - self.mine().len()) + 2 * (chunks - self.chunks().len()))
+        8 * ((1 + dim) * self.halo.ghosts() + 2 * (chunks - self.chunks().len()))
     }
 
-    /// Collective operations per step in `dim` dimensions: the all-gathers of the pools, of the
-    /// displacement components, of the velocity components (the loaded and prescribed nodes'
-    /// only, or all with contact) and of the partial sums; a screened fracture criterion adds
-    /// a logical or of the screen flags.
+    /// Messages this rank sends per step without contact: two trades (pools, displacements)
+    /// with each rank in its halo.
+    pub fn messages_per_step(&self) -> usize {
+        2 * self.halo.messages()
+    }
+
+    /// Collective operations per step in `dim` dimensions without contact: the all-gathers of
+    /// the loaded and prescribed nodes' velocity components and forces and of the partial
+    /// sums; a screened fracture criterion adds a logical or of the screen flags.
     pub fn collectives_per_step(dim: usize) -> usize {
-        2 + 2 * dim
+        2 + dim
     }
 
     /// Every rank's node chunks, in units of `per` values per chunk (the partial sums).
@@ -151,6 +194,65 @@ impl Share {
             .map(|r| per * (r.start / CHUNK)..per * r.end.div_ceil(CHUNK))
             .collect()
     }
+}
+
+/// Rank `rank`'s halo when the ranks own `nodes` (see [`Halo`]): the far ends of every spring
+/// that crosses two ranks, the ends of the springs that a rank's sweep 1 computes beyond its
+/// own rows (its spring range is widened to whole blocks), and the `everyone` nodes.
+fn halo(body: &Body, nodes: &[Range<usize>], rank: usize, everyone: &[usize]) -> Halo {
+    let size = nodes.len();
+    let bonds = &body.lattice.bonds;
+    let n = body.nodes();
+    let owner = |i: usize| nodes.partition_point(|r| r.end <= i);
+    let mut send: Vec<Vec<u32>> = vec![Vec::new(); size];
+    let mut recv: Vec<Vec<u32>> = vec![Vec::new(); size];
+    let mut note = |needs: usize, i: usize| {
+        let has = owner(i);
+        if has == needs {
+            return;
+        }
+        if needs == rank {
+            recv[has].push(i as u32);
+        } else if has == rank {
+            send[needs].push(i as u32);
+        }
+    };
+    // Springs are sorted by lower end, so the ranks' rows are consecutive ranges of them.
+    let block = crate::kernel::csr::BLOCK;
+    let m = bonds.len();
+    for (r, own) in nodes.iter().enumerate() {
+        let first = bonds.ends.partition_point(|e| (e[0] as usize) < own.start);
+        let last = bonds.ends.partition_point(|e| (e[0] as usize) < own.end);
+        if first < last {
+            let wide = (first / block * block)..(last.div_ceil(block) * block).min(m);
+            for b in (wide.start..first).chain(last..wide.end) {
+                for e in bonds.ends[b] {
+                    note(r, e as usize);
+                }
+            }
+        }
+    }
+    let mine = nodes[rank].clone();
+    for e in &bonds.ends {
+        let [i, j] = e.map(|v| v as usize);
+        let (oi, oj) = (owner(i), owner(j));
+        if oi != oj && (oi == rank || oj == rank) {
+            note(oi, j);
+            note(oj, i);
+        }
+    }
+    for &i in everyone.iter().filter(|&&i| i < n) {
+        if mine.contains(&i) {
+            (0..size).for_each(|r| note(r, i));
+        } else {
+            note(rank, i);
+        }
+    }
+    for l in send.iter_mut().chain(recv.iter_mut()) {
+        l.sort_unstable();
+        l.dedup();
+    }
+    Halo { send, recv }
 }
 
 /// A team of one: the default (no exchange).
@@ -166,6 +268,7 @@ impl Team for Alone {
     }
     fn gather(&self, _data: &mut [Real], _parts: &[Range<usize>]) {}
     fn any(&self, _flags: &mut [bool]) {}
+    fn trade(&self, _out: &[Vec<Real>], _inp: &mut [Vec<Real>]) {}
 }
 
 /// Ranks as threads of one process, for tests: each rank is a thread with its own body and
@@ -182,6 +285,8 @@ struct ThreadsShared {
     barrier: std::sync::Barrier,
     reals: std::sync::Mutex<Vec<Real>>,
     flags: std::sync::Mutex<Vec<bool>>,
+    /// Messages of a trade: `size x size` slots, the one from rank a to rank b at `a size + b`.
+    mail: std::sync::Mutex<Vec<Vec<Real>>>,
 }
 
 impl Threads {
@@ -192,6 +297,7 @@ impl Threads {
             barrier: std::sync::Barrier::new(size),
             reals: Default::default(),
             flags: Default::default(),
+            mail: std::sync::Mutex::new(vec![Vec::new(); size * size]),
         });
         (0..size)
             .map(|rank| Threads {
@@ -248,6 +354,32 @@ impl Team for Threads {
         flags.copy_from_slice(&s.flags.lock().unwrap());
         s.barrier.wait();
     }
+    fn trade(&self, out: &[Vec<Real>], inp: &mut [Vec<Real>]) {
+        let s = &self.shared;
+        let (me, size) = (self.rank, s.size);
+        {
+            let mut mail = s.mail.lock().unwrap();
+            for (to, o) in out.iter().enumerate() {
+                let slot = &mut mail[me * size + to];
+                slot.clear();
+                slot.extend_from_slice(o);
+            }
+        }
+        s.barrier.wait();
+        {
+            let mail = s.mail.lock().unwrap();
+            for (from, i) in inp.iter_mut().enumerate() {
+                let m = &mail[from * size + me];
+                assert_eq!(
+                    m.len(),
+                    i.len(),
+                    "trade from rank {from} to {me}: lengths differ"
+                );
+                i.copy_from_slice(m);
+            }
+        }
+        s.barrier.wait();
+    }
 }
 
 #[cfg(test)]
@@ -257,7 +389,8 @@ mod tests {
     use crate::Lattice;
 
     /// The shares cover every node once, in whole chunks, and every spring of a rank's rows
-    /// is in its range or in its foreign list.
+    /// is in its range or in its foreign list; each rank receives from every other what that
+    /// one sends it, and that covers every node its sweeps read.
     #[test]
     fn shares_cover_nodes_and_rows() {
         let lat = Lattice::random(
@@ -274,7 +407,10 @@ mod tests {
         let n = body.nodes();
         assert!(n > 3 * CHUNK, "{n} nodes");
         for size in 1..=4 {
-            let shares: Vec<Share> = (0..size).map(|r| Share::new(&body, size, r)).collect();
+            let everyone = [5, n / 2, n - 1];
+            let shares: Vec<Share> = (0..size)
+                .map(|r| Share::new(&body, size, r, &everyone))
+                .collect();
             let mut next = 0;
             for s in &shares {
                 assert_eq!(s.nodes, shares[0].nodes);
@@ -283,14 +419,42 @@ mod tests {
                 assert!(m.start % CHUNK == 0);
                 next = m.end;
                 let bonds = &body.lattice.bonds;
-                for i in m {
+                let mut reads: std::collections::BTreeSet<u32> =
+                    everyone.iter().map(|&i| i as u32).collect();
+                for i in m.clone() {
                     for e in bonds.row(i) {
                         let b = bonds.bond[e];
                         assert!(s.springs.contains(&(b as usize)) || s.foreign.contains(&b));
                     }
                 }
+                for b in s
+                    .springs
+                    .clone()
+                    .chain(s.foreign.iter().map(|&b| b as usize))
+                {
+                    reads.extend(bonds.ends[b]);
+                }
+                let ghosts: std::collections::BTreeSet<u32> =
+                    s.halo.recv.iter().flatten().copied().collect();
+                let outside: Vec<u32> = reads
+                    .into_iter()
+                    .filter(|&i| !m.contains(&(i as usize)))
+                    .collect();
+                assert!(outside.iter().all(|i| ghosts.contains(i)));
+                assert_eq!(ghosts.len(), outside.len(), "no ghost more than needed");
+                for (r, t) in shares.iter().enumerate() {
+                    assert_eq!(s.halo.recv[r], t.halo.send[s.rank]);
+                    assert!(s.halo.recv[r]
+                        .iter()
+                        .all(|&i| t.mine().contains(&(i as usize))));
+                }
             }
             assert_eq!(next, n);
+            if size == 2 {
+                // The cut is a surface: a few percent of the nodes, not half of them.
+                let g = shares[0].halo.ghosts();
+                assert!(g > 0 && g < n / 8, "{g} ghosts of {n} nodes");
+            }
         }
     }
 }

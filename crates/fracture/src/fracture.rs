@@ -149,6 +149,9 @@ impl Fracture {
         state: &mut State,
         integrator: &mut Integrator,
     ) -> BreakReport {
+        // The decisions read every spring (a shared run keeps only its own nodes and ghosts
+        // current between outputs).
+        integrator.gather_state(state);
         self.decide(body, state);
         let report = self.commit(body, state, Some(&mut *integrator));
         integrator.add_released(report.released);
@@ -205,8 +208,8 @@ impl Fracture {
         let bonds = &body.lattice.bonds;
         if let Some(it) = integrator.as_deref_mut() {
             // The released energy reads the touched nodes' velocities (a shared run keeps only
-            // its own current between outputs).
-            it.gather_velocities(state);
+            // its own and its ghosts' state current between outputs).
+            it.gather_state(state);
         }
         let back = integrator.as_deref().map(|it| it.dt);
         self.touched.clear();

@@ -189,7 +189,9 @@ impl VtkSeries {
             ));
         }
         text.push_str("    </PPointData>\n    <PPoints>\n      <PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n    </PPoints>\n");
-        for r in 0..p.nodes.len() {
+        // A process that owns no nodes writes no piece (a VTK piece with no points is not one
+        // that every reader accepts: meshio refuses it).
+        for r in (0..p.nodes.len()).filter(|&r| !p.nodes[r].is_empty()) {
             text.push_str(&format!(
                 "    <Piece Source=\"{}\"/>\n",
                 piece_name(&self.stem, p.step, r)
@@ -234,7 +236,8 @@ impl VtkSeries {
         &self.frames
     }
 
-    /// Write one frame of `state` and update the collection. Returns the frame's path.
+    /// Write one frame of `state` and update the collection. Returns the frame's path (in
+    /// pieces: this process's piece, which is not written when it owns no nodes).
     pub fn write(
         &mut self,
         body: &Body,
@@ -246,7 +249,9 @@ impl VtkSeries {
             let vtk = frame_vtk_nodes(body, state, extras, self.springs, p.nodes[p.rank].clone());
             p.arrays = point_arrays(&vtk);
             (p.step, p.time) = (state.step, state.time);
-            write_vtu(&path, vtk)?;
+            if !p.nodes[p.rank].is_empty() {
+                write_vtu(&path, vtk)?;
+            }
             return Ok(path);
         }
         let name = format!("{}_{:06}.vtu", self.stem, state.step);

@@ -477,7 +477,7 @@ impl Run {
         let sim = &mut self.sim;
         // Everything that settles goes on to read the whole state (output, energy, reactions):
         // a shared run's velocities are made current here.
-        self.it.gather_velocities(&mut sim.state);
+        self.it.gather_state(&mut sim.state);
         if let Some(fr) = sim.fracture.as_mut() {
             fr.settle(&sim.body, &mut sim.state, &mut self.it);
         }
@@ -529,7 +529,7 @@ impl Run {
         }
         if sim.state.step.is_multiple_of(64) {
             // Every member holds the same state: an instability stops all of them alike.
-            self.it.gather_velocities(&mut sim.state);
+            self.it.gather_state(&mut sim.state);
             self.it.check(&sim.body, &sim.state)?;
         }
         let written = self.write_due();
@@ -587,7 +587,7 @@ impl Run {
             self.next_reactions = self.next_reactions.map(|n| n + every);
         }
         if time >= self.next_frame - half || done {
-            self.it.gather_velocities(&mut self.sim.state);
+            self.it.gather_state(&mut self.sim.state);
             self.it.check(&self.sim.body, &self.sim.state)?;
             self.next_frame += self.sim.output_every;
             self.write_frame()?;
