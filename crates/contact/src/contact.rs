@@ -35,7 +35,7 @@
 //! Forces are gathered per node in a fixed order, so results are bit-identical for any thread
 //! count.
 
-use hooke_core::dynamics::Interaction;
+use hooke_core::dynamics::{Interaction, Reads};
 use hooke_core::team::Team;
 use hooke_core::{Body, Coords, Real, State};
 use rayon::prelude::*;
@@ -130,6 +130,12 @@ pub struct Contact {
     /// by (see [`Contact::lists_valid`]; sized by [`Contact::distribute`]).
     moves: Vec<Real>,
     one_each: Vec<std::ops::Range<usize>>,
+    /// Every node the forces read while the lists hold (the candidates, the fragment nodes and
+    /// their neighbours), ascending: what a shared run makes current (see
+    /// [`Interaction::reads`]).
+    read_nodes: Vec<u32>,
+    /// Whether the lists hold, as [`Interaction::reads`] found before this step's forces.
+    checked: Option<bool>,
 }
 
 /// Reals per candidate in `Contact::hits`.
@@ -140,8 +146,9 @@ impl Contact {
     /// `team` (each process holds the same contact, see `hooke_core::team`): each evaluates a
     /// contiguous part of every body's candidates and the results are gathered, then every
     /// process sums them in candidate order, so the forces, reactions and energies are the bits
-    /// of one process. Needs every node's velocity current on every process when friction
-    /// acts (a shared integrator gathers them on steps with contact).
+    /// of one process. Needs the displacements and velocities of the nodes its lists hold
+    /// current on every process, and of every node when it rebuilds them: a shared integrator
+    /// gathers what [`Interaction::reads`] asks for before each step's forces.
     pub fn distribute(&mut self, team: std::sync::Arc<dyn Team>) {
         self.moves = vec![0.0; team.size()];
         self.one_each = (0..team.size()).map(|r| r..r + 1).collect();
@@ -205,6 +212,8 @@ impl Contact {
             history: Vec::new(),
             record_every: 1,
             team: None,
+            read_nodes: Vec::new(),
+            checked: None,
             hits: Vec::new(),
             parts: Vec::new(),
             moves: Vec::new(),
@@ -314,7 +323,13 @@ impl Contact {
     }
 
     /// Whether the lists built at the last rebuild still hold every pair that can be in range.
-    fn lists_valid(&mut self, body: &Body, u: &Coords) -> bool {
+    /// Shared between processes, each looks at `own` nodes (by default a slice of its own).
+    fn lists_valid(
+        &mut self,
+        body: &Body,
+        u: &Coords,
+        own: Option<std::ops::Range<usize>>,
+    ) -> bool {
         if !self.built {
             return false;
         }
@@ -348,7 +363,7 @@ impl Contact {
         let moved = match &self.team {
             None => largest(0..n),
             Some(t) => {
-                let mine = largest(n * rank / size..n * (rank + 1) / size);
+                let mine = largest(own.unwrap_or(n * rank / size..n * (rank + 1) / size));
                 self.moves[rank] = mine;
                 t.gather(&mut self.moves, &self.one_each);
                 self.moves.iter().fold(0.0 as Real, |m, &x| m.max(x))
@@ -371,6 +386,20 @@ impl Contact {
     }
 
     fn rebuild(&mut self, body: &Body, state: &State) {
+        self.rebuild_lists(body, state);
+        let mut r = std::mem::take(&mut self.read_nodes);
+        r.clear();
+        for c in &self.candidates {
+            r.extend_from_slice(c);
+        }
+        r.extend_from_slice(&self.frag_nodes);
+        r.extend_from_slice(&self.frag_nbr);
+        r.sort_unstable();
+        r.dedup();
+        self.read_nodes = r;
+    }
+
+    fn rebuild_lists(&mut self, body: &Body, state: &State) {
         self.rebuilds += 1;
         self.built = true;
         let n = body.nodes();
@@ -557,8 +586,24 @@ impl Contact {
 }
 
 impl Interaction for Contact {
+    fn reads(&mut self, body: &Body, state: &State, nodes: &[std::ops::Range<usize>]) -> Reads<'_> {
+        // Each process checks the nodes it owns, whose displacements it holds current.
+        let own = self.team.as_ref().map(|t| nodes[t.rank()].clone());
+        let valid = self.lists_valid(body, &state.u, own);
+        self.checked = Some(valid);
+        if valid {
+            Reads::Nodes(&self.read_nodes)
+        } else {
+            Reads::All
+        }
+    }
+
     fn forces(&mut self, body: &Body, state: &State, dt: Real, out: &mut Vec<(u32, [Real; 3])>) {
-        if !self.lists_valid(body, &state.u) {
+        let valid = match self.checked.take() {
+            Some(v) => v,
+            None => self.lists_valid(body, &state.u, None),
+        };
+        if !valid {
             self.rebuild(body, state);
         }
         let t = state.time;

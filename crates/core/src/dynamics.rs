@@ -127,6 +127,29 @@ pub trait Interaction {
     /// half-step velocities `state.v` are `v(t - dt/2)`. Must not allocate in steady state and
     /// must give the same result for any thread count.
     fn forces(&mut self, body: &Body, state: &State, dt: Real, out: &mut Vec<(u32, [Real; 3])>);
+
+    /// The nodes whose displacements and velocities the next [`Interaction::forces`] reads, for
+    /// a run shared between processes, which then makes only those current (see
+    /// [`crate::team`]). Called before every `forces`, by every process alike (it may hold a
+    /// collective operation of `team`, the processes' owned node ranges given). The default
+    /// reads every node.
+    fn reads(
+        &mut self,
+        _body: &Body,
+        _state: &State,
+        _nodes: &[std::ops::Range<usize>],
+    ) -> Reads<'_> {
+        Reads::All
+    }
+}
+
+/// What an [`Interaction`]'s next forces read.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Reads<'a> {
+    /// Any node.
+    All,
+    /// These nodes only (ascending, each once).
+    Nodes(&'a [u32]),
 }
 
 /// Breaks springs inside a step, between sweep 1 and sweep 2 (fracture, `hooke-fracture`).
@@ -209,6 +232,12 @@ struct Shared {
     /// Messages of a halo trade, per rank (kept: a step allocates nothing).
     out: Vec<Vec<Real>>,
     inp: Vec<Vec<Real>>,
+    /// Values and parts of an all-gather at listed nodes ([`Integrator::current_at`]), and the
+    /// ends of the springs a breaker looks at.
+    listed: Vec<Real>,
+    listed_parts: Vec<std::ops::Range<usize>>,
+    ends: Vec<u32>,
+    springs: Vec<u32>,
     /// Whether `state.u`, `state.pool` and `state.v` hold stale values at other ranks' nodes.
     /// A step makes current only what the next step reads: displacements and pools on this
     /// rank's nodes and its ghosts, velocities on its nodes and the special ones. Whatever
@@ -678,6 +707,10 @@ impl Integrator {
                 dof_slot,
                 out: vec![Vec::new(); size],
                 inp: vec![Vec::new(); size],
+                listed: Vec::new(),
+                listed_parts: Vec::new(),
+                ends: Vec::new(),
+                springs: Vec::new(),
                 stale_u: false,
                 stale_pool: false,
                 v_partial: false,
@@ -729,6 +762,70 @@ impl Integrator {
         }
     }
 
+    /// Make the displacements, pools and velocities (as asked) current at `nodes` only
+    /// (ascending, each once): one all-gather of what their owners hold.
+    fn current_at(&mut self, state: &mut State, nodes: &[u32], u: bool, pool: bool, v: bool) {
+        let dims = if self.plane { 2 } else { 3 };
+        let Some(t) = self.team.as_mut() else {
+            return;
+        };
+        let (u, pool, v) = (u && t.stale_u, pool && t.stale_pool, v && t.v_partial);
+        let k = if u { dims } else { 0 } + usize::from(pool) + if v { dims } else { 0 };
+        if k == 0 {
+            return;
+        }
+        t.listed_parts.clear();
+        t.listed_parts.extend(t.share.nodes.iter().map(|r| {
+            k * nodes.partition_point(|&i| (i as usize) < r.start)
+                ..k * nodes.partition_point(|&i| (i as usize) < r.end)
+        }));
+        t.listed.resize(k * nodes.len(), 0.0);
+        let mine = t.listed_parts[t.share.rank].clone();
+        let (first, last) = (mine.start / k, mine.end / k);
+        let pack = |i: usize, out: &mut [Real]| {
+            let mut c = 0;
+            if u {
+                for d in 0..dims {
+                    out[c] = state.u.comp(d)[i];
+                    c += 1;
+                }
+            }
+            if pool {
+                out[c] = state.pool[i];
+                c += 1;
+            }
+            if v {
+                for d in 0..dims {
+                    out[c] = state.v.comp(d)[i];
+                    c += 1;
+                }
+            }
+        };
+        for (vals, &i) in t.listed[mine].chunks_exact_mut(k).zip(&nodes[first..last]) {
+            pack(i as usize, vals);
+        }
+        t.team.gather(&mut t.listed, &t.listed_parts);
+        for (vals, &i) in t.listed.chunks_exact(k).zip(nodes) {
+            let (i, mut c) = (i as usize, 0);
+            if u {
+                for d in 0..dims {
+                    state.u.comp_mut(d)[i] = vals[c];
+                    c += 1;
+                }
+            }
+            if pool {
+                state.pool[i] = vals[c];
+                c += 1;
+            }
+            if v {
+                for d in 0..dims {
+                    state.v.comp_mut(d)[i] = vals[c];
+                    c += 1;
+                }
+            }
+        }
+    }
+
     /// Sweep 1 on this process's share, then the pools its peers read traded (and with a
     /// screen, the screen flags or-ed everywhere).
     fn pools_everywhere(&mut self, body: &Body, state: &mut State, screen: Real) {
@@ -746,16 +843,14 @@ impl Integrator {
         }
     }
 
-    /// Sweep 2 on this process's share, then the new displacements its peers read (all of
-    /// them, and every velocity, with `contact`, which reads any node), the loaded and
-    /// prescribed nodes' velocities, and the partial sums everywhere; the total in chunk order
-    /// (the bits of one process).
+    /// Sweep 2 on this process's share, then the new displacements its peers read, the loaded
+    /// and prescribed nodes' velocities, and the partial sums everywhere; the total in chunk
+    /// order (the bits of one process).
     fn sweep_everywhere(
         &mut self,
         body: &Body,
         state: &mut State,
         params: &StepParams,
-        contact: bool,
     ) -> crate::kernel::SweepSums {
         let all = 0..body.nodes().div_ceil(crate::kernel::CHUNK);
         let chunks = self.team.as_ref().map_or(all, |t| t.share.chunks());
@@ -774,29 +869,19 @@ impl Integrator {
         // A plate's z components stay exact zeros on every rank (no force, load or
         // acceleration acts along z), so they need no exchange.
         let dims = params.dims(body.lattice.dim());
-        if contact {
-            for c in self.u_next.xyz_mut().into_iter().take(dims) {
-                t.team.gather(c, &t.share.nodes);
+        let mut u = self.u_next.xyz_mut();
+        t.trade(&mut u[..dims]);
+        t.stale_u = true;
+        for c in state.v.xyz_mut().into_iter().take(dims) {
+            for (b, &i) in t.buf.iter_mut().zip(&t.special) {
+                *b = c[i];
             }
-            for c in state.v.xyz_mut().into_iter().take(dims) {
-                t.team.gather(c, &t.share.nodes);
+            t.team.gather(&mut t.buf, &t.parts);
+            for (&b, &i) in t.buf.iter().zip(&t.special) {
+                c[i] = b;
             }
-            t.v_partial = false;
-        } else {
-            let mut u = self.u_next.xyz_mut();
-            t.trade(&mut u[..dims]);
-            t.stale_u = true;
-            for c in state.v.xyz_mut().into_iter().take(dims) {
-                for (b, &i) in t.buf.iter_mut().zip(&t.special) {
-                    *b = c[i];
-                }
-                t.team.gather(&mut t.buf, &t.parts);
-                for (&b, &i) in t.buf.iter().zip(&t.special) {
-                    c[i] = b;
-                }
-            }
-            t.v_partial = true;
         }
+        t.v_partial = true;
         let (team, share) = (&t.team, &t.share);
         let parts = share.chunk_parts(2);
         let p = &mut self.partials;
@@ -882,9 +967,23 @@ impl Integrator {
             s
         };
         self.pools_everywhere(body, state, screen);
-        if state.hot.iter().any(|&h| h) {
+        if self.team.is_some() && state.hot.iter().any(|&h| h) {
             // The breaker reads both ends of every flagged spring, wherever it is.
-            self.current(state, true, true, false);
+            let t = self.team.as_mut().expect("shared");
+            let (mut springs, mut ends) =
+                (std::mem::take(&mut t.springs), std::mem::take(&mut t.ends));
+            self.kernel.hot_springs(body, state, &mut springs);
+            ends.clear();
+            ends.extend(
+                springs
+                    .iter()
+                    .flat_map(|&b| body.lattice.bonds.ends[b as usize]),
+            );
+            ends.sort_unstable();
+            ends.dedup();
+            self.current_at(state, &ends, true, true, false);
+            let t = self.team.as_mut().expect("shared");
+            (t.springs, t.ends) = (springs, ends);
         }
         b.break_in_step(body, state, self);
         if self.synced != state.breaks() {
@@ -920,9 +1019,15 @@ impl Integrator {
         let t = state.time;
         self.contact.clear();
         self.v_contact.clear();
-        if interaction.is_some() {
-            // Contact reads the displacements and velocities of whichever nodes come near.
-            self.current(state, true, false, true);
+        if let (Some(it), Some(t)) = (interaction.as_mut(), self.team.as_ref()) {
+            // Contact reads the displacements and velocities of whichever nodes come near: of
+            // those its lists hold, or of all when it rebuilds them.
+            match it.reads(body, state, &t.share.nodes) {
+                Reads::All => self.current(state, true, false, true),
+                Reads::Nodes(list) => {
+                    self.current_at(state, list, true, false, true);
+                }
+            }
         }
         if let Some(it) = interaction.as_mut() {
             it.forces(body, state, dt, &mut self.contact);
@@ -975,7 +1080,17 @@ impl Integrator {
             accel: self.loading.body_acceleration.into(),
             plane: self.plane,
         };
-        let sums = self.sweep_everywhere(body, state, &params, interaction.is_some());
+        let sums = self.sweep_everywhere(body, state, &params);
+        if let (Some(t), false) = (self.team.as_mut(), self.contact.is_empty()) {
+            // The contact kick below reads the sweep's velocities of the nodes it acts on.
+            let mut nodes = std::mem::take(&mut t.ends);
+            nodes.clear();
+            nodes.extend(self.contact.iter().map(|c| c.0));
+            nodes.sort_unstable();
+            nodes.dedup();
+            self.current_at(state, &nodes, false, false, true);
+            self.team.as_mut().expect("shared").ends = nodes;
+        }
         self.ledger.dissipated += sums.dissipated;
         self.ledger.body_work += sums.body_work;
         // External loads: the sweep kicked without them; add their share of the kick (linear in
