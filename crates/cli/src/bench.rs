@@ -298,11 +298,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
             .map_or(0, |s| s.received_per_step(body.lattice.dim())),
         halo_messages_per_step: it.share().map_or(0, |s| s.messages_per_step()),
         ghost_nodes: it.share().map_or(0, |s| s.halo.ghosts()),
-        collectives_per_step: if it.share().is_some() {
-            hooke_core::team::Share::collectives_per_step(body.lattice.dim())
-        } else {
-            0
-        },
+        collectives_per_step: it.collectives_per_step(),
     };
     if crate::quiet() {
         return Ok(());

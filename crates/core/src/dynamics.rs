@@ -219,14 +219,12 @@ struct Shared {
     team: std::sync::Arc<dyn Team>,
     share: Share,
     /// Nodes whose velocities and forces the sparse bookkeeping reads (loaded and prescribed
-    /// ones), ascending, so grouped by owner; `parts` indexes them per rank, `parts3` the
-    /// three components of each.
-    special: Vec<usize>,
-    parts: Vec<std::ops::Range<usize>>,
+    /// ones), ascending, so grouped by owner; `parts3` indexes their forces' three components
+    /// per rank.
+    special: Vec<u32>,
     parts3: Vec<std::ops::Range<usize>>,
     /// Index in `special` of each prescribed DOF's node.
     dof_slot: Vec<usize>,
-    buf: Vec<Real>,
     /// The special nodes' forces at u(t), three components each.
     forces: Vec<Real>,
     /// Messages of a halo trade, per rank (kept: a step allocates nothing).
@@ -681,28 +679,26 @@ impl Integrator {
             special.sort_unstable();
             special.dedup();
             let share = Share::new(body, team.size(), team.rank(), &special);
-            let parts: Vec<_> = share
+            let parts3 = share
                 .nodes
                 .iter()
                 .map(|r| {
-                    special.partition_point(|&i| i < r.start)
-                        ..special.partition_point(|&i| i < r.end)
+                    3 * special.partition_point(|&i| i < r.start)
+                        ..3 * special.partition_point(|&i| i < r.end)
                 })
                 .collect();
-            let parts3 = parts.iter().map(|p| 3 * p.start..3 * p.end).collect();
             let dof_slot = self
                 .dofs
                 .iter()
                 .map(|d| special.partition_point(|&i| i < d.node))
                 .collect();
+            let special: Vec<u32> = special.into_iter().map(|i| i as u32).collect();
             let size = team.size();
             Shared {
                 team,
                 share,
-                buf: vec![0.0; special.len()],
                 forces: vec![0.0; 3 * special.len()],
                 special,
-                parts,
                 parts3,
                 dof_slot,
                 out: vec![Vec::new(); size],
@@ -721,6 +717,16 @@ impl Integrator {
     /// The team this integrator shares its steps with, if any.
     pub fn team(&self) -> Option<&dyn Team> {
         self.team.as_ref().map(|t| &*t.team)
+    }
+
+    /// Collective operations per step of a shared run without contact and without springs
+    /// near breaking: the all-gathers of the partial sums, of the loaded and prescribed nodes'
+    /// velocities (if any) and of the prescribed nodes' forces (if any); a screened fracture
+    /// criterion adds a logical or of the screen flags. Zero alone.
+    pub fn collectives_per_step(&self) -> usize {
+        self.team.as_ref().map_or(0, |t| {
+            1 + usize::from(!t.special.is_empty()) + usize::from(!self.dofs.is_empty())
+        })
     }
 
     /// This process's share of the steps, if shared.
@@ -771,7 +777,8 @@ impl Integrator {
         };
         let (u, pool, v) = (u && t.stale_u, pool && t.stale_pool, v && t.v_partial);
         let k = if u { dims } else { 0 } + usize::from(pool) + if v { dims } else { 0 };
-        if k == 0 {
+        // Every rank holds the same list: all skip alike.
+        if k == 0 || nodes.is_empty() {
             return;
         }
         t.listed_parts.clear();
@@ -843,9 +850,8 @@ impl Integrator {
         }
     }
 
-    /// Sweep 2 on this process's share, then the new displacements its peers read, the loaded
-    /// and prescribed nodes' velocities, and the partial sums everywhere; the total in chunk
-    /// order (the bits of one process).
+    /// Sweep 2 on this process's share, then the new displacements its peers read and the
+    /// partial sums everywhere; the total in chunk order (the bits of one process).
     fn sweep_everywhere(
         &mut self,
         body: &Body,
@@ -872,15 +878,6 @@ impl Integrator {
         let mut u = self.u_next.xyz_mut();
         t.trade(&mut u[..dims]);
         t.stale_u = true;
-        for c in state.v.xyz_mut().into_iter().take(dims) {
-            for (b, &i) in t.buf.iter_mut().zip(&t.special) {
-                *b = c[i];
-            }
-            t.team.gather(&mut t.buf, &t.parts);
-            for (&b, &i) in t.buf.iter().zip(&t.special) {
-                c[i] = b;
-            }
-        }
         t.v_partial = true;
         let (team, share) = (&t.team, &t.share);
         let parts = share.chunk_parts(2);
@@ -1062,9 +1059,9 @@ impl Integrator {
             Some(t) if !self.dofs.is_empty() => {
                 // Each rank has current neighbours for its own nodes only: owners compute the
                 // forces, everyone gathers them.
-                let mine = t.parts[t.share.rank].clone();
-                for k in mine {
-                    t.forces[3 * k..3 * k + 3].copy_from_slice(&force(t.special[k]));
+                let mine = t.parts3[t.share.rank].clone();
+                for k in mine.start / 3..mine.end / 3 {
+                    t.forces[3 * k..3 * k + 3].copy_from_slice(&force(t.special[k] as usize));
                 }
                 t.team.gather(&mut t.forces, &t.parts3);
                 for &k in &t.dof_slot {
@@ -1081,10 +1078,12 @@ impl Integrator {
             plane: self.plane,
         };
         let sums = self.sweep_everywhere(body, state, &params);
-        if let (Some(t), false) = (self.team.as_mut(), self.contact.is_empty()) {
-            // The contact kick below reads the sweep's velocities of the nodes it acts on.
+        if let Some(t) = self.team.as_mut() {
+            // The bookkeeping below reads the sweep's velocities of the loaded and prescribed
+            // nodes and of those contact pushes, whichever rank swept them.
             let mut nodes = std::mem::take(&mut t.ends);
             nodes.clear();
+            nodes.extend_from_slice(&t.special);
             nodes.extend(self.contact.iter().map(|c| c.0));
             nodes.sort_unstable();
             nodes.dedup();

@@ -180,13 +180,6 @@ impl Share {
         2 * self.halo.messages()
     }
 
-    /// Collective operations per step in `dim` dimensions without contact: the all-gathers of
-    /// the loaded and prescribed nodes' velocity components and forces and of the partial
-    /// sums; a screened fracture criterion adds a logical or of the screen flags.
-    pub fn collectives_per_step(dim: usize) -> usize {
-        2 + dim
-    }
-
     /// Every rank's node chunks, in units of `per` values per chunk (the partial sums).
     pub fn chunk_parts(&self, per: usize) -> Vec<Range<usize>> {
         self.nodes
