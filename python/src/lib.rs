@@ -590,6 +590,11 @@ fn command_json(py: Python<'_>, command: &str, flags: Vec<String>) -> PyResult<S
 
 #[pymodule]
 fn _hooke(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    // As the `hooke` binary: calibrations of anisotropic random-lattice materials are kept
+    // between processes ($HOOKE_CACHE, or the user's cache directory).
+    hooke_core::random::anisotropic::set_cache_dir(
+        hooke_core::random::anisotropic::default_cache_dir(),
+    );
     m.add_class::<PySimulation>()?;
     m.add_function(wrap_pyfunction!(load_case, m)?)?;
     m.add_function(wrap_pyfunction!(build, m)?)?;

@@ -23,6 +23,10 @@ fn main() -> ExitCode {
     // Large blocks in mappings of their own, given back when freed: a body's set-up
     // temporaries otherwise stay resident for the whole run (hooke_core::memory).
     hooke_core::memory::map_large_blocks();
+    // Anisotropic random-lattice materials are calibrated once per machine, not once per run.
+    hooke_core::random::anisotropic::set_cache_dir(
+        hooke_core::random::anisotropic::default_cache_dir(),
+    );
     let cli = match hooke_cli::Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {

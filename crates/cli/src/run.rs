@@ -148,6 +148,8 @@ pub fn check(args: CheckArgs) -> Result<()> {
                 "kappa": d.kappa, "kappa_terms": ["xx", "yy", "zz", "yz", "xz", "xy"],
                 "alpha": d.alpha, "axes": d.axes, "sharpness": d.sharpness,
                 "calibration_residuals": cal.residuals, "calibration_seconds": cal.seconds,
+                "calibration_cache_file": cal.cache.as_ref().map(|(p, _)| p.display().to_string()),
+                "calibration_from_cache": cal.cache.as_ref().is_some_and(|c| c.1),
                 "stiffness": m.stiffness()?,
             });
         } else if let Some(m) = &sim.anisotropic {
@@ -197,13 +199,18 @@ pub fn check(args: CheckArgs) -> Result<()> {
             d.alpha[0], d.alpha[1], d.alpha[2], d.q
         );
         println!(
-            "  calibration  largest entry off the target over the largest normal entry: {} ({:.1} s; 4 cubes of 20 spacings)",
+            "  calibration  largest entry off the target over the largest normal entry: {} ({:.1} s; 4 cubes of 20 spacings){}",
             cal.residuals
                 .iter()
                 .map(|r| format!("{r:.2e}"))
                 .collect::<Vec<_>>()
                 .join(" -> "),
-            cal.seconds
+            cal.seconds,
+            match &cal.cache {
+                Some((f, true)) => format!("; read from {}", f.display()),
+                Some((f, false)) => format!("; stored in {}", f.display()),
+                None => String::new(),
+            }
         );
         println!("  stiffness    C (Pa, Voigt xx yy zz yz xz xy, global axes):");
         for row in m.stiffness()? {

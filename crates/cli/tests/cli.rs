@@ -3,8 +3,15 @@
 use std::process::{Command, Output};
 
 fn hooke(args: &[&str]) -> Output {
+    hooke_caching(args, "off")
+}
+
+/// `hooke` keeping its calibrations under `cache` (`off`: nowhere; the tests leave the user's
+/// cache directory alone).
+fn hooke_caching(args: &[&str], cache: &str) -> Output {
     Command::new(env!("CARGO_BIN_EXE_hooke"))
         .args(args)
+        .env("HOOKE_CACHE", cache)
         .output()
         .expect("the hooke binary runs")
 }
@@ -15,10 +22,12 @@ fn stderr(o: &Output) -> String {
 
 /// `hooke moduli --bulk --lattice random3d --transverse`: the calibrated direction functions on
 /// an unseen node set meet the target in the material axes within a few % (one small cube
-/// here; `tests/anisotropy.rs` holds an ensemble to 2 %), with the contract keys.
+/// here; `tests/anisotropy.rs` holds an ensemble to 2 %), with the contract keys. The
+/// calibration goes to the disk cache, and a second process reads it from there and measures
+/// the same bits.
 #[test]
 fn moduli_random3d_transverse_bulk_reports_the_design_and_the_tensor() {
-    let o = hooke(&[
+    let args = [
         "moduli",
         "--bulk",
         "--lattice",
@@ -30,9 +39,29 @@ fn moduli_random3d_transverse_bulk_reports_the_design_and_the_tensor() {
         "--size",
         "21",
         "--json",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    ];
+    let cache = std::env::temp_dir().join(format!("hooke-cli-cache-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&cache);
+    let run = || {
+        let o = hooke_caching(&args, cache.to_str().unwrap());
+        assert!(o.status.success(), "{}", stderr(&o));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
+    };
+    let v = run();
+    let file = v["calibration"]["cache_file"].as_str().unwrap().to_string();
+    assert_eq!(v["calibration"]["from_cache"], false);
+    assert!(std::path::Path::new(&file).starts_with(&cache));
+    let again = run();
+    assert_eq!(
+        again["calibration"]["from_cache"], true,
+        "{}",
+        again["calibration"]
+    );
+    assert_eq!(again["calibration"]["cache_file"], file.as_str());
+    for key in ["design", "C_measured"] {
+        assert_eq!(again[key], v[key], "{key} differs when read from the cache");
+    }
+    let _ = std::fs::remove_dir_all(&cache);
     for key in [
         "C_target",
         "C_measured",

@@ -382,8 +382,12 @@ pub struct Calibrated {
     /// Largest difference of an orthotropic entry from the target over the largest normal
     /// entry, after each measurement (the first: the mean-field design's).
     pub residuals: Vec<Real>,
-    /// Seconds spent.
+    /// Seconds the calibration took (when read from the disk cache: what it took then).
     pub seconds: Real,
+    /// The file of the disk cache ([`set_cache_dir`]) this calibration was read from
+    /// (`Some((path, true))`) or stored in (`Some((path, false))`); `None` without a cache or
+    /// when the file could not be written.
+    pub cache: Option<(std::path::PathBuf, bool)>,
 }
 
 fn tie(c: &mut [[Real; 6]; 6], sym: Symmetry) {
@@ -521,7 +525,13 @@ pub fn calibrate(
         cal.design.axes = axes;
         return Ok(cal);
     }
-    let cal = calibrate_uncached(target, sym, opts)?;
+    let dir = CACHE_DIR.lock().ok().and_then(|d| d.clone());
+    let cal = match dir {
+        Some(dir) => on_disk(&dir, &disk_key(target, sym, opts), || {
+            calibrate_uncached(target, sym, opts)
+        })?,
+        None => calibrate_uncached(target, sym, opts)?,
+    };
     if let Ok(mut c) = CACHE.lock() {
         c.push((key, cal.clone()));
     }
@@ -579,7 +589,160 @@ fn calibrate_uncached(
         measured,
         residuals,
         seconds: start.elapsed().as_secs_f64() as Real,
+        cache: None,
     })
+}
+
+/// Where [`calibrate`] keeps its results between processes; `None` (the default): nowhere.
+static CACHE_DIR: std::sync::Mutex<Option<std::path::PathBuf>> = std::sync::Mutex::new(None);
+
+/// Keep calibrations in files under `dir` (created when needed), so that the next process
+/// asking for the same material reads the design instead of spending 10-30 s measuring it
+/// again; `None` turns the disk cache off. The library writes nowhere unless told: the
+/// `hooke` binary points this at `$HOOKE_CACHE` or the user's cache directory.
+///
+/// A file is used only by a build of the same sources (a fingerprint of `hooke-core`'s code
+/// and the workspace's lock file is part of its key) and only for the same target, symmetry
+/// and options, all compared exactly; its numbers are stored as their bits. So a hit gives
+/// the bits a fresh calibration would. A file that cannot be read or parsed is computed again
+/// and replaced; one that cannot be written only costs the next process the time.
+pub fn set_cache_dir(dir: Option<std::path::PathBuf>) {
+    if let Ok(mut d) = CACHE_DIR.lock() {
+        *d = dir;
+    }
+}
+
+/// The conventional place for [`set_cache_dir`]: `$HOOKE_CACHE` if set (empty or `off`: no
+/// cache), else `$XDG_CACHE_HOME/hooke`, else `$HOME/.cache/hooke`.
+pub fn default_cache_dir() -> Option<std::path::PathBuf> {
+    use std::path::PathBuf;
+    let var = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty());
+    match std::env::var_os("HOOKE_CACHE") {
+        Some(v) if v.is_empty() || v == "off" => None,
+        Some(v) => Some(PathBuf::from(v)),
+        None => var("XDG_CACHE_HOME")
+            .map(PathBuf::from)
+            .or_else(|| var("HOME").map(|h| PathBuf::from(h).join(".cache")))
+            .map(|d| d.join("hooke")),
+    }
+}
+
+/// What a cached calibration must match: the code, the target, the symmetry and every option
+/// (floats by their shortest exact decimal form, which `{:?}` prints).
+fn disk_key(target: &[[Real; 6]; 6], sym: Symmetry, opts: &CalibrationOptions) -> String {
+    format!(
+        "code {} | target {:?} | {:?} | {:?}",
+        env!("HOOKE_CORE_FINGERPRINT"),
+        target,
+        sym,
+        opts
+    )
+}
+
+/// FNV-1a of `text` (a file name for a key).
+fn fnv(text: &str) -> u64 {
+    text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
+    })
+}
+
+const CACHE_HEADER: &str = "hooke random3d anisotropic calibration 1";
+
+fn bits(v: &[Real]) -> String {
+    v.iter()
+        .map(|x| format!("{:016x}", x.to_bits()))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+fn cache_text(key: &str, cal: &Calibrated) -> String {
+    let d = &cal.design;
+    let measured: Vec<Real> = cal.measured.iter().flatten().copied().collect();
+    format!(
+        "{CACHE_HEADER}\nkey {key}\nkappa {}\nsharpness {}\nalpha {}\nq {}\nmeasured {}\nresiduals {}\nseconds {}\n",
+        bits(&d.kappa),
+        d.sharpness,
+        bits(&d.alpha),
+        bits(&[d.q]),
+        bits(&measured),
+        bits(&cal.residuals),
+        bits(&[cal.seconds]),
+    )
+}
+
+/// The calibration in `text` if it is a whole cache file for `key`.
+fn parse_cache(text: &str, key: &str) -> Option<Calibrated> {
+    let mut lines = text.lines();
+    if lines.next()? != CACHE_HEADER || lines.next()?.strip_prefix("key ")? != key {
+        return None;
+    }
+    let mut field = |name: &str| -> Option<Vec<&str>> {
+        let rest = lines.next()?.strip_prefix(name)?.strip_prefix(' ')?;
+        Some(rest.split(' ').filter(|w| !w.is_empty()).collect())
+    };
+    let reals = |words: Vec<&str>| -> Option<Vec<Real>> {
+        words
+            .iter()
+            .map(|w| {
+                (w.len() == 16)
+                    .then(|| u64::from_str_radix(w, 16).ok())
+                    .flatten()
+                    .map(Real::from_bits)
+            })
+            .collect()
+    };
+    let kappa: [Real; 6] = reals(field("kappa")?)?.try_into().ok()?;
+    let sharpness: u32 = field("sharpness")?.first()?.parse().ok()?;
+    let alpha: [Real; 3] = reals(field("alpha")?)?.try_into().ok()?;
+    let [q]: [Real; 1] = reals(field("q")?)?.try_into().ok()?;
+    let m: [Real; 36] = reals(field("measured")?)?.try_into().ok()?;
+    let residuals = reals(field("residuals")?)?;
+    let [seconds]: [Real; 1] = reals(field("seconds")?)?.try_into().ok()?;
+    if !SHARPNESS.contains(&sharpness) || residuals.is_empty() {
+        return None;
+    }
+    Some(Calibrated {
+        design: RandomDesign {
+            kappa,
+            sharpness,
+            alpha,
+            q,
+            axes: crate::anisotropy::Orthotropic::AXES,
+        },
+        measured: std::array::from_fn(|i| std::array::from_fn(|j| m[6 * i + j])),
+        residuals,
+        seconds,
+        cache: None,
+    })
+}
+
+/// The calibration for `key` from its file under `dir`, or `compute`d and stored there.
+fn on_disk(
+    dir: &std::path::Path,
+    key: &str,
+    compute: impl FnOnce() -> Result<Calibrated>,
+) -> Result<Calibrated> {
+    let path = dir.join(format!("calibration-{:016x}.txt", fnv(key)));
+    if let Some(mut cal) = std::fs::read_to_string(&path)
+        .ok()
+        .and_then(|t| parse_cache(&t, key))
+    {
+        cal.cache = Some((path, true));
+        return Ok(cal);
+    }
+    let mut cal = compute()?;
+    // Written whole under another name, then renamed: a process reading at the same time (the
+    // ranks of an MPI run calibrate side by side) sees the old file or the new one, never half.
+    let tmp = path.with_extension(format!("{}.partial", std::process::id()));
+    let stored = std::fs::create_dir_all(dir)
+        .and_then(|_| std::fs::write(&tmp, cache_text(key, &cal)))
+        .and_then(|_| std::fs::rename(&tmp, &path));
+    if stored.is_ok() {
+        cal.cache = Some((path, false));
+    } else {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    Ok(cal)
 }
 
 #[cfg(test)]
@@ -587,6 +750,87 @@ mod tests {
     use super::*;
     use crate::anisotropy::Transverse;
     use crate::moduli::isotropic_stiffness;
+
+    /// The disk cache gives back a calibration bit for bit (awkward numbers included) without
+    /// computing it again, and takes nothing that is not a whole file for the same key: another
+    /// key, a cut-off file and a failed calibration all compute (and a failure stores nothing).
+    #[test]
+    fn disk_cache_gives_back_the_bits_and_refuses_what_is_not_its_own() {
+        let dir =
+            std::env::temp_dir().join(format!("hooke-calibration-test-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let c = Transverse {
+            youngs_plane: 10e9,
+            youngs_fibre: 25e9,
+            poisson_plane: 0.35,
+            poisson_fibre: 0.28,
+            shear_fibre: 4e9,
+            density: 1600.0,
+            fibre: [0.0, 0.0, 1.0],
+        }
+        .local_stiffness();
+        let made = Calibrated {
+            design: RandomDesign::mean_field(&c, crate::anisotropy::Orthotropic::AXES).unwrap(),
+            measured: std::array::from_fn(|i| {
+                std::array::from_fn(|j| [-0.0, 1.0 / 3.0, 5e-324, 1e300, -2.5e9, 0.1][(i + j) % 6])
+            }),
+            residuals: vec![0.246, 1.0 / 7.0, 3e-4],
+            seconds: 18.75,
+            cache: None,
+        };
+        let same = |a: &Calibrated, b: &Calibrated| {
+            let d = |c: &Calibrated| {
+                let mut v: Vec<u64> = c
+                    .design
+                    .kappa
+                    .iter()
+                    .chain(&c.design.alpha)
+                    .map(|x| x.to_bits())
+                    .collect();
+                v.extend(c.measured.iter().flatten().map(|x| x.to_bits()));
+                v.extend(c.residuals.iter().map(|x| x.to_bits()));
+                v.extend([
+                    c.design.q.to_bits(),
+                    c.seconds.to_bits(),
+                    c.design.sharpness as u64,
+                ]);
+                v
+            };
+            d(a) == d(b)
+        };
+        let computed = std::cell::Cell::new(0);
+        let compute = || {
+            computed.set(computed.get() + 1);
+            Ok(made.clone())
+        };
+        let first = on_disk(&dir, "key one", compute).unwrap();
+        let (path, read) = first.cache.clone().unwrap();
+        assert!(!read && path.exists() && computed.get() == 1);
+        let again = on_disk(&dir, "key one", compute).unwrap();
+        assert_eq!(again.cache, Some((path.clone(), true)));
+        assert_eq!(computed.get(), 1, "a hit computes nothing");
+        assert!(same(&again, &made), "{again:?} against {made:?}");
+        // Another key (another code, target or option) is not served this file's design.
+        on_disk(&dir, "key two", compute).unwrap();
+        assert_eq!(computed.get(), 2);
+        // A file cut short (a full disk, a crash while copying it) is computed again, replaced.
+        let text = std::fs::read_to_string(&path).unwrap();
+        std::fs::write(&path, &text[..text.len() - 20]).unwrap();
+        let redone = on_disk(&dir, "key one", compute).unwrap();
+        assert_eq!((computed.get(), redone.cache.unwrap().1), (3, false));
+        assert!(on_disk(&dir, "key one", compute).unwrap().cache.unwrap().1);
+        // A calibration that fails stores nothing.
+        let failed = on_disk(&dir, "key three", || {
+            Err(Error::InvalidInput {
+                what: "anisotropic material",
+                why: "out of reach".into(),
+            })
+        });
+        assert!(failed.is_err());
+        let files = std::fs::read_dir(&dir).unwrap().count();
+        assert_eq!(files, 2, "only the two calibrations are stored");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     #[test]
     fn sphere_moments_are_the_known_ones() {
