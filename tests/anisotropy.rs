@@ -247,27 +247,17 @@ fn wave_speeds_along_and_across_the_fibre_match_christoffel() {
             let period = 2.0 * std::f64::consts::PI / (c_theory * k);
             let dt = period / 400.0;
             // Leapfrog: v(1/2) = dt/2 f(0)/m, then drift-kick.
-            law::update_forces(&body, &mut state);
-            let mut v = Coords::zeros(body.nodes());
-            for i in 0..body.nodes() {
-                v.set(i, state.f.get(i) * (0.5 * dt / body.mass[i]));
-            }
-            let (mut crossings, mut prev) = (Vec::new(), project(&state.u));
-            let mut step = 0;
-            while crossings.len() < 7 && step < 4000 {
-                state.u.axpy(dt, &v);
-                step += 1;
-                let now = project(&state.u);
-                if prev.signum() != now.signum() {
-                    // Linear interpolation of the crossing within the step.
-                    crossings.push(dt * (step as Real - now / (now - prev)));
-                }
-                prev = now;
+            let mut u = state.u.clone();
+            let accel = |u: &Coords| {
+                state.u.clone_from(u);
                 law::update_forces(&body, &mut state);
+                let mut a = Coords::zeros(body.nodes());
                 for i in 0..body.nodes() {
-                    v.set(i, v.get(i) + state.f.get(i) * (dt / body.mass[i]));
+                    a.set(i, state.f.get(i) / body.mass[i]);
                 }
-            }
+                a
+            };
+            let (crossings, _) = zero_crossings(&mut u, dt, 4000, accel, project);
             assert_eq!(crossings.len(), 7, "dir {dir:?} mode {m}: no oscillation");
             let omega = std::f64::consts::PI * 6.0 / (crossings[6] - crossings[0]);
             let c_measured = omega / k;
@@ -426,5 +416,186 @@ fn random_lattice_blocks_along_and_across_the_fibre_give_the_engineering_constan
                 lt[c]
             );
         }
+    }
+}
+
+/// Leapfrog from rest at `u` (`v(1/2) = dt/2 a(0)`, then drift-kick) until `project(u)` has
+/// crossed zero seven times (three periods) or `limit` steps have passed: the crossing times,
+/// each interpolated linearly within its step, and the steps taken.
+fn zero_crossings(
+    u: &mut Coords,
+    dt: Real,
+    limit: usize,
+    mut accel: impl FnMut(&Coords) -> Coords,
+    project: impl Fn(&Coords) -> Real,
+) -> (Vec<Real>, usize) {
+    let mut v = Coords::zeros(u.len());
+    v.axpy(0.5 * dt, &accel(u));
+    let (mut crossings, mut prev, mut step) = (Vec::new(), project(u), 0);
+    while crossings.len() < 7 && step < limit {
+        u.axpy(dt, &v);
+        step += 1;
+        let now = project(u);
+        if prev.signum() != now.signum() {
+            crossings.push(dt * (step as Real - now / (now - prev)));
+        }
+        prev = now;
+        v.axpy(dt, &accel(u));
+    }
+    (crossings, step)
+}
+
+/// The fundamental standing mode of a random3d bar of the fibre material `t`, `side` spacings
+/// square and 48 long along axis `d`, polarised along axis `p` (node set `seed`): its speed
+/// `omega L / pi`, the Christoffel speed `sqrt(C_pdpd / rho)`, the nodes and the steps taken.
+///
+/// Both ends are held. On a side face of normal `m` only what the continuum's traction needs is
+/// held: the normal component under a longitudinal wave (`C_mmdd` pushes on it), the wave
+/// direction's component on the faces normal to a shear wave's polarisation (`C_dpdp`); every
+/// other traction of `u = p sin(pi x_d / L)`, `C_kmpd`, vanishes for an orthotropic material in
+/// its axes, so the mode is exact in the continuum. Leapfrog steps of half the estimated
+/// critical step with the run's kernel; the frequency from the zero crossings of the mode's
+/// mass-weighted projection over three periods. At 96 spacings per wavelength the lattice's own
+/// dispersion, `(ka)^2 / 24`, is below 0.01 %.
+fn ringing_bar(
+    t: &Transverse,
+    d: usize,
+    p: usize,
+    side: Real,
+    seed: u64,
+) -> (Real, Real, usize, usize) {
+    use hooke_core::random::{RandomSpec, Sampler};
+    let a = 1e-3;
+    let mut hi = [side * a; 3];
+    hi[d] = 48.0 * a;
+    let spec = RandomSpec {
+        sampler: Sampler::Poisson,
+        seed,
+    };
+    let lattice = Lattice::random(3, [0.0; 3], hi, a, a, spec, &|_| true).unwrap();
+    let body = hooke_core::Anisotropic::Transverse(*t)
+        .body(lattice)
+        .unwrap();
+    let n = body.nodes();
+    let len = hi[d];
+    let at = |i: usize| {
+        let x = body.lattice.pos.get(i);
+        [x.x, x.y, x.z]
+    };
+    let on = |x: Real, edge: Real| x == 0.0 || x == edge;
+    // Which components each node keeps free.
+    let free: Vec<[bool; 3]> = (0..n)
+        .map(|i| {
+            let x = at(i);
+            let mut keep = [!on(x[d], hi[d]); 3];
+            for m in (0..3).filter(|&m| m != d && on(x[m], hi[m])) {
+                if p == d {
+                    keep[m] = false;
+                } else if m == p {
+                    keep[d] = false;
+                }
+            }
+            keep
+        })
+        .collect();
+    let phase: Vec<Real> = (0..n)
+        .map(|i| (std::f64::consts::PI * at(i)[d] / len).sin())
+        .collect();
+    let voigt = |i: usize, j: usize| if i == j { i } else { 6 - i - j };
+    let c = t.stiffness().unwrap();
+    let c_theory = (c[voigt(p, d)][voigt(p, d)] / t.density).sqrt();
+    let mut state = State::new(&body);
+    let kernel = Kernel::for_body(&body, &state);
+    let dt = 0.5 * hooke_core::stability::estimate(&body, &state, &kernel, 60, 1e-4).dt_critical;
+    let amp = 1e-7 * a;
+    for (i, s) in phase.iter().enumerate() {
+        let mut u = Vector::zeros();
+        u[p] = amp * s;
+        state.u.set(i, u);
+    }
+    let norm: Real = (0..n).map(|i| body.mass[i] * phase[i] * phase[i]).sum();
+    let project = |u: &Coords| -> Real {
+        (0..n)
+            .map(|i| body.mass[i] * u.get(i)[p] * phase[i])
+            .sum::<Real>()
+            / (amp * norm)
+    };
+    let mut u = state.u.clone();
+    let accel = |u: &Coords| -> Coords {
+        state.u.clone_from(u);
+        let f = kernel_forces(&kernel, &body, &state);
+        let mut acc = Coords::zeros(n);
+        for i in 0..n {
+            let mut g = f.get(i) / body.mass[i];
+            for k in 0..3 {
+                if !free[i][k] {
+                    g[k] = 0.0;
+                }
+            }
+            acc.set(i, g);
+        }
+        acc
+    };
+    let limit = (10.0 * len / c_theory / dt) as usize;
+    let (crossings, step) = zero_crossings(&mut u, dt, limit, accel, project);
+    assert_eq!(
+        crossings.len(),
+        7,
+        "d {d} p {p} side {side}: no oscillation"
+    );
+    let omega = std::f64::consts::PI * 6.0 / (crossings[6] - crossings[0]);
+    (omega * len / std::f64::consts::PI, c_theory, n, step)
+}
+
+/// Plane waves on the random3d lattice of the fibre material (fibre along z) run at the
+/// Christoffel speeds along and across the fibre. A random lattice has no periodic form, so each
+/// wave is the standing mode of bars ([`ringing_bar`]). Their faces add a stiffer layer about a
+/// spacing thick (+4.1 % at 8 spacings across, +2.2 % at 16, for the longitudinal wave across
+/// the fibre), so the bulk speed is the bars' mean over three node sets at 8 and 16 spacings
+/// across, extrapolated linearly in 1 / side: `c = 2 c_16 - c_8`. Measured: the longitudinal
+/// waves across (C11) and along (C33) the fibre and the shear wave across it (C66) within
+/// 0.23 %, held to 1 %. The two shear waves of C55 (along x polarised z, along z polarised x)
+/// read -0.81 % / -1.06 % and -2.75 % / -0.67 % at 8 / 16 across: their faces (free ones normal
+/// to y, held ones normal to the polarisation) do not follow 1 / side, and the extrapolations,
+/// -1.31 % and +1.40 %, are held to 2 % only (their mean, +0.05 %, is not tested).
+#[test]
+#[ignore = "slow: a calibration and thirty ringing bars, about a minute and a half"]
+fn random_lattice_wave_speeds_match_christoffel() {
+    let t = carbon([0.0, 0.0, 1.0]);
+    let seeds = [7, 8, 9];
+    // (wave direction, polarisation, tolerance) along the material axes.
+    for (d, p, tol) in [
+        (0, 0, 0.01),
+        (0, 1, 0.01),
+        (2, 2, 0.01),
+        (0, 2, 0.02),
+        (2, 0, 0.02),
+    ] {
+        let mut mean = [0.0; 2];
+        let mut theory = 0.0;
+        for (k, side) in [8.0, 16.0].into_iter().enumerate() {
+            for &seed in &seeds {
+                let (c, ct, n, steps) = ringing_bar(&t, d, p, side, seed);
+                eprintln!(
+                    "along {d}, polarised {p}, {side} across, node set {seed}: {c:.2} m/s ({:+.3} %), {n} nodes, {steps} steps",
+                    100.0 * (c / ct - 1.0)
+                );
+                mean[k] += c / seeds.len() as Real;
+                theory = ct;
+            }
+        }
+        let bulk = 2.0 * mean[1] - mean[0];
+        let err = bulk / theory - 1.0;
+        eprintln!(
+            "along {d}, polarised {p}: 8 across {:+.3} %, 16 across {:+.3} %, extrapolated {bulk:.2} m/s against Christoffel {theory:.2} m/s: {:+.3} %",
+            100.0 * (mean[0] / theory - 1.0),
+            100.0 * (mean[1] / theory - 1.0),
+            100.0 * err
+        );
+        assert!(
+            err.abs() < tol,
+            "along {d}, polarised {p}: the bulk speed is {:+.2} % off",
+            100.0 * err
+        );
     }
 }
