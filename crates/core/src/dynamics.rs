@@ -858,16 +858,14 @@ impl Integrator {
         state: &mut State,
         params: &StepParams,
     ) -> crate::kernel::SweepSums {
-        let all = 0..body.nodes().div_ceil(crate::kernel::CHUNK);
-        let chunks = self.team.as_ref().map_or(all, |t| t.share.chunks());
-        let own = self.kernel.force_kick_drift_chunks(
+        let own = self.kernel.force_kick_drift_shared(
             body,
             state,
             &self.inv_mass,
             params,
             &mut self.u_next,
             &mut self.partials,
-            chunks,
+            self.team.as_ref().map(|t| &t.share),
         );
         let Some(t) = self.team.as_mut() else {
             return own;

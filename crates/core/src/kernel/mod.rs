@@ -227,7 +227,7 @@ impl Kernel {
             Kernel::Cubic(s) => stencil::pools(s, state, screen, share.map(|s| s.chunks())),
             Kernel::Hex(s) => stencil::pools(s, state, screen, share.map(|s| s.chunks())),
             Kernel::Rows(r) => {
-                rows::refresh_displacements(r, body, state, share.map(|s| s.chunks()));
+                rows::refresh_displacements(r, body, state, share);
                 stencil::pools(r, state, screen, share.map(|s| s.chunks()))
             }
         }
@@ -278,14 +278,14 @@ impl Kernel {
         u_next: &mut Coords,
         partials: &mut [SweepSums],
     ) -> SweepSums {
-        let all = 0..body.nodes().div_ceil(CHUNK);
-        self.force_kick_drift_chunks(body, state, inv_mass, p, u_next, partials, all)
+        self.force_kick_drift_shared(body, state, inv_mass, p, u_next, partials, None)
     }
 
-    /// Sweep 2 over the node chunks `chunks` only (one rank's share): their velocities, next
-    /// displacements and partial sums; returns the sum of those partials.
+    /// Sweep 2 over one rank's share of a distributed run ([`crate::team`]; `None`: the whole
+    /// body): its nodes' velocities, next displacements and partial sums; returns the sum of
+    /// those partials.
     #[allow(clippy::too_many_arguments)]
-    pub fn force_kick_drift_chunks(
+    pub fn force_kick_drift_shared(
         &self,
         body: &Body,
         state: &mut State,
@@ -293,8 +293,9 @@ impl Kernel {
         p: &StepParams,
         u_next: &mut Coords,
         partials: &mut [SweepSums],
-        chunks: std::ops::Range<usize>,
+        share: Option<&crate::team::Share>,
     ) -> SweepSums {
+        let chunks = share.map_or(0..body.nodes().div_ceil(CHUNK), |s| s.chunks());
         match self {
             Kernel::Csr { .. } => {
                 csr::force_kick_drift(body, state, inv_mass, p, u_next, partials, chunks)
@@ -306,7 +307,7 @@ impl Kernel {
                 stencil::force_kick_drift(s, state, inv_mass, p, u_next, partials, chunks)
             }
             Kernel::Rows(r) => {
-                rows::refresh_pools(r, state, Some(chunks.clone()));
+                rows::refresh_pools(r, state, share);
                 stencil::force_kick_drift(r, state, inv_mass, p, u_next, partials, chunks)
             }
         }

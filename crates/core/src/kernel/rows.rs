@@ -47,6 +47,7 @@ use super::{StepParams, SweepSums, CHUNK};
 use crate::body::Body;
 use crate::math::Real;
 use crate::state::State;
+use crate::team::Share;
 
 /// Nodes in a block of the vector path: a window whose nodes are dealt to 8 groups of lanes
 /// (see [`deal`]).
@@ -94,9 +95,6 @@ pub struct RowKernel {
     far: [Real; 3],
     /// The vector path's instructions (`None`: the scalar path).
     simd: Option<Lanes>,
-    /// For one rank's node chunks (a distributed run): which chunks' records their rows read
-    /// (see [`RowKernel::reads`]), found at the first sweep.
-    reads: Arc<std::sync::OnceLock<(std::ops::Range<usize>, Vec<bool>)>>,
 }
 
 impl RowKernel {
@@ -228,35 +226,7 @@ impl RowKernel {
             slots: Arc::new(s),
             far,
             simd: simd_lanes(),
-            reads: Arc::default(),
         })
-    }
-
-    /// The chunks whose records the rows of the node chunks `own` read: their own and their
-    /// neighbours' (a flag per chunk); `None` for every chunk. A rank of a distributed run
-    /// refreshes only these (the other records are never read there): the refresh was a tenth
-    /// of a rank's step at two ranks when every rank refreshed every record. Springs only
-    /// break, so the flags found at the first sweep cover every later one.
-    fn reads(&self, own: Option<std::ops::Range<usize>>) -> Option<&[bool]> {
-        let chunks = self.n.div_ceil(CHUNK);
-        let own = own.filter(|r| *r != (0..chunks))?;
-        let (range, flags) = self.reads.get_or_init(|| {
-            let mut flags = vec![false; chunks];
-            for c in own.clone() {
-                flags[c] = true;
-                for i in c * CHUNK..((c + 1) * CHUNK).min(self.n) {
-                    for e in self.lane(i) {
-                        let j = self.slots.j[e] as usize;
-                        if j < self.n {
-                            flags[j / CHUNK] = true;
-                        }
-                    }
-                }
-            }
-            (own.clone(), flags)
-        });
-        // Another range than the first one's (not a case any run makes): every record.
-        (*range == own).then_some(flags.as_slice())
     }
 
     pub fn name(&self) -> &'static str {
@@ -330,12 +300,12 @@ impl RowKernel {
 }
 
 /// Write `u` (and at the first call the reference positions and the dummy) into the records:
-/// every record, or with `own` (one rank's node chunks) those its rows read.
+/// every record, or with `share` (one rank's part of a distributed run) those its rows read.
 pub(crate) fn refresh_displacements(
     rk: &RowKernel,
     body: &Body,
     state: &mut State,
-    own: Option<std::ops::Range<usize>>,
+    share: Option<&Share>,
 ) {
     let n = rk.n;
     let pos = &body.lattice.pos;
@@ -355,7 +325,7 @@ pub(crate) fn refresh_displacements(
             .collect();
     }
     let u = &state.u;
-    each_record(&mut state.rec[..n], rk.reads(own), |i, r| {
+    each_record(&mut state.rec[..n], share, |i, r| {
         r[3] = u.x()[i];
         r[4] = u.y()[i];
         r[5] = u.z()[i];
@@ -363,35 +333,38 @@ pub(crate) fn refresh_displacements(
 }
 
 /// Write the pools into the records (before sweep 2, after any repair): every record, or with
-/// `own` those the rows of one rank's node chunks read. None for the plain law, whose pools
-/// are all +0 and whose sweep 2 reads none from the records.
-pub(crate) fn refresh_pools(
-    rk: &RowKernel,
-    state: &mut State,
-    own: Option<std::ops::Range<usize>>,
-) {
+/// `share` those one rank's rows read. None for the plain law, whose pools are all +0 and
+/// whose sweep 2 reads none from the records.
+pub(crate) fn refresh_pools(rk: &RowKernel, state: &mut State, share: Option<&Share>) {
     if rk.q == 0.0 {
         return;
     }
     let pool = &state.pool;
-    each_record(&mut state.rec[..rk.n], rk.reads(own), |i, r| r[6] = pool[i]);
+    each_record(&mut state.rec[..rk.n], share, |i, r| r[6] = pool[i]);
 }
 
-/// `f(node, its record)` for every record of the chunks flagged in `only` (all: `None`), in
-/// parallel over fixed chunks.
+/// `f(node, its record)` for every record, in parallel over fixed chunks; with `share` only
+/// for the rank's own nodes and its ghosts, which are all that its rows read (the far ends of
+/// its springs that cross ranks are ghosts). A rank refreshing every record spent a tenth of
+/// its step on it at two ranks, and refreshing the chunks its rows touch still a fifth of the
+/// records more than it owns on a Morton-ordered random lattice.
 fn each_record(
     recs: &mut [Record],
-    only: Option<&[bool]>,
+    share: Option<&Share>,
     f: impl Fn(usize, &mut [Real; 8]) + Sync,
 ) {
-    recs.par_chunks_mut(CHUNK)
+    let own = share.map_or(0..recs.len(), |s| s.mine());
+    recs[own.clone()]
+        .par_chunks_mut(CHUNK)
         .enumerate()
-        .filter(|(c, _)| only.is_none_or(|flags| flags[*c]))
         .for_each(|(c, recs)| {
             for (k, r) in recs.iter_mut().enumerate() {
-                f(c * CHUNK + k, &mut r.0);
+                f(own.start + c * CHUNK + k, &mut r.0);
             }
         });
+    for &g in share.iter().flat_map(|s| s.halo.recv.iter().flatten()) {
+        f(g as usize, &mut recs[g as usize].0);
+    }
 }
 
 /// The lanes of the nodes `0..n` with rows of `len(i)` entries: `(lanes, at)` of [`Slots`].
