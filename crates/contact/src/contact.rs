@@ -136,10 +136,51 @@ pub struct Contact {
     read_nodes: Vec<u32>,
     /// Whether the lists hold, as [`Interaction::reads`] found before this step's forces.
     checked: Option<bool>,
+    /// Every process's nodes, as [`Interaction::reads`] was last told (empty: not known): a
+    /// rebuild then passes over this process's nodes only and gathers the lists.
+    node_parts: Vec<std::ops::Range<usize>>,
 }
 
 /// Reals per candidate in `Contact::hits`.
 const HIT: usize = 5;
+
+/// Each of `lists` (this process's part on entry) becomes every process's part of it,
+/// concatenated in rank order: two all-gathers, the lengths and then the values, whatever the
+/// number of lists.
+fn gather_lists(team: &dyn Team, lists: &mut [Vec<Real>]) {
+    let (size, rank, l) = (team.size(), team.rank(), lists.len());
+    let mut lens = vec![0.0; size * l];
+    for (k, list) in lists.iter().enumerate() {
+        lens[rank * l + k] = list.len() as Real;
+    }
+    let each: Vec<std::ops::Range<usize>> = (0..size).map(|r| r * l..(r + 1) * l).collect();
+    team.gather(&mut lens, &each);
+    let len = |r: usize, k: usize| lens[r * l + k] as usize;
+    let mut parts = Vec::with_capacity(size);
+    let mut at = 0;
+    for r in 0..size {
+        let n: usize = (0..l).map(|k| len(r, k)).sum();
+        parts.push(at..at + n);
+        at += n;
+    }
+    let mut all = vec![0.0; at];
+    let mut w = parts[rank].start;
+    for list in lists.iter() {
+        all[w..w + list.len()].copy_from_slice(list);
+        w += list.len();
+    }
+    team.gather(&mut all, &parts);
+    for list in lists.iter_mut() {
+        list.clear();
+    }
+    for (r, part) in parts.iter().enumerate() {
+        let mut at = part.start;
+        for (k, list) in lists.iter_mut().enumerate() {
+            list.extend_from_slice(&all[at..at + len(r, k)]);
+            at += len(r, k);
+        }
+    }
+}
 
 impl Contact {
     /// Share the evaluation of the rigid bodies' candidate nodes with the other members of
@@ -213,6 +254,7 @@ impl Contact {
             record_every: 1,
             team: None,
             read_nodes: Vec::new(),
+            node_parts: Vec::new(),
             checked: None,
             hits: Vec::new(),
             parts: Vec::new(),
@@ -363,6 +405,10 @@ impl Contact {
         let moved = match &self.team {
             None => largest(0..n),
             Some(t) => {
+                // The nodes the last rebuild kept the displacements of (see `rebuild_lists`).
+                let own = own.or_else(|| {
+                    (self.node_parts.len() == size).then(|| self.node_parts[rank].clone())
+                });
                 let mine = largest(own.unwrap_or(n * rank / size..n * (rank + 1) / size));
                 self.moves[rank] = mine;
                 t.gather(&mut self.moves, &self.one_each);
@@ -403,7 +449,6 @@ impl Contact {
         self.rebuilds += 1;
         self.built = true;
         let n = body.nodes();
-        self.u_build.clone_from(&state.u);
         for (k, b) in self.bodies.iter().enumerate() {
             self.x_build[k] = b.position;
             self.q_build[k] = b.orientation;
@@ -413,19 +458,47 @@ impl Contact {
         // thread count.
         let reach = self.opts.radius + self.skin;
         let dim = self.dim;
+        // Shared between processes, each passes over its own nodes and the lists are gathered
+        // in rank order, which is node order: the lists of one process (the rebuild was a
+        // tenth of each rank's step at two ranks when every rank passed over every node).
+        let team = self
+            .team
+            .clone()
+            .filter(|t| self.node_parts.len() == t.size());
+        let mine = team
+            .as_ref()
+            .map_or(0..n, |t| self.node_parts[t.rank()].clone());
+        let ids = |r: &std::ops::Range<usize>| r.start as u32..r.end as u32;
+        // The largest move since the rebuild is taken over each process's own nodes (the
+        // maxima gathered), so each keeps only their displacements.
+        if team.is_some() {
+            for c in 0..3 {
+                self.u_build.comp_mut(c)[mine.clone()]
+                    .copy_from_slice(&state.u.comp(c)[mine.clone()]);
+            }
+        } else {
+            self.u_build.clone_from(&state.u);
+        }
         for (k, b) in self.bodies.iter().enumerate() {
             let (lo, hi) = b.bounds();
             let list = &mut self.candidates[k];
             list.clear();
-            list.par_extend(
-                (0..n as u32)
-                    .into_par_iter()
-                    .with_min_len(4096)
-                    .filter(|&i| {
-                        let x = Self::position(body, &state.u, i as usize);
-                        (0..dim).all(|c| x[c] >= lo[c] - reach && x[c] <= hi[c] + reach)
-                    }),
-            );
+            list.par_extend(ids(&mine).into_par_iter().with_min_len(4096).filter(|&i| {
+                let x = Self::position(body, &state.u, i as usize);
+                (0..dim).all(|c| x[c] >= lo[c] - reach && x[c] <= hi[c] + reach)
+            }));
+        }
+        if let Some(t) = &team {
+            let mut lists: Vec<Vec<Real>> = self
+                .candidates
+                .iter()
+                .map(|c| c.iter().map(|&i| i as Real).collect())
+                .collect();
+            gather_lists(t.as_ref(), &mut lists);
+            for (c, l) in self.candidates.iter_mut().zip(&lists) {
+                c.clear();
+                c.extend(l.iter().map(|&i| i as u32));
+            }
         }
         self.frag_nbr.clear();
         self.frag_nodes.clear();
@@ -445,20 +518,24 @@ impl Contact {
             flags[i as usize] = true;
             flags[j as usize] = true;
         }
-        let damaged: Vec<u32> = (0..n as u32)
+        let mut damaged: Vec<u32> = ids(&mine)
             .into_par_iter()
             .with_min_len(4096)
             .filter(|&i| flags[i as usize])
             .collect();
+        if let Some(t) = &team {
+            let mut lists = vec![damaged.iter().map(|&i| i as Real).collect()];
+            gather_lists(t.as_ref(), &mut lists);
+            damaged = lists[0].iter().map(|&i| i as u32).collect();
+        }
         if damaged.is_empty() {
             self.frag_force.clear();
             return;
         }
-        // Cell list: cells of side df + skin, nodes sorted by cell.
-        let h = df + self.skin;
         let x = |i: usize| Self::position(body, &state.u, i);
         // (Minima and maxima are exact in any grouping.)
-        let (lo, hi) = (0..n)
+        let (mut lo, mut hi) = mine
+            .clone()
             .into_par_iter()
             .with_min_len(4096)
             .map(|i| {
@@ -474,6 +551,18 @@ impl Contact {
                     )
                 },
             );
+        if let Some(t) = &team {
+            let mut lists = vec![lo.iter().chain(&hi).copied().collect()];
+            gather_lists(t.as_ref(), &mut lists);
+            for b in lists[0].chunks(6) {
+                for c in 0..3 {
+                    lo[c] = lo[c].min(b[c]);
+                    hi[c] = hi[c].max(b[3 + c]);
+                }
+            }
+        }
+        // Cell list: cells of side df + skin, nodes sorted by cell.
+        let h = df + self.skin;
         let cell = |p: &[Real; 3]| [0, 1, 2].map(|c| ((p[c] - lo[c]) / h).floor() as i64);
         // Only nodes in the cells next to a damaged node's can pair with one: mark those cells
         // in a bitmap over the body's grid of cells and sort just their nodes (sorting every
@@ -502,7 +591,8 @@ impl Contact {
             }
             bits
         });
-        let mut order: Vec<([i64; 3], u32)> = (0..n)
+        let mut order: Vec<([i64; 3], u32)> = mine
+            .clone()
             .into_par_iter()
             .with_min_len(4096)
             .filter_map(|i| {
@@ -514,6 +604,18 @@ impl Contact {
                 listed.then_some((k, i as u32))
             })
             .collect();
+        if let Some(t) = &team {
+            // Cell indices and node numbers travel as reals: exact below 2^53.
+            let mut lists = vec![order
+                .iter()
+                .flat_map(|(k, i)| [k[0] as Real, k[1] as Real, k[2] as Real, *i as Real])
+                .collect()];
+            gather_lists(t.as_ref(), &mut lists);
+            order = lists[0]
+                .chunks(4)
+                .map(|e| ([e[0] as i64, e[1] as i64, e[2] as i64], e[3] as u32))
+                .collect();
+        }
         order.par_sort_unstable();
         let bonded = |i: usize, j: u32| -> bool {
             bonds
@@ -589,6 +691,9 @@ impl Interaction for Contact {
     fn reads(&mut self, body: &Body, state: &State, nodes: &[std::ops::Range<usize>]) -> Reads<'_> {
         // Each process checks the nodes it owns, whose displacements it holds current.
         let own = self.team.as_ref().map(|t| nodes[t.rank()].clone());
+        if own.is_some() && self.node_parts.as_slice() != nodes {
+            self.node_parts = nodes.to_vec();
+        }
         let valid = self.lists_valid(body, &state.u, own);
         self.checked = Some(valid);
         if valid {
