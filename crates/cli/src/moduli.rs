@@ -10,6 +10,7 @@ use hooke_core::moduli::{
     block_test, relaxed_bulk_stiffness, BlockResult, BlockTest, Ends, RelaxedBulk,
     RelaxedBulkResult,
 };
+use hooke_core::random::anisotropic::Cached;
 use hooke_core::random::{calibration, RandomSpec, Sampler};
 use hooke_core::{LatticeKind, Real};
 
@@ -972,8 +973,9 @@ fn random_anisotropic_bulk(args: &ModuliArgs, m: &Anisotropic) -> Result<serde_j
         "calibration": {
             "residuals": cal.residuals, "seconds": cal.seconds,
             "cube_spacings": 20.0, "samples": 4, "seeds": [1001, 1004],
-            "cache_file": cal.cache.as_ref().map(|(p, _)| p.display().to_string()),
-            "from_cache": cal.cache.as_ref().is_some_and(|c| c.1),
+            "cache_file": cal.cache.file().map(|p| p.display().to_string()),
+            "from_cache": matches!(cal.cache, Cached::Read(_)),
+            "cache_note": cal.cache.note(),
         },
         "units": "Pa",
         "voigt": ["xx", "yy", "zz", "yz", "xz", "xy"],
@@ -1152,7 +1154,7 @@ fn print_bulk(v: &serde_json::Value) {
             println!(
                 "calibration: largest entry off the target over the largest normal entry after each measurement {} ({:.1} s; 4 cubes of 20 spacings, seeds 1001 to 1004){}",
                 v["calibration"]["residuals"], v["calibration"]["seconds"].as_f64().unwrap_or(0.0),
-                cache_note(&v["calibration"])
+                v["calibration"]["cache_note"].as_str().unwrap_or("")
             );
             println!(
                 "in the material axes, C11 C22 C33 C12 C13 C23 C44 C55 C66 measured / target - 1: {}",
@@ -1397,14 +1399,4 @@ pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
     std::fs::rename(&tmp, path)
         .with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))?;
     Ok(())
-}
-
-/// Where a calibration came from or went, for the printed summaries: read from the cache file,
-/// stored in it, or nothing (no cache).
-pub(crate) fn cache_note(cal: &serde_json::Value) -> String {
-    match (cal["cache_file"].as_str(), cal["from_cache"].as_bool()) {
-        (Some(f), Some(true)) => format!("; read from {f}"),
-        (Some(f), _) => format!("; stored in {f}"),
-        _ => String::new(),
-    }
 }

@@ -148,8 +148,8 @@ pub fn check(args: CheckArgs) -> Result<()> {
                 "kappa": d.kappa, "kappa_terms": ["xx", "yy", "zz", "yz", "xz", "xy"],
                 "alpha": d.alpha, "axes": d.axes, "sharpness": d.sharpness,
                 "calibration_residuals": cal.residuals, "calibration_seconds": cal.seconds,
-                "calibration_cache_file": cal.cache.as_ref().map(|(p, _)| p.display().to_string()),
-                "calibration_from_cache": cal.cache.as_ref().is_some_and(|c| c.1),
+                "calibration_cache_file": cal.cache.file().map(|p| p.display().to_string()),
+                "calibration_from_cache": matches!(cal.cache, hooke_core::random::anisotropic::Cached::Read(_)),
                 "stiffness": m.stiffness()?,
             });
         } else if let Some(m) = &sim.anisotropic {
@@ -206,11 +206,7 @@ pub fn check(args: CheckArgs) -> Result<()> {
                 .collect::<Vec<_>>()
                 .join(" -> "),
             cal.seconds,
-            match &cal.cache {
-                Some((f, true)) => format!("; read from {}", f.display()),
-                Some((f, false)) => format!("; stored in {}", f.display()),
-                None => String::new(),
-            }
+            cal.cache.note()
         );
         println!("  stiffness    C (Pa, Voigt xx yy zz yz xz xy, global axes):");
         for row in m.stiffness()? {

@@ -50,6 +50,8 @@ fn moduli_random3d_transverse_bulk_reports_the_design_and_the_tensor() {
     let v = run();
     let file = v["calibration"]["cache_file"].as_str().unwrap().to_string();
     assert_eq!(v["calibration"]["from_cache"], false);
+    let note = v["calibration"]["cache_note"].as_str().unwrap();
+    assert!(note.contains("stored in"), "{note}");
     assert!(std::path::Path::new(&file).starts_with(&cache));
     let again = run();
     assert_eq!(

@@ -384,10 +384,48 @@ pub struct Calibrated {
     pub residuals: Vec<Real>,
     /// Seconds the calibration took (when read from the disk cache: what it took then).
     pub seconds: Real,
-    /// The file of the disk cache ([`set_cache_dir`]) this calibration was read from
-    /// (`Some((path, true))`) or stored in (`Some((path, false))`); `None` without a cache or
-    /// when the file could not be written.
-    pub cache: Option<(std::path::PathBuf, bool)>,
+    /// What the disk cache ([`set_cache_dir`]) did with this calibration.
+    pub cache: Cached,
+}
+
+/// What the disk cache did with a calibration.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum Cached {
+    /// No cache directory is set.
+    #[default]
+    Off,
+    /// Read from this file.
+    Read(std::path::PathBuf),
+    /// Calibrated, and stored in this file for the next process.
+    Stored(std::path::PathBuf),
+    /// Calibrated, but the file could not be written (the next process calibrates again).
+    NotStored {
+        path: std::path::PathBuf,
+        why: String,
+    },
+}
+
+impl Cached {
+    /// The cache file, if there is one.
+    pub fn file(&self) -> Option<&std::path::Path> {
+        match self {
+            Cached::Off => None,
+            Cached::Read(p) | Cached::Stored(p) | Cached::NotStored { path: p, .. } => Some(p),
+        }
+    }
+
+    /// For the printed summaries: `"; read from FILE"`, `"; stored in FILE"`, `"; not stored
+    /// in FILE: WHY"`, or nothing.
+    pub fn note(&self) -> String {
+        match self {
+            Cached::Off => String::new(),
+            Cached::Read(p) => format!("; read from {}", p.display()),
+            Cached::Stored(p) => format!("; stored in {}", p.display()),
+            Cached::NotStored { path, why } => {
+                format!("; not stored in {}: {why}", path.display())
+            }
+        }
+    }
 }
 
 fn tie(c: &mut [[Real; 6]; 6], sym: Symmetry) {
@@ -589,7 +627,7 @@ fn calibrate_uncached(
         measured,
         residuals,
         seconds: start.elapsed().as_secs_f64() as Real,
-        cache: None,
+        cache: Cached::Off,
     })
 }
 
@@ -712,7 +750,7 @@ fn parse_cache(text: &str, key: &str) -> Option<Calibrated> {
         measured: std::array::from_fn(|i| std::array::from_fn(|j| m[6 * i + j])),
         residuals,
         seconds,
-        cache: None,
+        cache: Cached::Off,
     })
 }
 
@@ -727,7 +765,7 @@ fn on_disk(
         .ok()
         .and_then(|t| parse_cache(&t, key))
     {
-        cal.cache = Some((path, true));
+        cal.cache = Cached::Read(path);
         return Ok(cal);
     }
     let mut cal = compute()?;
@@ -737,11 +775,16 @@ fn on_disk(
     let stored = std::fs::create_dir_all(dir)
         .and_then(|_| std::fs::write(&tmp, cache_text(key, &cal)))
         .and_then(|_| std::fs::rename(&tmp, &path));
-    if stored.is_ok() {
-        cal.cache = Some((path, false));
-    } else {
-        let _ = std::fs::remove_file(&tmp);
-    }
+    cal.cache = match stored {
+        Ok(()) => Cached::Stored(path),
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            Cached::NotStored {
+                path,
+                why: e.to_string(),
+            }
+        }
+    };
     Ok(cal)
 }
 
@@ -776,7 +819,7 @@ mod tests {
             }),
             residuals: vec![0.246, 1.0 / 7.0, 3e-4],
             seconds: 18.75,
-            cache: None,
+            cache: Cached::Off,
         };
         let same = |a: &Calibrated, b: &Calibrated| {
             let d = |c: &Calibrated| {
@@ -804,10 +847,12 @@ mod tests {
             Ok(made.clone())
         };
         let first = on_disk(&dir, "key one", compute).unwrap();
-        let (path, read) = first.cache.clone().unwrap();
-        assert!(!read && path.exists() && computed.get() == 1);
+        let Cached::Stored(path) = first.cache.clone() else {
+            panic!("{:?}", first.cache)
+        };
+        assert!(path.exists() && computed.get() == 1);
         let again = on_disk(&dir, "key one", compute).unwrap();
-        assert_eq!(again.cache, Some((path.clone(), true)));
+        assert_eq!(again.cache, Cached::Read(path.clone()));
         assert_eq!(computed.get(), 1, "a hit computes nothing");
         assert!(same(&again, &made), "{again:?} against {made:?}");
         // Another key (another code, target or option) is not served this file's design.
@@ -817,8 +862,12 @@ mod tests {
         let text = std::fs::read_to_string(&path).unwrap();
         std::fs::write(&path, &text[..text.len() - 20]).unwrap();
         let redone = on_disk(&dir, "key one", compute).unwrap();
-        assert_eq!((computed.get(), redone.cache.unwrap().1), (3, false));
-        assert!(on_disk(&dir, "key one", compute).unwrap().cache.unwrap().1);
+        assert_eq!(
+            (computed.get(), redone.cache),
+            (3, Cached::Stored(path.clone()))
+        );
+        let read = on_disk(&dir, "key one", compute).unwrap().cache;
+        assert_eq!(read, Cached::Read(path.clone()));
         // A calibration that fails stores nothing.
         let failed = on_disk(&dir, "key three", || {
             Err(Error::InvalidInput {
@@ -829,6 +878,14 @@ mod tests {
         assert!(failed.is_err());
         let files = std::fs::read_dir(&dir).unwrap().count();
         assert_eq!(files, 2, "only the two calibrations are stored");
+        // A cache "directory" that is a file: calibrated, not stored, and the reason said.
+        let blocked = on_disk(&path, "key four", compute).unwrap();
+        assert!(
+            matches!(&blocked.cache, Cached::NotStored { why, .. } if !why.is_empty()),
+            "{:?}",
+            blocked.cache
+        );
+        assert!(blocked.cache.note().contains("not stored"));
         let _ = std::fs::remove_dir_all(&dir);
     }
 
