@@ -295,6 +295,12 @@ fn random_lattice_calibration_converges() {
         &opts,
     )
     .unwrap();
+    assert_converged(&cal);
+}
+
+/// The mean-field design far off (more than 5 %), the last correction within 1 % and a tenth
+/// of that.
+fn assert_converged(cal: &hooke_core::random::anisotropic::Calibrated) {
     let r = &cal.residuals;
     eprintln!("residuals {r:?} in {:.1} s", cal.seconds);
     assert!(r[0] > 0.05, "the mean field alone is {:.3} off", r[0]);
@@ -330,34 +336,56 @@ fn unseen_node_sets_within(
     target: &[[Real; 6]; 6],
     tol: Real,
 ) {
+    let cal = m
+        .random_design(hooke_core::random::Sampler::Poisson)
+        .unwrap();
+    design_within(&cal, 3, (32.0, 3), frame, target, tol);
+}
+
+/// Measure `cal`'s design on `samples` unseen node sets (seeds 1 on) in cubes (`dim` 3) or
+/// squares (2) of `side` spacings and hold each orthotropic entry in the material axes `frame`
+/// to `tol` of `target` (every entry printed first, with the node sets' spread).
+fn design_within(
+    cal: &hooke_core::random::anisotropic::Calibrated,
+    dim: usize,
+    (side, samples): (Real, usize),
+    frame: &[[Real; 3]; 3],
+    target: &[[Real; 6]; 6],
+    tol: Real,
+) {
     use hooke_core::random::anisotropic::{
-        cubes, mean, measure, spread, to_material, ORTHOTROPIC_ENTRIES,
+        boxes, mean, measure, orthotropic_entries, spread, to_material,
     };
-    use hooke_core::random::Sampler;
-    let cal = m.random_design(Sampler::Poisson).unwrap();
     eprintln!(
-        "calibration residuals {:?} in {:.1} s",
-        cal.residuals, cal.seconds
+        "calibration residuals {:?} in {:.1} s, design {:?}",
+        cal.residuals, cal.seconds, cal.design
     );
     let runs = measure(
         &cal.design,
-        &cubes(32.0, 3, 1, Sampler::Poisson).unwrap(),
-        32.0,
+        &boxes(dim, side, samples, 1, hooke_core::random::Sampler::Poisson).unwrap(),
+        side,
         &Default::default(),
     )
     .unwrap();
     let local: Vec<_> = runs.iter().map(|c| to_material(c, frame)).collect();
     let mean_local = mean(&local);
     let sds = spread(&local, &mean_local);
-    for &(i, j) in &ORTHOTROPIC_ENTRIES {
-        let rel = mean_local[i][j] / target[i][j] - 1.0;
-        eprintln!(
-            "C{}{}: {:+.4} (spread {:.4})",
-            i + 1,
-            j + 1,
-            rel,
-            sds[i][j] / target[i][j]
-        );
+    let entries = orthotropic_entries(dim);
+    let rels: Vec<Real> = entries
+        .iter()
+        .map(|&(i, j)| {
+            let rel = mean_local[i][j] / target[i][j] - 1.0;
+            eprintln!(
+                "C{}{}: {:+.4} (spread {:.4})",
+                i + 1,
+                j + 1,
+                rel,
+                sds[i][j] / target[i][j]
+            );
+            rel
+        })
+        .collect();
+    for (&(i, j), rel) in entries.iter().zip(rels) {
         assert!(rel.abs() < tol, "C{}{} off by {rel:+.4}", i + 1, j + 1);
     }
 }
@@ -597,5 +625,47 @@ fn random_lattice_wave_speeds_match_christoffel() {
             "along {d}, polarised {p}: the bulk speed is {:+.2} % off",
             100.0 * err
         );
+    }
+}
+
+/// The plate's (random2d) calibration converges as the cubes' does: small squares, so it runs
+/// in the default suite.
+#[test]
+fn random_plate_calibration_converges() {
+    use hooke_core::material::PlaneModel;
+    use hooke_core::random::anisotropic::CalibrationOptions;
+    let m = hooke_core::Anisotropic::Transverse(carbon([1.0, 0.0, 0.0]));
+    let opts = CalibrationOptions {
+        size: 30.0,
+        samples: 3,
+        iterations: 3,
+        ..CalibrationOptions::plane()
+    };
+    let cal = m
+        .random_design_plane_with(&opts, PlaneModel::Stress)
+        .unwrap();
+    assert_converged(&cal);
+}
+
+/// A plate (random2d) of the carbon-like material with its fibre in the plane at 30 degrees to
+/// x, in plane stress and in plane strain: the design calibrated on its default squares (8 of
+/// 64 spacings, seeds 1001-1008), measured on 8 unseen squares of 64 spacings (seeds 1-8), each
+/// entry of the in-plane stiffness in the material axes within 2 % of the target. Measured:
+/// stress within 1.05 % (C12 +1.05 %, C11 -0.58 %), strain within 0.76 % (C11 -0.76 %); the
+/// squares scatter by 0.7 % (C66) to 2.3 % (C11) each.
+#[test]
+#[ignore = "slow: two calibrations, about a minute"]
+fn random_plate_design_meets_the_target_on_unseen_node_sets() {
+    use hooke_core::material::PlaneModel;
+    let t = 30f64.to_radians();
+    let m = hooke_core::Anisotropic::Transverse(carbon([t.cos(), t.sin(), 0.0]));
+    for plane in [PlaneModel::Stress, PlaneModel::Strain] {
+        eprintln!("plane {plane:?}");
+        let cal = m
+            .random_design_plane(hooke_core::random::Sampler::Poisson, plane)
+            .unwrap();
+        let (axes, _) = m.plane_axes().unwrap();
+        let target = m.plane_local_stiffness(plane).unwrap();
+        design_within(&cal, 2, (64.0, 8), &axes, &target, 0.02);
     }
 }

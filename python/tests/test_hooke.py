@@ -94,6 +94,23 @@ def test_anisotropic_moduli_match_the_command_line_exactly():
         hooke.moduli(transverse=mat, fibre="1,1,0", bulk=True)
 
 
+def test_an_anisotropic_random2d_plate_matches_the_command_line():
+    # A plate of the carbon-like material, fibre in its plane, plane strain: the calibrated
+    # design and the measured in-plane tensor are the command's, bit for bit.
+    args = dict(transverse=[10e9, 25e9, 0.35, 0.28, 4e9], fibre="1,1,0", bulk=True,
+                plane="strain", size=33, samples=2)
+    mine = hooke.moduli("random2d", **args)
+    theirs = json.loads(cli("moduli", "--lattice", "random2d", "--transverse",
+                            "10e9,25e9,0.35,0.28,4e9", "--fibre", "1,1,0", "--bulk",
+                            "--plane", "strain", "--size", "33", "--samples", "2", "--json"))
+    assert mine["plane"] == "strain" and mine["material_entries"] == ["11", "22", "12", "66"]
+    for key in ("design", "C_measured", "C_target"):
+        assert mine[key] == theirs[key], key
+    assert mine["max_material_relative_difference"] < 0.06
+    with pytest.raises(hooke.CaseError, match="leaves the plane"):
+        hooke.moduli("random2d", transverse=args["transverse"], fibre="1,0,1", bulk=True)
+
+
 def test_a_built_fibre_plate_is_the_case_file_bit_for_bit(tmp_path):
     case = ROOT / "cases" / "fibre_notch.toml"
     ref = tmp_path / "ref"

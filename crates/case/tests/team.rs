@@ -278,6 +278,18 @@ fn transverse_material_is_bit_identical_for_any_team() {
     );
 }
 
+/// An anisotropic random2d plate (a calibrated direction design, its levers on the row kernel)
+/// with a direction-dependent stretch breaking springs from its notch.
+#[test]
+fn anisotropic_plate_is_bit_identical_for_any_team() {
+    check(
+        "fibre_notch_plate.toml",
+        1.0,
+        &["solver.end_time=90e-6", "output.every=30e-6"],
+        &[2, 3],
+    );
+}
+
 /// Quasi-static runs are refused with the reason when shared.
 #[test]
 fn quasi_static_runs_are_refused_in_a_team() {

@@ -168,6 +168,26 @@ pub struct ModuliArgs {
     /// --json. A diagnostic: it helps in 3D up to nu = 0.25, not at 0.45 nor in 2D (README).
     #[arg(long, requires = "bulk")]
     pub extrapolate: bool,
+    /// With --transverse or --orthotropic on a random2d lattice: how the plate stands for the
+    /// 3D material, `stress` (a thin plate, the default) or `strain` (a thick body); its fibre
+    /// lies in the x-y plane or along z, or one orthotropic axis is along z.
+    #[arg(long, value_enum)]
+    pub plane: Option<PlaneArg>,
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum PlaneArg {
+    Stress,
+    Strain,
+}
+
+impl From<PlaneArg> for hooke_core::material::PlaneModel {
+    fn from(p: PlaneArg) -> Self {
+        match p {
+            PlaneArg::Stress => hooke_core::material::PlaneModel::Stress,
+            PlaneArg::Strain => hooke_core::material::PlaneModel::Strain,
+        }
+    }
 }
 
 impl From<LatticeArg> for LatticeKind {
@@ -725,12 +745,12 @@ fn bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
         .into());
     }
     if let Some(m) = anisotropic(args)? {
-        if kind == LatticeKind::Random3d {
-            return random_anisotropic_bulk(args, &m);
+        if kind.is_random() {
+            return random_anisotropic_bulk(args, &m, kind.dim());
         }
         if kind != LatticeKind::Cubic {
             return Err(InputError(format!(
-                "--transverse, --orthotropic: anisotropic materials are built on the cubic and random3d lattices; the {} lattice is not supported yet",
+                "--transverse, --orthotropic: anisotropic materials are built on the cubic, random2d and random3d lattices; the {} lattice is not supported yet",
                 kind.name()
             ))
             .into());
@@ -905,13 +925,18 @@ fn random_bulk(args: &ModuliArgs, nu: Real) -> Result<serde_json::Value> {
     }))
 }
 
-/// `--bulk --lattice random3d` with an anisotropic material: calibrate the direction functions
-/// on cubes of their own seeds ([`hooke_core::random::anisotropic::calibrate`], seeds 1001 on),
-/// then measure the design on `--samples` unseen node sets (seeds `--seed` on) in cubes of
-/// `--size` nodes per side, turned into the body's frame: the inner cubes' tensor, its mean and
-/// spread per entry against the target.
-fn random_anisotropic_bulk(args: &ModuliArgs, m: &Anisotropic) -> Result<serde_json::Value> {
-    use hooke_core::random::anisotropic::{cubes, mean, measure};
+/// `--bulk --lattice random3d` (or `random2d`) with an anisotropic material: calibrate the
+/// direction functions on cubes (squares) of their own seeds
+/// ([`hooke_core::random::anisotropic::calibrate`], seeds 1001 on), then measure the design on
+/// `--samples` unseen node sets (seeds `--seed` on) in cubes (squares) of `--size` nodes per
+/// side, turned into the body's frame: the inner cubes' tensor, its mean and spread per entry
+/// against the target (a plate's: its in-plane stiffness in plane stress or strain, `--plane`).
+fn random_anisotropic_bulk(
+    args: &ModuliArgs,
+    m: &Anisotropic,
+    dim: usize,
+) -> Result<serde_json::Value> {
+    use hooke_core::random::anisotropic::{boxes, mean, measure, orthotropic_entries};
     if args.rotate_lattice || args.extrapolate || args.cylinder {
         return Err(InputError(
             "--rotate-lattice, --extrapolate, --cylinder: not for a random lattice's anisotropic bulk test (a random lattice has no axes to turn; its inner-cube tensor has no face excess to extrapolate)"
@@ -922,39 +947,55 @@ fn random_anisotropic_bulk(args: &ModuliArgs, m: &Anisotropic) -> Result<serde_j
     if args.samples == 0 {
         return Err(InputError("--samples 0: give at least one sample".into()).into());
     }
+    let (default_side, min_side) = if dim == 2 { (65, 19) } else { (33, 13) };
     let nodes_per_side = cube_nodes(
         args,
-        3,
-        33,
-        13,
+        dim,
+        default_side,
+        min_side,
         "the inner cube, two thirds of the side, must hold a network",
     )?;
     let flag = match m {
         Anisotropic::Transverse(_) => "--transverse",
         Anisotropic::Orthotropic(_) => "--orthotropic",
     };
+    if dim == 3 && args.plane.is_some() {
+        return Err(InputError(
+            "--plane: a random3d body is the 3D material itself; --plane is for random2d plates"
+                .into(),
+        )
+        .into());
+    }
+    let plane: hooke_core::material::PlaneModel = args.plane.map_or(Default::default(), Into::into);
     let start = Instant::now();
     let spec = random_spec(args)?;
-    let cal = m
-        .random_design(spec.sampler)
-        .map_err(|e| InputError(format!("{flag}: {e}")))?;
+    let cal = if dim == 2 {
+        m.random_design_plane(spec.sampler, plane)
+    } else {
+        m.random_design(spec.sampler)
+    }
+    .map_err(|e| InputError(format!("{flag}: {e}")))?;
     let side = nodes_per_side as Real - 1.0;
-    let lattices = cubes(side, args.samples, spec.seed, spec.sampler)?;
+    let lattices = boxes(dim, side, args.samples, spec.seed, spec.sampler)?;
     let runs = measure(&cal.design, &lattices, side, &Default::default())?;
     let measured = mean(&runs);
     let spread = hooke_core::random::anisotropic::spread(&runs, &measured);
-    let target = m.stiffness()?;
-    let relative = entry_relative_difference(&measured, &target);
-    let d = &cal.design;
     // In the material axes every orthotropic entry is sizeable, so each can be held to a
     // relative tolerance (turned into the body's frame, small entries carry the noise).
-    let frame = match m {
-        Anisotropic::Transverse(t) => t.frame()?,
-        Anisotropic::Orthotropic(o) => o.axes,
+    let (target, frame) = if dim == 2 {
+        (m.plane_stiffness(plane)?, m.plane_axes()?.0)
+    } else {
+        let frame = match m {
+            Anisotropic::Transverse(t) => t.frame()?,
+            Anisotropic::Orthotropic(o) => o.axes,
+        };
+        (m.stiffness()?, frame)
     };
+    let relative = entry_relative_difference(&measured, &target);
+    let d = &cal.design;
     let local = hooke_core::random::anisotropic::to_material(&measured, &frame);
     let local_target = hooke_core::random::anisotropic::to_material(&target, &frame);
-    let material_relative: Vec<Real> = hooke_core::random::anisotropic::ORTHOTROPIC_ENTRIES
+    let material_relative: Vec<Real> = orthotropic_entries(dim)
         .iter()
         .map(|&(i, j)| local[i][j] / local_target[i][j] - 1.0)
         .collect();
@@ -962,8 +1003,17 @@ fn random_anisotropic_bulk(args: &ModuliArgs, m: &Anisotropic) -> Result<serde_j
         Anisotropic::Transverse(_) => "transverse",
         Anisotropic::Orthotropic(_) => "orthotropic",
     };
+    let opts = if dim == 2 {
+        hooke_core::random::anisotropic::CalibrationOptions::plane()
+    } else {
+        Default::default()
+    };
+    let material_entries: Vec<String> = orthotropic_entries(dim)
+        .iter()
+        .map(|&(i, j)| format!("{}{}", i + 1, j + 1))
+        .collect();
     let mut v = serde_json::json!({
-        "test": "bulk", "relaxed": true, "lattice": "random3d", "q": d.q,
+        "test": "bulk", "relaxed": true, "lattice": if dim == 2 { "random2d" } else { "random3d" }, "q": d.q,
         "sampler": spec.sampler.name(), "seed": spec.seed, "samples": args.samples,
         "cube_spacings": side,
         "design": {
@@ -972,24 +1022,31 @@ fn random_anisotropic_bulk(args: &ModuliArgs, m: &Anisotropic) -> Result<serde_j
         },
         "calibration": {
             "residuals": cal.residuals, "seconds": cal.seconds,
-            "cube_spacings": 20.0, "samples": 4, "seeds": [1001, 1004],
+            "cube_spacings": opts.size, "samples": opts.samples,
+            "seeds": [opts.seed, opts.seed + opts.samples as u64 - 1],
             "cache_file": cal.cache.file().map(|p| p.display().to_string()),
             "from_cache": matches!(cal.cache, Cached::Read(_)),
             "cache_note": cal.cache.note(),
         },
-        "units": "Pa",
+        "units": if dim == 2 { "Pa (times the thickness: N/m)" } else { "Pa" },
         "voigt": ["xx", "yy", "zz", "yz", "xz", "xy"],
         "C_target": target, "C_measured": measured, "C_spread": spread,
         "C_relative_difference": relative,
         "max_relative_difference": max_relative_difference(&measured, &target),
         "max_entry_relative_difference": max_abs(&relative),
         "C_measured_material": local, "C_target_material": local_target,
-        "material_entries": ["11", "22", "33", "12", "13", "23", "44", "55", "66"],
+        "material_entries": material_entries,
         "material_relative_difference": material_relative,
         "max_material_relative_difference": material_relative.iter().fold(0.0 as Real, |a, b| a.max(b.abs())),
         "seconds": start.elapsed().as_secs_f64(),
     });
     v[name] = anisotropic_json(m);
+    if dim == 2 {
+        v["plane"] = serde_json::json!(match plane {
+            hooke_core::material::PlaneModel::Stress => "stress",
+            hooke_core::material::PlaneModel::Strain => "strain",
+        });
+    }
     Ok(v)
 }
 
@@ -1111,6 +1168,17 @@ fn max_relative_difference(measured: &[[Real; 6]; 6], target: &[[Real; 6]; 6]) -
 }
 
 pub fn run(args: ModuliArgs) -> Result<()> {
+    if args.plane.is_some()
+        && !(args.bulk
+            && matches!(args.lattice, LatticeArg::Random2d)
+            && (args.transverse.is_some() || args.orthotropic.is_some()))
+    {
+        return Err(InputError(
+            "--plane: how a random2d plate stands for an anisotropic material; it goes with --bulk --lattice random2d and --transverse or --orthotropic (an isotropic plate takes its in-plane nu_2D directly)"
+                .into(),
+        )
+        .into());
+    }
     if args.table {
         return random_table(&args);
     }
@@ -1142,8 +1210,12 @@ fn print_bulk(v: &serde_json::Value) {
         .find(|n| v[*n].is_object())
     {
         if v["design"].is_object() {
+            let plate = v["lattice"] == "random2d";
+            let cubes = if plate { "squares" } else { "cubes" };
             println!(
-                "relaxed bulk test: random3d lattice, {name} {}; inner cubes (two thirds of the side) of {} cubes of {} spacings, seeds {} on; Voigt xx yy zz yz xz xy ({})",
+                "relaxed bulk test: {} lattice{}, {name} {}; inner {cubes} (two thirds of the side) of {} {cubes} of {} spacings, seeds {} on; Voigt xx yy zz yz xz xy ({})",
+                v["lattice"].as_str().unwrap_or(""),
+                v["plane"].as_str().map_or(String::new(), |p| format!(" (plane {p})")),
                 v[name], v["samples"], v["cube_spacings"], v["seed"], v["units"].as_str().unwrap_or("")
             );
             let d = &v["design"];
@@ -1151,13 +1223,22 @@ fn print_bulk(v: &serde_json::Value) {
                 "design: kappa(n) = sum_a kappa_aa n_a^2P + sum_a<b kappa_ab n_a^2 n_b^2, P = {}, over xx yy zz yz xz xy (material axes) = {} Pa; w(n) = sum alpha_a n_a^2, alpha = {}; q = {:.6}",
                 d["sharpness"], d["kappa"], d["alpha"], v["q"].as_f64().unwrap_or(0.0)
             );
+            let cal = &v["calibration"];
             println!(
-                "calibration: largest entry off the target over the largest normal entry after each measurement {} ({:.1} s; 4 cubes of 20 spacings, seeds 1001 to 1004){}",
-                v["calibration"]["residuals"], v["calibration"]["seconds"].as_f64().unwrap_or(0.0),
-                v["calibration"]["cache_note"].as_str().unwrap_or("")
+                "calibration: largest entry off the target over the largest normal entry after each measurement {} ({:.1} s; {} {cubes} of {} spacings, seeds {} to {}){}",
+                cal["residuals"], cal["seconds"].as_f64().unwrap_or(0.0),
+                cal["samples"], cal["cube_spacings"], cal["seeds"][0], cal["seeds"][1],
+                cal["cache_note"].as_str().unwrap_or("")
             );
             println!(
-                "in the material axes, C11 C22 C33 C12 C13 C23 C44 C55 C66 measured / target - 1: {}",
+                "in the material axes, {} measured / target - 1: {}",
+                v["material_entries"]
+                    .as_array()
+                    .into_iter()
+                    .flatten()
+                    .map(|e| format!("C{}", e.as_str().unwrap_or("")))
+                    .collect::<Vec<_>>()
+                    .join(" "),
                 v["material_relative_difference"]
                     .as_array()
                     .into_iter()

@@ -142,6 +142,7 @@ pub fn check(args: CheckArgs) -> Result<()> {
         v[if kind.is_random() { "kappa" } else { "k" }] = serde_json::json!(sim.k);
         if let (Some(m), Some(cal)) = (&sim.anisotropic, &sim.random_design) {
             let d = &cal.design;
+            let plate = sim.body.lattice.dim() == 2;
             v["nu"] = serde_json::Value::Null;
             v["anisotropic"] = serde_json::json!({
                 "material": format!("{m:?}"),
@@ -150,8 +151,11 @@ pub fn check(args: CheckArgs) -> Result<()> {
                 "calibration_residuals": cal.residuals, "calibration_seconds": cal.seconds,
                 "calibration_cache_file": cal.cache.file().map(|p| p.display().to_string()),
                 "calibration_from_cache": matches!(cal.cache, hooke_core::random::anisotropic::Cached::Read(_)),
-                "stiffness": m.stiffness()?,
+                "stiffness": if plate { m.plane_stiffness(sim.plane)? } else { m.stiffness()? },
             });
+            if plate {
+                v["anisotropic"]["plane"] = serde_json::json!(plane_name(sim.plane));
+            }
         } else if let Some(m) = &sim.anisotropic {
             let f = m.families(sim.body.lattice.spacing)?;
             v["nu"] = serde_json::Value::Null;
@@ -198,8 +202,22 @@ pub fn check(args: CheckArgs) -> Result<()> {
             "  weights, q   w(n) = sum alpha_a n_a^2, alpha = {:.6} {:.6} {:.6}; q = {:.6}",
             d.alpha[0], d.alpha[1], d.alpha[2], d.q
         );
+        let plate = sim.body.lattice.dim() == 2;
+        let (boxes, stiffness) = if plate {
+            let o = hooke_core::random::anisotropic::CalibrationOptions::plane();
+            (
+                format!("{} squares of {} spacings", o.samples, o.size),
+                m.plane_stiffness(sim.plane)?,
+            )
+        } else {
+            let o = hooke_core::random::anisotropic::CalibrationOptions::default();
+            (
+                format!("{} cubes of {} spacings", o.samples, o.size),
+                m.stiffness()?,
+            )
+        };
         println!(
-            "  calibration  largest entry off the target over the largest normal entry: {} ({:.1} s; 4 cubes of 20 spacings){}",
+            "  calibration  largest entry off the target over the largest normal entry: {} ({:.1} s; {boxes}){}",
             cal.residuals
                 .iter()
                 .map(|r| format!("{r:.2e}"))
@@ -208,8 +226,15 @@ pub fn check(args: CheckArgs) -> Result<()> {
             cal.seconds,
             cal.cache.note()
         );
-        println!("  stiffness    C (Pa, Voigt xx yy zz yz xz xy, global axes):");
-        for row in m.stiffness()? {
+        if plate {
+            println!(
+                "  stiffness    C of the plate in plane {} (Pa; times the thickness, N/m), Voigt xx yy zz yz xz xy, global axes:",
+                plane_name(sim.plane)
+            );
+        } else {
+            println!("  stiffness    C (Pa, Voigt xx yy zz yz xz xy, global axes):");
+        }
+        for row in stiffness {
             let cells: Vec<String> = row.iter().map(|x| format!("{x:>12.4e}")).collect();
             println!("               {}", cells.join(" "));
         }
@@ -660,4 +685,12 @@ fn print_material(m: &hooke_core::Anisotropic) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// `"stress"` or `"strain"`, as `lattice.plane` spells it.
+fn plane_name(p: hooke_core::material::PlaneModel) -> &'static str {
+    match p {
+        hooke_core::material::PlaneModel::Stress => "stress",
+        hooke_core::material::PlaneModel::Strain => "strain",
+    }
 }

@@ -99,6 +99,71 @@ fn moduli_random3d_transverse_bulk_reports_the_design_and_the_tensor() {
     );
 }
 
+/// `hooke moduli --bulk --lattice random2d --transverse ... --plane strain`: a plate's design
+/// calibrated on squares, measured on unseen ones, against the in-plane stiffness in plane
+/// strain (the four entries C11 C22 C12 C66 in the material axes); a fibre out of the plate's
+/// plane and `--plane` anywhere else are refused.
+#[test]
+fn moduli_random2d_plate_bulk_reports_the_plane_tensor() {
+    let o = hooke(&[
+        "moduli",
+        "--bulk",
+        "--lattice",
+        "random2d",
+        "--transverse",
+        "10e9,25e9,0.35,0.28,4e9",
+        "--fibre",
+        "1,1,0",
+        "--plane",
+        "strain",
+        "--size",
+        "49",
+        "--samples",
+        "3",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["lattice"], "random2d");
+    assert_eq!(v["plane"], "strain");
+    assert_eq!(
+        v["material_entries"],
+        serde_json::json!(["11", "22", "12", "66"])
+    );
+    assert_eq!(v["calibration"]["cube_spacings"], 64.0);
+    assert_eq!(v["design"]["kappa"][2], 0.0);
+    let c = &v["C_target"];
+    assert!(c[0][0].as_f64().unwrap() > 1e10 && c[2][2] == 0.0 && c[3][3] == 0.0);
+    // Three squares of 48 spacings scatter by about 2 % each (C11 most).
+    let worst = v["max_material_relative_difference"].as_f64().unwrap();
+    assert!(
+        worst < 0.05,
+        "{worst}: {}",
+        v["material_relative_difference"]
+    );
+    for (args, text) in [
+        (
+            vec!["--lattice", "random2d", "--fibre", "1,0,1"],
+            "leaves the plane",
+        ),
+        (
+            vec!["--lattice", "random3d", "--plane", "stress"],
+            "--plane",
+        ),
+    ] {
+        let mut all = vec![
+            "moduli",
+            "--bulk",
+            "--transverse",
+            "10e9,25e9,0.35,0.28,4e9",
+        ];
+        all.extend(args);
+        let o = hooke(&all);
+        assert_eq!(o.status.code(), Some(2), "{all:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(text), "{all:?}: {}", stderr(&o));
+    }
+}
+
 /// `hooke moduli --transverse`: the bulk tensor is the transversely isotropic target to 1e-9
 /// for every fibre axis, and with `--cell-weights` the block test reads E and both lateral
 /// ratios along and across the fibre to 1e-4; bad input exits 2 with the reason.

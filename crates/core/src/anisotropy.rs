@@ -773,8 +773,24 @@ impl Anisotropic {
     }
 
     /// The body of this material on `lattice`: the Ladd lattice's spring families, or on a
-    /// random3d lattice the calibrated direction functions ([`Anisotropic::random_design`]).
+    /// random lattice the calibrated direction functions ([`Anisotropic::random_design`]; a
+    /// random2d plate in plane stress, [`Anisotropic::body_in`] for plane strain).
     pub fn body(&self, lattice: Lattice) -> Result<Body> {
+        self.body_in(lattice, crate::material::PlaneModel::Stress)
+    }
+
+    /// [`Anisotropic::body`], a 2D lattice standing for the material by `plane`.
+    pub fn body_in(&self, lattice: Lattice, plane: crate::material::PlaneModel) -> Result<Body> {
+        if lattice.kind == LatticeKind::Random2d {
+            let sampler = lattice
+                .cells
+                .as_ref()
+                .map_or(crate::random::Sampler::Poisson, |c| c.sampler);
+            return self
+                .random_design_plane(sampler, plane)?
+                .design
+                .body(lattice, self.density());
+        }
         if lattice.kind == LatticeKind::Random3d {
             let sampler = lattice
                 .cells
@@ -819,6 +835,157 @@ impl Anisotropic {
                 calibrate(&o.local_stiffness()?, o.axes, Symmetry::Orthotropic, opts)
             }
         }
+    }
+
+    /// The material axes of a plate of this material (rows, body frame) with the plate's normal
+    /// z third, and the symmetry of its in-plane stiffness: a plate (2D lattice) needs z to be
+    /// a material axis, so a fibre lies in the x-y plane (the plate is orthotropic) or along z
+    /// (isotropic in the plane), and an orthotropic material has one of its axes along z.
+    pub fn plane_axes(&self) -> Result<([[Real; 3]; 3], crate::random::anisotropic::Symmetry)> {
+        self.plane_frame().map(|(axes, _, sym)| (axes, sym))
+    }
+
+    /// [`Anisotropic::plane_axes`], and which of the material's own axes (those of its
+    /// `local_stiffness`) each of them is.
+    fn plane_frame(
+        &self,
+    ) -> Result<(
+        [[Real; 3]; 3],
+        [usize; 3],
+        crate::random::anisotropic::Symmetry,
+    )> {
+        use crate::random::anisotropic::Symmetry;
+        let refuse = |why: String| Error::InvalidInput {
+            what: "anisotropic material",
+            why,
+        };
+        let rows = match self {
+            Anisotropic::Transverse(t) => {
+                let m = t.axis()?;
+                if m[0] == 0.0 && m[1] == 0.0 {
+                    return Ok((Orthotropic::AXES, [0, 1, 2], Symmetry::Transverse));
+                }
+                if m[2].abs() > 1e-9 {
+                    return Err(refuse(format!(
+                        "a plate (2D lattice) takes a fibre in its x-y plane or along z; fibre {:?} leaves the plane: give its z component as 0",
+                        t.fibre
+                    )));
+                }
+                t.frame()?
+            }
+            Anisotropic::Orthotropic(o) => o.axes,
+        };
+        let Some(normal) = rows.iter().position(|r| r[2].abs() > 1.0 - 1e-9) else {
+            return Err(refuse(format!(
+                "a plate (2D lattice) needs one material axis along z, the plate's normal; the axes are {rows:?}: turn them about z only"
+            )));
+        };
+        // The in-plane axes: the fibre (or the material's first in-plane axis) first, exactly
+        // in the plane; the second from the right hand, so the frame stays right-handed (an
+        // orthotropic stiffness does not change when an axis flips).
+        let first = match self {
+            Anisotropic::Transverse(_) => 2,
+            Anisotropic::Orthotropic(_) => (0..3).find(|&a| a != normal).unwrap_or(0),
+        };
+        let second = 3 - first - normal;
+        let e1 = normalise([rows[first][0], rows[first][1], 0.0]);
+        let z = if rows[normal][2] > 0.0 { 1.0 } else { -1.0 };
+        let e3 = [0.0, 0.0, z];
+        let e2 = cross(e3, e1);
+        Ok(([e1, e2, e3], [first, second, normal], Symmetry::Orthotropic))
+    }
+
+    /// The stiffness a plate of this material has in its plane (Pa, per unit thickness),
+    /// Voigt order with only xx, yy and xy filled, in the material axes of
+    /// [`Anisotropic::plane_axes`]: plane strain keeps those entries of the 3D stiffness, plane
+    /// stress inverts those of the compliance (the out-of-plane stresses vanish). It is found
+    /// from the material's own stiffness by relabelling axes, with no rotation: the same
+    /// material gives the same bits (and one calibration) for any direction in the plane.
+    pub fn plane_local_stiffness(
+        &self,
+        plane: crate::material::PlaneModel,
+    ) -> Result<[[Real; 6]; 6]> {
+        let (_, perm, _) = self.plane_frame()?;
+        let own = match self {
+            Anisotropic::Transverse(t) => t.local_stiffness(),
+            Anisotropic::Orthotropic(o) => o.local_stiffness()?,
+        };
+        let pairs = crate::moduli::VOIGT;
+        let c: [[Real; 6]; 6] = std::array::from_fn(|p| {
+            std::array::from_fn(|q| {
+                let ((i, j), (k, l)) = (pairs[p], pairs[q]);
+                tensor_component(&own, perm[i], perm[j], perm[k], perm[l])
+            })
+        });
+        let idx = [0, 1, 5];
+        let sub = match plane {
+            crate::material::PlaneModel::Strain => {
+                nalgebra::Matrix3::<Real>::from_fn(|a, b| c[idx[a]][idx[b]])
+            }
+            crate::material::PlaneModel::Stress => {
+                let full = nalgebra::SMatrix::<Real, 6, 6>::from_fn(|a, b| c[a][b]);
+                let s = full.try_inverse().ok_or_else(|| Error::InvalidInput {
+                    what: "anisotropic material",
+                    why: "its stiffness is singular".into(),
+                })?;
+                nalgebra::Matrix3::<Real>::from_fn(|a, b| s[(idx[a], idx[b])])
+                    .try_inverse()
+                    .ok_or_else(|| Error::InvalidInput {
+                        what: "anisotropic material",
+                        why: "its in-plane compliance is singular".into(),
+                    })?
+            }
+        };
+        let mut out = [[0.0; 6]; 6];
+        for a in 0..3 {
+            for b in 0..3 {
+                // Symmetric to round-off; keep it exactly so.
+                out[idx[a]][idx[b]] = 0.5 * (sub[(a, b)] + sub[(b, a)]);
+            }
+        }
+        Ok(out)
+    }
+
+    /// [`Anisotropic::plane_local_stiffness`] in the body's frame.
+    pub fn plane_stiffness(&self, plane: crate::material::PlaneModel) -> Result<[[Real; 6]; 6]> {
+        let (axes, _) = self.plane_axes()?;
+        Ok(rotate(&self.plane_local_stiffness(plane)?, &axes))
+    }
+
+    /// The direction functions that give this material on random2d plates scattered by
+    /// `sampler` (`plane`: how the plate stands for the material), calibrated on squares
+    /// ([`crate::random::anisotropic::CalibrationOptions::plane`]: 4 squares of 40 spacings,
+    /// seeds 1001 to 1004; a few seconds).
+    pub fn random_design_plane(
+        &self,
+        sampler: crate::random::Sampler,
+        plane: crate::material::PlaneModel,
+    ) -> Result<crate::random::anisotropic::Calibrated> {
+        self.random_design_plane_with(
+            &crate::random::anisotropic::CalibrationOptions {
+                sampler,
+                ..crate::random::anisotropic::CalibrationOptions::plane()
+            },
+            plane,
+        )
+    }
+
+    /// [`Anisotropic::random_design_plane`] with the calibration's options (`opts.dim` is 2).
+    pub fn random_design_plane_with(
+        &self,
+        opts: &crate::random::anisotropic::CalibrationOptions,
+        plane: crate::material::PlaneModel,
+    ) -> Result<crate::random::anisotropic::Calibrated> {
+        if let Anisotropic::Transverse(t) = self {
+            t.validate()?;
+        }
+        let (axes, sym) = self.plane_axes()?;
+        let target = self.plane_local_stiffness(plane)?;
+        let opts = crate::random::anisotropic::CalibrationOptions {
+            dim: 2,
+            ..opts.clone()
+        };
+        crate::random::anisotropic::calibrate(&target, axes, sym, &opts)
     }
 
     /// The springs' families at spacing `a`.
@@ -914,6 +1081,68 @@ pub fn rotate(c: &[[Real; 6]; 6], r: &[[Real; 3]; 3]) -> [[Real; 6]; 6] {
 mod tests {
     use super::*;
     use crate::moduli::bulk_stiffness_of;
+
+    /// A plate's in-plane stiffness: plane stress gives the engineering form `Q11 = E1 / (1 -
+    /// nu12 nu21)`, `Q12 = nu12 E2 / (1 - nu12 nu21)`, `Q66 = G12` (fibre as axis 1), plane
+    /// strain the 3D entries; the same bits for every fibre direction in the plane; a fibre
+    /// out of the plane, or orthotropic axes with none along z, are refused.
+    #[test]
+    fn plate_stiffness_is_the_engineering_one_for_any_fibre_in_the_plane() {
+        use crate::material::PlaneModel;
+        let t = |fibre| material(10e9, 25e9, 0.35, 0.28, 4e9, fibre);
+        let m = Anisotropic::Transverse(t([1.0, 0.0, 0.0]));
+        let q = m.plane_local_stiffness(PlaneModel::Stress).unwrap();
+        let (e1, e2, nu12) = (25e9, 10e9, 0.28);
+        let nu21 = nu12 * e2 / e1;
+        let d = 1.0 - nu12 * nu21;
+        for (got, want) in [
+            (q[0][0], e1 / d),
+            (q[1][1], e2 / d),
+            (q[0][1], nu12 * e2 / d),
+            (q[5][5], 4e9),
+        ] {
+            assert!((got / want - 1.0).abs() < 1e-12, "{got:e} vs {want:e}");
+        }
+        let own = t([0.0, 0.0, 1.0]).local_stiffness();
+        let strain = m.plane_local_stiffness(PlaneModel::Strain).unwrap();
+        // Fibre (own axis 3) first, a plane axis second: C33, C11, C13, C55 of its own axes.
+        assert_eq!(
+            [strain[0][0], strain[1][1], strain[0][1], strain[5][5]],
+            [own[2][2], own[0][0], own[0][2], own[4][4]]
+        );
+        for f in [[0.6, 0.8, 0.0], [-1.0, 1.0, 0.0], [0.0, -2.0, 0.0]] {
+            let other = Anisotropic::Transverse(t(f));
+            assert_eq!(other.plane_local_stiffness(PlaneModel::Stress).unwrap(), q);
+            let (axes, _) = other.plane_axes().unwrap();
+            let n = (f[0] * f[0] + f[1] * f[1]).sqrt();
+            assert!((axes[0][0] - f[0] / n).abs() < 1e-15 && (axes[0][1] - f[1] / n).abs() < 1e-15);
+        }
+        let off = Anisotropic::Transverse(t([1.0, 0.0, 0.5]));
+        let e = off.plane_local_stiffness(PlaneModel::Stress).unwrap_err();
+        assert!(e.to_string().contains("leaves the plane"), "{e}");
+        let o = Orthotropic {
+            youngs: [20e9, 15e9, 10e9],
+            poisson: [0.2, 0.25, 0.3],
+            shear: [4e9, 5e9, 6e9],
+            density: 1500.0,
+            axes: Orthotropic::axes_from([1.0, 1.0, 0.0], [-1.0, 1.0, 1.0]).unwrap(),
+        };
+        let e = Anisotropic::Orthotropic(o).plane_axes().unwrap_err();
+        assert!(e.to_string().contains("along z"), "{e}");
+        // Turned about z only: the plate's axes are the material's x and y.
+        let o = Orthotropic {
+            axes: Orthotropic::axes_from([1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]).unwrap(),
+            ..o
+        };
+        let q = Anisotropic::Orthotropic(o)
+            .plane_local_stiffness(PlaneModel::Strain)
+            .unwrap();
+        let own = o.local_stiffness().unwrap();
+        assert_eq!(
+            [q[0][0], q[1][1], q[0][1], q[5][5]],
+            [own[0][0], own[1][1], own[0][1], own[5][5]]
+        );
+    }
 
     fn material(ep: Real, et: Real, np: Real, ntp: Real, gt: Real, fibre: [Real; 3]) -> Transverse {
         Transverse {

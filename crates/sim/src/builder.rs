@@ -405,6 +405,7 @@ impl Builder {
             anisotropic: self.anisotropic,
             random_design,
             cell_weighted: weighted,
+            plane: self.plane,
         })
     }
 
@@ -523,20 +524,28 @@ impl Builder {
                     "give an isotropic material or an anisotropic one, not both",
                 ));
             }
-            if !matches!(kind, LatticeKind::Cubic | LatticeKind::Random3d) {
+            if !matches!(
+                kind,
+                LatticeKind::Cubic | LatticeKind::Random3d | LatticeKind::Random2d
+            ) {
                 return Err(BuildError::new(
                     "material.kind",
                     format!(
-                        "anisotropic materials are built on the cubic and random3d lattices; the {} lattice is not supported yet: use lattice.kind = \"cubic\" or \"random3d\"",
+                        "anisotropic materials are built on the cubic, random2d and random3d lattices; the {} lattice is not supported yet: use lattice.kind = \"cubic\", \"random2d\" or \"random3d\"",
                         kind.name()
                     ),
                 ));
             }
             // On a random lattice the direction functions are calibrated first (about half a
             // minute on cubes of their own seeds); `hooke check` prints what they reached.
-            let (body, design) = if kind == LatticeKind::Random3d {
+            let (body, design) = if kind.is_random() {
                 let sampler = self.random.sampler;
-                match t.random_design(sampler) {
+                let cal = if kind == LatticeKind::Random2d {
+                    t.random_design_plane(sampler, self.plane)
+                } else {
+                    t.random_design(sampler)
+                };
+                match cal {
                     Ok(cal) => {
                         let density = t.density();
                         (cal.design.body(lattice, density), Some(cal))
@@ -569,6 +578,9 @@ impl Builder {
                 .map_or(
                     match t {
                         Anisotropic::Transverse(_) => "material.fibre".to_string(),
+                        Anisotropic::Orthotropic(_) if msg.contains("the plate's normal") => {
+                            "material.axes".to_string()
+                        }
                         Anisotropic::Orthotropic(_) => "material.kind".to_string(),
                     },
                     |k| format!("material.{k}"),

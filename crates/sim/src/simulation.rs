@@ -78,12 +78,14 @@ pub struct Simulation {
     /// An anisotropic material (`[material] kind = "transverse"` or `"orthotropic"`), or
     /// `None` for an isotropic one.
     pub anisotropic: Option<hooke_core::Anisotropic>,
-    /// On a random3d lattice, the anisotropic material's calibrated direction functions and
+    /// On a random lattice, the anisotropic material's calibrated direction functions and
     /// what the calibration reached ([`hooke_core::random::anisotropic::calibrate`]).
     pub random_design: Option<hooke_core::random::anisotropic::Calibrated>,
     /// Whether the body's springs and nodes are weighted by their cells (regular lattices,
     /// [`crate::Builder::cell_weights`]).
     pub cell_weighted: bool,
+    /// How a 2D body stands for its 3D material ([`crate::Builder::plane`]; ignored in 3D).
+    pub plane: hooke_core::material::PlaneModel,
 }
 
 impl Simulation {
