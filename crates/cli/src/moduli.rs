@@ -168,9 +168,9 @@ pub struct ModuliArgs {
     /// --json. A diagnostic: it helps in 3D up to nu = 0.25, not at 0.45 nor in 2D (README).
     #[arg(long, requires = "bulk")]
     pub extrapolate: bool,
-    /// With --transverse or --orthotropic on a random2d lattice: how the plate stands for the
-    /// 3D material, `stress` (a thin plate, the default) or `strain` (a thick body); its fibre
-    /// lies in the x-y plane or along z, or one orthotropic axis is along z.
+    /// With --transverse or --orthotropic on a random2d lattice (block or --bulk): how the plate
+    /// stands for the 3D material, `stress` (a thin plate, the default) or `strain` (a thick
+    /// body); its fibre lies in the x-y plane or along z, or one orthotropic axis is along z.
     #[arg(long, value_enum)]
     pub plane: Option<PlaneArg>,
 }
@@ -403,12 +403,15 @@ fn test_for(args: &ModuliArgs, nu: Real) -> Result<BlockTest> {
         )
         .into());
     }
-    if t.anisotropic.is_some() && !matches!(kind, LatticeKind::Cubic | LatticeKind::Random3d) {
-        return Err(InputError(format!(
-            "--transverse, --orthotropic: the block test of an anisotropic material runs on the cubic and random3d lattices; the {} lattice's is not supported yet",
-            kind.name()
-        ))
+    if t.anisotropic.is_some() && kind == LatticeKind::Hex {
+        return Err(InputError(
+            "--transverse, --orthotropic: the block test of an anisotropic material runs on the cubic, random2d and random3d lattices; the hex lattice's is not supported yet"
+                .into(),
+        )
         .into());
+    }
+    if let Some(p) = args.plane {
+        t.plane = p.into();
     }
     for (name, v) in [("--spacing", t.spacing), ("--stiffness", t.stiffness)] {
         if !(v.is_finite() && v > 0.0) {
@@ -1169,12 +1172,11 @@ fn max_relative_difference(measured: &[[Real; 6]; 6], target: &[[Real; 6]; 6]) -
 
 pub fn run(args: ModuliArgs) -> Result<()> {
     if args.plane.is_some()
-        && !(args.bulk
-            && matches!(args.lattice, LatticeArg::Random2d)
+        && !(matches!(args.lattice, LatticeArg::Random2d)
             && (args.transverse.is_some() || args.orthotropic.is_some()))
     {
         return Err(InputError(
-            "--plane: how a random2d plate stands for an anisotropic material; it goes with --bulk --lattice random2d and --transverse or --orthotropic (an isotropic plate takes its in-plane nu_2D directly)"
+            "--plane: how a random2d plate stands for an anisotropic material; it goes with --lattice random2d and --transverse or --orthotropic (an isotropic plate takes its in-plane nu_2D directly)"
                 .into(),
         )
         .into());

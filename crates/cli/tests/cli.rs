@@ -105,7 +105,11 @@ fn moduli_random3d_transverse_bulk_reports_the_design_and_the_tensor() {
 /// plane and `--plane` anywhere else are refused.
 #[test]
 fn moduli_random2d_plate_bulk_reports_the_plane_tensor() {
-    let o = hooke(&[
+    // The block test below reads the bulk test's calibration from this cache.
+    let cache = std::env::temp_dir().join(format!("hooke-cli-plate-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&cache);
+    let cached = |args: &[&str]| hooke_caching(args, cache.to_str().unwrap());
+    let o = cached(&[
         "moduli",
         "--bulk",
         "--lattice",
@@ -141,6 +145,36 @@ fn moduli_random2d_plate_bulk_reports_the_plane_tensor() {
         "{worst}: {}",
         v["material_relative_difference"]
     );
+    // The block test of the same plate along the fibre: the plane-strain lateral ratio read
+    // to 0.02; E carries the free edges' stiffer layer (+5 % on the paper's strip,
+    // `docs/anisotropy.md`, "Plates").
+    let o = cached(&[
+        "moduli",
+        "--lattice",
+        "random2d",
+        "--transverse",
+        "10e9,25e9,0.35,0.28,4e9",
+        "--fibre",
+        "x",
+        "--plane",
+        "strain",
+        "--spacing",
+        "1e-3",
+        "--size",
+        "71,16",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&cache);
+    let b: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let (nt, nm) = (
+        b["nu_target"].as_f64().unwrap(),
+        b["nu_measured"].as_f64().unwrap(),
+    );
+    assert!((nt - 0.3902).abs() < 1e-4, "plane-strain target {nt}");
+    assert!((nm - nt).abs() < 0.02, "nu {nm} against {nt}");
+    let e = b["E_relative_error"].as_f64().unwrap();
+    assert!(e > 0.0 && e < 0.1, "E {e:+.4}");
     for (args, text) in [
         (
             vec!["--lattice", "random2d", "--fibre", "1,0,1"],

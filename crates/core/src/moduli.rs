@@ -72,8 +72,8 @@ pub struct BlockTest {
     /// Regular lattices: weight each spring and node by the share of the bulk's cells it stands
     /// for ([`Body::with_cell_weights`]), which removes the free-surface bias.
     pub cell_weights: bool,
-    /// The cubic lattice only: build this anisotropic material ([`Body::transverse`],
-    /// [`Body::orthotropic`]) instead of the isotropic one (`nu`, `q` and `stiffness` are then
+    /// Build this anisotropic material ([`Body::transverse`], [`Body::orthotropic`] on the
+    /// cubic lattice; the calibrated design on random ones) instead of the isotropic one (`nu`, `q` and `stiffness` are then
     /// unused). The targets are the compliance's: `E = 1/S_xx`, and the lateral ratios
     /// `-S_yx/S_xx`, `-S_zx/S_xx` ([`BlockResult::lateral_target`]).
     pub anisotropic: Option<crate::anisotropy::Anisotropic>,
@@ -84,6 +84,9 @@ pub struct BlockTest {
     /// as the box's faces have theirs. Off, the wall's outer nodes lie inside the surface (the
     /// box's nodes that the cylinder holds), as before curved surfaces were sampled.
     pub conform: bool,
+    /// random2d with an anisotropic material: how the plate stands for it (the targets are then
+    /// the plate's in-plane compliance's, [`crate::Anisotropic::plane_stiffness`]).
+    pub plane: crate::material::PlaneModel,
 }
 
 impl BlockTest {
@@ -109,6 +112,7 @@ impl BlockTest {
             anisotropic: None,
             cylinder: false,
             conform: true,
+            plane: crate::material::PlaneModel::Stress,
         }
     }
 }
@@ -150,12 +154,6 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
         });
     }
     if t.kind.is_random() {
-        if t.anisotropic.is_some() && t.kind != LatticeKind::Random3d {
-            return Err(Error::InvalidInput {
-                what: "anisotropic material",
-                why: "the block test builds anisotropic materials on the cubic and random3d lattices only".into(),
-            });
-        }
         return random_block_test(t);
     }
     // The targets: E and the lateral ratios under uniaxial stress along x.
@@ -375,22 +373,39 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
     let ax = t.axis;
     // An anisotropic material: its calibrated direction functions, and the targets under
     // uniaxial stress along the load axis from the compliance, E = 1 / S_aa and the lateral
-    // ratios -S_ca / S_aa.
+    // ratios -S_ca / S_aa (a plate's: of its in-plane stiffness, xx yy xy, per thickness).
     let aniso = match &t.anisotropic {
         Some(m) => {
-            let c = m.stiffness()?;
-            let s = nalgebra::Matrix6::from_fn(|i, j| c[i][j])
-                .try_inverse()
-                .ok_or_else(|| Error::InvalidInput {
-                    what: "anisotropic material",
-                    why: "its stiffness is singular".into(),
-                })?;
+            let singular = || Error::InvalidInput {
+                what: "anisotropic material",
+                why: "its stiffness is singular".into(),
+            };
+            let (design, s) = if dim == 2 {
+                let c = m.plane_stiffness(t.plane)?;
+                let idx = [0, 1, 5];
+                let s3 = nalgebra::Matrix3::from_fn(|i, j| c[idx[i]][idx[j]])
+                    .try_inverse()
+                    .ok_or_else(singular)?;
+                let mut s = nalgebra::Matrix6::<Real>::zeros();
+                for i in 0..3 {
+                    for j in 0..3 {
+                        s[(idx[i], idx[j])] = s3[(i, j)];
+                    }
+                }
+                (m.random_design_plane(sampler, t.plane)?, s)
+            } else {
+                let c = m.stiffness()?;
+                let s = nalgebra::Matrix6::from_fn(|i, j| c[i][j])
+                    .try_inverse()
+                    .ok_or_else(singular)?;
+                (m.random_design(sampler)?, s)
+            };
             let lat: Vec<usize> = (0..3).filter(|&c| c != ax).collect();
             let ratios = [
                 -s[(lat[0], ax)] / s[(ax, ax)],
                 -s[(lat[1], ax)] / s[(ax, ax)],
             ];
-            Some((m.random_design(sampler)?, 1.0 / s[(ax, ax)], ratios))
+            Some((design, 1.0 / s[(ax, ax)], ratios))
         }
         None => None,
     };
@@ -590,6 +605,8 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
     };
     let (nu_target, lateral_measured, lateral_target) = match &aniso {
         Some((.., r)) if dim == 3 && !t.cylinder => (0.5 * (r[0] + r[1]), Some(per_axis), Some(*r)),
+        // A plate has one lateral axis (the second ratio is the out-of-plane one, not measured).
+        Some((.., r)) if dim == 2 => (r[0], None, Some(*r)),
         Some((.., r)) => (0.5 * (r[0] + r[1]), None, Some(*r)),
         None => (t.nu, None, None),
     };
