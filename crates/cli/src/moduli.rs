@@ -1024,7 +1024,7 @@ fn random_anisotropic_bulk(
             "alpha": d.alpha, "q": d.q, "axes": d.axes, "sharpness": d.sharpness,
         },
         "calibration": {
-            "residuals": cal.residuals, "seconds": cal.seconds,
+            "residuals": cal.residuals, "held_out": cal.held_out, "seconds": cal.seconds,
             "cube_spacings": opts.size, "samples": opts.samples,
             "seeds": [opts.seed, opts.seed + opts.samples as u64 - 1],
             "cache_file": cal.cache.file().map(|p| p.display().to_string()),
@@ -1227,8 +1227,8 @@ fn print_bulk(v: &serde_json::Value) {
             );
             let cal = &v["calibration"];
             println!(
-                "calibration: largest entry off the target over the largest normal entry after each measurement {} ({:.1} s; {} {cubes} of {} spacings, seeds {} to {}){}",
-                cal["residuals"], cal["seconds"].as_f64().unwrap_or(0.0),
+                "calibration: largest entry off the target over the largest normal entry after each measurement {}, on as many other {cubes} {:.2e} ({:.1} s; {} {cubes} of {} spacings, seeds {} to {}){}",
+                cal["residuals"], cal["held_out"].as_f64().unwrap_or(Real::NAN), cal["seconds"].as_f64().unwrap_or(0.0),
                 cal["samples"], cal["cube_spacings"], cal["seeds"][0], cal["seeds"][1],
                 cal["cache_note"].as_str().unwrap_or("")
             );

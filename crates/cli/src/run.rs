@@ -148,7 +148,8 @@ pub fn check(args: CheckArgs) -> Result<()> {
                 "material": format!("{m:?}"),
                 "kappa": d.kappa, "kappa_terms": ["xx", "yy", "zz", "yz", "xz", "xy"],
                 "alpha": d.alpha, "axes": d.axes, "sharpness": d.sharpness,
-                "calibration_residuals": cal.residuals, "calibration_seconds": cal.seconds,
+                "calibration_residuals": cal.residuals, "calibration_held_out": cal.held_out,
+                "calibration_seconds": cal.seconds,
                 "calibration_cache_file": cal.cache.file().map(|p| p.display().to_string()),
                 "calibration_from_cache": matches!(cal.cache, hooke_core::random::anisotropic::Cached::Read(_)),
                 "stiffness": if plate { m.plane_stiffness(sim.plane)? } else { m.stiffness()? },
@@ -217,12 +218,13 @@ pub fn check(args: CheckArgs) -> Result<()> {
             )
         };
         println!(
-            "  calibration  largest entry off the target over the largest normal entry: {} ({:.1} s; {boxes}){}",
+            "  calibration  largest entry off the target over the largest normal entry: {}, on as many other node sets {:.2e} ({:.1} s; {boxes}){}",
             cal.residuals
                 .iter()
                 .map(|r| format!("{r:.2e}"))
                 .collect::<Vec<_>>()
                 .join(" -> "),
+            cal.held_out,
             cal.seconds,
             cal.cache.note()
         );
