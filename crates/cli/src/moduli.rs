@@ -962,13 +962,6 @@ fn random_anisotropic_bulk(
         Anisotropic::Transverse(_) => "--transverse",
         Anisotropic::Orthotropic(_) => "--orthotropic",
     };
-    if dim == 3 && args.plane.is_some() {
-        return Err(InputError(
-            "--plane: a random3d body is the 3D material itself; --plane is for random2d plates"
-                .into(),
-        )
-        .into());
-    }
     let plane: hooke_core::material::PlaneModel = args.plane.map_or(Default::default(), Into::into);
     let start = Instant::now();
     let spec = random_spec(args)?;
@@ -1045,10 +1038,7 @@ fn random_anisotropic_bulk(
     });
     v[name] = anisotropic_json(m);
     if dim == 2 {
-        v["plane"] = serde_json::json!(match plane {
-            hooke_core::material::PlaneModel::Stress => "stress",
-            hooke_core::material::PlaneModel::Strain => "strain",
-        });
+        v["plane"] = serde_json::json!(plane.name());
     }
     Ok(v)
 }

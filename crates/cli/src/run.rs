@@ -155,7 +155,7 @@ pub fn check(args: CheckArgs) -> Result<()> {
                 "stiffness": if plate { m.plane_stiffness(sim.plane)? } else { m.stiffness()? },
             });
             if plate {
-                v["anisotropic"]["plane"] = serde_json::json!(plane_name(sim.plane));
+                v["anisotropic"]["plane"] = serde_json::json!(sim.plane.name());
             }
         } else if let Some(m) = &sim.anisotropic {
             let f = m.families(sim.body.lattice.spacing)?;
@@ -231,7 +231,7 @@ pub fn check(args: CheckArgs) -> Result<()> {
         if plate {
             println!(
                 "  stiffness    C of the plate in plane {} (Pa; times the thickness, N/m), Voigt xx yy zz yz xz xy, global axes:",
-                plane_name(sim.plane)
+                sim.plane.name()
             );
         } else {
             println!("  stiffness    C (Pa, Voigt xx yy zz yz xz xy, global axes):");
@@ -687,12 +687,4 @@ fn print_material(m: &hooke_core::Anisotropic) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// `"stress"` or `"strain"`, as `lattice.plane` spells it.
-fn plane_name(p: hooke_core::material::PlaneModel) -> &'static str {
-    match p {
-        hooke_core::material::PlaneModel::Stress => "stress",
-        hooke_core::material::PlaneModel::Strain => "strain",
-    }
 }

@@ -862,7 +862,8 @@ impl Anisotropic {
         let rows = match self {
             Anisotropic::Transverse(t) => {
                 let m = t.axis()?;
-                if m[0] == 0.0 && m[1] == 0.0 {
+                // Within the tolerance the plane test below uses (a unit fibre).
+                if m[0].hypot(m[1]) <= 1e-9 {
                     return Ok((Orthotropic::AXES, [0, 1, 2], Symmetry::Transverse));
                 }
                 if m[2].abs() > 1e-9 {

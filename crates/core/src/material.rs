@@ -51,6 +51,16 @@ pub enum PlaneModel {
     Strain,
 }
 
+impl PlaneModel {
+    /// `"stress"` or `"strain"`, as `lattice.plane` and `--plane` spell it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            PlaneModel::Stress => "stress",
+            PlaneModel::Strain => "strain",
+        }
+    }
+}
+
 /// The constants the force law needs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SpringConstants {
