@@ -965,12 +965,9 @@ fn random_anisotropic_bulk(
     let plane: hooke_core::material::PlaneModel = args.plane.map_or(Default::default(), Into::into);
     let start = Instant::now();
     let spec = random_spec(args)?;
-    let cal = if dim == 2 {
-        m.random_design_plane(spec.sampler, plane)
-    } else {
-        m.random_design(spec.sampler)
-    }
-    .map_err(|e| InputError(format!("{flag}: {e}")))?;
+    let cal = m
+        .random_design_for(dim, spec.sampler, plane)
+        .map_err(|e| InputError(format!("{flag}: {e}")))?;
     let side = nodes_per_side as Real - 1.0;
     let lattices = boxes(dim, side, args.samples, spec.seed, spec.sampler)?;
     let runs = measure(&cal.design, &lattices, side, &Default::default())?;

@@ -781,29 +781,35 @@ impl Anisotropic {
 
     /// [`Anisotropic::body`], a 2D lattice standing for the material by `plane`.
     pub fn body_in(&self, lattice: Lattice, plane: crate::material::PlaneModel) -> Result<Body> {
-        if lattice.kind == LatticeKind::Random2d {
+        if lattice.kind.is_random() {
             let sampler = lattice
                 .cells
                 .as_ref()
                 .map_or(crate::random::Sampler::Poisson, |c| c.sampler);
             return self
-                .random_design_plane(sampler, plane)?
-                .design
-                .body(lattice, self.density());
-        }
-        if lattice.kind == LatticeKind::Random3d {
-            let sampler = lattice
-                .cells
-                .as_ref()
-                .map_or(crate::random::Sampler::Poisson, |c| c.sampler);
-            return self
-                .random_design(sampler)?
+                .random_design_for(lattice.dim(), sampler, plane)?
                 .design
                 .body(lattice, self.density());
         }
         match self {
             Anisotropic::Transverse(t) => Body::transverse(lattice, t),
             Anisotropic::Orthotropic(o) => Body::orthotropic(lattice, o),
+        }
+    }
+
+    /// The calibrated direction functions for a random lattice of `dim` dimensions: a plate's
+    /// ([`Anisotropic::random_design_plane`], standing for the material by `plane`) in 2D, the
+    /// material's own ([`Anisotropic::random_design`]) in 3D, where `plane` is not read.
+    pub fn random_design_for(
+        &self,
+        dim: usize,
+        sampler: crate::random::Sampler,
+        plane: crate::material::PlaneModel,
+    ) -> Result<crate::random::anisotropic::Calibrated> {
+        if dim == 2 {
+            self.random_design_plane(sampler, plane)
+        } else {
+            self.random_design(sampler)
         }
     }
 

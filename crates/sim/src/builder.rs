@@ -540,12 +540,7 @@ impl Builder {
             // minute on cubes of their own seeds); `hooke check` prints what they reached.
             let (body, design) = if kind.is_random() {
                 let sampler = self.random.sampler;
-                let cal = if kind == LatticeKind::Random2d {
-                    t.random_design_plane(sampler, self.plane)
-                } else {
-                    t.random_design(sampler)
-                };
-                match cal {
+                match t.random_design_for(kind.dim(), sampler, self.plane) {
                     Ok(cal) => {
                         let density = t.density();
                         (cal.design.body(lattice, density), Some(cal))
