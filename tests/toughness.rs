@@ -524,9 +524,11 @@ fn softening_strip_dissipates_the_tabulated_g_f() {
 /// on strips other than the calibration's: hex 20 rows (the table: 16) and cubic 14 and 18
 /// planes (the table: 16), both shapes, at nu and peak fractions on and between the table's
 /// points. Measured (in the order below): hex 1.010, 1.022, 1.005, 0.981, 0.98; cubic 1.014,
-/// 1.042, 1.09. Each within 5 % but the last: on the cubic strip at nu = 0.25 F falls by 18 %
-/// between rho = 0.65 and 0.7 (0.674, 0.589 at 0.675, 0.553), a step the table's 0.1 spacing
-/// cannot follow, so rho = 0.65 there is 9 % off (recorded with its own tolerance). Before the
+/// 1.042, 0.989, 1.003, 0.979 (2026-12-04). The cubic strip at nu = 0.25, rho = 0.65 is the
+/// fragile point: its F is 0.674 at 16 planes (the table's size) but 0.613 and 0.611 at 18 and
+/// 20, where the table's interpolation between 0.6 and 0.7 gives 0.620; an earlier build read
+/// 1.09 at 18 planes there (recorded then with a 10 % tolerance). Columns at 0.65 and 0.675
+/// measured at 16 planes were tried and dropped: they took the 18-plane strip to 0.910. Before the
 /// tables were measured at 16 cubic planes with a column at rho = 0.6 (12 planes, no 0.6): hex
 /// nu_2D = -0.5 at rho = 0.6 read 0.942 and cubic bilinear at 14 planes 1.055. Random2d is not
 /// checked: its node sets scatter by 10-30 % at the table's strip size.
@@ -542,7 +544,9 @@ fn softening_springs_dissipate_g_f_on_other_strips() {
         (LatticeKind::Hex, 0.0, Linear, 0.55, 20, 0.05),
         (LatticeKind::Cubic, 0.25, Linear, 0.5, 14, 0.05),
         (LatticeKind::Cubic, 0.0, Bilinear, 0.7, 14, 0.05),
-        (LatticeKind::Cubic, 0.25, Linear, 0.65, 18, 0.10),
+        (LatticeKind::Cubic, 0.25, Linear, 0.65, 18, 0.05),
+        (LatticeKind::Cubic, 0.25, Linear, 0.66, 18, 0.05),
+        (LatticeKind::Cubic, 0.0, Bilinear, 0.66, 14, 0.05),
     ] {
         let r = softening_ratio(kind, nu, shape, rho, h);
         assert!(
