@@ -442,6 +442,33 @@ fn random_lattice_orthotropic_design_meets_the_target_on_unseen_node_sets() {
     );
 }
 
+/// A second orthotropic material, its stiffest axis the middle one and its q positive (E 6, 12
+/// and 9 GPa; nu_xy 0.2, nu_xz 0.3, nu_yz 0.25; G_yz 3.5, G_xz 2.5, G_xy 3 GPa), axes turned
+/// about y (x along [1, 0, 1]): the same check on unseen node sets, each orthotropic entry in
+/// the material axes within 2 %. Measured: q = 0.224, calibration 0.124 -> 0.0017 in 3 rounds,
+/// the cubes of 32 within 0.84 % per entry (C66 -0.84 %, C12 -0.56 %, the rest within 0.4 %),
+/// spread 0.1-0.7 %; `hooke moduli --bulk --lattice random3d --orthotropic
+/// 6e9,12e9,9e9,0.2,0.3,0.25,3.5e9,2.5e9,3e9 --samples 2 --size 25` (body axes): held-out
+/// 0.92 %, cubes of 25 within 0.94 %.
+#[test]
+#[ignore = "slow: a calibration and three relaxed cubes, about 25 seconds"]
+fn random_lattice_second_orthotropic_design_meets_the_target_on_unseen_node_sets() {
+    use hooke_core::anisotropy::Orthotropic;
+    let o = Orthotropic {
+        youngs: [6e9, 12e9, 9e9],
+        poisson: [0.2, 0.3, 0.25],
+        shear: [3.5e9, 2.5e9, 3e9],
+        density: 1200.0,
+        axes: Orthotropic::axes_from([1.0, 0.0, 1.0], [0.0, 1.0, 0.0]).unwrap(),
+    };
+    unseen_node_sets_within(
+        hooke_core::Anisotropic::Orthotropic(o),
+        &o.axes,
+        &o.local_stiffness().unwrap(),
+        0.02,
+    );
+}
+
 /// Block tests (the paper's 71 x 16 x 16-node block, free faces, sliding ends) of the calibrated
 /// random3d design along the fibre and across it: E from the middle third's strain and both
 /// lateral ratios against the engineering constants. The design is calibrated in the bulk, so
