@@ -282,10 +282,13 @@ fn wave_speeds_along_and_across_the_fibre_match_christoffel() {
 fn random_lattice_calibration_converges() {
     use hooke_core::random::anisotropic::{calibrate, CalibrationOptions, Symmetry};
     let t = carbon([0.0, 0.0, 1.0]);
+    // Two cubes of 12 spacings scatter by about 4 % per entry between node sets, so the
+    // held-out check cannot tell 2 % here: the convergence is what this test holds.
     let opts = CalibrationOptions {
         size: 12.0,
         samples: 2,
         iterations: 3,
+        reach: 0.05,
         ..Default::default()
     };
     let cal = calibrate(
@@ -319,6 +322,27 @@ fn a_plate_beyond_the_networks_reach_is_refused() {
     eprintln!("{e}");
     assert!(
         e.contains("out of reach of the random2d lattice") && e.contains("on others"),
+        "{e}"
+    );
+}
+
+/// A random3d fibre four times as stiff as the plane (E_t = 40 GPa against E_p = 10) fits its
+/// own cubes to 1.6 % but misses others by 3.3 % per entry, more than the 2 % a random lattice
+/// promises: it is refused with the figures. Measured (`hooke moduli --bulk --lattice random3d
+/// --transverse 10e9,E_t,0.35,0.28,4e9`): held-out 1.4 % at E_t = 25 GPa (built), 2.2 % at 30
+/// (refused), 3.3 % at 40 (refused).
+#[test]
+#[ignore = "slow: a calibration of cubes of 20 spacings, about half a minute"]
+fn a_fibre_beyond_the_random3d_reach_is_refused() {
+    let mut t = carbon([0.0, 0.0, 1.0]);
+    t.youngs_fibre = 40e9;
+    let e = hooke_core::Anisotropic::Transverse(t)
+        .random_design(hooke_core::random::Sampler::Poisson)
+        .unwrap_err()
+        .to_string();
+    eprintln!("{e}");
+    assert!(
+        e.contains("out of reach of the random3d lattice") && e.contains("2 % is the most"),
         "{e}"
     );
 }
@@ -748,10 +772,13 @@ fn random_plate_calibration_converges() {
     use hooke_core::material::PlaneModel;
     use hooke_core::random::anisotropic::CalibrationOptions;
     let m = hooke_core::Anisotropic::Transverse(carbon([1.0, 0.0, 0.0]));
+    // Small squares scatter by several percent per entry: the convergence is what this test
+    // holds, not the 2 % reach.
     let opts = CalibrationOptions {
         size: 30.0,
         samples: 3,
         iterations: 3,
+        reach: 0.05,
         ..CalibrationOptions::plane()
     };
     let cal = m
