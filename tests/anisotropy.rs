@@ -609,6 +609,19 @@ fn zero_crossings(
 /// The fundamental standing mode of a random3d bar of the fibre material `t`, `side` spacings
 /// square and 48 long along axis `d`, polarised along axis `p` (node set `seed`): its speed
 /// `omega L / pi`, the Christoffel speed `sqrt(C_pdpd / rho)`, the nodes and the steps taken.
+fn ringing_bar(
+    t: &Transverse,
+    d: usize,
+    p: usize,
+    side: Real,
+    seed: u64,
+) -> (Real, Real, usize, usize) {
+    ringing_bar_in(3, t, d, p, side, seed)
+}
+
+/// [`ringing_bar`] in `dim` dimensions: in 2D a strip of a random2d plate of `t` in plane
+/// stress, `side` spacings wide, its target the plate's in-plane stiffness (per unit thickness,
+/// so its density is the material's).
 ///
 /// Both ends are held. On a side face of normal `m` only what the continuum's traction needs is
 /// held: the normal component under a longitudinal wave (`C_mmdd` pushes on it), the wave
@@ -618,7 +631,8 @@ fn zero_crossings(
 /// critical step with the run's kernel; the frequency from the zero crossings of the mode's
 /// mass-weighted projection over three periods. At 96 spacings per wavelength the lattice's own
 /// dispersion, `(ka)^2 / 24`, is below 0.01 %.
-fn ringing_bar(
+fn ringing_bar_in(
+    dim: usize,
     t: &Transverse,
     d: usize,
     p: usize,
@@ -628,12 +642,15 @@ fn ringing_bar(
     use hooke_core::random::{RandomSpec, Sampler};
     let a = 1e-3;
     let mut hi = [side * a; 3];
+    if dim == 2 {
+        hi[2] = 0.0;
+    }
     hi[d] = 48.0 * a;
     let spec = RandomSpec {
         sampler: Sampler::Poisson,
         seed,
     };
-    let lattice = Lattice::random(3, [0.0; 3], hi, a, a, spec, &|_| true).unwrap();
+    let lattice = Lattice::random(dim, [0.0; 3], hi, a, a, spec, &|_| true).unwrap();
     let body = hooke_core::Anisotropic::Transverse(*t)
         .body(lattice)
         .unwrap();
@@ -649,7 +666,7 @@ fn ringing_bar(
         .map(|i| {
             let x = at(i);
             let mut keep = [!on(x[d], hi[d]); 3];
-            for m in (0..3).filter(|&m| m != d && on(x[m], hi[m])) {
+            for m in (0..dim).filter(|&m| m != d && on(x[m], hi[m])) {
                 if p == d {
                     keep[m] = false;
                 } else if m == p {
@@ -663,7 +680,13 @@ fn ringing_bar(
         .map(|i| (std::f64::consts::PI * at(i)[d] / len).sin())
         .collect();
     let voigt = |i: usize, j: usize| if i == j { i } else { 6 - i - j };
-    let c = t.stiffness().unwrap();
+    let c = if dim == 3 {
+        t.stiffness().unwrap()
+    } else {
+        hooke_core::Anisotropic::Transverse(*t)
+            .plane_stiffness(hooke_core::material::PlaneModel::Stress)
+            .unwrap()
+    };
     let c_theory = (c[voigt(p, d)][voigt(p, d)] / t.density).sqrt();
     let mut state = State::new(&body);
     let kernel = Kernel::for_body(&body, &state);
@@ -807,5 +830,38 @@ fn random_plate_design_meets_the_target_on_unseen_node_sets() {
         let (axes, _) = m.plane_axes().unwrap();
         let target = m.plane_local_stiffness(plane).unwrap();
         design_within(&cal, 2, (64.0, 8), &axes, &target, 0.02);
+    }
+}
+
+/// Plane waves on a random2d plate of the fibre material (fibre along x, plane stress): the
+/// standing modes of strips 48 spacings long and 32 wide ([`ringing_bar_in`]), the mean of six
+/// node sets against the plate's in-plane Christoffel speeds `sqrt(Q_pdpd / rho)`. Measured
+/// (mean, 8 / 16 / 24 / 32 wide): longitudinal along the fibre +2.23 / +2.91 / +2.51 / +1.03 %,
+/// across it +4.26 / +1.20 / +1.60 / +0.79 %; shear along x -3.63 / -1.57 / -0.41 / -1.19 %,
+/// along y -3.93 / -3.09 / -1.71 / -1.98 %. A strip's node sets scatter by 1-3 % each and the
+/// edges' layer does not fall cleanly as 1 / width, so these are held to 2.5 % at 32 wide: the
+/// plates do not show the 1 % that the 3D lattice does.
+#[test]
+#[ignore = "slow: a plate calibration and 24 ringing strips, about half a minute"]
+fn random_plate_wave_speeds_are_near_christoffel() {
+    let t = carbon([1.0, 0.0, 0.0]);
+    let seeds = [7, 8, 9, 10, 11, 12];
+    for (d, p) in [(0, 0), (1, 1), (0, 1), (1, 0)] {
+        let (mut mean, mut theory) = (0.0, 0.0);
+        for &seed in &seeds {
+            let (c, ct, _, _) = ringing_bar_in(2, &t, d, p, 32.0, seed);
+            mean += c / seeds.len() as Real;
+            theory = ct;
+        }
+        let err = mean / theory - 1.0;
+        eprintln!(
+            "plate, along {d}, polarised {p}: {mean:.2} m/s against {theory:.2} m/s: {:+.3} %",
+            100.0 * err
+        );
+        assert!(
+            err.abs() < 0.025,
+            "along {d}, polarised {p}: {:+.2} %",
+            100.0 * err
+        );
     }
 }
