@@ -606,22 +606,11 @@ fn zero_crossings(
     (crossings, step)
 }
 
-/// The fundamental standing mode of a random3d bar of the fibre material `t`, `side` spacings
-/// square and 48 long along axis `d`, polarised along axis `p` (node set `seed`): its speed
-/// `omega L / pi`, the Christoffel speed `sqrt(C_pdpd / rho)`, the nodes and the steps taken.
-fn ringing_bar(
-    t: &Transverse,
-    d: usize,
-    p: usize,
-    side: Real,
-    seed: u64,
-) -> (Real, Real, usize, usize) {
-    ringing_bar_in(3, t, d, p, side, seed)
-}
-
-/// [`ringing_bar`] in `dim` dimensions: in 2D a strip of a random2d plate of `t` in plane
-/// stress, `side` spacings wide, its target the plate's in-plane stiffness (per unit thickness,
-/// so its density is the material's).
+/// The fundamental standing mode of a random bar of the fibre material `t` (`dim` 3), or of a
+/// strip of a random2d plate of it in plane stress (`dim` 2; its target the plate's in-plane
+/// stiffness per unit thickness, so its density is the material's), `side` spacings across and
+/// 48 long along axis `d`, polarised along axis `p` (node set `seed`): its speed `omega L /
+/// pi`, the Christoffel speed `sqrt(C_pdpd / rho)`, the nodes and the steps taken.
 ///
 /// Both ends are held. On a side face of normal `m` only what the continuum's traction needs is
 /// held: the normal component under a longitudinal wave (`C_mmdd` pushes on it), the wave
@@ -733,7 +722,7 @@ fn ringing_bar_in(
 
 /// Plane waves on the random3d lattice of the fibre material (fibre along z) run at the
 /// Christoffel speeds along and across the fibre, within 1 %. A random lattice has no periodic
-/// form, so each wave is the standing mode of bars ([`ringing_bar`]). Their faces add a layer
+/// form, so each wave is the standing mode of bars ([`ringing_bar_in`]). Their faces add a layer
 /// about a spacing thick (+4.1 % at 8 spacings across, +2.2 % at 16, for the longitudinal wave
 /// across the fibre), so the bulk speed is the bars' mean over three node sets at 16 and 24
 /// spacings across, extrapolated linearly in 1 / side: `c = 3 c_24 - 2 c_16`. Measured: the
@@ -763,7 +752,7 @@ fn random_lattice_wave_speeds_match_christoffel() {
         let mut theory = 0.0;
         for (k, side) in [16.0, 24.0].into_iter().enumerate() {
             for &seed in &seeds {
-                let (c, ct, n, steps) = ringing_bar(&t, d, p, side, seed);
+                let (c, ct, n, steps) = ringing_bar_in(3, &t, d, p, side, seed);
                 eprintln!(
                     "along {d}, polarised {p}, {side} across, node set {seed}: {c:.2} m/s ({:+.3} %), {n} nodes, {steps} steps",
                     100.0 * (c / ct - 1.0)
