@@ -556,37 +556,41 @@ fn softening_springs_dissipate_g_f_on_other_strips() {
     }
 }
 
-/// The random3d calibration (slabs 16 spacings high, 7 across, free faces) holds on a node set
-/// it was not measured with (seed 11) at nu = 0, 0.25 and 0.35. Each slab takes 40-60 minutes
-/// (a 3D equilibrium per broken spring), so this is run one nu at a time:
+/// The random3d calibration (slabs 16 spacings high, 7 across, free faces) holds on node sets it
+/// was not measured with: the mean G / G_c of five slabs (seeds 12-16) within 10 % at nu = 0,
+/// 0.25 and 0.35. Single slabs scatter by 16-36 % (one standard deviation) at this size, so five
+/// of them pin the mean to 7-15 % and the 5 % cannot be shown with them. Measured
+/// (`hooke toughness --lattice random3d --nu NU --height 16 --depth 8 --window 8 --seed S
+/// --threads 1 --json`, 85-140 s each on 2026-12-04): nu = 0 1.065, 0.811, 1.103, 0.844, 1.126
+/// (mean 0.990); nu = 0.25 1.183, 0.913, 0.721, 0.700, 1.121 (0.927); nu = 0.35 0.506, 0.747,
+/// 1.528, 0.915, 0.923 (0.924, 9-30 breaks off the plane). Seed 11, measured earlier and
+/// slower (about an hour a slab): 0.775, 0.975, 1.245. Run one nu at a time with
 /// `HOOKE_R3_NU=0.25 cargo test --release -p hooke-tests --test toughness random3d -- --ignored`.
-/// Measured (the same strips through `hooke toughness --seed 11`): 0.975 at nu = 0.25, 1.245 at
-/// 0.35 (15 breaks off the plane): it fails there, the node sets' scatter at this slab size
-/// being larger than the goal.
 #[test]
-#[ignore = "slow: 40-60 minutes per nu"]
-fn random3d_crack_dissipates_g_c_on_an_unseen_node_set() {
+#[ignore = "slow: five 3D slabs per nu, about ten minutes each nu"]
+fn random3d_crack_dissipates_g_c_on_unseen_node_sets() {
     let kind = LatticeKind::Random3d;
     let nus: Vec<Real> = match std::env::var("HOOKE_R3_NU") {
         Ok(v) => vec![v.parse().expect("HOOKE_R3_NU: a Poisson's ratio")],
         Err(_) => vec![0.0, 0.25, 0.35],
     };
+    let seeds = 12..=16;
     for nu in nus {
-        let mut t = StripTest::new(kind, q_from_nu(kind, nu).unwrap(), 16, 8);
-        t.depth = 8;
-        t.seed = 11;
-        let r = strip_test(&t).unwrap();
-        eprintln!(
-            "random3d nu = {nu}: G / G_c = {:.3} ({} broken, {} off the plane)",
-            r.ratio(),
-            r.broken,
-            r.off_plane
-        );
-        // The goal is 5 %; single node sets of this size scatter (see the table's notes).
-        assert!(
-            (r.ratio() - 1.0).abs() < 0.1,
-            "nu = {nu}: ratio {}",
-            r.ratio()
-        );
+        let mut mean = 0.0;
+        for seed in seeds.clone() {
+            let mut t = StripTest::new(kind, q_from_nu(kind, nu).unwrap(), 16, 8);
+            t.depth = 8;
+            t.seed = seed;
+            let r = strip_test(&t).unwrap();
+            eprintln!(
+                "random3d nu = {nu}, node set {seed}: G / G_c = {:.3} ({} broken, {} off the plane)",
+                r.ratio(),
+                r.broken,
+                r.off_plane
+            );
+            mean += r.ratio() / seeds.clone().count() as Real;
+        }
+        eprintln!("random3d nu = {nu}: mean G / G_c = {mean:.3}");
+        assert!((mean - 1.0).abs() < 0.1, "nu = {nu}: mean ratio {mean}");
     }
 }
