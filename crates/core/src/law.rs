@@ -267,11 +267,12 @@ pub fn spring_tensions(body: &Body, u: &Coords, sp: Springs<'_>, pool: &[Real]) 
         .collect()
 }
 
-/// Everything an output frame shows of the lattice, from one pass over the springs and two over
-/// the rows instead of a set of passes per field: the pools, forces and strain energy of [`update_forces`] and
-/// [`energy`], and the per-node energy density and virial stress. The values are those of the
-/// separate functions, bit for bit (the same operations in the same order; the virial's length
-/// is [`spring_geometry`]'s).
+/// Everything an output frame shows of the lattice, from two passes over the springs and two
+/// over the rows instead of a set of passes per field: the pools, forces and strain energy of
+/// [`update_forces`] and [`energy`], and the per-node energy density and virial stress. The
+/// pools, forces and energies are those of the separate functions, bit for bit (the same
+/// operations in the same order); the stress is [`node_virial`]'s to round-off (it is
+/// accumulated by its six distinct entries and scaled by `1/V_n`).
 #[derive(Clone, Debug)]
 pub struct FrameFields {
     /// Pool ratios `p_n` (as [`compute_pools`]).
@@ -287,64 +288,97 @@ pub struct FrameFields {
     pub stress: Vec<[Real; 9]>,
 }
 
-/// See [`FrameFields`]. Parallel over nodes (each writes its own entries) and bit-identical for
-/// any thread count.
+/// See [`FrameFields`]. Parallel over nodes and springs (each writes its own entries) and
+/// bit-identical for any thread count.
+///
+/// Each spring's geometry, and later its force per unit length `T/l`, is computed once, from
+/// its first end, into arrays for this frame only; the row passes read them. Seen from the
+/// other end the vector is the exact negation (every rounded difference negates) and the
+/// length, extension and tension are the same bits (`p_i + p_j` commutes), so both ends read
+/// what they would compute. That halves the divisions of the force pass and keeps each row
+/// pass's reads to one record per spring (16 bytes for the pools, 32 for the forces), where
+/// reading a 56-byte record per end made the frame cost several steps on the glass plate.
 pub fn frame_fields(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> FrameFields {
     let n = body.nodes();
+    let ns = body.springs();
     let lat = &body.lattice;
     let bonds = &lat.bonds;
     let q = body.q;
-    // Pass 1, over the springs: each spring's vector from its first end, length and extension
-    // once, with its stiffness and lever (56 bytes a spring, for this frame only: the node
-    // passes then read one place per spring instead of five arrays at random). Seen from the
-    // other end the vector is the exact negation (every rounded difference negates), the
-    // length and extension the same bits, so both ends read what they would compute.
-    let geo: Vec<[Real; 7]> = (0..bonds.len())
+    let chunk = crate::kernel::CHUNK;
+    // Pass 1, over the springs: the vector `d` from the first end and the length `l` (`geo`,
+    // whose `l` becomes `T/l` in pass 3), the extension `dL`, and the two terms the pool pass
+    // adds, `k L dL` and `k dL^2 / 4` (a quarter of the spring's direct energy at each end).
+    type Spring = ([Real; 4], (Real, [Real; 2]));
+    type Springs3 = (Vec<[Real; 4]>, (Vec<Real>, Vec<[Real; 2]>));
+    let (mut geo, (ext, terms)): Springs3 = (0..ns)
         .into_par_iter()
-        .with_min_len(MIN_NODES_PER_TASK)
-        .map(|b| {
+        .with_min_len(chunk)
+        .map(|b| -> Spring {
             if !sp.alive[b] {
-                return [0.0; 7];
+                return ([0.0; 4], (0.0, [0.0; 2]));
             }
             let [i, j] = bonds.ends[b].map(|v| v as usize);
-            let g = spring_geometry(lat, u, i, j, bonds.rest[b]);
-            [g.d[0], g.d[1], g.d[2], g.l, g.dl, sp.k[b], sp.lever[b]]
+            let s = spring_geometry(lat, u, i, j, bonds.rest[b]);
+            let k = sp.k[b];
+            (
+                [s.d[0], s.d[1], s.d[2], s.l],
+                (s.dl, [k * sp.lever[b] * s.dl, 0.25 * k * s.dl * s.dl]),
+            )
         })
-        .collect();
-    let dl = |b: usize| geo[b][4];
-    // Pass 2, over the nodes: the pool Pi_n and a quarter of the springs' direct energy (the
-    // extension is the same bits from either end: `spring_geometry` is symmetric).
+        .unzip();
+    // Pass 2, over the nodes: the pool Pi_n, its ratio p_n, and a quarter of the springs'
+    // direct energy.
     let mut pi = vec![0.0; n];
     let mut quarter = vec![0.0; n];
+    let mut pool = vec![0.0; n];
     pi.par_iter_mut()
         .zip(quarter.par_iter_mut())
+        .zip(pool.par_iter_mut())
         .with_min_len(MIN_NODES_PER_TASK)
         .enumerate()
-        .for_each(|(i, (p, e4))| {
+        .for_each(|(i, ((p, e4), ratio))| {
             let (mut s, mut d) = (0.0, 0.0);
             for e in bonds.row(i) {
                 let b = bonds.bond[e] as usize;
                 if sp.alive[b] {
-                    let g = &geo[b];
-                    let (x, k, lever) = (g[4], g[5], g[6]);
-                    d += 0.25 * k * x * x;
-                    s += k * lever * x;
+                    let [kl, e] = terms[b];
+                    d += e;
+                    s += kl;
                 }
             }
             (*p, *e4) = (s, d);
-        });
-    let pool: Vec<Real> = (0..n)
-        .into_par_iter()
-        .with_min_len(MIN_NODES_PER_TASK)
-        .map(|i| {
-            if q != 0.0 && norm[i] > 0.0 {
-                pi[i] / norm[i]
+            *ratio = if q != 0.0 && norm[i] > 0.0 {
+                s / norm[i]
             } else {
                 0.0
-            }
+            };
+        });
+    drop(terms);
+    // Pass 3, over the springs: each spring's `T/l`, and its direct energy summed per chunk in
+    // the order of [`energy`] (a broken spring's extension is +0: it adds +0).
+    let partial: Vec<Real> = geo
+        .par_chunks_mut(chunk)
+        .zip(ext.par_chunks(chunk))
+        .enumerate()
+        .map(|(c, (g, x))| {
+            g.iter_mut()
+                .zip(x)
+                .enumerate()
+                .map(|(o, (g, &dl))| {
+                    let b = c * chunk + o;
+                    let k = sp.k[b];
+                    if sp.alive[b] {
+                        let [i, j] = bonds.ends[b].map(|v| v as usize);
+                        g[3] = tension(k, sp.lever[b], dl, q, pool[i], pool[j]) / g[3];
+                    }
+                    0.5 * k * dl * dl
+                })
+                .sum::<Real>()
         })
         .collect();
-    // Pass 3, over the nodes: forces, energy densities and virial stresses.
+    let direct = partial.iter().sum();
+    drop(ext);
+    // Pass 4, over the nodes: forces, energy densities and virial stresses.
     let mut force = Coords::zeros(n);
     let mut energy_density = vec![0.0; n];
     let mut stress = vec![[0.0; 9]; n];
@@ -358,33 +392,31 @@ pub fn frame_fields(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> 
         .enumerate()
         .for_each(|(i, ((((fx, fy), fz), ed), st))| {
             let mut f = [0.0; 3];
-            let mut m = [0.0; 9];
+            // xx, yy, zz, xy, yz, xz: `e (x) e` is symmetric, and `-d` gives the same terms.
+            let mut m = [0.0; 6];
             for e in bonds.row(i) {
                 let b = bonds.bond[e] as usize;
                 if !sp.alive[b] {
                     continue;
                 }
-                let j = bonds.neighbour(i, e);
-                let g = &geo[b];
+                let [dx, dy, dz, s] = geo[b];
                 // A spring's first end is its lower node (`Bonds::from_pairs`).
-                let d = if i < j {
-                    [g[0], g[1], g[2]]
+                let d = if i < bonds.neighbour(i, e) {
+                    [dx, dy, dz]
                 } else {
-                    [-g[0], -g[1], -g[2]]
+                    [-dx, -dy, -dz]
                 };
-                let l = g[3];
-                let t = tension(g[5], g[6], g[4], q, pool[i], pool[j]);
-                let s = t / l;
                 for c in 0..3 {
                     f[c] += s * d[c];
                 }
-                let h = 0.5 * t / l;
-                let hd = [h * d[0], h * d[1], h * d[2]];
-                for r in 0..3 {
-                    for c in 0..3 {
-                        m[3 * r + c] += hd[r] * d[c];
-                    }
-                }
+                let h = 0.5 * s;
+                let hd = [h * dx, h * dy, h * dz];
+                m[0] += hd[0] * dx;
+                m[1] += hd[1] * dy;
+                m[2] += hd[2] * dz;
+                m[3] += hd[0] * dy;
+                m[4] += hd[1] * dz;
+                m[5] += hd[0] * dz;
             }
             [*fx, *fy, *fz] = f;
             let disp = if norm[i] > 0.0 {
@@ -395,10 +427,10 @@ pub fn frame_fields(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> 
             // Each node's own volume (on random lattices they differ): summed times it, U.
             let v = lat.node_volume(i);
             *ed = (quarter[i] + disp) / v;
-            *st = m.map(|x| x / v);
+            let w = 1.0 / v;
+            let [xx, yy, zz, xy, yz, xz] = m.map(|x| x * w);
+            *st = [xx, xy, xz, xy, yy, yz, xz, yz, zz];
         });
-    // The energy, summed in the order of `energy`.
-    let direct = ordered_sum(bonds.len(), |b| 0.5 * sp.k[b] * dl(b) * dl(b));
     let dispersive = if q == 0.0 {
         0.0
     } else {
