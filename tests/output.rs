@@ -10,7 +10,7 @@ use hooke_core::material::q_from_nu;
 use hooke_core::{Body, Lattice, LatticeKind, Real, State};
 use hooke_fracture::{CriticalStretch, Fracture};
 use hooke_io::checkpoint::digest;
-use hooke_io::{Checkpoint, FrameExtras, IoError, VtkSeries};
+use hooke_io::{Checkpoint, FieldSet, FrameExtras, IoError, VtkSeries};
 use hooke_tests::{random_displacement, Rng};
 use vtkio::model::{Attribute, DataSet, IOBuffer, Vtk};
 
@@ -166,6 +166,95 @@ fn vtk_frames_read_back_exactly() {
         4
     );
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A series given a set of fields writes those and `node_id`, nothing else, in the order of
+/// the full frame and with the same values; in pieces, each piece and the `.pvtu` list the same.
+#[test]
+fn vtk_frames_carry_only_the_chosen_fields() {
+    let body = bar();
+    let mut state = State::new(&body);
+    let mut rng = Rng::new(5);
+    state.u = random_displacement(&body, &mut rng, 0.01);
+    let damage: Vec<Real> = (0..body.nodes()).map(|i| (i % 5) as Real / 5.0).collect();
+    let regions: Vec<u32> = (0..body.nodes() as u32).map(|i| i % 3).collect();
+    let names = |path: &Path| -> (Vec<String>, Vec<Attribute>) {
+        let vtk = Vtk::import(path).unwrap();
+        let DataSet::UnstructuredGrid { pieces, .. } = vtk.data else {
+            panic!("not an unstructured grid")
+        };
+        let piece = pieces[0].load_piece_data(None).unwrap();
+        let point = piece.data.point;
+        (point.iter().map(|a| a.name().to_string()).collect(), point)
+    };
+    let extras = FrameExtras {
+        damage: Some(&damage),
+        region: Some(&regions),
+        ..Default::default()
+    };
+    let all_dir = tmpdir("fields_all");
+    let all = VtkSeries::create(&all_dir, "bar", false)
+        .unwrap()
+        .write(&body, &state, extras)
+        .unwrap();
+    let (all_names, all_arrays) = names(&all);
+    // Every field in `FieldSet::NAMES` order, `node_id` before `region`.
+    let mut every: Vec<&str> = FieldSet::NAMES.to_vec();
+    every.insert(every.len() - 1, "node_id");
+    assert_eq!(all_names, every);
+    for chosen in [
+        vec!["stress", "displacement"],
+        vec!["damage", "region"],
+        vec![],
+    ] {
+        let fields = FieldSet::from_names(&chosen).unwrap();
+        let dir = tmpdir("fields_some");
+        let mut series = VtkSeries::create(&dir, "bar", false).unwrap();
+        series.set_fields(fields);
+        let path = series.write(&body, &state, extras).unwrap();
+        let (got, arrays) = names(&path);
+        let want: Vec<&str> = all_names
+            .iter()
+            .map(String::as_str)
+            .filter(|n| *n == "node_id" || chosen.contains(n))
+            .collect();
+        assert_eq!(got, want, "{chosen:?}");
+        // The same values (the reader's attribute kind follows which scalar comes first).
+        let data = |a: &Attribute| match a {
+            Attribute::DataArray(d) => d.data.clone(),
+            _ => panic!("expected a data array"),
+        };
+        for (name, a) in got.iter().zip(&arrays) {
+            let b = &all_arrays[all_names.iter().position(|n| n == name).unwrap()];
+            assert_eq!(data(a), data(b), "{name} differs from the full frame's");
+        }
+        // In pieces: each piece and the .pvtu hold the same arrays.
+        let pdir = tmpdir("fields_pieces");
+        let n = body.nodes();
+        let ranges = vec![0..n / 2, n / 2..n];
+        for rank in [1, 0] {
+            let mut s = VtkSeries::create(&pdir, "bar", false).unwrap();
+            s.set_fields(fields);
+            s.set_pieces(rank, ranges.clone());
+            let p = s.write(&body, &state, extras).unwrap();
+            assert_eq!(names(&p).0, want, "piece {rank}");
+            if rank == 0 {
+                s.publish().unwrap();
+            }
+        }
+        let pvtu = std::fs::read_to_string(pdir.join("bar_000000.pvtu")).unwrap();
+        assert_eq!(
+            pvtu.matches("<PDataArray").count(),
+            want.len() + 1,
+            "{pvtu}"
+        );
+        for name in &want {
+            assert!(pvtu.contains(&format!("Name=\"{name}\"")), "{pvtu}");
+        }
+        std::fs::remove_dir_all(&dir).ok();
+        std::fs::remove_dir_all(&pdir).ok();
+    }
+    std::fs::remove_dir_all(&all_dir).ok();
 }
 
 fn run(body: &Body, state: &mut State, it: &mut Integrator, fr: &mut Fracture, steps: u64) {

@@ -1089,7 +1089,13 @@ fn schedule(ctx: &Ctx, raw: &RawCase, b: Builder, spans: &mut Spans) -> Result<B
             ));
         }
     }
-    Ok(b.formats(vtk, hdf5).springs(o.springs))
+    let mut fields = hooke_io::FieldSet::ALL;
+    if let Some(f) = &o.fields {
+        spans.at("output.fields", f.span());
+        fields = hooke_io::FieldSet::from_names(f.get_ref())
+            .map_err(|why| ctx.err(f.span(), "output.fields", why))?;
+    }
+    Ok(b.formats(vtk, hdf5).springs(o.springs).fields(fields))
 }
 
 /// TOML to the raw schema: a syntax error, an unknown or a missing key names the key and the line.

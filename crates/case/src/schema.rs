@@ -352,4 +352,6 @@ pub struct RawOutput {
     pub springs: bool,
     /// Output formats: `"vtk"` (default) and/or `"hdf5"`.
     pub format: Option<Spanned<Vec<String>>>,
+    /// The point fields frames carry (default: all; `node_id` always).
+    pub fields: Option<Spanned<Vec<String>>>,
 }

@@ -42,6 +42,17 @@ fn load(text: &str) -> Result<hooke_case::Simulation, hooke_case::CaseError> {
 fn the_base_case_is_valid() {
     let sim = load(BASE).unwrap();
     assert!(sim.precracked > 0 && sim.fracture.is_some() && sim.loading.prescribed.len() == 3);
+    assert_eq!(sim.fields, hooke_io::FieldSet::ALL);
+    let chosen = BASE.replacen(
+        "end_time = 1e-5",
+        "end_time = 1e-5\n\n[output]\nfields = [\"damage\", \"displacement\"]",
+        1,
+    );
+    let sim = load(&chosen).unwrap();
+    assert_eq!(
+        sim.fields.names().collect::<Vec<_>>(),
+        ["displacement", "damage"]
+    );
 }
 
 /// Each broken file: (what is replaced, by what, the line of the error, text the message must
@@ -87,6 +98,18 @@ fn broken_case_files_name_line_column_and_key() {
             "unknown axis",
         ),
         ("spacing = 1.0e-3", "spacing = 1.0e-12", 4, "would not fit"),
+        (
+            "end_time = 1e-5",
+            "end_time = 1e-5\n\n[output]\nfields = [\"displacement\", \"strain\"]",
+            32,
+            "output.fields: unknown field \"strain\"; choose from \"displacement\"",
+        ),
+        (
+            "end_time = 1e-5",
+            "end_time = 1e-5\n\n[output]\nfields = [\"stress\", \"stress\"]",
+            32,
+            "listed twice",
+        ),
     ];
     for (from, to, line, needle) in cases {
         assert!(BASE.contains(from), "test table: {from}");

@@ -537,3 +537,58 @@ fn a_contact_run_extended_from_its_checkpoint_is_bit_identical() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `output.fields` (here through `--set`) reaches every frame of a run: each `.vtu` holds the
+/// chosen fields and `node_id`, nothing else; a name that is not a field exits 2 and names it.
+#[test]
+fn a_run_writes_only_the_fields_asked_for() {
+    let out = tmp("fields");
+    let case = cases_dir().join("mode1_plate.toml");
+    let r = hooke(&[
+        "run",
+        case.to_str().unwrap(),
+        "--scale",
+        "0.25",
+        "--set",
+        "solver.end_time=4e-6",
+        "--set",
+        "output.every=2e-6",
+        "--set",
+        r#"output.fields=["damage", "displacement"]"#,
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let mut frames = 0;
+    for e in std::fs::read_dir(&out).unwrap() {
+        let path = e.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().to_string();
+        if !name.ends_with(".vtu") || name.contains("rigid") {
+            continue;
+        }
+        frames += 1;
+        let vtk = vtkio::Vtk::import(&path).unwrap();
+        let vtkio::model::DataSet::UnstructuredGrid { pieces, .. } = vtk.data else {
+            panic!("{name}: not an unstructured grid")
+        };
+        let piece = pieces[0].load_piece_data(None).unwrap();
+        let names: Vec<&str> = piece.data.point.iter().map(|a| a.name()).collect();
+        assert_eq!(names, ["displacement", "damage", "node_id"], "{name}");
+    }
+    assert!(frames >= 3, "{frames} frames");
+    let bad = hooke(&[
+        "run",
+        case.to_str().unwrap(),
+        "--set",
+        r#"output.fields=["strain"]"#,
+        "--out",
+        out.join("bad").to_str().unwrap(),
+    ]);
+    let msg = String::from_utf8_lossy(&bad.stderr);
+    assert_eq!(bad.status.code(), Some(2), "{msg}");
+    assert!(
+        msg.contains("output.fields") && msg.contains("\"strain\"") && msg.contains("\"stress\""),
+        "{msg}"
+    );
+    std::fs::remove_dir_all(&out).ok();
+}

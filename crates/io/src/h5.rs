@@ -22,6 +22,7 @@ use std::path::{Path, PathBuf};
 use hooke_core::{Body, Real, State};
 
 use crate::error::{io, IoError};
+use crate::fields::FieldSet;
 use crate::vtk::{write_atomic, FrameExtras};
 
 /// An HDF5 time series with its XDMF description.
@@ -30,10 +31,10 @@ pub struct H5Series {
     stem: String,
     xdmf_path: PathBuf,
     n: usize,
-    /// (time, frame name, file that holds the frame).
-    frames: Vec<(Real, String, String)>,
-    has_damage: bool,
-    has_region: bool,
+    /// (time, frame name, file that holds the frame, the point fields it holds).
+    frames: Vec<(Real, String, String, FieldSet)>,
+    /// The point fields later frames carry (see [`H5Series::set_fields`]).
+    fields: FieldSet,
 }
 
 fn h5err(path: &Path) -> impl FnOnce(hdf5_metno::Error) -> IoError + '_ {
@@ -86,8 +87,7 @@ impl H5Series {
             xdmf_path: dir.join(format!("{stem}.xdmf")),
             n: body.nodes(),
             frames: Vec::new(),
-            has_damage: false,
-            has_region: false,
+            fields: FieldSet::ALL,
         };
         let mesh = s.dir.join(s.mesh_file());
         atomic_h5(&mesh, |f| write_mesh(f, body, &mesh))?;
@@ -123,16 +123,29 @@ impl H5Series {
                     .and_then(|r| r.split('<').next()),
             ) {
                 if let Some((file, path)) = item.split_once(":/frames/") {
-                    let name = path.split('/').next().unwrap_or("").to_string();
-                    if t <= until && !s.frames.iter().any(|(_, f, _)| f == &name) {
-                        s.frames.push((t, name, file.to_string()));
+                    let (name, field) = path.split_once('/').unwrap_or((path, ""));
+                    if t > until {
+                        continue;
+                    }
+                    if !s.frames.iter().any(|(_, f, _, _)| f == name) {
+                        s.frames
+                            .push((t, name.to_string(), file.to_string(), FieldSet::NONE));
+                    }
+                    if let (Some(frame), Ok(one)) = (
+                        s.frames.iter_mut().find(|(_, f, _, _)| f == name),
+                        FieldSet::from_names(&[field]),
+                    ) {
+                        frame.3 = frame.3.or(one);
                     }
                 }
             }
         }
-        s.has_damage = text.contains("Name=\"damage\"");
-        s.has_region = text.contains("Name=\"region\"");
         Ok(s)
+    }
+
+    /// Write only these point fields in every later frame (`node_id` always; by default all).
+    pub fn set_fields(&mut self, fields: FieldSet) {
+        self.fields = fields;
     }
 
     /// Path of the `.xdmf` description.
@@ -156,43 +169,64 @@ impl H5Series {
                 .flat_map(|i| [c.x()[i], c.y()[i], c.z()[i]])
                 .collect()
         };
-        let d = extras.derived_or_compute(body, state);
-        let stress: Vec<Real> = d.stress.iter().flatten().copied().collect();
-        let has_damage = extras.damage.is_some();
+        // The fields this frame holds: those asked for that it has.
+        let mut fields = extras.fields.and(self.fields);
+        if extras.damage.is_none() {
+            fields = fields.without("damage");
+        }
+        if extras.region.is_none() {
+            fields = fields.without("region");
+        }
+        let d = fields
+            .derived()
+            .then(|| extras.derived_or_compute(body, state));
         atomic_h5(&path, |f| {
             let g = f
                 .create_group("frames")
                 .and_then(|g| g.create_group(&name))
                 .map_err(h5err(&path))?;
-            write(&g, "displacement", &vec3(&state.u), 3, &path)?;
-            write(
-                &g,
-                "velocity",
-                &vec3(extras.velocity.unwrap_or(&state.v)),
-                3,
-                &path,
-            )?;
-            if let Some(dmg) = extras.damage {
+            if fields.has("displacement") {
+                write(&g, "displacement", &vec3(&state.u), 3, &path)?;
+            }
+            if fields.has("velocity") {
+                write(
+                    &g,
+                    "velocity",
+                    &vec3(extras.velocity.unwrap_or(&state.v)),
+                    3,
+                    &path,
+                )?;
+            }
+            if let Some(dmg) = extras.damage.filter(|_| fields.has("damage")) {
                 write(&g, "damage", dmg, 1, &path)?;
             }
-            write(&g, "pool_ratio", &d.pool, 1, &path)?;
-            write(&g, "strain_energy_density", &d.energy_density, 1, &path)?;
-            write(&g, "stress", &stress, 9, &path)?;
+            if let Some(d) = &d {
+                if fields.has("pool_ratio") {
+                    write(&g, "pool_ratio", &d.pool, 1, &path)?;
+                }
+                if fields.has("strain_energy_density") {
+                    write(&g, "strain_energy_density", &d.energy_density, 1, &path)?;
+                }
+                if fields.has("stress") {
+                    let stress: Vec<Real> = d.stress.iter().flatten().copied().collect();
+                    write(&g, "stress", &stress, 9, &path)?;
+                }
+            }
             // Current positions, the frame's geometry (as the VTK frames' points).
             write(&g, "points", &vec3(&state.positions(body)), 3, &path)?;
-            let volume: Vec<Real> = (0..n).map(|i| body.lattice.node_volume(i)).collect();
-            write(&g, "node_volume", &volume, 1, &path)?;
+            if fields.has("node_volume") {
+                let volume: Vec<Real> = (0..n).map(|i| body.lattice.node_volume(i)).collect();
+                write(&g, "node_volume", &volume, 1, &path)?;
+            }
             write_ints(&g, "node_id", &(0..n as i64).collect::<Vec<_>>(), &path)?;
-            if let Some(r) = extras.region {
+            if let Some(r) = extras.region.filter(|_| fields.has("region")) {
                 let r: Vec<i64> = r.iter().map(|&v| v as i64).collect();
                 write_ints(&g, "region", &r, &path)?;
             }
             Ok(())
         })?;
-        self.has_region |= extras.region.is_some();
-        self.has_damage |= has_damage;
-        self.frames.retain(|(_, f, _)| f != &name);
-        self.frames.push((state.time, name, file));
+        self.frames.retain(|(_, f, _, _)| f != &name);
+        self.frames.push((state.time, name, file, fields));
         self.write_xdmf()
     }
 
@@ -204,7 +238,7 @@ impl H5Series {
         let sources: Vec<(String, String)> = self
             .frames
             .iter()
-            .map(|(_, name, file)| (name.clone(), file.clone()))
+            .map(|(_, name, file, _)| (name.clone(), file.clone()))
             .collect();
         let mesh_path = self.dir.join(self.mesh_file());
         let dir = self.dir.clone();
@@ -275,7 +309,7 @@ impl H5Series {
             item(mesh_file, "/mesh/vertices", &format!("{n} 1"), "Int")
         ));
         x.push_str("    </Grid>\n    <Grid Name=\"TimeSeries\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
-        for (t, name, file) in &self.frames {
+        for (t, name, file, fields) in &self.frames {
             // Named apart from the mesh grid: the include below selects `Grid[@Name="mesh"]`.
             x.push_str(&format!(
                 "      <Grid Name=\"step_{name}\" GridType=\"Uniform\">\n"
@@ -294,7 +328,7 @@ impl H5Series {
             ));
             x.push_str(&format!("        <Time Value=\"{t:.17e}\"/>\n"));
             for (field, kind, c) in FIELDS {
-                if field == "damage" && !self.has_damage {
+                if !fields.has(field) {
                     continue;
                 }
                 let dims = if c == 1 {
@@ -308,7 +342,7 @@ impl H5Series {
                 ));
             }
             for field in INT_FIELDS {
-                if field == "region" && !self.has_region {
+                if !fields.has(field) {
                     continue;
                 }
                 x.push_str(&format!(

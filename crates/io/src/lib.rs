@@ -18,6 +18,7 @@ pub mod vtk;
 
 pub use checkpoint::Checkpoint;
 pub use error::IoError;
+pub use fields::FieldSet;
 #[cfg(feature = "hdf5")]
 pub use h5::H5Series;
 pub use vtk::{FrameExtras, RigidPart, RigidSeries, VtkSeries};

@@ -31,6 +31,8 @@ pub struct FrameExtras<'a> {
     /// The derived fields of this state, when the caller computed them already (one
     /// computation per frame for every format); computed here otherwise.
     pub derived: Option<&'a crate::fields::Derived>,
+    /// The point fields to write (default: all; `node_id` always).
+    pub fields: crate::fields::FieldSet,
 }
 
 impl<'a> FrameExtras<'a> {
@@ -65,6 +67,8 @@ pub struct VtkSeries {
     pending: Option<(PathBuf, std::thread::JoinHandle<Result<(), IoError>>)>,
     /// Written as pieces by several processes (see [`VtkSeries::set_pieces`]).
     pieces: Option<Pieces>,
+    /// The point fields its frames carry (see [`VtkSeries::set_fields`]).
+    fields: crate::fields::FieldSet,
 }
 
 /// This process's part of a series written in pieces.
@@ -149,6 +153,7 @@ impl VtkSeries {
             background: false,
             pending: None,
             pieces: None,
+            fields: crate::fields::FieldSet::ALL,
         })
     }
 
@@ -156,6 +161,11 @@ impl VtkSeries {
     /// frame is on disk when [`VtkSeries::write`] returns.
     pub fn set_background(&mut self, on: bool) {
         self.background = on;
+    }
+
+    /// Write only these point fields in every later frame (`node_id` always; by default all).
+    pub fn set_fields(&mut self, fields: crate::fields::FieldSet) {
+        self.fields = fields;
     }
 
     /// Write each frame as pieces, one per process, as `STEM_STEP_RANK.vtu`: this process
@@ -244,6 +254,10 @@ impl VtkSeries {
         state: &State,
         extras: FrameExtras,
     ) -> Result<PathBuf, IoError> {
+        let extras = FrameExtras {
+            fields: extras.fields.and(self.fields),
+            ..extras
+        };
         if let Some(p) = self.pieces.as_mut() {
             let path = self.dir.join(piece_name(&self.stem, state.step, p.rank));
             let vtk = frame_vtk_nodes(body, state, extras, self.springs, p.nodes[p.rank].clone());
@@ -511,29 +525,45 @@ pub fn frame_vtk_nodes(
             }
         }
     }
-    let d = extras.derived_or_compute(body, state);
+    let fields = extras.fields;
     let part = |v: &[Real]| v[nodes.clone()].to_vec();
-    let mut point = vec![vectors("displacement", &state.u, nodes.clone())];
-    point.push(vectors(
-        "velocity",
-        extras.velocity.unwrap_or(&state.v),
-        nodes.clone(),
-    ));
-    if let Some(dmg) = extras.damage {
+    let mut point = Vec::new();
+    if fields.has("displacement") {
+        point.push(vectors("displacement", &state.u, nodes.clone()));
+    }
+    if fields.has("velocity") {
+        point.push(vectors(
+            "velocity",
+            extras.velocity.unwrap_or(&state.v),
+            nodes.clone(),
+        ));
+    }
+    if let Some(dmg) = extras.damage.filter(|_| fields.has("damage")) {
         point.push(scalars("damage", part(dmg)));
     }
-    point.push(scalars("pool_ratio", part(&d.pool)));
-    point.push(scalars("strain_energy_density", part(&d.energy_density)));
-    let stress: Vec<Real> = d.stress[nodes.clone()].iter().flatten().copied().collect();
-    point.push(Attribute::DataArray(DataArray {
-        name: "stress".into(),
-        elem: ElementType::Tensors,
-        data: stress.into(),
-    }));
-    point.push(scalars(
-        "node_volume",
-        nodes.clone().map(|i| body.lattice.node_volume(i)).collect(),
-    ));
+    if fields.derived() {
+        let d = extras.derived_or_compute(body, state);
+        if fields.has("pool_ratio") {
+            point.push(scalars("pool_ratio", part(&d.pool)));
+        }
+        if fields.has("strain_energy_density") {
+            point.push(scalars("strain_energy_density", part(&d.energy_density)));
+        }
+        if fields.has("stress") {
+            let stress: Vec<Real> = d.stress[nodes.clone()].iter().flatten().copied().collect();
+            point.push(Attribute::DataArray(DataArray {
+                name: "stress".into(),
+                elem: ElementType::Tensors,
+                data: stress.into(),
+            }));
+        }
+    }
+    if fields.has("node_volume") {
+        point.push(scalars(
+            "node_volume",
+            nodes.clone().map(|i| body.lattice.node_volume(i)).collect(),
+        ));
+    }
     point.push(Attribute::DataArray(DataArray {
         name: "node_id".into(),
         elem: ElementType::Scalars {
@@ -544,7 +574,7 @@ pub fn frame_vtk_nodes(
             .collect::<Vec<u64>>()
             .into(),
     }));
-    if let Some(r) = extras.region {
+    if let Some(r) = extras.region.filter(|_| fields.has("region")) {
         point.push(Attribute::DataArray(DataArray {
             name: "region".into(),
             elem: ElementType::Scalars {

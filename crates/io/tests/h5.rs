@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use hooke_core::{Body, Lattice, State};
-use hooke_io::{FrameExtras, H5Series};
+use hooke_io::{FieldSet, FrameExtras, H5Series};
 
 fn body() -> Body {
     Body::uniform(Lattice::cubic_box([6, 4, 3], 1e-3).unwrap(), 1e4, 0.2, 1e-6)
@@ -135,4 +135,60 @@ fn killed_run_leaves_readable_hdf5_frames() {
         assert!(n > 10, "too few data items listed ({n})");
         std::fs::remove_dir_all(&dir).ok();
     }
+}
+
+/// A series given a set of fields writes those (and the geometry and `node_id`) in each frame
+/// and its description lists each frame's own: a resumed series that asks for more fields
+/// keeps its earlier frames as they were written, and the merged file holds what each held.
+#[test]
+fn hdf5_frames_carry_only_the_chosen_fields() {
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let body = body();
+    let mut state = State::new(&body);
+    for i in 0..body.nodes() {
+        state.u.x_mut()[i] = 1e-6 * i as f64;
+    }
+    let damage = vec![0.25; body.nodes()];
+    let extras = FrameExtras {
+        damage: Some(&damage),
+        ..Default::default()
+    };
+    let dir = tmp("fields");
+    let mut s = H5Series::create(&dir, "t", &body).unwrap();
+    s.set_fields(FieldSet::from_names(&["stress", "damage"]).unwrap());
+    s.write(&body, &state, extras).unwrap();
+    let held = |file: &Path, frame: &str| -> Vec<String> {
+        let f = hdf5_metno::File::open(file).unwrap();
+        let mut names = f
+            .group(&format!("frames/{frame}"))
+            .unwrap()
+            .member_names()
+            .unwrap();
+        names.sort();
+        names
+    };
+    assert_eq!(
+        held(&dir.join("t.frames/000000.h5"), "000000"),
+        ["damage", "node_id", "points", "stress"]
+    );
+    // Resumed with every field: frame 0 is listed as it was written.
+    let mut s = H5Series::reopen(&dir, "t", &body, 1.0).unwrap();
+    state.step = 10;
+    state.time = 1e-7;
+    s.write(&body, &state, extras).unwrap();
+    let x = std::fs::read_to_string(s.xdmf_path()).unwrap();
+    let grids: Vec<&str> = x.split("<Grid Name=\"step_").skip(1).collect();
+    assert_eq!(grids.len(), 2, "{x}");
+    let attributes = |g: &str| g.matches("<Attribute ").count();
+    assert_eq!(attributes(grids[0]), 3, "{}", grids[0]);
+    assert!(grids[0].contains("Name=\"stress\"") && !grids[0].contains("Name=\"velocity\""));
+    // Every field but region (the frame has none).
+    assert_eq!(attributes(grids[1]), 8, "{}", grids[1]);
+    let merged = s.finish().unwrap();
+    assert_eq!(
+        held(&merged, "000000"),
+        ["damage", "node_id", "points", "stress"]
+    );
+    assert_eq!(held(&merged, "000010").len(), 9);
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -174,6 +174,7 @@ pub struct Builder {
     checkpoint_every: Option<Real>,
     reactions_every: Option<Real>,
     springs: bool,
+    fields: hooke_io::FieldSet,
     formats: (bool, bool),
     time_step: TimeStep,
     damping: Real,
@@ -205,6 +206,7 @@ impl Builder {
             checkpoint_every: None,
             reactions_every: None,
             springs: false,
+            fields: hooke_io::FieldSet::ALL,
             formats: (true, false),
             time_step: TimeStep::default(),
             damping: 0.0,
@@ -330,6 +332,11 @@ impl Builder {
         self.springs = on;
         self
     }
+    /// The point fields frames carry (all by default; `node_id` always).
+    pub fn fields(mut self, fields: hooke_io::FieldSet) -> Self {
+        self.fields = fields;
+        self
+    }
     /// Output formats: VTK and/or HDF5.
     pub fn formats(mut self, vtk: bool, hdf5: bool) -> Self {
         self.formats = (vtk, hdf5);
@@ -393,6 +400,7 @@ impl Builder {
             checkpoint_every,
             reactions_every,
             springs: self.springs,
+            fields: self.fields,
             regions,
             boundaries,
             quasi_static: self.quasi_static,

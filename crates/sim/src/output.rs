@@ -89,6 +89,8 @@ impl<'a> Frame<'a> {
             damage: self.damage,
             region: Some(self.regions),
             derived: Some(self.derived),
+            // Each series writes the fields it was given (`set_fields`).
+            fields: hooke_io::FieldSet::ALL,
         }
     }
 }

@@ -213,6 +213,7 @@ pub(crate) fn open_sinks_in_pieces(
             VtkSeries::create(out, name, sim.springs).map_err(input)?
         };
         let mut series = series;
+        series.set_fields(sim.fields);
         match pieces {
             Some((rank, nodes)) => series.set_pieces(rank, nodes),
             // Frames are encoded and written while the run goes on.
@@ -230,6 +231,8 @@ pub(crate) fn open_sinks_in_pieces(
         } else {
             hooke_io::H5Series::create(out, name, &sim.body).map_err(input)?
         };
+        let mut series = series;
+        series.set_fields(sim.fields);
         sinks.push(Box::new(crate::output::H5Sink(series)));
     }
     std::fs::create_dir_all(out).map_err(Error::file(format!("creating {}", out.display())))?;

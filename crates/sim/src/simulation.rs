@@ -56,6 +56,8 @@ pub struct Simulation {
     pub reactions_every: Option<Real>,
     /// Write intact springs as line cells.
     pub springs: bool,
+    /// The point fields frames carry (`output.fields`; all by default, `node_id` always).
+    pub fields: hooke_io::FieldSet,
     /// Region id of every node: 1 + the index of the last boundary whose region holds it, 0 for
     /// none (written as the `region` point field).
     pub regions: Vec<u32>,
@@ -94,11 +96,21 @@ impl Simulation {
     pub fn output_estimate(&self) -> f64 {
         let (n, s) = (self.body.nodes() as f64, self.body.springs() as f64);
         let frames = (self.end_time / self.output_every).ceil() + 2.0;
-        // Per node: coordinates and 19 values of 8 bytes (vectors, scalars, stress, volume), a
-        // u32 region id, a u64 node id and a vertex cell; base64 adds a third.
+        // Per node: coordinates and up to 19 values of 8 bytes (vectors, scalars, stress,
+        // volume), a u32 region id, a u64 node id and a vertex cell; base64 adds a third.
+        let values: f64 = self
+            .fields
+            .names()
+            .map(|f| match f {
+                "displacement" | "velocity" => 3.0,
+                "stress" => 9.0,
+                "region" => 0.5,
+                _ => 1.0,
+            })
+            .sum();
         let mut per_frame = 0.0;
         if self.vtk {
-            per_frame += n * (4.0 / 3.0) * (22.0 * 8.0 + 4.0 + 17.0)
+            per_frame += n * (4.0 / 3.0) * ((3.0 + values) * 8.0 + 17.0)
                 + if self.springs {
                     s * (4.0 / 3.0) * 25.0
                 } else {
@@ -106,7 +118,7 @@ impl Simulation {
                 };
         }
         if self.hdf5 {
-            per_frame += n * 20.0 * 8.0;
+            per_frame += n * (4.0 + values) * 8.0;
         }
         frames * (per_frame + 200.0 + 160.0 * self.boundaries.len() as f64)
             + 2.0 * (48.0 * n + s + 200.0)
