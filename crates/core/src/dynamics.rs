@@ -189,6 +189,8 @@ pub struct Integrator {
     first_load: Vec<bool>,
     inv_mass: Vec<Real>,
     u_next: Coords,
+    /// The frames' per-spring arrays, kept from frame to frame ([`law::FrameScratch`]).
+    frame_scratch: law::FrameScratch,
     ledger: Ledger,
     initial: Real,
     /// Power of the non-conservative forces at the start (see [`Integrator::energy`]).
@@ -279,6 +281,7 @@ impl Integrator {
         let mut parts = vec![
             ("inverse masses", bytes(&self.inv_mass)),
             ("next displacements", self.u_next.heap_bytes()),
+            ("frame scratch", self.frame_scratch.bytes()),
             (
                 "step bookkeeping",
                 bytes(&self.motions)
@@ -493,6 +496,7 @@ impl Integrator {
             first_load,
             inv_mass,
             u_next,
+            frame_scratch: Default::default(),
             ledger: Ledger::default(),
             initial: 0.0,
             initial_power: 0.0,
@@ -1250,11 +1254,23 @@ impl Integrator {
     /// refreshed. The same values as [`Integrator::full_velocity`] and
     /// [`Integrator::energy`], bit for bit, at a fraction of their cost.
     pub fn frame_view(
-        &self,
+        &mut self,
         body: &Body,
         state: &mut State,
     ) -> (Coords, EnergyBalance, law::FrameFields) {
-        let fields = law::frame_fields(body, &state.u, state.springs(body), &state.norm);
+        let fields = law::frame_fields_in(
+            body,
+            &state.u,
+            state.springs(body),
+            &state.norm,
+            &mut self.frame_scratch,
+        );
+        // Kept while glibc's heap would keep its blocks anyway once a set-up is done (below the
+        // mapping threshold): a larger body gives them back after each frame, as before, so
+        // frames never raise a large run's resident memory.
+        if self.frame_scratch.bytes() > crate::memory::KEPT_BLOCK {
+            self.frame_scratch = Default::default();
+        }
         state.pool.copy_from_slice(&fields.pool);
         state.f.clone_from(&fields.force);
         let v = self.velocity_from_forces(body, state);
