@@ -292,7 +292,7 @@ pub struct FrameFields {
 /// bit-identical for any thread count.
 ///
 /// Each spring's geometry, and later its force per unit length `T/l`, is computed once, from
-/// its first end, into arrays for this frame only; the row passes read them. Seen from the
+/// its first end, into per-spring arrays ([`FrameScratch`]); the row passes read them. Seen from the
 /// other end the vector is the exact negation (every rounded difference negates) and the
 /// length, extension and tension are the same bits (`p_i + p_j` commutes), so both ends read
 /// what they would compute. That halves the divisions of the force pass and keeps each row
