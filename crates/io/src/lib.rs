@@ -15,6 +15,7 @@ pub mod fields;
 #[cfg(feature = "hdf5")]
 pub mod h5;
 pub mod vtk;
+mod vtu;
 
 pub use checkpoint::Checkpoint;
 pub use error::IoError;

@@ -302,9 +302,13 @@ impl Drop for VtkSeries {
     }
 }
 
-/// Write one `.vtu` file atomically.
+/// Write one `.vtu` file atomically: a frame through [`crate::vtu`] (the same bytes as vtkio's,
+/// streamed), anything else through vtkio.
 fn write_vtu(path: &Path, vtk: Vtk) -> Result<(), IoError> {
     write_atomic(path, |w| {
+        if crate::vtu::write_frame(&vtk, w).map_err(io(path))? {
+            return Ok(());
+        }
         vtk.write_xml(w).map_err(|e| IoError::Vtk {
             path: path.to_path_buf(),
             msg: e.to_string(),
@@ -584,9 +588,25 @@ pub fn frame_vtk_nodes(
             data: r[nodes.clone()].to_vec().into(),
         }));
     }
+    unstructured(
+        format!("hooke frame, step {}, t = {:e} s", state.step, state.time),
+        points,
+        (connectivity, offsets, types),
+        point,
+    )
+}
+
+/// An XML 1.0 little-endian unstructured grid of one inline piece with point data: what a
+/// frame is (and what [`crate::vtu`] streams).
+pub(crate) fn unstructured(
+    title: String,
+    points: Vec<Real>,
+    (connectivity, offsets, types): (Vec<u64>, Vec<u64>, Vec<CellType>),
+    point: Vec<Attribute>,
+) -> Vtk {
     Vtk {
         version: Version::new_xml(1, 0),
-        title: format!("hooke frame, step {}, t = {:e} s", state.step, state.time),
+        title,
         byte_order: ByteOrder::LittleEndian,
         file_path: None,
         data: DataSet::inline(UnstructuredGridPiece {
