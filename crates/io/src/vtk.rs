@@ -1,11 +1,12 @@
 //! VTK output: one XML unstructured-grid file (`.vtu`) per frame and a `.pvd` collection that
 //! ParaView and pyvista open as one time series.
 //!
-//! Data arrays are written as uncompressed base64 binary (vtkio's XML writer without a
+//! Data arrays are written as uncompressed base64 binary (vtkio's XML format without a
 //! compressor): ParaView, VTK, pyvista and meshio all read it. (vtkio 0.6.3's compressed output is
-//! not readable by ParaView and meshio; we use 0.7 without compression.) Every file is written to
-//! a temporary name and renamed into place, so a run killed at any moment leaves each listed frame
-//! and the collection complete.
+//! not readable by ParaView and meshio; we use 0.7 without compression.) A frame's model is
+//! streamed to the bytes vtkio would write by this crate's `vtu` module; other models go through vtkio's
+//! writer. Every file is written to a temporary name and renamed into place, so a run killed at
+//! any moment leaves each listed frame and the collection complete.
 
 use std::fs;
 use std::io::{BufWriter, Write};
