@@ -97,17 +97,87 @@ fn local_ranks() -> Option<usize> {
         .filter(|&n: &usize| n > 0)
 }
 
+/// The cores this process may run on (its CPU affinity, which a launcher's binding narrows)
+/// and the cores of the machine.
+fn cores() -> (usize, usize) {
+    let usable = std::thread::available_parallelism().map_or(1, |c| c.get());
+    #[cfg(unix)]
+    // SAFETY: sysconf reads a value of the running system; no memory is passed.
+    let online = unsafe { libc::sysconf(libc::_SC_NPROCESSORS_ONLN) };
+    #[cfg(not(unix))]
+    let online = usable as i64;
+    (usable, usize::try_from(online).unwrap_or(1).max(usable))
+}
+
+/// Threads of a rank under an MPI launcher, `ranks` processes on a machine of `machine` cores
+/// of which the rank may use `usable` (its binding): its share of the machine, but no more than
+/// its binding leaves it. Launchers bind ranks: Open MPI to a core when there are at most two,
+/// to a socket beyond; `mpirun --map-by slot:PE=T` and `srun --cpus-per-task=T` to T cores. An
+/// unbound rank sees the whole machine and shares it; several ranks bound to one socket share
+/// that socket's cores through the share.
+fn launcher_threads(ranks: usize, usable: usize, machine: usize) -> usize {
+    (machine / ranks).max(1).min(usable)
+}
+
+/// Why a process runs fewer or more threads than suit its cores, if it does: a rank bound to
+/// fewer cores than its share of the machine leaves cores idle; `--threads` beyond the usable
+/// cores makes threads take turns.
+fn threads_note(
+    asked: Option<usize>,
+    ranks: Option<usize>,
+    usable: usize,
+    machine: usize,
+) -> Option<String> {
+    match (asked, ranks) {
+        (Some(t), _) if t > usable && usable == machine => Some(format!(
+            "note: --threads {t} on this machine's {machine} core(s): threads take turns on them"
+        )),
+        (Some(t), _) if t > usable => Some(format!(
+            "note: --threads {t} on {usable} usable core(s) of this machine's {machine} (the \
+             process's CPU binding): threads take turns on them"
+        )),
+        (None, Some(ranks)) if usable < (machine / ranks).max(1) => {
+            let share = (machine / ranks).max(1);
+            Some(format!(
+                "note: the MPI launcher binds each rank to {usable} of this machine's {machine} \
+                 cores, where a rank's share is {share}: {} core(s) stay idle. Bind each rank to \
+                 {share} cores (Open MPI: mpirun --map-by slot:PE={share}; Slurm: srun \
+                 --cpus-per-task={share}) or leave ranks unbound (mpirun --bind-to none)",
+                machine - usable * ranks
+            ))
+        }
+        _ => None,
+    }
+}
+
+/// Whether this process is rank 0 of an MPI launch, or not launched by one (known before MPI
+/// starts, from the launchers' environment).
+fn first_rank() -> bool {
+    [
+        "OMPI_COMM_WORLD_RANK",
+        "PMIX_RANK",
+        "PMI_RANK",
+        "SLURM_PROCID",
+    ]
+    .iter()
+    .find_map(|k| std::env::var(k).ok())
+    .is_none_or(|r| r.trim() == "0")
+}
+
 /// Run a parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
+    let (usable, machine) = cores();
     let threads = match cli.threads {
         Some(0) => return Err(InputError("--threads 0: give at least 1 thread".into()).into()),
         Some(t) => t,
         // Under an MPI launcher: the machine's cores shared by its ranks.
-        None => local_ranks().map_or(0, |ranks| {
-            let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
-            (cores / ranks).max(1)
-        }),
+        None => local_ranks().map_or(0, |ranks| launcher_threads(ranks, usable, machine)),
     };
+    if let Some(note) = threads_note(cli.threads, local_ranks(), usable, machine) {
+        if first_rank() {
+            eprintln!("{note}");
+        }
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
@@ -147,4 +217,54 @@ fn parse_command(name: &str, flags: &[String]) -> Result<Command> {
     Ok(Cli::try_parse_from(argv)
         .map_err(|e| InputError(e.to_string()))?
         .command)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{launcher_threads, threads_note};
+
+    /// A rank's threads under a launcher: its share of the machine, within its binding.
+    #[test]
+    fn ranks_take_their_share_within_their_binding() {
+        // Unbound: the machine shared by its ranks.
+        assert_eq!(launcher_threads(2, 16, 16), 8);
+        assert_eq!(launcher_threads(32, 32, 32), 1);
+        // Bound to a core each (Open MPI's default for np <= 2).
+        assert_eq!(launcher_threads(2, 1, 16), 1);
+        assert_eq!(launcher_threads(2, 1, 2), 1);
+        // Bound to PE = 8 cores each: all of them (the rank's share of the machine).
+        assert_eq!(launcher_threads(2, 8, 16), 8);
+        // Four ranks bound to a socket of 8 cores each, two per socket: 4 each.
+        assert_eq!(launcher_threads(4, 8, 16), 4);
+        // Sixteen ranks per socket: one thread each, not a socket's worth.
+        assert_eq!(launcher_threads(32, 16, 32), 1);
+        // More ranks than cores: still one thread.
+        assert_eq!(launcher_threads(4, 2, 2), 1);
+    }
+
+    /// The notes: idle cores under a narrow binding, threads beyond the usable cores; none
+    /// where threads and cores match.
+    #[test]
+    fn mismatched_threads_and_cores_are_noted() {
+        let idle = threads_note(None, Some(2), 1, 16).expect("14 idle cores");
+        assert!(idle.contains("14 core(s) stay idle"), "{idle}");
+        assert!(
+            idle.contains("PE=8") && idle.contains("--cpus-per-task=8"),
+            "{idle}"
+        );
+        let turns = threads_note(Some(4), None, 2, 2).expect("4 threads on 2 cores");
+        assert!(
+            turns.contains("--threads 4 on this machine's 2 core(s)"),
+            "{turns}"
+        );
+        let bound = threads_note(Some(4), Some(2), 1, 2).expect("4 threads on 1 core");
+        assert!(
+            bound.contains("on 1 usable core(s) of this machine's 2"),
+            "{bound}"
+        );
+        assert_eq!(threads_note(None, Some(2), 1, 2), None);
+        assert_eq!(threads_note(None, Some(2), 8, 16), None);
+        assert_eq!(threads_note(Some(2), Some(2), 8, 16), None);
+        assert_eq!(threads_note(None, None, 2, 2), None);
+    }
 }
