@@ -202,7 +202,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         (LawArg::Dispersive, LatticeKind::Hex | LatticeKind::Random2d) => 0.45,
     };
     let (body, mut state, mut it, [body_seconds, integrator_seconds]) =
-        bench_run_timed(&args, lattice, q_from_nu(kind, nu)?)?;
+        bench_run_timed(&args, lattice, q_from_nu(kind, nu)?, team.clone())?;
     let setup_parts = [
         ("lattice", lattice_seconds),
         ("body", body_seconds),
@@ -210,9 +210,6 @@ pub fn run(args: BenchArgs) -> Result<()> {
     ]
     .into_iter()
     .collect();
-    if let Some(t) = &team {
-        it.distribute(&body, t.clone());
-    }
     let setup_seconds = setup.elapsed().as_secs_f64();
     // As `hooke run` does after its set-up (hooke_sim::Run::start).
     hooke_core::memory::release_free_memory();
@@ -386,15 +383,16 @@ fn bench_lattice(args: &BenchArgs) -> Result<Lattice> {
 /// A body on `lattice` in lattice units with ratio `q`, moving with a smooth velocity field (so
 /// the springs do real work), and its integrator on the kernel `args` asks for.
 fn bench_run(args: &BenchArgs, lattice: Lattice, q: Real) -> Result<(Body, State, Integrator)> {
-    bench_run_timed(args, lattice, q).map(|(b, s, i, _)| (b, s, i))
+    bench_run_timed(args, lattice, q, None).map(|(b, s, i, _)| (b, s, i))
 }
 
 /// [`bench_run`], with the seconds spent on the body (and state) and on the integrator (its
-/// stable-step estimate, mostly).
+/// stable-step estimate, mostly); with `team`, shared by its members and distributed.
 fn bench_run_timed(
     args: &BenchArgs,
     lattice: Lattice,
     q: Real,
+    team: Option<std::sync::Arc<dyn hooke_core::team::Team>>,
 ) -> Result<(Body, State, Integrator, [f64; 2])> {
     let start = Instant::now();
     let mut body = Body::uniform(lattice, 1.0, q, 1.0);
@@ -414,8 +412,15 @@ fn bench_run_timed(
     let start = Instant::now();
     // Set up at rest, as a case usually is (a moving start would make the estimate keep a copy
     // of the velocities), then moving: the velocities below are the half-step ones.
-    let it = Integrator::new(&body, &mut state, Loading::default(), &bench_opts(args))
-        .context("setting up the integrator")?;
+    // Under mpirun the team shares the estimate, and the integrator comes back distributed.
+    let it = Integrator::new_shared(
+        &body,
+        &mut state,
+        Loading::default(),
+        &bench_opts(args),
+        team,
+    )
+    .context("setting up the integrator")?;
     let integrator_seconds = start.elapsed().as_secs_f64();
     for i in 0..body.nodes() {
         let p = body.lattice.pos.get(i);

@@ -247,29 +247,28 @@ struct Shared {
     v_partial: bool,
 }
 
+/// The loaded and prescribed nodes of `loading`, ascending, each once: a shared run's
+/// bookkeeping reads them on every rank.
+fn special_nodes(loading: &Loading) -> Vec<usize> {
+    let loaded = loading.loads.iter().flat_map(|l| &l.nodes);
+    let prescribed = loading.prescribed.iter().flat_map(|p| &p.nodes);
+    let mut special: Vec<usize> = loaded.chain(prescribed).map(|&i| i as usize).collect();
+    special.sort_unstable();
+    special.dedup();
+    special
+}
+
 impl Shared {
     /// Send this rank's values of `fields` at the nodes its peers read and take theirs at its
     /// ghosts (one message per peer, a node's fields side by side).
     fn trade(&mut self, fields: &mut [&mut [Real]]) {
-        let k = fields.len();
-        let halo = &self.share.halo;
-        for (o, nodes) in self.out.iter_mut().zip(&halo.send) {
-            o.clear();
-            for &i in nodes {
-                o.extend(fields.iter().map(|f| f[i as usize]));
-            }
-        }
-        for (i, nodes) in self.inp.iter_mut().zip(&halo.recv) {
-            i.resize(k * nodes.len(), 0.0);
-        }
-        self.team.trade(&self.out, &mut self.inp);
-        for (inp, nodes) in self.inp.iter().zip(&halo.recv) {
-            for (vals, &i) in inp.chunks_exact(k).zip(nodes) {
-                for (f, &v) in fields.iter_mut().zip(vals) {
-                    f[i as usize] = v;
-                }
-            }
-        }
+        crate::team::trade_halo(
+            &*self.team,
+            &self.share.halo,
+            &mut self.out,
+            &mut self.inp,
+            fields,
+        );
     }
 }
 
@@ -311,6 +310,22 @@ impl Integrator {
         loading: Loading,
         opts: &IntegratorOptions,
     ) -> Result<Self> {
+        Self::new_shared(body, state, loading, opts, None)
+    }
+
+    /// [`Integrator::new`] for a member of `team` (every member calls it with the same body
+    /// and state): the stable-step estimate's force sweeps and vector passes are shared as a
+    /// step's are ([`stability::Split`]; the same step, bit for bit, as one process finds),
+    /// and the integrator is then distributed ([`Integrator::distribute`]). `None` or a team
+    /// of one: [`Integrator::new`].
+    pub fn new_shared(
+        body: &Body,
+        state: &mut State,
+        loading: Loading,
+        opts: &IntegratorOptions,
+        team: Option<std::sync::Arc<dyn Team>>,
+    ) -> Result<Self> {
+        let team = team.filter(|t| t.size() > 1);
         body.validate()?;
         loading.validate(body.nodes())?;
         if !(opts.damping.is_finite() && opts.damping >= 0.0) {
@@ -338,6 +353,15 @@ impl Integrator {
         // The estimate's unit masses become the inverse masses afterwards (one array fewer to
         // first-touch).
         let mut inv_mass = Vec::new();
+        // The run's share, found once: the estimate trades its sweeps' halo (the loaded and
+        // prescribed nodes in it, which the steps' bookkeeping reads, are traded too).
+        let share = team
+            .as_ref()
+            .map(|t| Share::new(body, t.size(), t.rank(), &special_nodes(&loading)));
+        let mut split = team
+            .as_ref()
+            .zip(share.as_ref())
+            .map(|(t, s)| stability::Split::new(&**t, s));
         let stable = if opts.damage_proof {
             let plain = stability::estimate_using(
                 body,
@@ -347,6 +371,7 @@ impl Integrator {
                 1e-3,
                 &mut u_next,
                 &mut inv_mass,
+                split.as_mut(),
             );
             let lambda = (1.0 + 2.0 * body.q.max(0.0)) * plain.lambda_max;
             StableStep {
@@ -355,8 +380,18 @@ impl Integrator {
                 ..plain
             }
         } else {
-            stability::estimate_using(body, state, &kernel, 40, 1e-3, &mut u_next, &mut inv_mass)
+            stability::estimate_using(
+                body,
+                state,
+                &kernel,
+                40,
+                1e-3,
+                &mut u_next,
+                &mut inv_mass,
+                split.as_mut(),
+            )
         };
+        drop(split);
         u_next.fill_zero();
         inv_mass
             .par_iter_mut()
@@ -431,6 +466,9 @@ impl Integrator {
             state.v.comp_mut(d.axis)[d.node] = v;
         }
         state.v.axpy(-0.5 * dt, &a);
+        if let Some(t) = team {
+            it.distribute_with(body, t, share);
+        }
         Ok(it)
     }
 
@@ -677,12 +715,21 @@ impl Integrator {
     /// calls it, with the same body; a team of one changes nothing. Results stay the bits of
     /// one process.
     pub fn distribute(&mut self, body: &Body, team: std::sync::Arc<dyn Team>) {
+        self.distribute_with(body, team, None);
+    }
+
+    /// [`Integrator::distribute`] with this rank's share if already found (for the same
+    /// team, body and loading).
+    fn distribute_with(
+        &mut self,
+        body: &Body,
+        team: std::sync::Arc<dyn Team>,
+        share: Option<Share>,
+    ) {
         self.team = (team.size() > 1).then(|| {
-            let mut special: Vec<usize> = self.loaded.iter().map(|l| l.0).collect();
-            special.extend(self.dofs.iter().map(|d| d.node));
-            special.sort_unstable();
-            special.dedup();
-            let share = Share::new(body, team.size(), team.rank(), &special);
+            let special = special_nodes(&self.loading);
+            let share =
+                share.unwrap_or_else(|| Share::new(body, team.size(), team.rank(), &special));
             let parts3 = share
                 .nodes
                 .iter()

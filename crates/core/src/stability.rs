@@ -23,6 +23,13 @@
 //! `12 (1 + 2q) k/m` for the Ladd lattice). [`crate::dynamics::IntegratorOptions::damage_proof`]
 //! uses it, estimating `lambda_plain` with the same Lanczos iteration on the kernel's plain copy.
 //!
+//! **Shared by a team.** Processes that share a run ([`crate::team`]) share the estimate as
+//! they share a step ([`Split`]): each evaluates the forces of its own nodes and forms the
+//! vector passes there, the ghosts' displacements and pools are traded between the sweeps, and
+//! the per-chunk partial sums of `alpha`, `beta^2` (and the maxima behind the difference step)
+//! are all-gathered and added in chunk order: the same `lambda_max`, bit for bit, as one
+//! process finds.
+//!
 //! We also give a cruder bound that needs no iteration: with `delta_s` the extension rate
 //! of spring s, Cauchy-Schwarz gives `(sum_t k_t L_t delta_t)^2 <= S_n sum_t k_t delta_t^2`, so
 //! the material stiffness satisfies `v.K.v <= (1 + 2 max(q, 0)) sum_s k_s delta_s^2
@@ -37,6 +44,7 @@ use crate::body::Body;
 use crate::kernel::{Kernel, StepParams, CHUNK};
 use crate::math::{Coords, Real};
 use crate::state::State;
+use crate::team::{Share, Team};
 
 /// Nodes per parallel task of the estimate's element-wise passes.
 const BLOCK: usize = 1 << 14;
@@ -95,7 +103,67 @@ pub fn estimate_in(
         tolerance,
         &mut u_next,
         &mut ones,
+        None,
     )
+}
+
+/// One rank's part of an estimate shared by a team ([`crate::team`]): the force sweeps and
+/// the vector passes run on the rank's own nodes, the ghosts' displacements and pools are
+/// traded as in a step, and the per-chunk partial sums (and the maxima) are all-gathered and
+/// added in chunk order, so that every rank gets the estimate of one process, bit for bit.
+pub struct Split<'a> {
+    team: &'a dyn Team,
+    share: &'a Share,
+    out: Vec<Vec<Real>>,
+    inp: Vec<Vec<Real>>,
+}
+
+impl<'a> Split<'a> {
+    /// Rank `share.rank` of `team`, which every rank calls with the same body.
+    pub fn new(team: &'a dyn Team, share: &'a Share) -> Self {
+        let size = team.size();
+        Split {
+            team,
+            share,
+            out: vec![Vec::new(); size],
+            inp: vec![Vec::new(); size],
+        }
+    }
+
+    fn trade(&mut self, fields: &mut [&mut [Real]]) {
+        crate::team::trade_halo(
+            self.team,
+            &self.share.halo,
+            &mut self.out,
+            &mut self.inp,
+            fields,
+        );
+    }
+
+    /// Every rank's per-chunk partials (`partial`, one per chunk, valid on this rank's chunks)
+    /// gathered, then added in chunk order.
+    fn sum(&self, partial: &mut [Real]) -> Real {
+        self.team.gather(partial, &self.share.chunk_parts(1));
+        in_order(partial)
+    }
+
+    /// The largest of every rank's `x`.
+    fn max(&self, x: Real) -> Real {
+        let size = self.team.size();
+        let mut all = vec![0.0; size];
+        all[self.share.rank] = x;
+        let parts: Vec<_> = (0..size).map(|r| r..r + 1).collect();
+        self.team.gather(&mut all, &parts);
+        all.into_iter().fold(0.0, Real::max)
+    }
+}
+
+/// The nodes and node chunks a pass of the estimate covers: a rank's own, or all.
+fn own(split: &Option<&mut Split>, n: usize) -> (std::ops::Range<usize>, std::ops::Range<usize>) {
+    match split {
+        Some(s) => (s.share.mine(), s.share.chunks()),
+        None => (0..n, 0..n.div_ceil(CHUNK)),
+    }
 }
 
 /// [`estimate_in`] with the drift's scratch `u_next` (as many nodes as the body) and a vector
@@ -106,7 +174,10 @@ pub fn estimate_in(
 /// fresh state) the force at the base point is kept there, and `state.f` is given back at +0.
 ///
 /// Its sums (the Lanczos coefficients) are formed per chunk of [`crate::kernel::CHUNK`] nodes
-/// and added in chunk order, in parallel and the same for any thread count.
+/// and added in chunk order, in parallel and the same for any thread count, and with `split`
+/// for any number of ranks sharing it (see [`Split`]; the state's displacements, velocities
+/// and forces are given back whole on every rank, its pools current on the rank's nodes).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn estimate_using(
     body: &Body,
     state: &mut State,
@@ -115,8 +186,10 @@ pub(crate) fn estimate_using(
     tolerance: Real,
     u_next: &mut Coords,
     ones: &mut Vec<Real>,
+    mut split: Option<&mut Split>,
 ) -> StableStep {
     let n = body.nodes();
+    let (nodes, chunks) = own(&split, n);
     let inv_sqrt_m: Vec<Real> = body
         .mass
         .par_iter()
@@ -165,7 +238,15 @@ pub(crate) fn estimate_using(
         // w = M^-1/2 K M^-1/2 q and alpha = w.q (the vector passes are fused, and M^-1/2 q is
         // formed where it is read rather than stored: on a large body they cost as much as
         // the force sweeps, and each array a large body allocates is also first touched).
-        let a = op.apply(body, kernel, &q, &inv_sqrt_m, vmax, &mut w);
+        let a = op.apply(
+            body,
+            kernel,
+            &q,
+            &inv_sqrt_m,
+            vmax,
+            &mut w,
+            split.as_deref_mut(),
+        );
         alpha.push(a);
         // w -= alpha q + beta q_prev, and beta' = |w|.
         let b_last = beta.last().copied().unwrap_or(0.0);
@@ -176,6 +257,7 @@ pub(crate) fn estimate_using(
                 .par_chunks_mut(CHUNK)
                 .zip(partial.par_iter_mut())
                 .enumerate()
+                .filter(|(k, _)| chunks.contains(k))
                 .for_each(|(k, (y, out))| {
                     let r = k * CHUNK..k * CHUNK + y.len();
                     let mut part = 0.0;
@@ -196,7 +278,10 @@ pub(crate) fn estimate_using(
                     }
                     *out = part;
                 });
-            b2 += in_order(&partial);
+            b2 += match split.as_deref() {
+                Some(sp) => sp.sum(&mut partial),
+                None => in_order(&partial),
+            };
         }
         let b = b2.sqrt();
         let top = largest_ritz(&alpha, &beta);
@@ -220,18 +305,20 @@ pub(crate) fn estimate_using(
         // The maximum is exact in any order, so this pass runs in parallel.
         vmax = 0.0;
         for c in 0..3 {
-            let top = q
-                .comp_mut(c)
+            let top = q.comp_mut(c)[nodes.clone()]
                 .par_iter_mut()
                 .with_min_len(BLOCK)
-                .zip(w.comp(c))
-                .zip(&inv_sqrt_m)
+                .zip(&w.comp(c)[nodes.clone()])
+                .zip(&inv_sqrt_m[nodes.clone()])
                 .map(|((x, y), s)| {
                     *x = y * inv;
                     (*x * s).abs()
                 })
                 .reduce(|| 0.0, Real::max);
             vmax = Real::max(vmax, top);
+        }
+        if let Some(sp) = split.as_deref() {
+            vmax = sp.max(vmax);
         }
     }
     let lambda_max = last;
@@ -324,21 +411,33 @@ impl<'a> KernelJacobian<'a> {
 
     /// Force at `base + eps M^-1/2 q` into `scratch.v` (one pool sweep and one force sweep:
     /// with unit inverse masses, zero velocity and dt = 1 the kick leaves exactly the force in
-    /// the velocity).
-    fn force(&mut self, body: &Body, kernel: &Kernel, q: &Coords, inv_sqrt_m: &[Real], eps: Real) {
+    /// the velocity). With `split`, on the rank's own nodes, its ghosts' displacements and
+    /// pools traded between the sweeps as a step trades them.
+    fn force(
+        &mut self,
+        body: &Body,
+        kernel: &Kernel,
+        (q, inv_sqrt_m): (&Coords, &[Real]),
+        eps: Real,
+        mut split: Option<&mut Split>,
+    ) {
+        let (nodes, _) = own(&split, body.nodes());
         // Element by element, so in parallel (the reductions elsewhere stay in node order).
         for c in 0..3 {
-            let u = self
-                .scratch
-                .u
-                .comp_mut(c)
+            let u = self.scratch.u.comp_mut(c)[nodes.clone()]
                 .par_iter_mut()
                 .with_min_len(BLOCK);
-            let xs = q.comp(c).par_iter().zip(inv_sqrt_m);
+            let xs = q.comp(c)[nodes.clone()]
+                .par_iter()
+                .zip(&inv_sqrt_m[nodes.clone()]);
             match &self.base {
-                Some(base) => u.zip(base.comp(c)).zip(xs).for_each(|((u, b), (x, s))| {
-                    *u = b + eps * (x * s);
-                }),
+                Some(base) => {
+                    u.zip(&base.comp(c)[nodes.clone()])
+                        .zip(xs)
+                        .for_each(|((u, b), (x, s))| {
+                            *u = b + eps * (x * s);
+                        })
+                }
                 None => u.zip(xs).for_each(|(u, (x, s))| {
                     *u = 0.0 + eps * (x * s);
                 }),
@@ -350,20 +449,30 @@ impl<'a> KernelJacobian<'a> {
             }
         }
         self.v_zero = false;
-        kernel.pools(body, self.scratch);
+        let share = split.as_deref().map(|s| s.share);
+        if let Some(sp) = split.as_deref_mut() {
+            // A plate's z displacements are the base's on every rank already.
+            let dims = body.lattice.dim();
+            sp.trade(&mut self.scratch.u.xyz_mut()[..dims]);
+        }
+        kernel.pools_shared(body, self.scratch, Real::INFINITY, share);
+        if let Some(sp) = split {
+            sp.trade(&mut [&mut self.scratch.pool[..]]);
+        }
         let p = StepParams {
             dt: 1.0,
             damping: 0.0,
             accel: [0.0; 3],
             plane: false,
         };
-        kernel.force_kick_drift(
+        kernel.force_kick_drift_shared(
             body,
             self.scratch,
             self.unit_inv_mass,
             &p,
             self.u_next,
             &mut self.partials,
+            share,
         );
     }
 
@@ -374,7 +483,9 @@ impl<'a> KernelJacobian<'a> {
             .then(|| std::mem::take(&mut self.scratch.f))
     }
 
-    /// `w = M^-1/2 K M^-1/2 q`, returning `w.q`; `vmax` is `max |M^-1/2 q|`.
+    /// `w = M^-1/2 K M^-1/2 q`, returning `w.q`; `vmax` is `max |M^-1/2 q|`. With `split`,
+    /// `w` on the rank's own nodes and `w.q` over all of them.
+    #[allow(clippy::too_many_arguments)]
     fn apply(
         &mut self,
         body: &Body,
@@ -383,16 +494,24 @@ impl<'a> KernelJacobian<'a> {
         inv_sqrt_m: &[Real],
         vmax: Real,
         w: &mut Coords,
+        mut split: Option<&mut Split>,
     ) -> Real {
         if vmax == 0.0 {
             w.fill_zero();
             return 0.0;
         }
+        let (_, chunks) = own(&split, body.nodes());
         let eps = 1e-7 * self.spacing / vmax;
         if let BaseForce::Unknown = self.base_force {
-            self.force(body, kernel, q, inv_sqrt_m, 0.0);
+            self.force(body, kernel, (q, inv_sqrt_m), 0.0, split.as_deref_mut());
             let v = &mut self.scratch.v;
-            self.base_force = if self.base.is_none() && v.as_flat().par_iter().all(|&x| x == 0.0) {
+            // Another rank's nodes hold +0 here (the sweeps wrote this rank's only), so each
+            // rank sees its own force and every rank decides alike on all of them.
+            let mut moved = [v.as_flat().par_iter().any(|&x| x != 0.0)];
+            if let Some(sp) = split.as_deref() {
+                sp.team.any(&mut moved);
+            }
+            self.base_force = if self.base.is_none() && !moved[0] {
                 // Then `u = 0 + eps M^-1/2 q` wherever the force is read, so a zero's sign
                 // cannot reach a displacement, nor a sum: +0 stands for it.
                 for c in v.xyz_mut() {
@@ -409,7 +528,7 @@ impl<'a> KernelJacobian<'a> {
                 BaseForce::Apart(v.clone())
             };
         }
-        self.force(body, kernel, q, inv_sqrt_m, eps);
+        self.force(body, kernel, (q, inv_sqrt_m), eps, split.as_deref_mut());
         // K v = -(f(u + eps v) - f(u)) / eps, scaled by M^-1/2 and dotted with q, summed per
         // component by chunks in chunk order.
         // The velocities (the force) are cleared as they are read, for the next evaluation.
@@ -427,6 +546,7 @@ impl<'a> KernelJacobian<'a> {
                 .zip(v.comp_mut(c).par_chunks_mut(CHUNK))
                 .zip(self.partial.par_iter_mut())
                 .enumerate()
+                .filter(|(k, _)| chunks.contains(k))
                 .for_each(|(k, ((y, f), out))| {
                     let r = k * CHUNK..k * CHUNK + y.len();
                     let mut part = 0.0;
@@ -444,7 +564,10 @@ impl<'a> KernelJacobian<'a> {
                     }
                     *out = part;
                 });
-            a += in_order(&self.partial);
+            a += match split.as_deref() {
+                Some(sp) => sp.sum(&mut self.partial),
+                None => in_order(&self.partial),
+            };
         }
         self.v_zero = true;
         a
@@ -488,4 +611,99 @@ pub fn damage_bound(body: &Body) -> Real {
         })
         .reduce(|| 0.0, Real::max);
     (1.0 + 2.0 * body.q.max(0.0)) * worst
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use crate::dynamics::{Integrator, IntegratorOptions};
+    use crate::loading::Loading;
+    use crate::material::{Elastic, PlaneModel};
+    use crate::random::RandomSpec;
+    use crate::team::{Team, Threads};
+    use crate::{Body, Lattice, State};
+
+    /// A team's members find the stable step of one process, bit for bit: on every kernel
+    /// (the row kernel, the CSR kernel, both stencils), 2D and 3D, at rest and deformed and
+    /// moving, with the damage-proof bound too, for teams of 2 and 3. (A wrong sum or a
+    /// missing trade changes the step's last bits, or its members' steps disagree.)
+    #[test]
+    fn a_team_finds_the_stable_step_of_one_process() {
+        let m = Elastic {
+            youngs: 70e9,
+            poisson: 0.3,
+            density: 2500.0,
+        };
+        let a = 1e-3;
+        let random = |dim: usize, hi: [f64; 3]| {
+            Lattice::random(dim, [0.0; 3], hi, a, 2e-3, RandomSpec::default(), &|_| true).unwrap()
+        };
+        let bodies = [
+            ("random3d", random(3, [45e-3, 30e-3, 12e-3]), false),
+            ("random3d, CSR", random(3, [45e-3, 30e-3, 12e-3]), true),
+            ("random2d", random(2, [150e-3, 100e-3, 0.0]), false),
+            ("hex", Lattice::hex_box(150, 100, a, 2e-3).unwrap(), false),
+            ("cubic", Lattice::cubic_box([30, 20, 24], a).unwrap(), false),
+        ];
+        for (name, lattice, csr) in bodies {
+            let body = Body::new(lattice, &m, PlaneModel::Stress).unwrap();
+            assert!(
+                body.nodes() >= 3 * crate::kernel::CHUNK,
+                "{name}: {} nodes",
+                body.nodes()
+            );
+            for (moving, damage_proof) in [(false, false), (true, false), (true, true)] {
+                let mut state = State::new(&body);
+                if moving {
+                    let x = &body.lattice.pos;
+                    for i in 0..body.nodes() {
+                        state.u.x_mut()[i] = 1e-6 * (x.y()[i] * 300.0).sin();
+                        state.u.y_mut()[i] = 2e-6 * (x.x()[i] * 200.0).cos();
+                        state.v.x_mut()[i] = 0.1 * (x.x()[i] * 100.0).sin();
+                    }
+                }
+                let opts = IntegratorOptions {
+                    force_csr: csr,
+                    damage_proof,
+                    ..Default::default()
+                };
+                let alone = Integrator::new(&body, &mut state.clone(), Loading::default(), &opts)
+                    .unwrap()
+                    .stable;
+                for size in [2, 3] {
+                    let found: Vec<(f64, f64)> = std::thread::scope(|s| {
+                        let handles: Vec<_> = Threads::team(size)
+                            .into_iter()
+                            .map(|t| {
+                                let (body, opts, mut state) = (&body, &opts, state.clone());
+                                s.spawn(move || {
+                                    let team: Arc<dyn Team> = Arc::new(t);
+                                    let it = Integrator::new_shared(
+                                        body,
+                                        &mut state,
+                                        Loading::default(),
+                                        opts,
+                                        Some(team),
+                                    )
+                                    .unwrap();
+                                    (it.stable.lambda_max, it.stable.dt_critical)
+                                })
+                            })
+                            .collect();
+                        handles.into_iter().map(|h| h.join().unwrap()).collect()
+                    });
+                    for (r, &(lambda, dt)) in found.iter().enumerate() {
+                        assert!(
+                            lambda.to_bits() == alone.lambda_max.to_bits()
+                                && dt.to_bits() == alone.dt_critical.to_bits(),
+                            "{name}, moving {moving}, damage-proof {damage_proof}: member {r} \
+                             of {size} found lambda {lambda:e}, one process {:e}",
+                            alone.lambda_max
+                        );
+                    }
+                }
+            }
+        }
+    }
 }

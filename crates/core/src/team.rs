@@ -3,7 +3,8 @@
 //! Every rank holds the whole body and state and runs the same control flow: loads, boundary
 //! conditions, contact, the fracture decisions, the energy ledger and the output all see the
 //! same data on every rank, so they give the same bits on every rank and as in one process.
-//! What is split are the two sweeps of a step, which are nearly all of its cost: rank r owns
+//! What is split are the two sweeps of a step, which are nearly all of its cost (and the same
+//! sweeps in the stable-step estimate at set-up, [`crate::stability::Split`]): rank r owns
 //! a contiguous range of whole node chunks ([`crate::kernel::CHUNK`] nodes each) and
 //!
 //! - sweep 1: computes the records of the springs in its nodes' rows and its nodes' pools
@@ -186,6 +187,37 @@ impl Share {
             .iter()
             .map(|r| per * (r.start / CHUNK)..per * r.end.div_ceil(CHUNK))
             .collect()
+    }
+}
+
+/// Send this rank's values of `fields` at the nodes its peers read (`halo.send`) and take
+/// theirs at its ghosts (`halo.recv`): one message per peer, a node's fields side by side.
+/// `out` and `inp` (one per rank) are the messages' buffers, kept by the caller so that a
+/// step allocates nothing.
+pub fn trade_halo(
+    team: &dyn Team,
+    halo: &Halo,
+    out: &mut [Vec<Real>],
+    inp: &mut [Vec<Real>],
+    fields: &mut [&mut [Real]],
+) {
+    let k = fields.len();
+    for (o, nodes) in out.iter_mut().zip(&halo.send) {
+        o.clear();
+        for &i in nodes {
+            o.extend(fields.iter().map(|f| f[i as usize]));
+        }
+    }
+    for (i, nodes) in inp.iter_mut().zip(&halo.recv) {
+        i.resize(k * nodes.len(), 0.0);
+    }
+    team.trade(out, inp);
+    for (inp, nodes) in inp.iter().zip(&halo.recv) {
+        for (vals, &i) in inp.chunks_exact(k).zip(nodes) {
+            for (f, &v) in fields.iter_mut().zip(vals) {
+                f[i as usize] = v;
+            }
+        }
     }
 }
 

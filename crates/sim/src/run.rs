@@ -333,9 +333,17 @@ impl Run {
             checked?;
             return Err(elsewhere(true));
         }
+        // A fresh integrator shares its stable-step estimate with the team and comes back
+        // distributed; a resumed one takes its step from the checkpoint.
         let it = match &opts.resume {
-            None => Integrator::new(&sim.body, &mut sim.state, sim.loading.clone(), &sim.options)
-                .map_err(|e| Error::Input(e.to_string()))?,
+            None => Integrator::new_shared(
+                &sim.body,
+                &mut sim.state,
+                sim.loading.clone(),
+                &sim.options,
+                opts.team.clone(),
+            )
+            .map_err(|e| Error::Input(e.to_string()))?,
             Some(path) => {
                 let ck = Checkpoint::load(path, &sim.body, opts.digest).map_err(|e| {
                     let mut msg = e.to_string();
@@ -375,7 +383,9 @@ impl Run {
         };
         let mut it = it;
         if let Some(team) = &opts.team {
-            it.distribute(&sim.body, team.clone());
+            if opts.resume.is_some() {
+                it.distribute(&sim.body, team.clone());
+            }
             if let Some(c) = sim.contact.as_mut() {
                 c.distribute(team.clone());
             }
