@@ -167,13 +167,14 @@ fn first_rank() -> bool {
 /// Run a parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     let (usable, machine) = cores();
+    let ranks = local_ranks();
     let threads = match cli.threads {
         Some(0) => return Err(InputError("--threads 0: give at least 1 thread".into()).into()),
         Some(t) => t,
         // Under an MPI launcher: the machine's cores shared by its ranks.
-        None => local_ranks().map_or(0, |ranks| launcher_threads(ranks, usable, machine)),
+        None => ranks.map_or(0, |ranks| launcher_threads(ranks, usable, machine)),
     };
-    if let Some(note) = threads_note(cli.threads, local_ranks(), usable, machine) {
+    if let Some(note) = threads_note(cli.threads, ranks, usable, machine) {
         if first_rank() {
             eprintln!("{note}");
         }
