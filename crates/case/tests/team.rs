@@ -323,3 +323,44 @@ fn quasi_static_runs_are_refused_in_a_team() {
         );
     }
 }
+
+/// An instability stops every member with the lone run's message: each member checks only
+/// the nodes it owns, and the one that finds a failure makes all of them look at the whole.
+#[test]
+fn an_instability_stops_every_member_alike() {
+    let text = include_str!("data/unstable.toml");
+    let path = Path::new("unstable.toml");
+    let go = |tag: String, team: Option<Arc<dyn Team>>| {
+        let (sim, mut opts) = hooke_case::prepare(path, text, 1.0, &[]).unwrap();
+        assert!(sim.body.nodes() > 2 * hooke_core::kernel::CHUNK);
+        opts.out = scratch(&tag);
+        opts.name = "unstable".into();
+        opts.team = team;
+        hooke_sim::run(sim, opts, &mut hooke_sim::Silent)
+            .err()
+            .map(|e| e.to_string())
+            .expect("unstable")
+    };
+    let alone = go("unstable_1".into(), None);
+    let _ = std::fs::remove_dir_all(scratch("unstable_1"));
+    assert!(
+        alone.contains("step 64") && alone.contains("thousand times"),
+        "{alone}"
+    );
+    for size in [2, 3] {
+        let members = std::thread::scope(|s| {
+            let handles: Vec<_> = Threads::team(size)
+                .into_iter()
+                .map(|t| s.spawn(move || go(format!("unstable_{size}"), Some(Arc::new(t)))))
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().unwrap())
+                .collect::<Vec<_>>()
+        });
+        for (r, e) in members.iter().enumerate() {
+            assert_eq!(e, &alone, "member {r} of {size}");
+        }
+        let _ = std::fs::remove_dir_all(scratch(&format!("unstable_{size}")));
+    }
+}

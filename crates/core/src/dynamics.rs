@@ -794,6 +794,14 @@ impl Integrator {
         self.current(state, true, true, true);
     }
 
+    /// [`Integrator::gather_state`] at `nodes` only (ascending, each once): one all-gather of
+    /// what their owners hold, for a reader of a few nodes (a commit of breaks reads the
+    /// broken springs' ends and their neighbours). Collective, with the same `nodes` on every
+    /// member; alone it does nothing.
+    pub fn gather_state_at(&mut self, state: &mut State, nodes: &[u32]) {
+        self.current_at(state, nodes, true, true, true);
+    }
+
     /// Gather what is stale of the displacements, pools and velocities (as asked) from their
     /// owners. A plate's z components are exact zeros on every rank and are not gathered.
     fn current(&mut self, state: &mut State, u: bool, pool: bool, v: bool) {
@@ -1037,11 +1045,26 @@ impl Integrator {
             return false;
         }
         let killed = std::mem::take(&mut self.killed);
-        self.kernel.repair(body, state, &killed);
-        if let (Some(t), false) = (&self.team, killed.is_empty()) {
-            // Every rank repaired the pools of the broken springs' ends, but only the ends it
-            // owns have their rows' shares at hand: take those from their owners.
-            t.team.gather(&mut state.pool, &t.share.nodes);
+        self.kernel
+            .repair_shared(body, state, &killed, self.team.as_ref().map(|t| &t.share));
+        if let (Some(t), false) = (self.team.as_mut(), killed.is_empty()) {
+            // Only a broken spring's ends change their pools, and only their owners hold
+            // what those pools read: every rank takes them from the owners (the rest of its
+            // pools, its ghosts' from this step's trade, stand).
+            let mut ends = std::mem::take(&mut t.ends);
+            ends.clear();
+            ends.extend(
+                killed
+                    .iter()
+                    .flat_map(|&b| body.lattice.bonds.ends[b as usize]),
+            );
+            ends.sort_unstable();
+            ends.dedup();
+            let stale = std::mem::replace(&mut t.stale_pool, true);
+            self.current_at(state, &ends, false, true, false);
+            let t = self.team.as_mut().expect("shared");
+            t.stale_pool = stale;
+            t.ends = ends;
         }
         self.killed = killed;
         true
@@ -1252,8 +1275,29 @@ impl Integrator {
 
     /// Look for non-finite values or springs stretched beyond any physical meaning.
     pub fn check(&self, body: &Body, state: &State) -> Result<()> {
+        Self::check_nodes(body, state, 0..body.nodes())
+    }
+
+    /// [`Integrator::check`] in a shared run, between outputs: each member checks the nodes it
+    /// owns, whose state it holds current, and only if one fails is the whole state gathered,
+    /// so that every member finds the same first node and reports it alike (before, every
+    /// member gathered and checked the whole body). Collective. Alone: [`Integrator::check`].
+    pub fn check_shared(&mut self, body: &Body, state: &mut State) -> Result<()> {
+        if let Some(t) = &self.team {
+            let mine = t.share.nodes[t.share.rank].clone();
+            let mut failed = [Self::check_nodes(body, state, mine).is_err()];
+            t.team.any(&mut failed);
+            if !failed[0] {
+                return Ok(());
+            }
+            self.gather_state(state);
+        }
+        self.check(body, state)
+    }
+
+    fn check_nodes(body: &Body, state: &State, nodes: std::ops::Range<usize>) -> Result<()> {
         let size = body.lattice.spacing * (body.nodes() as Real).cbrt().max(1.0) * 1e3;
-        for i in 0..body.nodes() {
+        for i in nodes {
             let u = state.u.get(i);
             let v = state.v.get(i);
             let reason = if !u.iter().all(|x| x.is_finite()) || !v.iter().all(|x| x.is_finite()) {

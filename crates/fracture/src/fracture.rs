@@ -36,6 +36,8 @@ pub struct Fracture {
     found: Vec<Vec<(u32, Real)>>,
     /// Scratch: nodes touched by a commit.
     touched: Vec<u32>,
+    /// Scratch: the nodes a commit's energies read (the touched ones and their neighbours).
+    reads: Vec<u32>,
     /// Scratch: the springs sweep 1's screen flagged.
     hot: Vec<u32>,
     /// What the last screened decision broke.
@@ -60,6 +62,7 @@ impl Fracture {
                 .collect(),
             found: vec![Vec::new(); body.nodes().div_ceil(CHUNK)],
             touched: Vec::new(),
+            reads: Vec::new(),
             hot: Vec::new(),
             last: BreakReport::default(),
             broken_total: 0,
@@ -206,11 +209,6 @@ impl Fracture {
             return BreakReport::default();
         }
         let bonds = &body.lattice.bonds;
-        if let Some(it) = integrator.as_deref_mut() {
-            // The released energy reads the touched nodes' velocities (a shared run keeps only
-            // its own and its ghosts' state current between outputs).
-            it.gather_state(state);
-        }
         let back = integrator.as_deref().map(|it| it.dt);
         self.touched.clear();
         for list in &self.found {
@@ -220,6 +218,21 @@ impl Fracture {
         }
         self.touched.sort_unstable();
         self.touched.dedup();
+        if let Some(it) = integrator.as_deref_mut().filter(|it| it.share().is_some()) {
+            // The released energy reads the touched nodes and their neighbours, displacements
+            // and velocities (a shared run keeps only its own and its ghosts' state current
+            // between outputs): those are taken from their owners, not the whole state.
+            self.reads.clear();
+            for &n in &self.touched {
+                let n = n as usize;
+                self.reads.push(n as u32);
+                self.reads
+                    .extend(bonds.row(n).map(|e| bonds.neighbour(n, e) as u32));
+            }
+            self.reads.sort_unstable();
+            self.reads.dedup();
+            it.gather_state_at(state, &self.reads);
+        }
         // R at u (shift 0) and, in a run, at u - dt v.
         let shifts: &[Real] = if back.is_some() { &[0.0, 1.0] } else { &[0.0] };
         let energy = |state: &State, touched: &[u32], found: &[Vec<(u32, Real)>], h: Real| {

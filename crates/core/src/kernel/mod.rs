@@ -257,14 +257,29 @@ impl Kernel {
     /// Make sweep 1's results (pools, CSR records) those of a sweep with the springs `killed`
     /// already broken (after they broke between the sweeps, the kernel's masks updated).
     pub fn repair(&self, body: &Body, state: &mut State, killed: &[u32]) {
+        self.repair_shared(body, state, killed, None);
+    }
+
+    /// [`Kernel::repair`] on one rank's share (`None`: the whole body): the pools of the
+    /// changed springs' ends that this rank owns are right afterwards; the others are left
+    /// to their owners (a stencil kernel recomputes none of them, the CSR kernel from what
+    /// this rank holds).
+    pub fn repair_shared(
+        &self,
+        body: &Body,
+        state: &mut State,
+        killed: &[u32],
+        share: Option<&crate::team::Share>,
+    ) {
         if killed.is_empty() {
             return;
         }
+        let chunks = share.map_or(0..body.nodes().div_ceil(CHUNK), |s| s.chunks());
         match self {
             Kernel::Csr { plain } => csr::repair(body, state, *plain, killed),
-            Kernel::Cubic(s) => stencil::repair(s, body, state, killed),
-            Kernel::Hex(s) => stencil::repair(s, body, state, killed),
-            Kernel::Rows(r) => stencil::repair(r, body, state, killed),
+            Kernel::Cubic(s) => stencil::repair(s, body, state, killed, chunks),
+            Kernel::Hex(s) => stencil::repair(s, body, state, killed, chunks),
+            Kernel::Rows(r) => stencil::repair(r, body, state, killed, chunks),
         }
     }
 

@@ -293,15 +293,24 @@ fn pool_chunk<S: Stencil>(
 /// After springs broke between sweep 1 and sweep 2 (the stencil's masks already updated):
 /// recompute the pools of the chunks holding their ends with the same code as sweep 1, so the
 /// bits are those of breaking before the step.
-pub(crate) fn repair<S: Stencil>(s: &S, body: &Body, state: &mut State, killed: &[u32]) {
+pub(crate) fn repair<S: Stencil>(
+    s: &S,
+    body: &Body,
+    state: &mut State,
+    killed: &[u32],
+    mine: std::ops::Range<usize>,
+) {
     if s.q() == 0.0 {
         return;
     }
     let n = s.nodes();
+    // A chunk of another rank's nodes would be recomputed from records this rank does not
+    // keep current.
     let mut chunks: Vec<usize> = killed
         .iter()
         .flat_map(|&b| body.lattice.bonds.ends[b as usize])
         .map(|n| n as usize / CHUNK)
+        .filter(|c| mine.contains(c))
         .collect();
     chunks.sort_unstable();
     chunks.dedup();
