@@ -518,21 +518,31 @@ impl Contact {
             flags[i as usize] = true;
             flags[j as usize] = true;
         }
-        let mut damaged: Vec<u32> = ids(&mine)
+        let x = |i: usize| Self::position(body, &state.u, i);
+        // Each damaged node with its position, which its owner computes: a process holds
+        // current displacements at its own nodes only, and gathering every node's for a
+        // rebuild cost a whole-state all-gather each time.
+        let mut damaged: Vec<(u32, [Real; 3])> = ids(&mine)
             .into_par_iter()
             .with_min_len(4096)
             .filter(|&i| flags[i as usize])
+            .map(|i| (i, x(i as usize)))
             .collect();
         if let Some(t) = &team {
-            let mut lists = vec![damaged.iter().map(|&i| i as Real).collect()];
+            let mut lists = vec![damaged
+                .iter()
+                .flat_map(|&(i, p)| [i as Real, p[0], p[1], p[2]])
+                .collect()];
             gather_lists(t.as_ref(), &mut lists);
-            damaged = lists[0].iter().map(|&i| i as u32).collect();
+            damaged = lists[0]
+                .chunks(4)
+                .map(|e| (e[0] as u32, [e[1], e[2], e[3]]))
+                .collect();
         }
         if damaged.is_empty() {
             self.frag_force.clear();
             return;
         }
-        let x = |i: usize| Self::position(body, &state.u, i);
         // (Minima and maxima are exact in any grouping.)
         let (mut lo, mut hi) = mine
             .clone()
@@ -575,8 +585,8 @@ impl Contact {
         let index = |k: [i64; 3]| ((k[0] * dims[1] + k[1]) * dims[2] + k[2]) as usize;
         let near = cells.filter(|&t| t <= 1 << 28).map(|t| {
             let mut bits = vec![0u64; (t as usize).div_ceil(64)];
-            for &i in &damaged {
-                let ci = cell(&x(i as usize));
+            for (_, p) in &damaged {
+                let ci = cell(p);
                 for dx in -1..=1i64 {
                     for dy in -1..=1i64 {
                         for dz in -1..=1i64 {
@@ -591,32 +601,51 @@ impl Contact {
             }
             bits
         });
-        let mut order: Vec<([i64; 3], u32)> = mine
+        // Each listed node with its cell and its position (from its owner, as above).
+        let mut order: Vec<([i64; 3], u32, [Real; 3])> = mine
             .clone()
             .into_par_iter()
             .with_min_len(4096)
             .filter_map(|i| {
-                let k = cell(&x(i));
+                let p = x(i);
+                let k = cell(&p);
                 let listed = near.as_ref().is_none_or(|bits| {
                     let at = index(k);
                     bits[at >> 6] & (1 << (at & 63)) != 0
                 });
-                listed.then_some((k, i as u32))
+                listed.then_some((k, i as u32, p))
             })
             .collect();
         if let Some(t) = &team {
             // Cell indices and node numbers travel as reals: exact below 2^53.
             let mut lists = vec![order
                 .iter()
-                .flat_map(|(k, i)| [k[0] as Real, k[1] as Real, k[2] as Real, *i as Real])
+                .flat_map(|(k, i, p)| {
+                    [
+                        k[0] as Real,
+                        k[1] as Real,
+                        k[2] as Real,
+                        *i as Real,
+                        p[0],
+                        p[1],
+                        p[2],
+                    ]
+                })
                 .collect()];
             gather_lists(t.as_ref(), &mut lists);
             order = lists[0]
-                .chunks(4)
-                .map(|e| ([e[0] as i64, e[1] as i64, e[2] as i64], e[3] as u32))
+                .chunks(7)
+                .map(|e| {
+                    (
+                        [e[0] as i64, e[1] as i64, e[2] as i64],
+                        e[3] as u32,
+                        [e[4], e[5], e[6]],
+                    )
+                })
                 .collect();
         }
-        order.par_sort_unstable();
+        // (Cell and node: unique keys.)
+        order.par_sort_unstable_by_key(|e| (e.0, e.1));
         let bonded = |i: usize, j: u32| -> bool {
             bonds
                 .entry(i, j as usize)
@@ -627,17 +656,16 @@ impl Contact {
         let mut pairs: Vec<(u32, u32)> = damaged
             .par_iter()
             .with_min_len(64)
-            .flat_map_iter(|&i| {
+            .flat_map_iter(|&(i, xi)| {
                 let mut pairs = Vec::new();
                 let i = i as usize;
-                let xi = x(i);
                 let ci = cell(&xi);
                 for dz in -1..=1i64 {
                     for dy in -1..=1i64 {
                         for dx in -1..=1i64 {
                             let key = [ci[0] + dx, ci[1] + dy, ci[2] + dz];
                             let start = order.partition_point(|e| e.0 < key);
-                            for &(k, j) in &order[start..] {
+                            for &(k, j, xj) in &order[start..] {
                                 if k != key {
                                     break;
                                 }
@@ -645,7 +673,6 @@ impl Contact {
                                 if jj == i {
                                     continue;
                                 }
-                                let xj = x(jj);
                                 let d2: Real = (0..3).map(|c| (xi[c] - xj[c]).powi(2)).sum();
                                 if d2 >= h * h {
                                     continue;
@@ -695,8 +722,14 @@ impl Interaction for Contact {
             self.node_parts = nodes.to_vec();
         }
         let valid = self.lists_valid(body, &state.u, own);
-        self.checked = Some(valid);
-        if valid {
+        if !valid && self.team.is_some() {
+            // A rebuild reads only this process's own nodes and what the others send of
+            // theirs, so it runs here, and the step then gathers the state of the nodes the
+            // new lists hold, not of every node.
+            self.rebuild(body, state);
+        }
+        self.checked = Some(valid || self.team.is_some());
+        if valid || self.team.is_some() {
             Reads::Nodes(&self.read_nodes)
         } else {
             Reads::All
