@@ -364,3 +364,17 @@ fn an_instability_stops_every_member_alike() {
         let _ = std::fs::remove_dir_all(scratch(&format!("unstable_{size}")));
     }
 }
+
+/// The sphere impact to its end, where fragments fly apart: the fragment lists' rebuilds, which
+/// each member makes from its own nodes and the positions the others send, find the pairs one
+/// process finds (a rebuild reading other members' stale positions breaks this test, not the
+/// shorter one above).
+#[test]
+fn fragment_contact_rebuilds_alike_in_a_team() {
+    check(
+        "sphere_impact_glass.toml",
+        0.8,
+        &["output.every=10e-6"],
+        &[3],
+    );
+}
