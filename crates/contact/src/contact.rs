@@ -728,8 +728,10 @@ impl Interaction for Contact {
             // new lists hold, not of every node.
             self.rebuild(body, state);
         }
-        self.checked = Some(valid || self.team.is_some());
-        if valid || self.team.is_some() {
+        // In a team the lists are current either way (rebuilt just above).
+        let current = valid || self.team.is_some();
+        self.checked = Some(current);
+        if current {
             Reads::Nodes(&self.read_nodes)
         } else {
             Reads::All

@@ -215,6 +215,16 @@ pub struct Integrator {
     plane: bool,
 }
 
+/// Which pools a gather from their owners takes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Pools {
+    No,
+    /// Those the integrator has marked stale (after a sweep's trade).
+    IfStale,
+    /// Always: a repair after breaks changed them on their owners only.
+    Repaired,
+}
+
 /// What a shared integrator keeps besides its share (see [`Integrator::distribute`]).
 #[derive(Debug)]
 struct Shared {
@@ -799,7 +809,7 @@ impl Integrator {
     /// broken springs' ends and their neighbours). Collective, with the same `nodes` on every
     /// member; alone it does nothing.
     pub fn gather_state_at(&mut self, state: &mut State, nodes: &[u32]) {
-        self.current_at(state, nodes, true, true, true);
+        self.current_at(state, nodes, true, Pools::IfStale, true);
     }
 
     /// Gather what is stale of the displacements, pools and velocities (as asked) from their
@@ -829,12 +839,17 @@ impl Integrator {
 
     /// Make the displacements, pools and velocities (as asked) current at `nodes` only
     /// (ascending, each once): one all-gather of what their owners hold.
-    fn current_at(&mut self, state: &mut State, nodes: &[u32], u: bool, pool: bool, v: bool) {
+    fn current_at(&mut self, state: &mut State, nodes: &[u32], u: bool, pool: Pools, v: bool) {
         let dims = if self.plane { 2 } else { 3 };
         let Some(t) = self.team.as_mut() else {
             return;
         };
-        let (u, pool, v) = (u && t.stale_u, pool && t.stale_pool, v && t.v_partial);
+        let pool = match pool {
+            Pools::No => false,
+            Pools::IfStale => t.stale_pool,
+            Pools::Repaired => true,
+        };
+        let (u, v) = (u && t.stale_u, v && t.v_partial);
         let k = if u { dims } else { 0 } + usize::from(pool) + if v { dims } else { 0 };
         // Every rank holds the same list: all skip alike.
         if k == 0 || nodes.is_empty() {
@@ -890,6 +905,32 @@ impl Integrator {
                 }
             }
         }
+    }
+
+    /// Make the state at the ends of `springs` current from their owners (displacements if
+    /// `u`, pools as `pool` says); alone it does nothing.
+    fn current_at_ends(
+        &mut self,
+        body: &Body,
+        state: &mut State,
+        springs: &[u32],
+        u: bool,
+        pool: Pools,
+    ) {
+        let Some(t) = self.team.as_mut() else {
+            return;
+        };
+        let mut ends = std::mem::take(&mut t.ends);
+        ends.clear();
+        ends.extend(
+            springs
+                .iter()
+                .flat_map(|&b| body.lattice.bonds.ends[b as usize]),
+        );
+        ends.sort_unstable();
+        ends.dedup();
+        self.current_at(state, &ends, u, pool, false);
+        self.team.as_mut().expect("shared").ends = ends;
     }
 
     /// Sweep 1 on this process's share, then the pools its peers read traded (and with a
@@ -1024,20 +1065,10 @@ impl Integrator {
         if self.team.is_some() && state.hot.iter().any(|&h| h) {
             // The breaker reads both ends of every flagged spring, wherever it is.
             let t = self.team.as_mut().expect("shared");
-            let (mut springs, mut ends) =
-                (std::mem::take(&mut t.springs), std::mem::take(&mut t.ends));
+            let mut springs = std::mem::take(&mut t.springs);
             self.kernel.hot_springs(body, state, &mut springs);
-            ends.clear();
-            ends.extend(
-                springs
-                    .iter()
-                    .flat_map(|&b| body.lattice.bonds.ends[b as usize]),
-            );
-            ends.sort_unstable();
-            ends.dedup();
-            self.current_at(state, &ends, true, true, false);
-            let t = self.team.as_mut().expect("shared");
-            (t.springs, t.ends) = (springs, ends);
+            self.current_at_ends(body, state, &springs, true, Pools::IfStale);
+            self.team.as_mut().expect("shared").springs = springs;
         }
         b.break_in_step(body, state, self);
         if self.synced != state.breaks() {
@@ -1047,24 +1078,11 @@ impl Integrator {
         let killed = std::mem::take(&mut self.killed);
         self.kernel
             .repair_shared(body, state, &killed, self.team.as_ref().map(|t| &t.share));
-        if let (Some(t), false) = (self.team.as_mut(), killed.is_empty()) {
+        if !killed.is_empty() {
             // Only a broken spring's ends change their pools, and only their owners hold
             // what those pools read: every rank takes them from the owners (the rest of its
             // pools, its ghosts' from this step's trade, stand).
-            let mut ends = std::mem::take(&mut t.ends);
-            ends.clear();
-            ends.extend(
-                killed
-                    .iter()
-                    .flat_map(|&b| body.lattice.bonds.ends[b as usize]),
-            );
-            ends.sort_unstable();
-            ends.dedup();
-            let stale = std::mem::replace(&mut t.stale_pool, true);
-            self.current_at(state, &ends, false, true, false);
-            let t = self.team.as_mut().expect("shared");
-            t.stale_pool = stale;
-            t.ends = ends;
+            self.current_at_ends(body, state, &killed, false, Pools::Repaired);
         }
         self.killed = killed;
         true
@@ -1094,7 +1112,7 @@ impl Integrator {
             match it.reads(body, state, &t.share.nodes) {
                 Reads::All => self.current(state, true, false, true),
                 Reads::Nodes(list) => {
-                    self.current_at(state, list, true, false, true);
+                    self.current_at(state, list, true, Pools::No, true);
                 }
             }
         }
@@ -1159,7 +1177,7 @@ impl Integrator {
             nodes.extend(self.contact.iter().map(|c| c.0));
             nodes.sort_unstable();
             nodes.dedup();
-            self.current_at(state, &nodes, false, false, true);
+            self.current_at(state, &nodes, false, Pools::No, true);
             self.team.as_mut().expect("shared").ends = nodes;
         }
         self.ledger.dissipated += sums.dissipated;
