@@ -556,25 +556,23 @@ fn softening_springs_dissipate_g_f_on_other_strips() {
     }
 }
 
-/// The random3d calibration (slabs 16 spacings high, 7 across, free faces) holds on node sets it
-/// was not measured with: the mean G / G_c of five slabs (seeds 12-16) within 10 % at nu = 0,
-/// 0.25 and 0.35. Single slabs scatter by 16-36 % (one standard deviation) at this size, so five
-/// of them pin the mean to 7-15 % and the issue's 5 % cannot be shown with them. Measured
-/// (`hooke toughness --lattice random3d --nu NU --height 16 --depth 8 --window 8 --seed S
-/// --threads 1 --json`, 85-140 s each on 2026-12-04): nu = 0 1.065, 0.811, 1.103, 0.844, 1.126
-/// (mean 0.990); nu = 0.25 1.183, 0.913, 0.721, 0.700, 1.121 (0.927); nu = 0.35 0.506, 0.747,
-/// 1.528, 0.915, 0.923 (0.924, 9-30 breaks off the plane). Seed 11, measured earlier and
-/// slower (about an hour a slab): 0.775, 0.975, 1.245. Run one nu at a time with
-/// `HOOKE_R3_NU=0.25 cargo test --release -p hooke-tests --test toughness random3d -- --ignored`.
+/// The random3d calibration (slabs 16 spacings high, 7 across, free faces; G the release rate
+/// at the strain at which the crack runs, see `hooke_fracture::toughness`, "Random3d") holds on
+/// node sets it was not measured with: the mean G / G_c of eight slabs (seeds 57-64, the table
+/// was fitted on 17-56) within 5 % at each nu. Single slabs scatter by about 6 % (one standard
+/// deviation), so eight pin the mean to about 2 %. Measured: see README, "Fracture"
+/// (`docs/data/random3d_toughness_release.csv` has every slab). About 10 minutes a nu (0.45:
+/// 40); run one nu with `HOOKE_R3_NU=0.25 cargo test --release -p hooke-tests --test toughness
+/// random3d -- --ignored`.
 #[test]
-#[ignore = "slow: five 3D slabs per nu, about ten minutes each nu"]
-fn random3d_crack_dissipates_g_c_on_unseen_node_sets() {
+#[ignore = "slow: eight 3D slabs per nu, 10 to 40 minutes each nu"]
+fn random3d_crack_runs_at_g_c_on_unseen_node_sets() {
     let kind = LatticeKind::Random3d;
     let nus: Vec<Real> = match std::env::var("HOOKE_R3_NU") {
         Ok(v) => vec![v.parse().expect("HOOKE_R3_NU: a Poisson's ratio")],
-        Err(_) => vec![0.0, 0.25, 0.35],
+        Err(_) => NUS_R3.to_vec(),
     };
-    let seeds = 12..=16;
+    let seeds = 57..=64;
     for nu in nus {
         let mut mean = 0.0;
         for seed in seeds.clone() {
@@ -582,15 +580,21 @@ fn random3d_crack_dissipates_g_c_on_unseen_node_sets() {
             t.depth = 8;
             t.seed = seed;
             let r = strip_test(&t).unwrap();
+            assert!(r.release_is_measure);
             eprintln!(
-                "random3d nu = {nu}, node set {seed}: G / G_c = {:.3} ({} broken, {} off the plane)",
+                "random3d nu = {nu}, node set {seed}: G / G_c = {:.3} (dissipated {:.3}, {} broken, \
+                 {} off the plane)",
                 r.ratio(),
+                r.g_measured / r.g_calibrated,
                 r.broken,
                 r.off_plane
             );
             mean += r.ratio() / seeds.clone().count() as Real;
         }
         eprintln!("random3d nu = {nu}: mean G / G_c = {mean:.3}");
-        assert!((mean - 1.0).abs() < 0.1, "nu = {nu}: mean ratio {mean}");
+        assert!((mean - 1.0).abs() < 0.05, "nu = {nu}: mean ratio {mean}");
     }
 }
+
+/// The nu of the random3d table.
+const NUS_R3: [Real; 4] = [0.0, 0.25, 0.35, 0.45];

@@ -1072,9 +1072,36 @@ fn toughness_json_reports_g_measured_near_g_c() {
         "gamma",
         "broken",
         "off_plane",
+        "measure",
     ] {
         assert!(v.get(key).is_some(), "missing key {key} in {v}");
     }
+    assert_eq!(v["measure"], "dissipation", "{v}");
+    // A brittle random3d slab reads G from the release rate at the running strain (a small,
+    // fast slab: its ratio is not the calibrated one, which needs 16 rows).
+    let o = hooke(&[
+        "toughness",
+        "--lattice",
+        "random3d",
+        "--nu",
+        "0.25",
+        "--height",
+        "8",
+        "--depth",
+        "4",
+        "--window",
+        "4",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(r["measure"], "release", "{r}");
+    let g = |k: &str| r[k].as_f64().unwrap();
+    assert!(g("G_release") > 0.0, "{r}");
+    assert!(
+        (g("ratio") - g("G_release") / g("G_c")).abs() < 1e-12,
+        "{r}"
+    );
     // A short strip: within 10 % of the calibration measured on 40 rows.
     assert!((v["ratio"].as_f64().unwrap() - 1.0).abs() < 0.1, "{v}");
     for (args, msg) in [

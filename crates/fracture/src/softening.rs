@@ -347,7 +347,8 @@ const RANDOM2D_BILINEAR: [[Real; 4]; 3] = [
 /// The measured toughness of softening springs over the brittle calibration at the same
 /// equivalent stretch, `F(nu, rho)` (see the module docs): bilinear in nu and `rho` between the
 /// table's points, held at its edges. Random3d lattices take the cubic table (their strip
-/// experiment is not run, as for the brittle calibration).
+/// experiment is not run), referred to the dissipation-based random3d factor
+/// ([`crate::stretch::random3d_softening_reference`]).
 pub fn toughness_factor(kind: LatticeKind, nu: Real, rho: Real, shape: SofteningShape) -> Real {
     use SofteningShape::{Bilinear, Linear};
     match (kind, shape) {
@@ -360,6 +361,10 @@ pub fn toughness_factor(kind: LatticeKind, nu: Real, rho: Real, shape: Softening
         }
         (LatticeKind::Random2d, Bilinear) => {
             interpolate(&RANDOM2D_BILINEAR, &TABLE_NU, &TABLE_RHO, nu, rho)
+        }
+        (LatticeKind::Random3d, _) => {
+            toughness_factor(LatticeKind::Cubic, nu, rho, shape)
+                * crate::stretch::random3d_softening_reference(nu)
         }
         (_, Linear) => interpolate(&CUBIC_LINEAR, &TABLE_NU, &REGULAR_RHO, nu, rho),
         (_, Bilinear) => interpolate(&CUBIC_BILINEAR, &TABLE_NU, &REGULAR_RHO, nu, rho),
