@@ -45,10 +45,14 @@
 //! dissipation-based calibration, on two slabs at nu = 0.25) and scattered by 18-44 %
 //! from slab to slab. The strain at which the crack runs scatters by 3 % (its square by 6 %),
 //! so for brittle random3d slabs G is the release rate at that strain,
-//! `G = U'_slab eps_run^2 / width`, with `U'_slab` the energy per length of the same slab
-//! uncracked at unit strain over the window (`slab_energy_per_length`): the G at which a crack
-//! runs, which is what the calibration must match for a crack in a body to start and run at
-//! G_c. The dissipation-based figure stays in `g_measured`.
+//! `G = U'_slab eps_run^2 / width`, with `U'_slab` the same slab's release per unit length of
+//! straight crack advance at unit strain, by the compliance method (`slab_release_per_length`:
+//! the slab cut to the window's start and to its end). That is the G at which a crack runs,
+//! which is what the calibration must match for a crack in a body to start and run at G_c. (An
+//! uncracked slab's energy per length would not do: its free ends let it contract along x, by
+//! 1.3 % of the energy at nu = 0.25 and 13 % at 0.4 on a cubic strip of this size, while the
+//! compliance method gives the slab's own G.) The dissipation-based figure stays in
+//! `g_measured`.
 
 use hooke_core::law::{self, spring_geometry};
 use hooke_core::relax::{relax, RelaxOptions};
@@ -122,7 +126,8 @@ pub struct StripResult {
     /// Energy dissipated per unit of new crack area in steady growth (J/m^2 in lattice units).
     pub g_measured: Real,
     /// Steady-state energy release `U_strip(eps) / (length x width)` at the strain at which the
-    /// crack ran through the window (the cross-check of `g_measured`).
+    /// crack ran through the window (the cross-check of `g_measured`; on random3d the slab's own
+    /// release by the compliance method, and the measure, see the module docs).
     pub g_release: Real,
     /// The fracture energy this s_c stands for in the calibration of [`crate::stretch`] (for
     /// softening springs, times the measured factor [`crate::softening::toughness_factor`]:
@@ -332,7 +337,7 @@ fn stored(body: &Body, state: &State) -> Real {
 /// small strain, scaled: the response is linear to far below round-off at that strain).
 fn strip_energy_per_length(t: &StripTest) -> Result<Real, FractureError> {
     if t.kind.is_random() {
-        // No periodic random strip: see `slab_energy_per_length`.
+        // No periodic random strip: see `slab_release_per_length`.
         return Ok(Real::NAN);
     }
     let short = StripTest {
