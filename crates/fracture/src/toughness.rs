@@ -367,23 +367,12 @@ fn slab_release_per_length(
     body: &Body,
     cons: &Constraints,
     (grip, sign): (&[usize], &[Real]),
-    (yc, top, depth): (Real, Real, Real),
+    (t, yc, top): (&StripTest, Real, Real),
     (x1, x2): (Real, Real),
 ) -> Result<Real, FractureError> {
     let eps = 1e-6;
     let energy = |x: Real| -> Result<Real, FractureError> {
-        let mut state = State::new(body);
-        let cut = Crack::Polygon {
-            vertices: vec![
-                [-1.0, yc, -1.0],
-                [x, yc, -1.0],
-                [x, yc, depth + 1.0],
-                [-1.0, yc, depth + 1.0],
-            ],
-        };
-        for s in springs_cut(body, &cut, 0)? {
-            state.kill_bond(body, s);
-        }
+        let mut state = cut_to(body, t, yc, x)?;
         for (&i, &s) in grip.iter().zip(sign) {
             state.u.y_mut()[i] = s * 0.5 * eps * top;
         }
@@ -391,6 +380,28 @@ fn slab_release_per_length(
         Ok(stored(body, &state))
     };
     Ok((energy(x1)? - energy(x2)?) / ((x2 - x1) * eps * eps))
+}
+
+/// A state of the strip with the springs crossing its crack plane cut from its left end to `x`
+/// (across the whole depth in 3D).
+fn cut_to(body: &Body, t: &StripTest, yc: Real, x: Real) -> Result<State, FractureError> {
+    let crack = match t.kind.dim() {
+        2 => Crack::Segment {
+            a: [-1.0, yc],
+            b: [x, yc],
+        },
+        _ => {
+            let d = t.depth as Real + 1.0;
+            Crack::Polygon {
+                vertices: vec![[-1.0, yc, -1.0], [x, yc, -1.0], [x, yc, d], [-1.0, yc, d]],
+            }
+        }
+    };
+    let mut state = State::new(body);
+    for s in springs_cut(body, &crack, 0)? {
+        state.kill_bond(body, s);
+    }
+    Ok(state)
 }
 
 /// Run the strip experiment (see the module docs).
@@ -413,27 +424,7 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
     let (yc, top) = rows(t);
     let w = width(t);
     let tip0 = t.notch as Real + 0.1;
-    let crack = match t.kind.dim() {
-        2 => Crack::Segment {
-            a: [-1.0, yc],
-            b: [tip0, yc],
-        },
-        _ => {
-            let d = t.depth as Real + 1.0;
-            Crack::Polygon {
-                vertices: vec![
-                    [-1.0, yc, -1.0],
-                    [tip0, yc, -1.0],
-                    [tip0, yc, d],
-                    [-1.0, yc, d],
-                ],
-            }
-        }
-    };
-    let mut state = State::new(&body);
-    for s in springs_cut(&body, &crack, 0)? {
-        state.kill_bond(&body, s);
-    }
+    let mut state = cut_to(&body, t, yc, tip0)?;
     let (cons, grip, sign) = grips(&body, top);
     // The measuring window, and where the experiment stops breaking springs: the crack must not
     // start from the far end of the strip.
@@ -480,13 +471,7 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
         })
     };
     let per_length = if t.kind == LatticeKind::Random3d {
-        slab_release_per_length(
-            &body,
-            &cons,
-            (&grip, &sign),
-            (yc, top, t.depth as Real),
-            (x1, x2),
-        )?
+        slab_release_per_length(&body, &cons, (&grip, &sign), (t, yc, top), (x1, x2))?
     } else {
         strip_energy_per_length(t)?
     };
@@ -717,7 +702,7 @@ mod tests {
                 &body,
                 &cons,
                 (&grip, &sign),
-                (yc, top, t.depth as Real),
+                (&t, yc, top),
                 (x1, x1 + 8.0),
             )
             .unwrap();
