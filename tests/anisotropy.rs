@@ -607,26 +607,39 @@ fn zero_crossings(
     (crossings, step)
 }
 
+/// Which standing mode a ringing bar runs: both ends held and `u = p sin(pi x_d / L)`, or both
+/// ends free and `u = p cos(pi x_d / L)` (less its mass-weighted mean, so no rigid motion).
+/// Both have `omega = pi c / L` in the continuum. The held mode strains the bar most at its
+/// ends, where the ends' layer of springs (standing for less material than bulk ones) sits;
+/// the free mode strains it least there (not at all in the continuum: the free ends' traction
+/// vanishes), so that layer enters only at second order.
+#[derive(Clone, Copy)]
+enum Ends {
+    Held,
+    Free,
+}
+
 /// The fundamental standing mode of a random bar of the fibre material `t` (`dim` 3), or of a
 /// strip of a random2d plate of it in plane stress (`dim` 2; its target the plate's in-plane
 /// stiffness per unit thickness, so its density is the material's), `side` spacings across and
-/// 48 long along axis `d`, polarised along axis `p` (node set `seed`): its speed `omega L /
-/// pi`, the Christoffel speed `sqrt(C_pdpd / rho)`, the nodes and the steps taken.
+/// `long` along axis `d`, polarised along axis `p` (node set `seed`), its ends as `ends` says:
+/// its speed `omega L / pi`, the Christoffel speed `sqrt(C_pdpd / rho)`, the nodes and the
+/// steps taken.
 ///
-/// Both ends are held. On a side face of normal `m` only what the continuum's traction needs is
-/// held: the normal component under a longitudinal wave (`C_mmdd` pushes on it), the wave
-/// direction's component on the faces normal to a shear wave's polarisation (`C_dpdp`); every
-/// other traction of `u = p sin(pi x_d / L)`, `C_kmpd`, vanishes for an orthotropic material in
-/// its axes, so the mode is exact in the continuum. Leapfrog steps of half the estimated
-/// critical step with the run's kernel; the frequency from the zero crossings of the mode's
-/// mass-weighted projection over three periods. At 96 spacings per wavelength the lattice's own
-/// dispersion, `(ka)^2 / 24`, is below 0.01 %.
+/// On a side face of normal `m` only what the continuum's traction needs is held: the normal
+/// component under a longitudinal wave (`C_mmdd` pushes on it), the wave direction's component
+/// on the faces normal to a shear wave's polarisation (`C_dpdp`); every other traction of the
+/// mode, `C_kmpd`, vanishes for an orthotropic material in its axes, so the mode is exact in
+/// the continuum. Leapfrog steps of half the estimated critical step with the run's kernel; the
+/// frequency from the zero crossings of the mode's mass-weighted projection over three periods.
+/// At 96 spacings per wavelength or more the lattice's own dispersion, `(ka)^2 / 24`, is below
+/// 0.01 %.
 fn ringing_bar_in(
     dim: usize,
     t: &Transverse,
-    d: usize,
-    p: usize,
-    side: Real,
+    (d, p): (usize, usize),
+    [side, long]: [Real; 2],
+    ends: Ends,
     seed: u64,
 ) -> (Real, Real, usize, usize) {
     use hooke_core::random::{RandomSpec, Sampler};
@@ -635,7 +648,7 @@ fn ringing_bar_in(
     if dim == 2 {
         hi[2] = 0.0;
     }
-    hi[d] = 48.0 * a;
+    hi[d] = long * a;
     let spec = RandomSpec {
         sampler: Sampler::Poisson,
         seed,
@@ -655,7 +668,7 @@ fn ringing_bar_in(
     let free: Vec<[bool; 3]> = (0..n)
         .map(|i| {
             let x = at(i);
-            let mut keep = [!on(x[d], hi[d]); 3];
+            let mut keep = [matches!(ends, Ends::Free) || !on(x[d], hi[d]); 3];
             for m in (0..dim).filter(|&m| m != d && on(x[m], hi[m])) {
                 if p == d {
                     keep[m] = false;
@@ -666,9 +679,20 @@ fn ringing_bar_in(
             keep
         })
         .collect();
-    let phase: Vec<Real> = (0..n)
-        .map(|i| (std::f64::consts::PI * at(i)[d] / len).sin())
+    let mut phase: Vec<Real> = (0..n)
+        .map(|i| {
+            let arg = std::f64::consts::PI * at(i)[d] / len;
+            match ends {
+                Ends::Held => arg.sin(),
+                Ends::Free => arg.cos(),
+            }
+        })
         .collect();
+    if let Ends::Free = ends {
+        let mean =
+            (0..n).map(|i| body.mass[i] * phase[i]).sum::<Real>() / body.mass.iter().sum::<Real>();
+        phase.iter_mut().for_each(|s| *s -= mean);
+    }
     let voigt = |i: usize, j: usize| if i == j { i } else { 6 - i - j };
     let c = if dim == 3 {
         t.stiffness().unwrap()
@@ -753,7 +777,8 @@ fn random_lattice_wave_speeds_match_christoffel() {
         let mut theory = 0.0;
         for (k, side) in [16.0, 24.0].into_iter().enumerate() {
             for &seed in &seeds {
-                let (c, ct, n, steps) = ringing_bar_in(3, &t, d, p, side, seed);
+                let (c, ct, n, steps) =
+                    ringing_bar_in(3, &t, (d, p), [side, 48.0], Ends::Held, seed);
                 eprintln!(
                     "along {d}, polarised {p}, {side} across, node set {seed}: {c:.2} m/s ({:+.3} %), {n} nodes, {steps} steps",
                     100.0 * (c / ct - 1.0)
@@ -823,23 +848,31 @@ fn random_plate_design_meets_the_target_on_unseen_node_sets() {
     }
 }
 
-/// Plane waves on a random2d plate of the fibre material (fibre along x, plane stress): the
-/// standing modes of strips 48 spacings long and 32 wide ([`ringing_bar_in`]), the mean of six
-/// node sets against the plate's in-plane Christoffel speeds `sqrt(Q_pdpd / rho)`. Measured
-/// (mean, 8 / 16 / 24 / 32 wide): longitudinal along the fibre +2.23 / +2.91 / +2.51 / +1.03 %,
-/// across it +4.26 / +1.20 / +1.60 / +0.79 %; shear along x -3.63 / -1.57 / -0.41 / -1.19 %,
-/// along y -3.93 / -3.09 / -1.71 / -1.98 %. A strip's node sets scatter by 1-3 % each and the
-/// edges' layer does not fall cleanly as 1 / width, so these are held to 2.5 % at 32 wide: the
-/// plates do not show the 1 % that the 3D lattice does.
+/// Plane waves on a random2d plate of the fibre material (fibre along x, plane stress) run at
+/// the plate's in-plane Christoffel speeds `sqrt(Q_pdpd / rho)` within 1 %: the free-ended
+/// standing modes ([`Ends::Free`]) of strips 192 spacings long and 128 wide, the mean of four
+/// node sets. Measured: longitudinal along the fibre +0.52 %, across it +0.23 %; shear along x
+/// -0.55 %, along y -0.52 % (one strip scatters by 0.2-0.5 %). The design itself, on 8 unseen
+/// squares of 64 spacings, is 0.53-0.84 % soft per entry (Q66 -0.65 %, so -0.33 % in speed).
+///
+/// Smaller strips do not show 1 %. Held ends (the 3D bars' mode), 48 long and 32 wide, six node
+/// sets: +1.03, +0.79, -1.19, -1.98 % (in the order above); 48 long, free ends, 64 wide: -0.90,
+/// -0.27, -0.48, -0.89 % with strips scattering by 0.3-0.9 %; 96 long and 128 wide: free ends
+/// +0.25, +0.06, -0.79, -0.30 %, held ends -0.15, +0.19, -0.29, -0.88 % (the two shear waves
+/// swap with the ends: the ends' layer, not the bulk). At 192 long the two shear waves agree.
 #[test]
-#[ignore = "slow: a plate calibration and 24 ringing strips, about half a minute"]
-fn random_plate_wave_speeds_are_near_christoffel() {
+#[ignore = "slow: a plate calibration and 16 ringing strips of 28 000 nodes, about two minutes"]
+fn random_plate_wave_speeds_match_christoffel() {
     let t = carbon([1.0, 0.0, 0.0]);
-    let seeds = [7, 8, 9, 10, 11, 12];
+    let seeds = [7, 8, 9, 10];
     for (d, p) in [(0, 0), (1, 1), (0, 1), (1, 0)] {
         let (mut mean, mut theory) = (0.0, 0.0);
         for &seed in &seeds {
-            let (c, ct, _, _) = ringing_bar_in(2, &t, d, p, 32.0, seed);
+            let (c, ct, n, steps) = ringing_bar_in(2, &t, (d, p), [128.0, 192.0], Ends::Free, seed);
+            eprintln!(
+                "plate, along {d}, polarised {p}, node set {seed}: {c:.2} m/s ({:+.3} %), {n} nodes, {steps} steps",
+                100.0 * (c / ct - 1.0)
+            );
             mean += c / seeds.len() as Real;
             theory = ct;
         }
@@ -849,7 +882,7 @@ fn random_plate_wave_speeds_are_near_christoffel() {
             100.0 * err
         );
         assert!(
-            err.abs() < 0.025,
+            err.abs() < 0.01,
             "along {d}, polarised {p}: {:+.2} %",
             100.0 * err
         );
