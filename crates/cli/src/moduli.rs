@@ -170,7 +170,8 @@ pub struct ModuliArgs {
     pub extrapolate: bool,
     /// With --transverse or --orthotropic on a random2d lattice (block or --bulk): how the plate
     /// stands for the 3D material, `stress` (a thin plate, the default) or `strain` (a thick
-    /// body); its fibre lies in the x-y plane or along z, or one orthotropic axis is along z.
+    /// body). Any fibre (one out of the plane: the plate is orthotropic in its projection and
+    /// the normal to it); an orthotropic material needs one of its axes along z.
     #[arg(long, value_enum)]
     pub plane: Option<PlaneArg>,
 }

@@ -843,21 +843,24 @@ impl Anisotropic {
         }
     }
 
-    /// The material axes of a plate of this material (rows, body frame) with the plate's normal
-    /// z third, and the symmetry of its in-plane stiffness: a plate (2D lattice) needs z to be
-    /// a material axis, so a fibre lies in the x-y plane (the plate is orthotropic) or along z
-    /// (isotropic in the plane), and an orthotropic material has one of its axes along z.
+    /// The axes of a plate of this material (rows, body frame), the plate's normal z third, and
+    /// the symmetry of its in-plane stiffness. A fibre along z leaves the plate isotropic in its
+    /// plane. Any other fibre makes it orthotropic in the axes `e1` (the fibre's projection on
+    /// the plane) and `e2 = z x e1`: the reflection `e2 -> -e2` keeps the fibre, so it keeps the
+    /// material, and the in-plane entries odd in `e2` (`Q16`, `Q26`) vanish. An orthotropic
+    /// material needs one of its axes along z (otherwise the plate has no in-plane symmetry
+    /// axes, and the calibration of random2d designs has none to work in).
     pub fn plane_axes(&self) -> Result<([[Real; 3]; 3], crate::random::anisotropic::Symmetry)> {
         self.plane_frame().map(|(axes, _, sym)| (axes, sym))
     }
 
-    /// [`Anisotropic::plane_axes`], and which of the material's own axes (those of its
-    /// `local_stiffness`) each of them is.
+    /// [`Anisotropic::plane_axes`], and how the material's own axes (those of its
+    /// `local_stiffness`) map onto them.
     fn plane_frame(
         &self,
     ) -> Result<(
         [[Real; 3]; 3],
-        [usize; 3],
+        PlateMap,
         crate::random::anisotropic::Symmetry,
     )> {
         use crate::random::anisotropic::Symmetry;
@@ -870,15 +873,21 @@ impl Anisotropic {
                 let m = t.axis()?;
                 // Within the tolerance the plane test below uses (a unit fibre).
                 if m[0].hypot(m[1]) <= 1e-9 {
-                    return Ok((Orthotropic::AXES, [0, 1, 2], Symmetry::Transverse));
+                    return Ok((
+                        Orthotropic::AXES,
+                        PlateMap::Permute([0, 1, 2]),
+                        Symmetry::Transverse,
+                    ));
                 }
+                let own = t.frame()?;
                 if m[2].abs() > 1e-9 {
-                    return Err(refuse(format!(
-                        "a plate (2D lattice) takes a fibre in its x-y plane or along z; fibre {:?} leaves the plane: give its z component as 0",
-                        t.fibre
-                    )));
+                    let e1 = normalise([m[0], m[1], 0.0]);
+                    let axes = [e1, cross([0.0, 0.0, 1.0], e1), [0.0, 0.0, 1.0]];
+                    let dot = |a: [Real; 3], b: [Real; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+                    let turn = own.map(|r| axes.map(|e| dot(r, e)));
+                    return Ok((axes, PlateMap::Rotate(turn), Symmetry::Orthotropic));
                 }
-                t.frame()?
+                own
             }
             Anisotropic::Orthotropic(o) => o.axes,
         };
@@ -899,35 +908,71 @@ impl Anisotropic {
         let z = if rows[normal][2] > 0.0 { 1.0 } else { -1.0 };
         let e3 = [0.0, 0.0, z];
         let e2 = cross(e3, e1);
-        Ok(([e1, e2, e3], [first, second, normal], Symmetry::Orthotropic))
+        Ok((
+            [e1, e2, e3],
+            PlateMap::Permute([first, second, normal]),
+            Symmetry::Orthotropic,
+        ))
     }
 
     /// The stiffness a plate of this material has in its plane (Pa, per unit thickness),
     /// Voigt order with only xx, yy and xy filled, in the material axes of
-    /// [`Anisotropic::plane_axes`]: plane strain keeps those entries of the 3D stiffness, plane
-    /// stress inverts those of the compliance (the out-of-plane stresses vanish). It is found
+    /// [`Anisotropic::plane_axes`]: plane strain keeps those entries of the 3D stiffness (with
+    /// a fibre out of the plane, less what the freed out-of-plane shears relax), plane stress
+    /// inverts those of the compliance (the out-of-plane stresses vanish). It is found
     /// from the material's own stiffness by relabelling axes, with no rotation: the same
-    /// material gives the same bits (and one calibration) for any direction in the plane.
+    /// material gives the same bits (and one calibration) for any direction in the plane. A
+    /// fibre out of the plane is turned into the plate's axes ([`rotate`]), and the entries
+    /// that the plate's mirror symmetry makes zero are set to exactly zero.
     pub fn plane_local_stiffness(
         &self,
         plane: crate::material::PlaneModel,
     ) -> Result<[[Real; 6]; 6]> {
-        let (_, perm, _) = self.plane_frame()?;
+        let (_, map, _) = self.plane_frame()?;
         let own = match self {
             Anisotropic::Transverse(t) => t.local_stiffness(),
             Anisotropic::Orthotropic(o) => o.local_stiffness()?,
         };
         let pairs = crate::moduli::VOIGT;
-        let c: [[Real; 6]; 6] = std::array::from_fn(|p| {
-            std::array::from_fn(|q| {
-                let ((i, j), (k, l)) = (pairs[p], pairs[q]);
-                tensor_component(&own, perm[i], perm[j], perm[k], perm[l])
-            })
-        });
+        let c: [[Real; 6]; 6] = match map {
+            PlateMap::Permute(perm) => std::array::from_fn(|p| {
+                std::array::from_fn(|q| {
+                    let ((i, j), (k, l)) = (pairs[p], pairs[q]);
+                    tensor_component(&own, perm[i], perm[j], perm[k], perm[l])
+                })
+            }),
+            PlateMap::Rotate(turn) => {
+                let mut c = rotate(&own, &turn);
+                // Odd in e2 (index 1): zero by the mirror e2 -> -e2, round-off otherwise.
+                let odd = |(i, j): (usize, usize)| usize::from(i == 1) + usize::from(j == 1);
+                for p in 0..6 {
+                    for q in 0..6 {
+                        if (odd(pairs[p]) + odd(pairs[q])) % 2 == 1 {
+                            c[p][q] = 0.0;
+                        }
+                    }
+                }
+                c
+            }
+        };
         let idx = [0, 1, 5];
         let sub = match plane {
             crate::material::PlaneModel::Strain => {
-                nalgebra::Matrix3::<Real>::from_fn(|a, b| c[idx[a]][idx[b]])
+                // eps_zz = 0 and the out-of-plane shears free (sigma_yz = sigma_xz = 0, the
+                // generalized plane strain of a long body): Q = C_pp - C_ps C_ss^-1 C_sp. A
+                // material axis along z has C_ps = 0 exactly, and then Q is C_pp bit for bit.
+                let pp = nalgebra::Matrix3::<Real>::from_fn(|a, b| c[idx[a]][idx[b]]);
+                let ps = nalgebra::Matrix3x2::<Real>::from_fn(|a, b| c[idx[a]][3 + b]);
+                let ss = nalgebra::Matrix2::<Real>::from_fn(|a, b| c[3 + a][3 + b]);
+                if ps.iter().all(|&v| v == 0.0) {
+                    pp
+                } else {
+                    let inv = ss.try_inverse().ok_or_else(|| Error::InvalidInput {
+                        what: "anisotropic material",
+                        why: "its out-of-plane shear stiffness is singular".into(),
+                    })?;
+                    pp - ps * inv * ps.transpose()
+                }
             }
             crate::material::PlaneModel::Stress => {
                 let full = nalgebra::SMatrix::<Real, 6, 6>::from_fn(|a, b| c[a][b]);
@@ -1017,6 +1062,15 @@ impl Anisotropic {
     }
 }
 
+/// How a plate's axes ([`Anisotropic::plane_axes`]) relate to the material's own: a
+/// relabelling of them (the same bits for any direction in the plane), or a rotation (rows: the
+/// material's own axes in the plate's axes) when the fibre leaves the plane.
+#[derive(Clone, Copy, Debug)]
+enum PlateMap {
+    Permute([usize; 3]),
+    Rotate([[Real; 3]; 3]),
+}
+
 fn check_ladd(lattice: &Lattice, what: &str) -> Result<()> {
     if lattice.kind != LatticeKind::Cubic || lattice.cells.is_some() {
         return Err(Error::InvalidInput {
@@ -1091,8 +1145,9 @@ mod tests {
 
     /// A plate's in-plane stiffness: plane stress gives the engineering form `Q11 = E1 / (1 -
     /// nu12 nu21)`, `Q12 = nu12 E2 / (1 - nu12 nu21)`, `Q66 = G12` (fibre as axis 1), plane
-    /// strain the 3D entries; the same bits for every fibre direction in the plane; a fibre
-    /// out of the plane, or orthotropic axes with none along z, are refused.
+    /// strain the 3D entries; the same bits for every fibre direction in the plane;
+    /// orthotropic axes with none along z are refused (a fibre out of the plane: the test
+    /// below).
     #[test]
     fn plate_stiffness_is_the_engineering_one_for_any_fibre_in_the_plane() {
         use crate::material::PlaneModel;
@@ -1124,9 +1179,6 @@ mod tests {
             let n = (f[0] * f[0] + f[1] * f[1]).sqrt();
             assert!((axes[0][0] - f[0] / n).abs() < 1e-15 && (axes[0][1] - f[1] / n).abs() < 1e-15);
         }
-        let off = Anisotropic::Transverse(t([1.0, 0.0, 0.5]));
-        let e = off.plane_local_stiffness(PlaneModel::Stress).unwrap_err();
-        assert!(e.to_string().contains("leaves the plane"), "{e}");
         let o = Orthotropic {
             youngs: [20e9, 15e9, 10e9],
             poisson: [0.2, 0.25, 0.3],
@@ -1149,6 +1201,70 @@ mod tests {
             [q[0][0], q[1][1], q[0][1], q[5][5]],
             [own[0][0], own[1][1], own[0][1], own[5][5]]
         );
+    }
+
+    /// A fibre out of the plate's plane, at theta to x in the x-z plane: the plate's axes are
+    /// the body's, its in-plane compliance (plane stress) the engineering one of a direction at
+    /// theta to the fibre, `1/E_x = c^4/E_t + s^4/E_p + c^2 s^2 (1/G_t - 2 nu_tp/E_t)`,
+    /// `S_xy = -(c^2 nu_tp/E_t + s^2 nu_p/E_p)`, `1/E_y = 1/E_p`, `1/G_xy = c^2/G_t + s^2/G_p`,
+    /// to 1e-12; plane strain (out-of-plane shear stresses free) the compliance's route to
+    /// 1e-12; the mirror's zeros are exact.
+    #[test]
+    fn plate_stiffness_of_a_fibre_out_of_the_plane_is_the_engineering_one() {
+        use crate::material::PlaneModel;
+        let (ep, et, np, ntp, gt) = (10e9, 25e9, 0.35, 0.28, 4e9);
+        let gp = ep / (2.0 * (1.0 + np));
+        for fibre in [[1.0, 0.0, 0.5], [2.0, 0.0, -1.0], [0.3, 0.0, 1.0]] {
+            let t = material(ep, et, np, ntp, gt, fibre);
+            let m = Anisotropic::Transverse(t);
+            let (axes, sym) = m.plane_axes().unwrap();
+            assert_eq!(axes[1], [0.0, 1.0, 0.0]);
+            assert!((axes[0][0] - 1.0).abs() < 1e-15 && axes[0][1].abs() < 1e-15);
+            assert_eq!(sym, crate::random::anisotropic::Symmetry::Orthotropic);
+            let q = m.plane_local_stiffness(PlaneModel::Stress).unwrap();
+            let idx = [0, 1, 5];
+            let s = nalgebra::Matrix3::<Real>::from_fn(|a, b| q[idx[a]][idx[b]])
+                .try_inverse()
+                .unwrap();
+            let c2 = fibre[0] * fibre[0] / (fibre[0] * fibre[0] + fibre[2] * fibre[2]);
+            let s2 = 1.0 - c2;
+            for (got, want) in [
+                (
+                    s[(0, 0)],
+                    c2 * c2 / et + s2 * s2 / ep + c2 * s2 * (1.0 / gt - 2.0 * ntp / et),
+                ),
+                (s[(0, 1)], -(c2 * ntp / et + s2 * np / ep)),
+                (s[(1, 1)], 1.0 / ep),
+                (s[(2, 2)], c2 / gt + s2 / gp),
+            ] {
+                assert!((got / want - 1.0).abs() < 1e-12, "{got:e} vs {want:e}");
+            }
+            // Plane strain (eps_zz = 0, out-of-plane shear stresses free), from the compliance
+            // in the body's axes (the plate's here): invert S on (xx, yy, zz, xy), then keep
+            // the in-plane block of that stiffness.
+            let strain = m.plane_local_stiffness(PlaneModel::Strain).unwrap();
+            let body =
+                nalgebra::SMatrix::<Real, 6, 6>::from_fn(|a, b| t.stiffness().unwrap()[a][b]);
+            let compliance = body.try_inverse().unwrap();
+            let four = [0, 1, 2, 5];
+            let k = nalgebra::Matrix4::<Real>::from_fn(|a, b| compliance[(four[a], four[b])])
+                .try_inverse()
+                .unwrap();
+            for (a, &i) in [0usize, 1, 3].iter().zip(&idx) {
+                for (b, &j) in [0usize, 1, 3].iter().zip(&idx) {
+                    let scale = k[(*a, *a)].abs().max(k[(*b, *b)].abs());
+                    let got = strain[i][j];
+                    assert!(
+                        (got - k[(*a, *b)]).abs() < 1e-12 * scale,
+                        "{got:e} vs {:e}",
+                        k[(*a, *b)]
+                    );
+                }
+            }
+            for qq in [q, strain] {
+                assert_eq!([qq[0][5], qq[1][5], qq[5][0], qq[5][1]], [0.0; 4]);
+            }
+        }
     }
 
     fn material(ep: Real, et: Real, np: Real, ntp: Real, gt: Real, fibre: [Real; 3]) -> Transverse {
