@@ -107,6 +107,12 @@ def test_an_anisotropic_random2d_plate_matches_the_command_line():
     for key in ("design", "C_measured", "C_target"):
         assert mine[key] == theirs[key], key
     assert mine["max_material_relative_difference"] < 0.06
+    # A fibre out of the plane: the plate is orthotropic in its projection (x) and y.
+    tilted = hooke.moduli("random2d", transverse=args["transverse"], fibre="1,0,1", bulk=True,
+                          size=33, samples=2)
+    assert tilted["max_material_relative_difference"] < 0.06
+    assert tilted["C_target"][0][0] > tilted["C_target"][1][1]
+    assert tilted["C_target"][0][5] == 0.0 and tilted["C_target"][1][5] == 0.0
     with pytest.raises(hooke.CaseError, match="turn them about z only"):
         hooke.moduli("random2d", orthotropic=[20e9, 15e9, 10e9, 0.2, 0.25, 0.3, 4e9, 5e9, 6e9],
                      axes=[1, 1, 0, -1, 1, 1], bulk=True)
