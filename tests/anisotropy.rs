@@ -863,7 +863,24 @@ fn random_plate_design_meets_the_target_on_unseen_node_sets() {
 #[test]
 #[ignore = "slow: a plate calibration and 16 ringing strips of 28 000 nodes, about two minutes"]
 fn random_plate_wave_speeds_match_christoffel() {
-    let t = carbon([1.0, 0.0, 0.0]);
+    plate_waves_within(carbon([1.0, 0.0, 0.0]), 0.01);
+}
+
+/// The plate's four plane waves with the fibre out of its plane, at 45 degrees in the x-z plane
+/// (the plate orthotropic in x and y: E_x = E(45 degrees) = 10.9 GPa, E_y = E_p): free-ended
+/// strips as [`random_plate_wave_speeds_match_christoffel`]'s, against the Christoffel speeds of
+/// the plate's in-plane stiffness (plane stress), within 1 %. Measured: longitudinal along x
+/// +0.19 %, along y -0.03 %; shear along x +0.07 %, along y +0.16 %.
+#[test]
+#[ignore = "slow: a plate calibration and 16 ringing strips of 28 000 nodes, about two minutes"]
+fn random_plate_waves_with_a_fibre_out_of_the_plane_match_christoffel() {
+    plate_waves_within(carbon([1.0, 0.0, 1.0]), 0.01);
+}
+
+/// The mean of four node sets' free-ended strips (192 long, 128 wide) of a random2d plate of
+/// `t` in plane stress, along x and y and polarised along each, within `tol` of the Christoffel
+/// speeds of the plate's in-plane stiffness.
+fn plate_waves_within(t: Transverse, tol: Real) {
     let seeds = [7, 8, 9, 10];
     for (d, p) in [(0, 0), (1, 1), (0, 1), (1, 0)] {
         let (mut mean, mut theory) = (0.0, 0.0);
@@ -882,7 +899,7 @@ fn random_plate_wave_speeds_match_christoffel() {
             100.0 * err
         );
         assert!(
-            err.abs() < 0.01,
+            err.abs() < tol,
             "along {d}, polarised {p}: {:+.2} %",
             100.0 * err
         );
