@@ -267,6 +267,33 @@ fn softening_is_bit_identical_for_any_team() {
     );
 }
 
+/// The spring-energy criterion, which has no stretch screen: its decisions run after the step
+/// on each member's own springs, and the members trade what they found. The hexagonal glass
+/// plate (stencil) and the sphere impact on the Ladd block (3D, fragment contact).
+#[test]
+fn energy_criterion_is_bit_identical_for_any_team() {
+    check(
+        "glass_branching.toml",
+        0.5,
+        &[
+            "solver.end_time=30e-6",
+            "output.every=15e-6",
+            "material.criterion=\"energy\"",
+        ],
+        &[2, 3],
+    );
+    check(
+        "sphere_impact_glass.toml",
+        0.8,
+        &[
+            "solver.end_time=8e-6",
+            "output.every=4e-6",
+            "material.criterion=\"energy\"",
+        ],
+        &[2, 3],
+    );
+}
+
 /// A transversely isotropic material (direction-weighted levers on the general kernel).
 #[test]
 fn transverse_material_is_bit_identical_for_any_team() {

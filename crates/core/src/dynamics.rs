@@ -242,8 +242,9 @@ struct Shared {
     /// Messages of a halo trade, per rank (kept: a step allocates nothing).
     out: Vec<Vec<Real>>,
     inp: Vec<Vec<Real>>,
-    /// Values and parts of an all-gather at listed nodes ([`Integrator::current_at`]), and the
-    /// ends of the springs a breaker looks at.
+    /// Values and parts of an all-gather at listed nodes ([`Integrator::current_at`]) or of
+    /// per-chunk lists ([`Integrator::gather_chunk_lists`], `ends` their first entries), and
+    /// the ends of the springs a breaker looks at.
     listed: Vec<Real>,
     listed_parts: Vec<std::ops::Range<usize>>,
     ends: Vec<u32>,
@@ -834,6 +835,69 @@ impl Integrator {
                 t.team.gather(c, &t.share.nodes);
             }
             t.v_partial = false;
+        }
+    }
+
+    /// All-gather per-chunk lists of `(spring, value)` pairs, one list per node chunk (a
+    /// breaker's decisions): on entry the lists of this rank's chunks are valid, on return
+    /// every rank holds every chunk's, in chunk order. Two all-gathers (the lengths, then the
+    /// pairs; a spring index is exact as a `Real`). Collective; alone it does nothing.
+    pub fn gather_chunk_lists(&mut self, lists: &mut [Vec<(u32, Real)>]) {
+        let Some(t) = self.team.as_mut() else {
+            return;
+        };
+        let chunk = crate::kernel::CHUNK;
+        t.listed_parts.clear();
+        t.listed_parts.extend(
+            t.share
+                .nodes
+                .iter()
+                .map(|r| r.start / chunk..r.end.div_ceil(chunk)),
+        );
+        let counts = &mut t.listed;
+        counts.clear();
+        counts.resize(lists.len(), 0.0);
+        for c in t.share.chunks() {
+            counts[c] = lists[c].len() as Real;
+        }
+        t.team.gather(counts, &t.listed_parts);
+        // Each chunk's first pair, from the lengths every rank now holds.
+        t.ends.clear();
+        let mut at = 0u32;
+        for &k in counts.iter() {
+            t.ends.push(at);
+            at += k as u32;
+        }
+        t.ends.push(at);
+        let chunks = lists.len();
+        let first = |c: usize| 2 * t.ends[c.min(chunks)] as usize;
+        t.listed_parts.clear();
+        t.listed_parts.extend(
+            t.share
+                .nodes
+                .iter()
+                .map(|r| first(r.start / chunk)..first(r.end.div_ceil(chunk))),
+        );
+        let pairs = &mut t.listed;
+        pairs.clear();
+        pairs.resize(2 * at as usize, 0.0);
+        for c in t.share.chunks() {
+            for (k, &(b, w)) in lists[c].iter().enumerate() {
+                pairs[first(c) + 2 * k] = b as Real;
+                pairs[first(c) + 2 * k + 1] = w;
+            }
+        }
+        t.team.gather(pairs, &t.listed_parts);
+        let mine = t.share.chunks();
+        for (c, list) in lists.iter_mut().enumerate() {
+            if !mine.contains(&c) {
+                list.clear();
+                list.extend(
+                    pairs[first(c)..first(c + 1)]
+                        .chunks_exact(2)
+                        .map(|p| (p[0] as u32, p[1])),
+                );
+            }
         }
     }
 

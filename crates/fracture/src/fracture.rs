@@ -152,10 +152,17 @@ impl Fracture {
         state: &mut State,
         integrator: &mut Integrator,
     ) -> BreakReport {
-        // The decisions read every spring (a shared run keeps only its own nodes and ghosts
-        // current between outputs).
-        integrator.gather_state(state);
-        self.decide(body, state);
+        match integrator.share().map(|s| s.mine()) {
+            // A shared run: after a step, this rank's nodes and its ghosts hold the new
+            // displacements and the step's pools, which is all that deciding its own nodes'
+            // springs (each from its lower end) reads. The ranks then trade their lists, so
+            // every rank commits the lone run's decisions in the lone run's order.
+            Some(mine) => {
+                self.decide_at(body, state, mine);
+                integrator.gather_chunk_lists(&mut self.found);
+            }
+            None => self.decide(body, state),
+        }
         let report = self.commit(body, state, Some(&mut *integrator));
         integrator.add_released(report.released);
         report
@@ -163,12 +170,17 @@ impl Fracture {
 
     /// The decision pass: fills the per-chunk lists (no state changes).
     pub fn decide(&mut self, body: &Body, state: &State) {
+        self.decide_at(body, state, 0..body.nodes());
+    }
+
+    /// [`Fracture::decide`] for the springs whose lower end is in `nodes` (whole chunks): the
+    /// other chunks' lists are left empty.
+    fn decide_at(&mut self, body: &Body, state: &State, nodes: std::ops::Range<usize>) {
         let bonds = &body.lattice.bonds;
-        let n = body.nodes();
         let (crit, no_fail) = (&*self.criterion, &self.no_fail);
         self.found.par_iter_mut().enumerate().for_each(|(c, list)| {
             list.clear();
-            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+            for i in (c * CHUNK).max(nodes.start)..((c + 1) * CHUNK).min(nodes.end) {
                 if no_fail[i] {
                     continue;
                 }
