@@ -145,7 +145,9 @@ impl Fracture {
     /// Decide which intact springs fail in the current state and commit them: they leave the
     /// state and the kernel's copy, and the energy ledger is told what they released. Call after
     /// each step (or every few steps). The pool ratios the criterion sees are those of the
-    /// step's force evaluation.
+    /// step's force evaluation. In a shared run each rank decides its own nodes' springs, so
+    /// call it where a step (or a whole-state gather) has left every rank's nodes and ghosts
+    /// current: after a step, as [`Fracture::step`] does.
     pub fn check(
         &mut self,
         body: &Body,
