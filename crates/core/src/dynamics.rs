@@ -346,10 +346,15 @@ impl Integrator {
                 why: "it must be zero or positive".into(),
             });
         }
+        // The run's share, found once: the estimate trades its sweeps' halo (the loaded and
+        // prescribed nodes in it, which the steps' bookkeeping reads, are traded too).
+        let share = team
+            .as_ref()
+            .map(|t| Share::new(body, t.size(), t.rank(), &special_nodes(&loading)));
         let mut kernel = if opts.force_csr {
             Kernel::Csr { plain: false }
         } else {
-            Kernel::for_body(body, state)
+            Kernel::for_body_in(body, state, share.as_ref().map(Share::mine))
         };
         if opts.portable {
             kernel.set_simd(false);
@@ -364,11 +369,6 @@ impl Integrator {
         // The estimate's unit masses become the inverse masses afterwards (one array fewer to
         // first-touch).
         let mut inv_mass = Vec::new();
-        // The run's share, found once: the estimate trades its sweeps' halo (the loaded and
-        // prescribed nodes in it, which the steps' bookkeeping reads, are traded too).
-        let share = team
-            .as_ref()
-            .map(|t| Share::new(body, t.size(), t.rank(), &special_nodes(&loading)));
         let mut split = team
             .as_ref()
             .zip(share.as_ref())
@@ -717,6 +717,9 @@ impl Integrator {
             // the CSR kernel.
             self.kernel = Kernel::for_body(body, state);
             self.kernel.set_simd(simd);
+            if let Some(t) = &self.team {
+                self.kernel.keep_rows(t.share.mine());
+            }
         }
         self.synced = state.breaks();
     }
@@ -774,6 +777,10 @@ impl Integrator {
                 v_partial: false,
             }
         });
+        // From here on this rank sweeps its own nodes only.
+        if let Some(t) = &self.team {
+            self.kernel.keep_rows(t.share.mine());
+        }
     }
 
     /// The team this integrator shares its steps with, if any.

@@ -24,10 +24,12 @@
 //! A spring that crosses two ranks is computed by both from the same displacements, and its
 //! fate (broken or not) is decided by the same replicated criterion: identically on both.
 //!
-//! The memory per rank does not shrink with the number of ranks (every rank holds the whole
-//! body); what a step moves does: a rank receives its ghosts' `1 + dim` values, the nodes
-//! along its cuts, not every node (`docs/mpi.md`, `docs/scaling.md`). The transport is behind
-//! [`Team`]: MPI in the `hooke` binary (feature `mpi`), threads in the tests.
+//! The memory per rank shrinks with the number of ranks only in the kernel: a rank's row
+//! kernel holds its own nodes' rows, and records of its own nodes and ghosts only
+//! ([`crate::kernel::Kernel::keep_rows`]); every rank holds the whole body and state. What a step moves shrinks too: a rank receives its ghosts' `1 + dim`
+//! values, the nodes along its cuts, not every node (`docs/mpi.md`, `docs/scaling.md`). The
+//! transport is behind [`Team`]: MPI in the `hooke` binary (feature `mpi`), threads in the
+//! tests.
 
 use std::ops::Range;
 
@@ -408,29 +410,28 @@ impl Team for Threads {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::random::RandomSpec;
     use crate::Lattice;
+
+    /// A random3d block of unit spacing and box `hi` with nu = 0.3 and more than three chunks
+    /// of nodes (what a share of three ranks needs).
+    pub(crate) fn block(hi: [Real; 3]) -> Body {
+        let lat =
+            Lattice::random(3, [0.0; 3], hi, 1.0, 1.0, RandomSpec::default(), &|_| true).unwrap();
+        let body = Body::uniform(lat, 1.0, 0.3, 1.0);
+        assert!(body.nodes() > 3 * CHUNK, "{} nodes", body.nodes());
+        body
+    }
 
     /// The shares cover every node once, in whole chunks, and every spring of a rank's rows
     /// is in its range or in its foreign list; each rank receives from every other what that
     /// one sends it, and that covers every node its sweeps read.
     #[test]
     fn shares_cover_nodes_and_rows() {
-        let lat = Lattice::random(
-            3,
-            [0.0; 3],
-            [40.0, 20.0, 20.0],
-            1.0,
-            1.0,
-            RandomSpec::default(),
-            &|_| true,
-        )
-        .unwrap();
-        let body = Body::uniform(lat, 1.0, 0.3, 1.0);
+        let body = block([40.0, 20.0, 20.0]);
         let n = body.nodes();
-        assert!(n > 3 * CHUNK, "{n} nodes");
         for size in 1..=4 {
             let everyone = [5, n / 2, n - 1];
             let shares: Vec<Share> = (0..size)

@@ -108,6 +108,12 @@ impl Kernel {
     /// The fastest kernel that can run `body`: a stencil for a box-shaped Ladd or hexagonal
     /// lattice with one stiffness, CSR otherwise.
     pub fn for_body(body: &Body, state: &State) -> Kernel {
+        Self::for_body_in(body, state, None)
+    }
+
+    /// [`Kernel::for_body`] for a rank that sweeps only the nodes `own` (whole chunks; `None`:
+    /// every node): a row kernel then holds only their rows ([`Kernel::keep_rows`]).
+    pub fn for_body_in(body: &Body, state: &State, own: Option<std::ops::Range<usize>>) -> Kernel {
         if let Some(s) = cubic::CubicStencil::new(body, state) {
             return Kernel::Cubic(s);
         }
@@ -116,7 +122,11 @@ impl Kernel {
         }
         // Without vector instructions (AVX-512 or AVX2) the row kernel's scalar path would be
         // slower than the CSR kernel, which gives the same bits.
-        match rows::RowKernel::new(body, state).filter(|r| r.simd()) {
+        let rows = match own {
+            Some(own) => rows::RowKernel::new_for(body, state, own),
+            None => rows::RowKernel::new(body, state),
+        };
+        match rows.filter(|r| r.simd()) {
             Some(r) => Kernel::Rows(r),
             None => Kernel::Csr { plain: false },
         }
@@ -228,7 +238,8 @@ impl Kernel {
             Kernel::Hex(s) => stencil::pools(s, state, screen, share.map(|s| s.chunks())),
             Kernel::Rows(r) => {
                 rows::refresh_displacements(r, body, state, share);
-                stencil::pools(r, state, screen, share.map(|s| s.chunks()))
+                let chunks = share.map(|s| s.chunks()).or_else(|| r.own_chunks());
+                stencil::pools(r, state, screen, chunks)
             }
         }
     }
@@ -251,6 +262,15 @@ impl Kernel {
                 out.sort_unstable();
                 out.dedup();
             }
+        }
+    }
+
+    /// Keep what only the sweeps of the nodes `own` read (one rank's share of a distributed
+    /// run): the row kernel drops the other ranks' rows ([`rows::RowKernel::keep_rows`]); the
+    /// stencils and the CSR kernel hold no per-row data to drop.
+    pub fn keep_rows(&mut self, own: std::ops::Range<usize>) {
+        if let Kernel::Rows(r) = self {
+            r.keep_rows(own);
         }
     }
 
@@ -279,7 +299,10 @@ impl Kernel {
             Kernel::Csr { plain } => csr::repair(body, state, *plain, killed),
             Kernel::Cubic(s) => stencil::repair(s, body, state, killed, chunks),
             Kernel::Hex(s) => stencil::repair(s, body, state, killed, chunks),
-            Kernel::Rows(r) => stencil::repair(r, body, state, killed, chunks),
+            Kernel::Rows(r) => {
+                let chunks = r.own_chunks().filter(|_| share.is_none()).unwrap_or(chunks);
+                stencil::repair(r, body, state, killed, chunks)
+            }
         }
     }
 
@@ -323,6 +346,7 @@ impl Kernel {
             }
             Kernel::Rows(r) => {
                 rows::refresh_pools(r, state, share);
+                let chunks = r.own_chunks().filter(|_| share.is_none()).unwrap_or(chunks);
                 stencil::force_kick_drift(r, state, inv_mass, p, u_next, partials, chunks)
             }
         }

@@ -87,6 +87,17 @@ struct Slots {
 #[derive(Clone, Debug)]
 pub struct RowKernel {
     n: usize,
+    /// The nodes whose rows the kernel holds: `0..n`, or one rank's share
+    /// ([`RowKernel::keep_rows`]).
+    own: std::ops::Range<usize>,
+    /// The other nodes that the rows reach (a share's ghosts, ascending; none for `0..n`).
+    /// A node's index in the slots and records is its own for `own`, `own.end + k` for
+    /// `ghosts[k]`, and the dummy's is `own.end + ghosts.len()` (`n` for the whole body): a
+    /// share's records hold its own nodes, its ghosts and the dummy, not the whole body.
+    ghosts: Arc<Vec<u32>>,
+    /// `own.end + ghosts.len()`, the dummy's index (a field: the lanes' loops compare every
+    /// slot's neighbour with it).
+    dummy: usize,
     dim: usize,
     q: Real,
     slots: Arc<Slots>,
@@ -119,17 +130,28 @@ impl RowKernel {
     /// The row kernel of `body` in `state` (its intact springs and current stiffnesses); `None`
     /// for a periodic lattice.
     pub fn new(body: &Body, state: &State) -> Option<Self> {
-        Self::build(body, state, true)
+        Self::build(body, state, true, None)
+    }
+
+    /// [`RowKernel::new`] holding only the rows of the nodes `own` (whole windows), as
+    /// [`RowKernel::keep_rows`] leaves it, without first building the others.
+    pub fn new_for(body: &Body, state: &State, own: std::ops::Range<usize>) -> Option<Self> {
+        Self::build(body, state, true, Some(own))
     }
 
     /// The same kernel with each group holding 8 consecutive nodes, as before windows dealt
     /// them by row length (the same bits; for measuring what [`deal`] gains).
     #[doc(hidden)]
     pub fn undealt(body: &Body, state: &State) -> Option<Self> {
-        Self::build(body, state, false)
+        Self::build(body, state, false, None)
     }
 
-    fn build(body: &Body, state: &State, dealt: bool) -> Option<Self> {
+    fn build(
+        body: &Body,
+        state: &State,
+        dealt: bool,
+        own: Option<std::ops::Range<usize>>,
+    ) -> Option<Self> {
         let lat = &body.lattice;
         if lat.is_periodic() {
             return None;
@@ -150,7 +172,14 @@ impl RowKernel {
             deal(n, |_| 0)
         };
         let node = |p: usize| WINDOW * (p / WINDOW) + lanes[p] as usize;
+        let own = own.unwrap_or(0..n);
+        assert!(whole_windows(&own, n), "a share of whole windows");
+        // A group's nodes are all in its window, so a share of whole windows holds whole groups.
+        let mine = |g: usize| own.contains(&(8 * g / WINDOW * WINDOW));
         let width = |g: usize| {
+            if !mine(g) {
+                return 0;
+            }
             (8 * g..8 * g + 8)
                 .map(node)
                 .filter(|&i| i < n)
@@ -219,14 +248,21 @@ impl RowKernel {
                 .fold(0.0 as Real, |m, &x| m.max(x.abs()));
             *f = 4.0 * big + 1e3 * lat.spacing.max(1e-300);
         }
-        Some(RowKernel {
+        let mut rk = RowKernel {
             n,
+            own: 0..n,
+            ghosts: Arc::new(Vec::new()),
+            dummy: n,
             dim: lat.dim(),
             q: body.q,
             slots: Arc::new(s),
             far,
             simd: simd_lanes(),
-        })
+        };
+        if own != (0..n) {
+            rk.localise(own);
+        }
+        Some(rk)
     }
 
     pub fn name(&self) -> &'static str {
@@ -266,16 +302,137 @@ impl RowKernel {
     fn entries_of(&self, body: &Body, b: usize) -> [Option<usize>; 2] {
         let [i, j] = body.lattice.bonds.ends[b].map(|v| v as usize);
         let s = &self.slots;
-        [(i, j), (j, i)].map(|(me, other)| self.lane(me).find(|&e| s.j[e] as usize == other))
+        [(i, j), (j, i)].map(|(me, other)| {
+            let other = self.index_of(other)?;
+            self.lane(me).find(|&e| s.j[e] as usize == other)
+        })
+    }
+
+    /// Keep only the rows of the nodes `own` (whole windows of 64 nodes; one rank's share of
+    /// a distributed run, [`crate::team`]): every other row becomes empty. A rank sweeps its
+    /// own nodes only, so the other ranks' rows, three quarters of a random3d body's kernel
+    /// memory on four ranks, would never be read. Entries keep their order and values, so
+    /// the kept rows give the same bits. Afterwards only nodes in `own` may be swept, and a
+    /// spring with no end in `own` has no entries ([`RowKernel::bond_killed`] and
+    /// [`RowKernel::bond_softened`] then change nothing).
+    pub fn keep_rows(&mut self, own: std::ops::Range<usize>) {
+        assert!(whole_windows(&own, self.n), "a share of whole windows");
+        let s = &self.slots;
+        let groups = s.start.len() - 1;
+        let (g0, g1) = (own.start / 8, own.end.div_ceil(8).min(groups));
+        let (e0, e1) = (8 * s.start[g0] as usize, 8 * s.start[g1] as usize);
+        // The slots as they are within `own`, none before it: `start` shifted down by the
+        // slots of the groups before `own`, flat after it.
+        if e0 == 0 && e1 == s.j.len() {
+            return; // Nothing else held (built for `own`, or one rank).
+        }
+        let first = s.start[g0];
+        let start = s
+            .start
+            .iter()
+            .map(|&x| x.clamp(first, s.start[g1]) - first)
+            .collect();
+        let copy = |v: &Vec<Real>| {
+            if v.is_empty() {
+                Vec::new()
+            } else {
+                v[e0..e1].to_vec()
+            }
+        };
+        let kept = Slots {
+            start,
+            lanes: s.lanes.clone(),
+            at: s.at.clone(),
+            j: s.j[e0..e1].to_vec(),
+            k: s.k[e0..e1].to_vec(),
+            rest: copy(&s.rest),
+            lever: copy(&s.lever),
+        };
+        // The full slots are freed here (unless a clone of this kernel still holds them).
+        self.slots = Arc::new(kept);
+        self.localise(own);
+    }
+
+    /// Renumber the held rows' neighbours for records of `own`'s nodes, their ghosts and the
+    /// dummy (see [`RowKernel::ghosts`]); the slots hold only `own`'s rows, still numbered by
+    /// node.
+    fn localise(&mut self, own: std::ops::Range<usize>) {
+        let n = self.n as u32;
+        let s = Arc::make_mut(&mut self.slots);
+        let mut ghosts: Vec<u32> =
+            s.j.iter()
+                .copied()
+                .filter(|&j| j != n && !own.contains(&(j as usize)))
+                .collect();
+        ghosts.sort_unstable();
+        ghosts.dedup();
+        let dummy = (own.end + ghosts.len()) as u32;
+        for j in s.j.iter_mut() {
+            *j = if *j == n {
+                dummy
+            } else if own.contains(&(*j as usize)) {
+                *j
+            } else {
+                own.end as u32 + ghosts.binary_search(j).expect("listed") as u32
+            };
+        }
+        self.dummy = own.end + ghosts.len();
+        self.own = own;
+        self.ghosts = Arc::new(ghosts);
+    }
+
+    /// Index of the dummy node in the slots and records.
+    #[inline(always)]
+    fn dummy(&self) -> usize {
+        self.dummy
+    }
+
+    /// Node of slot index `j` (not the dummy).
+    #[inline(always)]
+    fn node_of(&self, j: usize) -> usize {
+        if j < self.own.end {
+            j
+        } else {
+            self.ghosts[j - self.own.end] as usize
+        }
+    }
+
+    /// Slot index of node `i`, if the held rows reach it.
+    fn index_of(&self, i: usize) -> Option<usize> {
+        if self.own.contains(&i) {
+            Some(i)
+        } else {
+            let k = self.ghosts.binary_search(&(i as u32)).ok()?;
+            Some(self.own.end + k)
+        }
+    }
+
+    /// Whether the kernel holds every row (not a share's).
+    fn whole(&self) -> bool {
+        self.own == (0..self.n)
+    }
+
+    /// The node chunks whose rows a share's kernel holds (`None`: every chunk): the only
+    /// ones it may sweep.
+    pub(crate) fn own_chunks(&self) -> Option<std::ops::Range<usize>> {
+        (!self.whole()).then(|| self.own.start / CHUNK..self.own.end.div_ceil(CHUNK))
+    }
+
+    /// The records' base, so that slot index `j`'s record starts at `base + 8 j` (the records
+    /// begin with node `own.start`). Offset with wrapping arithmetic: only in-bounds addresses
+    /// are ever read.
+    #[inline(always)]
+    fn base(&self, rec: &[Record]) -> *const Real {
+        (rec.as_ptr() as *const Real).wrapping_sub(8 * self.own.start)
     }
 
     /// Spring `b` broke: both its entries become dummies.
     pub fn bond_killed(&mut self, body: &Body, b: usize) {
         let entries = self.entries_of(body, b);
-        let n = self.n as u32;
+        let dummy = self.dummy() as u32;
         let s = Arc::make_mut(&mut self.slots);
         for e in entries.into_iter().flatten() {
-            s.j[e] = n;
+            s.j[e] = dummy;
             s.k[e] = 0.0;
             if !s.rest.is_empty() {
                 s.rest[e] = 1.0;
@@ -290,9 +447,10 @@ impl RowKernel {
     pub fn bond_softened(&mut self, body: &Body, state: &State, b: usize) {
         let k = state.springs(body).k[b];
         let entries = self.entries_of(body, b);
+        let dummy = self.dummy() as u32;
         let s = Arc::make_mut(&mut self.slots);
         for e in entries.into_iter().flatten() {
-            if s.j[e] != self.n as u32 {
+            if s.j[e] != dummy {
                 s.k[e] = k;
             }
         }
@@ -301,35 +459,51 @@ impl RowKernel {
 
 /// Write `u` (and at the first call the reference positions and the dummy) into the records:
 /// every record, or with `share` (one rank's part of a distributed run) those its rows read.
+/// A kernel holding one share's rows keeps records of that share's nodes and ghosts only.
 pub(crate) fn refresh_displacements(
     rk: &RowKernel,
     body: &Body,
     state: &mut State,
     share: Option<&Share>,
 ) {
-    let n = rk.n;
     let pos = &body.lattice.pos;
+    let at = |i: usize| [pos.x()[i], pos.y()[i], pos.z()[i]];
+    let (o0, len) = (rk.own.start, rk.own.len());
+    let count = len + rk.ghosts.len();
     // Built once per state (the first sweep), not per step; rebuilt if the state was last swept
-    // with another body (a cheap check of the dummy and three nodes' positions).
-    let same = |i: usize| state.rec[i].0[..3] == [pos.x()[i], pos.y()[i], pos.z()[i]];
-    let built = state.rec.len() == n + 1
-        && state.rec[n].0[..3] == rk.far
-        && (n == 0 || (same(0) && same(n / 2) && same(n - 1)));
+    // with another body or share (a cheap check of the dummy and three nodes' positions).
+    let same = |i: usize| state.rec[i - o0].0[..3] == at(i);
+    let built = state.rec.len() == count + 1
+        && state.rec[count].0[..3] == rk.far
+        && (len == 0 || (same(o0) && same(o0 + len / 2) && same(rk.own.end - 1)));
     if !built {
         // The nodes, then the dummy, collected at their exact length (a push after the
         // collect doubled the capacity).
         let far = Record([rk.far[0], rk.far[1], rk.far[2], 0.0, 0.0, 0.0, 0.0, 0.0]);
-        state.rec = (0..n)
-            .map(|i| Record([pos.x()[i], pos.y()[i], pos.z()[i], 0.0, 0.0, 0.0, 0.0, 0.0]))
+        state.rec = rk
+            .own
+            .clone()
+            .chain(rk.ghosts.iter().map(|&g| g as usize))
+            .map(|i| {
+                let [x, y, z] = at(i);
+                Record([x, y, z, 0.0, 0.0, 0.0, 0.0, 0.0])
+            })
             .chain(std::iter::once(far))
             .collect();
     }
     let u = &state.u;
-    each_record(&mut state.rec[..n], share, |i, r| {
+    each_record(rk, &mut state.rec[..count], share, |i, r| {
         r[3] = u.x()[i];
         r[4] = u.y()[i];
         r[5] = u.z()[i];
     });
+    // A share's ghosts may differ from those its records were built with (a kernel rebuilt
+    // after springs softened reaches fewer nodes): their positions are written every time.
+    if !rk.whole() {
+        for (r, &g) in state.rec[len..count].iter_mut().zip(rk.ghosts.iter()) {
+            r.0[..3].copy_from_slice(&at(g as usize));
+        }
+    }
 }
 
 /// Write the pools into the records (before sweep 2, after any repair): every record, or with
@@ -340,21 +514,30 @@ pub(crate) fn refresh_pools(rk: &RowKernel, state: &mut State, share: Option<&Sh
         return;
     }
     let pool = &state.pool;
-    each_record(&mut state.rec[..rk.n], share, |i, r| r[6] = pool[i]);
+    let count = rk.own.len() + rk.ghosts.len();
+    each_record(rk, &mut state.rec[..count], share, |i, r| r[6] = pool[i]);
 }
 
 /// `f(node, its record)` for every record, in parallel over fixed chunks; with `share` only
 /// for the rank's own nodes and its ghosts, which are all that its rows read (the far ends of
 /// its springs that cross ranks are ghosts). A rank refreshing every record spent a tenth of
 /// its step on it at two ranks, and refreshing the chunks its rows touch still a fifth of the
-/// records more than it owns on a Morton-ordered random lattice.
+/// records more than it owns on a Morton-ordered random lattice. A kernel holding one share's
+/// rows has records of exactly those nodes (`recs`: its own, then its ghosts).
 fn each_record(
+    rk: &RowKernel,
     recs: &mut [Record],
     share: Option<&Share>,
     f: impl Fn(usize, &mut [Real; 8]) + Sync,
 ) {
-    let own = share.map_or(0..recs.len(), |s| s.mine());
-    recs[own.clone()]
+    let whole = rk.whole();
+    let own = if whole {
+        share.map_or(0..recs.len(), |s| s.mine())
+    } else {
+        rk.own.clone()
+    };
+    let at = if whole { own.clone() } else { 0..own.len() };
+    recs[at.clone()]
         .par_chunks_mut(CHUNK)
         .enumerate()
         .for_each(|(c, recs)| {
@@ -362,9 +545,21 @@ fn each_record(
                 f(own.start + c * CHUNK + k, &mut r.0);
             }
         });
-    for &g in share.iter().flat_map(|s| s.halo.recv.iter().flatten()) {
-        f(g as usize, &mut recs[g as usize].0);
+    if whole {
+        for &g in share.iter().flat_map(|s| s.halo.recv.iter().flatten()) {
+            f(g as usize, &mut recs[g as usize].0);
+        }
+    } else {
+        for (r, &g) in recs[at.end..].iter_mut().zip(rk.ghosts.iter()) {
+            f(g as usize, &mut r.0);
+        }
     }
+}
+
+/// Whether `own` is empty or made of whole windows of the nodes `0..n` (the last may be short).
+fn whole_windows(own: &std::ops::Range<usize>, n: usize) -> bool {
+    own.is_empty()
+        || (own.start.is_multiple_of(WINDOW) && (own.end.is_multiple_of(WINDOW) || own.end == n))
 }
 
 /// The lanes of the nodes `0..n` with rows of `len(i)` entries: `(lanes, at)` of [`Slots`].
@@ -431,14 +626,17 @@ impl RowKernel {
         i: usize,
         mut f: impl FnMut(usize, usize, [Real; 3], Real, Real, Real),
     ) {
-        let me = &rec[i].0;
+        // Records start at node `own.start` (see `RowKernel::ghosts`).
+        let o0 = self.own.start;
+        let me = &rec[i - o0].0;
         let s = &self.slots;
+        let dummy = self.dummy();
         for e in self.lane(i) {
             let j = s.j[e] as usize;
-            if j == self.n {
+            if j == dummy {
                 continue;
             }
-            let o = &rec[j].0;
+            let o = &rec[j - o0].0;
             let big = [o[0] - me[0], o[1] - me[1], o[2] - me[2]];
             let w = [o[3] - me[3], o[4] - me[4], o[5] - me[5]];
             let (d, d2, num) = geometry::<D>(big, w);
@@ -472,7 +670,7 @@ impl RowKernel {
             let inv = 1.0 / l;
             let dl = num / (l + rest);
             let k = s.k[e];
-            let t = k * dl + self.q * k * self.lever_at(e, rest) * (pi + pool[j]);
+            let t = k * dl + self.q * k * self.lever_at(e, rest) * (pi + pool[self.node_of(j)]);
             for c in 0..D {
                 f[c] += t * (d[c] * inv);
             }
@@ -629,7 +827,7 @@ mod avx {
     unsafe fn records(base: *const Real, js: &[u32; 8]) -> [__m512d; 7] {
         // SAFETY (caller): every js[l] indexes a record (64-byte aligned, 8 reals).
         unsafe {
-            let r = js.map(|j| _mm512_load_pd(base.add(8 * j as usize)));
+            let r = js.map(|j| _mm512_load_pd(base.wrapping_add(8 * j as usize)));
             let a = [
                 _mm512_unpacklo_pd(r[0], r[1]),
                 _mm512_unpackhi_pd(r[0], r[1]),
@@ -695,7 +893,7 @@ mod avx {
         unsafe {
             let js: [u32; 8] = *(s.j.as_ptr().add(e) as *const [u32; 8]);
             let jv = _mm256_loadu_si256(s.j.as_ptr().add(e) as *const __m256i);
-            let real = _mm256_cmpneq_epu32_mask(jv, _mm256_set1_epi32(rk.n as i32));
+            let real = _mm256_cmpneq_epu32_mask(jv, _mm256_set1_epi32(rk.dummy() as i32));
             let nb = records(base, &js);
             let z = _mm512_setzero_pd();
             let mut big = [z; 3];
@@ -749,7 +947,7 @@ mod avx {
                 // SAFETY: e is an entry; its neighbour (or the dummy) has a record.
                 unsafe {
                     let j = *s.j.get_unchecked(e) as usize;
-                    _mm_prefetch::<_MM_HINT_T0>(base.add(8 * j) as *const i8);
+                    _mm_prefetch::<_MM_HINT_T0>(base.wrapping_add(8 * j) as *const i8);
                 }
             }
         }
@@ -790,7 +988,7 @@ mod avx {
         out: &mut [Real],
         screen: Real,
     ) -> bool {
-        let base = src.rec.as_ptr() as *const Real;
+        let base = rk.base(src.rec);
         let s = &rk.slots;
         let sv = _mm512_set1_pd(screen);
         // The sums in node order.
@@ -840,7 +1038,7 @@ mod avx {
         i: usize,
         f: &mut Window,
     ) {
-        let base = src.rec.as_ptr() as *const Real;
+        let base = rk.base(src.rec);
         let s = &rk.slots;
         let q = _mm512_set1_pd(rk.q);
         let one = _mm512_set1_pd(1.0);
@@ -1145,5 +1343,125 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A rank's kernel keeps only its own rows ([`RowKernel::keep_rows`]): its sweeps of its
+    /// share give the whole kernel's bits there, with a fraction of the slots.
+    #[test]
+    fn a_share_keeps_its_own_rows_only() {
+        use crate::kernel::{partials_len, Kernel, StepParams};
+        use crate::math::Coords;
+        use crate::team::Share;
+        let body = crate::team::tests::block([32.0, 28.0, 26.0]);
+        let n = body.nodes();
+        let mut state = State::new(&body);
+        for i in 0..n {
+            state.u.x_mut()[i] = 0.01 * (1.3 * body.lattice.pos.y()[i]).sin();
+            state.u.z_mut()[i] = 0.02 * (0.7 * body.lattice.pos.x()[i]).cos();
+        }
+        let p = StepParams {
+            dt: 0.01,
+            damping: 0.0,
+            accel: [0.0; 3],
+            plane: false,
+        };
+        let step = |kernel: &Kernel, share: &Share, state: &State| {
+            let mut st = state.clone();
+            let (mut un, mut parts) = (Coords::zeros(n), vec![Default::default(); partials_len(n)]);
+            kernel.pools_shared(&body, &mut st, Real::INFINITY, Some(share));
+            kernel.force_kick_drift_shared(
+                &body,
+                &mut st,
+                &vec![1.0; n],
+                &p,
+                &mut un,
+                &mut parts,
+                Some(share),
+            );
+            (st, un)
+        };
+        let whole = Kernel::for_body(&body, &state);
+        let Kernel::Rows(rk) = &whole else {
+            return; // No vector instructions: random bodies run on the CSR kernel.
+        };
+        let all = rk.slots.j.len();
+        let mut kept_in_all = 0;
+        for rank in 0..3 {
+            let share = Share::new(&body, 3, rank, &[]);
+            let own = share.mine();
+            let mut mine = whole.clone();
+            mine.keep_rows(own.clone());
+            let Kernel::Rows(kept) = &mine else {
+                unreachable!()
+            };
+            // The ranks' slots partition the whole kernel's.
+            let slots = kept.slots.j.len();
+            assert!(kept.slots.k.len() == slots && slots < all);
+            // Built for the share from the start: the same slots.
+            let built = super::RowKernel::new_for(&body, &state, own.clone()).unwrap();
+            assert!(built.slots.start == kept.slots.start && built.slots.j == kept.slots.j);
+            let kb = |k: &[Real]| k.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert!(kb(&built.slots.k) == kb(&kept.slots.k));
+            kept_in_all += slots;
+            // Springs broken after the split: the kernels' entries go as the state's do,
+            // among them springs that cross to the next rank.
+            let ends = &body.lattice.bonds.ends;
+            let cut: Vec<usize> = (0..body.springs())
+                .filter(|&b| {
+                    let [i, j] = ends[b].map(|v| v as usize);
+                    own.contains(&i) != own.contains(&j)
+                })
+                .step_by(7)
+                .chain((0..body.springs()).step_by(53))
+                .collect();
+            assert!(cut.len() > 20);
+            let mut broken = state.clone();
+            let (mut whole, mut mine) = (whole.clone(), mine.clone());
+            for &b in &cut {
+                broken.kill_bond(&body, b);
+                whole.bond_killed(&body, b);
+                mine.bond_killed(&body, b);
+            }
+            // The widest vector path, the scalar path and (where the processor has AVX-512)
+            // the AVX2 path.
+            for path in 0..3 {
+                let (mut w, mut m) = (whole.clone(), mine.clone());
+                match path {
+                    1 => {
+                        w.set_simd(false);
+                        m.set_simd(false);
+                    }
+                    2 if w.name() == "rows-avx512" => {
+                        assert!(w.use_avx2() && m.use_avx2());
+                    }
+                    2 => continue,
+                    _ => {}
+                }
+                let a = step(&w, &share, &broken);
+                let b = step(&m, &share, &broken);
+                let same = |x: &[Real], y: &[Real]| {
+                    x[own.clone()]
+                        .iter()
+                        .zip(&y[own.clone()])
+                        .all(|(x, y)| x.to_bits() == y.to_bits())
+                };
+                let at = format!("rank {rank}, path {path} ({})", m.name());
+                for c in 0..3 {
+                    assert!(same(a.1.comp(c), b.1.comp(c)), "{at}: displacements");
+                    assert!(same(a.0.v.comp(c), b.0.v.comp(c)), "{at}: velocities");
+                }
+                assert!(same(&a.0.pool, &b.0.pool), "{at}: pools");
+                // Records of its own nodes, its ghosts and the dummy only.
+                let ghosts = kept.ghosts.len();
+                assert!(
+                    ghosts > 0 && ghosts < own.len() / 2,
+                    "{at}: {ghosts} ghosts"
+                );
+                assert_eq!(b.0.rec.len(), own.len() + ghosts + 1);
+                assert_eq!(a.0.rec.len(), n + 1);
+                assert!(a.1.comp(0)[own.clone()].iter().any(|&x| x != 0.0));
+            }
+        }
+        assert_eq!(kept_in_all, all);
     }
 }

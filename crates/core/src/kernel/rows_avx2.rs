@@ -41,10 +41,10 @@ unsafe fn records(base: *const Real, js: &[u32]) -> [__m256d; 7] {
         // Written out: a closure or `array::map` here is not inlined, and its loads become
         // calls (the helper has no target features of its own).
         let (a, b, c, d) = (
-            base.add(8 * js[0] as usize),
-            base.add(8 * js[1] as usize),
-            base.add(8 * js[2] as usize),
-            base.add(8 * js[3] as usize),
+            base.wrapping_add(8 * js[0] as usize),
+            base.wrapping_add(8 * js[1] as usize),
+            base.wrapping_add(8 * js[2] as usize),
+            base.wrapping_add(8 * js[3] as usize),
         );
         let lo = transpose([
             _mm256_load_pd(a),
@@ -91,7 +91,7 @@ unsafe fn slot_at<const D: usize, const LEVER: bool, const STORED: bool>(
     unsafe {
         let js = &s.j[e..e + 4];
         let jv = _mm_loadu_si128(s.j.as_ptr().add(e) as *const __m128i);
-        let eq = _mm_cmpeq_epi32(jv, _mm_set1_epi32(rk.n as i32));
+        let eq = _mm_cmpeq_epi32(jv, _mm_set1_epi32(rk.dummy() as i32));
         let dummy = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(eq));
         let nb = records(base, js);
         let z = _mm256_setzero_pd();
@@ -160,7 +160,7 @@ pub(super) unsafe fn pools<const D: usize, const LEVER: bool, const STORED: bool
     out: &mut [Real],
     screen: Real,
 ) -> bool {
-    let base = src.rec.as_ptr() as *const Real;
+    let base = rk.base(src.rec);
     let s = &rk.slots;
     let sv = _mm256_set1_pd(screen);
     let mut sums = Window([[0.0; WINDOW]; 3]);
@@ -211,7 +211,7 @@ pub(super) unsafe fn forces<const D: usize, const LEVER: bool, const STORED: boo
     i: usize,
     f: &mut Window,
 ) {
-    let base = src.rec.as_ptr() as *const Real;
+    let base = rk.base(src.rec);
     let s = &rk.slots;
     let q = _mm256_set1_pd(rk.q);
     let one = _mm256_set1_pd(1.0);
