@@ -198,6 +198,8 @@ pub struct Integrator {
     /// Scratch for the sparse bookkeeping (no allocation per step).
     v_before: Vec<[Real; 3]>,
     f_before: Vec<[Real; 3]>,
+    /// The prescribed DOFs' displacements before a step that drifts in place.
+    u_before: Vec<Real>,
     v_kernel: Vec<[Real; 3]>,
     partials: Vec<crate::kernel::SweepSums>,
     /// Scratch for interaction forces and the velocities of their nodes before the sweep.
@@ -256,6 +258,21 @@ struct Shared {
     stale_u: bool,
     stale_pool: bool,
     v_partial: bool,
+}
+
+/// Where a step's new displacements are: the integrator's second buffer, or `state.u` for a
+/// kernel that drifts in place ([`Kernel::drifts_in_place`]).
+#[inline]
+fn new_displacements<'a>(
+    u_next: &'a mut Coords,
+    u: &'a mut Coords,
+    in_place: bool,
+) -> &'a mut Coords {
+    if in_place {
+        u
+    } else {
+        u_next
+    }
 }
 
 /// The loaded and prescribed nodes of `loading`, ascending, each once: a shared run's
@@ -403,7 +420,12 @@ impl Integrator {
             )
         };
         drop(split);
-        u_next.fill_zero();
+        if kernel.drifts_in_place() {
+            // The steps write the new displacements over the old: the estimate's scratch goes.
+            u_next = Coords::default();
+        } else {
+            u_next.fill_zero();
+        }
         inv_mass
             .par_iter_mut()
             .with_min_len(1 << 14)
@@ -551,6 +573,7 @@ impl Integrator {
             initial_power: 0.0,
             v_before: Vec::with_capacity(sparse),
             f_before: Vec::with_capacity(sparse),
+            u_before: Vec::with_capacity(sparse),
             v_kernel: Vec::with_capacity(sparse),
             partials: vec![Default::default(); crate::kernel::partials_len(body.nodes())],
             team: None,
@@ -600,7 +623,11 @@ impl Integrator {
         if opts.portable {
             kernel.set_simd(false);
         }
-        let u_next = Coords::zeros(body.nodes());
+        let u_next = if kernel.drifts_in_place() {
+            Coords::default()
+        } else {
+            Coords::zeros(body.nodes())
+        };
         let inv_mass = body.mass.iter().map(|&m| 1.0 / m).collect();
         let mut it = Self::assemble(
             body,
@@ -1029,12 +1056,18 @@ impl Integrator {
         state: &mut State,
         params: &StepParams,
     ) -> crate::kernel::SweepSums {
+        let in_place = self.kernel.drifts_in_place();
+        if !in_place && self.u_next.len() != body.nodes() {
+            // A kernel that drifts out of place after one that drifted in place (no shipped
+            // path switches that way; a body's kernel changes only when springs soften).
+            self.u_next = Coords::zeros(body.nodes());
+        }
         let own = self.kernel.force_kick_drift_shared(
             body,
             state,
             &self.inv_mass,
             params,
-            &mut self.u_next,
+            (!in_place).then_some(&mut self.u_next),
             &mut self.partials,
             self.team.as_ref().map(|t| &t.share),
         );
@@ -1044,7 +1077,7 @@ impl Integrator {
         // A plate's z components stay exact zeros on every rank (no force, load or
         // acceleration acts along z), so they need no exchange.
         let dims = params.dims(body.lattice.dim());
-        let mut u = self.u_next.xyz_mut();
+        let mut u = new_displacements(&mut self.u_next, &mut state.u, in_place).xyz_mut();
         t.trade(&mut u[..dims]);
         t.stale_u = true;
         t.v_partial = true;
@@ -1211,6 +1244,12 @@ impl Integrator {
             self.v_before
                 .push([state.v.x()[i], state.v.y()[i], state.v.z()[i]]);
         }
+        let in_place = self.kernel.drifts_in_place();
+        self.u_before.clear();
+        if in_place {
+            self.u_before
+                .extend(self.dofs.iter().map(|d| state.u.comp(d.axis)[d.node]));
+        }
         let force =
             |i| crate::law::node_force(body, body.q, &state.u, state.springs(body), &state.pool, i);
         match self.team.as_mut() {
@@ -1267,7 +1306,8 @@ impl Integrator {
             let dv = l.force * (l.scale.value(t) * dt * self.inv_mass[i] * grow);
             for c in 0..3 {
                 state.v.comp_mut(c)[i] += dv[c];
-                self.u_next.comp_mut(c)[i] += dt * dv[c];
+                new_displacements(&mut self.u_next, &mut state.u, in_place).comp_mut(c)[i] +=
+                    dt * dv[c];
             }
         }
         let g = self.loading.body_acceleration;
@@ -1298,7 +1338,8 @@ impl Integrator {
             for c in 0..3 {
                 let dv = f[c] * dt * self.inv_mass[i] * grow;
                 state.v.comp_mut(c)[i] += dv;
-                self.u_next.comp_mut(c)[i] += dt * dv;
+                new_displacements(&mut self.u_next, &mut state.u, in_place).comp_mut(c)[i] +=
+                    dt * dv;
                 let (v0, v1) = (self.v_contact[k][c], state.v.comp(c)[i]);
                 self.ledger.external_work += f[c] * 0.5 * (v0 + v1) * dt;
                 let (mid_kernel, mid) = (0.5 * (v0 + v_sweep[c]), 0.5 * (v0 + v1));
@@ -1311,7 +1352,11 @@ impl Integrator {
         let nl = self.loaded.len();
         for (k, d) in self.dofs.iter().enumerate() {
             let (i, c) = (d.node, d.axis);
-            let u_now = state.u.comp(c)[i];
+            let u_now = if in_place {
+                self.u_before[k]
+            } else {
+                state.u.comp(c)[i]
+            };
             let (u1, v_half) = match &self.motions[d.motion] {
                 Motion::Fixed => (u_now, 0.0),
                 Motion::Velocity(f) => {
@@ -1324,7 +1369,7 @@ impl Integrator {
                 }
             };
             let v_kernel = state.v.comp(c)[i];
-            self.u_next.comp_mut(c)[i] = u1;
+            new_displacements(&mut self.u_next, &mut state.u, in_place).comp_mut(c)[i] = u1;
             state.v.comp_mut(c)[i] = v_half;
             let v_old = self.v_before[nl + k][c];
             let m = body.mass[i];
@@ -1343,7 +1388,9 @@ impl Integrator {
                 + self.damping * m * 0.5 * (v_half + v_old);
             self.ledger.boundary_work += reaction * 0.5 * (v_old + v_half) * dt;
         }
-        std::mem::swap(&mut state.u, &mut self.u_next);
+        if !in_place {
+            std::mem::swap(&mut state.u, &mut self.u_next);
+        }
         state.step += 1;
         state.time = t + dt;
     }
@@ -1416,8 +1463,12 @@ impl Integrator {
     /// of `3 n` values). A step writes the new displacements into a second buffer and swaps the
     /// two, so `state.u`'s allocation alternates from step to step; a reader that holds a view
     /// of it without copying (numpy) calls this, when the parity is wrong, to keep the
-    /// displacements where its view looks.
+    /// displacements where its view looks. Nothing to do where the kernel drifts in place
+    /// ([`crate::kernel::Kernel::drifts_in_place`]): `state.u` never moves.
     pub fn swap_displacement_buffers(&mut self, state: &mut State) {
+        if self.u_next.len() != state.u.len() {
+            return; // One buffer: the kernel drifts in place (`Kernel::drifts_in_place`).
+        }
         std::mem::swap(&mut state.u, &mut self.u_next);
         state.u.copy_from(&self.u_next);
     }

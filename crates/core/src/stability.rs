@@ -470,7 +470,7 @@ impl<'a> KernelJacobian<'a> {
             self.scratch,
             self.unit_inv_mass,
             &p,
-            self.u_next,
+            Some(&mut *self.u_next),
             &mut self.partials,
             share,
         );

@@ -498,8 +498,9 @@ impl Run {
 
     /// Keeps the displacements in the allocation that starts at `home` (an address taken from
     /// `simulation().state.u.as_flat()`), for readers that view them without a copy: the
-    /// integrator alternates two buffers from step to step, and this moves the values back
-    /// (one copy) when they are in the other one. False if `home` is neither buffer.
+    /// integrator alternates two buffers from step to step (except where its kernel drifts in
+    /// place, with one buffer), and this moves the values back (one copy) when they are in the
+    /// other one. False if `home` is neither buffer.
     pub fn keep_displacement_in(&mut self, home: *const Real) -> bool {
         if self.sim.state.u.as_flat().as_ptr() != home {
             self.it.swap_displacement_buffers(&mut self.sim.state);

@@ -562,7 +562,9 @@ mod avx512 {
             }
         }
         // SAFETY (caller): the block is in bounds.
-        unsafe { super::super::stencil::avx512::kick_drift8(3, f, u, inv_mass, p, i, v, un, sums) }
+        unsafe {
+            super::super::stencil::avx512::kick_drift8(3, f, Some(u), inv_mass, p, i, v, un, sums)
+        }
     }
 }
 
@@ -705,6 +707,8 @@ mod avx2 {
             }
         }
         // SAFETY (caller): the block is in bounds.
-        unsafe { super::super::stencil::avx2::kick_drift4(3, f, u, inv_mass, p, i, v, un, sums) }
+        unsafe {
+            super::super::stencil::avx2::kick_drift4(3, f, Some(u), inv_mass, p, i, v, un, sums)
+        }
     }
 }

@@ -562,7 +562,7 @@ mod avx512 {
             super::super::stencil::avx512::kick_drift8(
                 p.dims(2),
                 [f[0], f[1], fz],
-                u,
+                Some(u),
                 inv_mass,
                 p,
                 i,
@@ -720,7 +720,7 @@ mod avx2 {
             super::super::stencil::avx2::kick_drift4(
                 p.dims(2),
                 [f[0], f[1], fz],
-                u,
+                Some(u),
                 inv_mass,
                 p,
                 i,

@@ -316,12 +316,13 @@ impl Kernel {
         u_next: &mut Coords,
         partials: &mut [SweepSums],
     ) -> SweepSums {
-        self.force_kick_drift_shared(body, state, inv_mass, p, u_next, partials, None)
+        self.force_kick_drift_shared(body, state, inv_mass, p, Some(u_next), partials, None)
     }
 
     /// Sweep 2 over one rank's share of a distributed run ([`crate::team`]; `None`: the whole
     /// body): its nodes' velocities, next displacements and partial sums; returns the sum of
-    /// those partials.
+    /// those partials. The next displacements go into `u_next`, or with `None` into
+    /// `state.u` in place, which only a kernel that [`Kernel::drifts_in_place`] allows.
     #[allow(clippy::too_many_arguments)]
     pub fn force_kick_drift_shared(
         &self,
@@ -329,19 +330,23 @@ impl Kernel {
         state: &mut State,
         inv_mass: &[Real],
         p: &StepParams,
-        u_next: &mut Coords,
+        u_next: Option<&mut Coords>,
         partials: &mut [SweepSums],
         share: Option<&crate::team::Share>,
     ) -> SweepSums {
         let chunks = share.map_or(0..body.nodes().div_ceil(CHUNK), |s| s.chunks());
+        let out = || "a kernel that reads displacements from state.u drifts out of place";
         match self {
             Kernel::Csr { .. } => {
+                let u_next = u_next.unwrap_or_else(|| panic!("{}", out()));
                 csr::force_kick_drift(body, state, inv_mass, p, u_next, partials, chunks)
             }
             Kernel::Cubic(s) => {
+                assert!(u_next.is_some(), "{}", out());
                 stencil::force_kick_drift(s, state, inv_mass, p, u_next, partials, chunks)
             }
             Kernel::Hex(s) => {
+                assert!(u_next.is_some(), "{}", out());
                 stencil::force_kick_drift(s, state, inv_mass, p, u_next, partials, chunks)
             }
             Kernel::Rows(r) => {
@@ -350,6 +355,13 @@ impl Kernel {
                 stencil::force_kick_drift(r, state, inv_mass, p, u_next, partials, chunks)
             }
         }
+    }
+
+    /// Whether sweep 2 may write the new displacements over `state.u` (the row kernel: its
+    /// force sweep reads the displacements from its records, refreshed by sweep 1), so that
+    /// the integrator keeps no second displacement array.
+    pub fn drifts_in_place(&self) -> bool {
+        matches!(self, Kernel::Rows(_))
     }
 
     /// The same kernel for the plain law (q = 0): what the damage-proof stable step is

@@ -772,7 +772,7 @@ impl Stencil for RowKernel {
                 avx2::kick_drift(
                     dims,
                     &f,
-                    u,
+                    u.old_u(),
                     inv_mass,
                     p,
                     i,
@@ -795,7 +795,7 @@ impl Stencil for RowKernel {
                 super::stencil::avx512::kick_drift8(
                     dims,
                     fb,
-                    u,
+                    u.old_u(),
                     inv_mass,
                     p,
                     i + 8 * b,
@@ -1374,7 +1374,7 @@ mod tests {
                 &mut st,
                 &vec![1.0; n],
                 &p,
-                &mut un,
+                Some(&mut un),
                 &mut parts,
                 Some(share),
             );

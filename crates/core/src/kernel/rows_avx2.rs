@@ -262,7 +262,7 @@ pub(super) unsafe fn forces<const D: usize, const LEVER: bool, const STORED: boo
 pub(super) unsafe fn kick_drift(
     dims: usize,
     f: &Window,
-    u: &Coords,
+    u: Option<&Coords>,
     inv_mass: &[Real],
     p: &StepParams,
     i: usize,

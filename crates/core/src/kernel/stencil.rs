@@ -20,6 +20,17 @@ pub(crate) struct Src<'a> {
     pub u: &'a Coords,
     pub rec: &'a [super::rows::Record],
     pub norm: &'a [Real],
+    /// Sweep 2 drifts in place: the output slices hold the old displacements (`u` is then
+    /// empty; only the row kernel, which reads its neighbours from its records, does this).
+    pub in_place: bool,
+}
+
+impl Src<'_> {
+    /// The displacements the drift starts from, or `None` where it drifts in place.
+    #[inline(always)]
+    pub fn old_u(&self) -> Option<&Coords> {
+        (!self.in_place).then_some(self.u)
+    }
 }
 
 impl std::ops::Deref for Src<'_> {
@@ -244,6 +255,7 @@ pub(crate) fn pools<S: Stencil>(
         u: &state.u,
         rec: &state.rec,
         norm: &state.norm,
+        in_place: false,
     };
     let (first, per) = (chunks.start, CHUNK / SCREEN);
     let nodes = (first * CHUNK).min(n)..(chunks.end * CHUNK).min(n);
@@ -324,6 +336,7 @@ pub(crate) fn repair<S: Stencil>(
                 u: &state.u,
                 rec: &state.rec,
                 norm: &state.norm,
+                in_place: false,
             },
             c,
             &mut state.pool[r],
@@ -333,24 +346,42 @@ pub(crate) fn repair<S: Stencil>(
     }
 }
 
-/// Sweep 2 over the node chunks `chunks`.
+/// Sweep 2 over the node chunks `chunks`: the new displacements into `u_next`, or with `None`
+/// into `state.u` in place (a kernel whose force sweep reads no displacement from `state.u`:
+/// the row kernel, which reads its records; each node's drift reads only its own old value,
+/// just before it writes the new one).
 pub(crate) fn force_kick_drift<S: Stencil>(
     s: &S,
     state: &mut State,
     inv_mass: &[Real],
     p: &StepParams,
-    u_next: &mut Coords,
+    u_next: Option<&mut Coords>,
     partials: &mut [SweepSums],
     chunks: std::ops::Range<usize>,
 ) -> SweepSums {
-    let u = &Src {
-        u: &state.u,
-        rec: &state.rec,
-        norm: &state.norm,
+    let empty = Coords::default();
+    let State {
+        u,
+        v,
+        rec,
+        norm,
+        pool,
+        ..
+    } = state;
+    let in_place = u_next.is_none();
+    let (old, out): (&Coords, &mut Coords) = match u_next {
+        Some(n) => (u, n),
+        None => (&empty, u),
     };
-    let pool = &state.pool;
+    let u = &Src {
+        u: old,
+        rec,
+        norm,
+        in_place,
+    };
+    let pool: &[Real] = pool;
     let dims = p.dims(s.dim());
-    sweep_chunks(s.nodes(), chunks, &mut state.v, u_next, partials, |r, o| {
+    sweep_chunks(s.nodes(), chunks, v, out, partials, |r, o| {
         let ChunkOut {
             v: [vx, vy, vz],
             u_next: [nx, ny, nz],
@@ -381,13 +412,18 @@ pub(crate) fn force_kick_drift<S: Stencil>(
                 continue;
             }
             let f = s.force_one(u, pool, i);
+            let u_old = if in_place {
+                [nx[k], ny[k], nz[k]]
+            } else {
+                [u.x()[i], u.y()[i], u.z()[i]]
+            };
             let (d, w) = kick_drift(
                 dims,
                 f,
                 inv_mass[i],
                 p,
                 [&mut vx[k], &mut vy[k], &mut vz[k]],
-                [u.x()[i], u.y()[i], u.z()[i]],
+                u_old,
                 [&mut nx[k], &mut ny[k], &mut nz[k]],
             );
             sums.dissipated += d;
@@ -419,7 +455,7 @@ pub(crate) mod avx512 {
     pub(crate) unsafe fn kick_drift8(
         dims: usize,
         f: [__m512d; 3],
-        u: &Coords,
+        u: Option<&Coords>,
         inv_mass: &[Real],
         p: &StepParams,
         i: usize,
@@ -438,7 +474,12 @@ pub(crate) mod avx512 {
         let mut gw = _mm512_setzero_pd();
         let [vx, vy, vz] = v;
         let [nx, ny, nz] = un;
-        let comps = [(vx, nx, u.x()), (vy, ny, u.y()), (vz, nz, u.z())];
+        // In place (`u` None), `un` holds the old displacements until it is written.
+        let comps = [
+            (vx, nx, u.map(|u| u.x())),
+            (vy, ny, u.map(|u| u.y())),
+            (vz, nz, u.map(|u| u.z())),
+        ];
         for (c, (vs, ns, uc)) in comps.into_iter().enumerate().take(dims) {
             let g = _mm512_set1_pd(p.accel[c]);
             unsafe {
@@ -449,7 +490,7 @@ pub(crate) mod avx512 {
                     grow,
                 );
                 _mm512_storeu_pd(vs.as_mut_ptr(), new);
-                let ui = _mm512_loadu_pd(uc.as_ptr().add(i));
+                let ui = _mm512_loadu_pd(uc.map_or(ns.as_ptr(), |uc| uc.as_ptr().add(i)));
                 _mm512_storeu_pd(ns.as_mut_ptr(), _mm512_add_pd(ui, _mm512_mul_pd(dt, new)));
                 let mid = _mm512_mul_pd(half, _mm512_add_pd(old, new));
                 v2 = _mm512_add_pd(v2, _mm512_mul_pd(mid, mid));
@@ -535,7 +576,7 @@ pub(crate) mod avx2 {
     pub(crate) unsafe fn kick_drift4(
         dims: usize,
         f: [__m256d; 3],
-        u: &Coords,
+        u: Option<&Coords>,
         inv_mass: &[Real],
         p: &StepParams,
         i: usize,
@@ -554,7 +595,12 @@ pub(crate) mod avx2 {
         let mut gw = _mm256_setzero_pd();
         let [vx, vy, vz] = v;
         let [nx, ny, nz] = un;
-        let comps = [(vx, nx, u.x()), (vy, ny, u.y()), (vz, nz, u.z())];
+        // In place (`u` None), `un` holds the old displacements until it is written.
+        let comps = [
+            (vx, nx, u.map(|u| u.x())),
+            (vy, ny, u.map(|u| u.y())),
+            (vz, nz, u.map(|u| u.z())),
+        ];
         for (c, (vs, ns, uc)) in comps.into_iter().enumerate().take(dims) {
             let g = _mm256_set1_pd(p.accel[c]);
             unsafe {
@@ -565,7 +611,7 @@ pub(crate) mod avx2 {
                     grow,
                 );
                 _mm256_storeu_pd(vs.as_mut_ptr(), new);
-                let ui = _mm256_loadu_pd(uc.as_ptr().add(i));
+                let ui = _mm256_loadu_pd(uc.map_or(ns.as_ptr(), |uc| uc.as_ptr().add(i)));
                 _mm256_storeu_pd(ns.as_mut_ptr(), _mm256_add_pd(ui, _mm256_mul_pd(dt, new)));
                 let mid = _mm256_mul_pd(half, _mm256_add_pd(old, new));
                 v2 = _mm256_add_pd(v2, _mm256_mul_pd(mid, mid));
