@@ -335,18 +335,18 @@ impl Kernel {
         share: Option<&crate::team::Share>,
     ) -> SweepSums {
         let chunks = share.map_or(0..body.nodes().div_ceil(CHUNK), |s| s.chunks());
-        let out = || "a kernel that reads displacements from state.u drifts out of place";
+        const OUT: &str = "a kernel that reads displacements from state.u drifts out of place";
         match self {
             Kernel::Csr { .. } => {
-                let u_next = u_next.unwrap_or_else(|| panic!("{}", out()));
+                let u_next = u_next.expect(OUT);
                 csr::force_kick_drift(body, state, inv_mass, p, u_next, partials, chunks)
             }
             Kernel::Cubic(s) => {
-                assert!(u_next.is_some(), "{}", out());
+                assert!(u_next.is_some(), "{OUT}");
                 stencil::force_kick_drift(s, state, inv_mass, p, u_next, partials, chunks)
             }
             Kernel::Hex(s) => {
-                assert!(u_next.is_some(), "{}", out());
+                assert!(u_next.is_some(), "{OUT}");
                 stencil::force_kick_drift(s, state, inv_mass, p, u_next, partials, chunks)
             }
             Kernel::Rows(r) => {

@@ -321,11 +321,11 @@ impl RowKernel {
         let groups = s.start.len() - 1;
         let (g0, g1) = (own.start / 8, own.end.div_ceil(8).min(groups));
         let (e0, e1) = (8 * s.start[g0] as usize, 8 * s.start[g1] as usize);
-        // The slots as they are within `own`, none before it: `start` shifted down by the
-        // slots of the groups before `own`, flat after it.
         if e0 == 0 && e1 == s.j.len() {
             return; // Nothing else held (built for `own`, or one rank).
         }
+        // The slots as they are within `own`, none before it: `start` shifted down by the
+        // slots of the groups before `own`, flat after it.
         let first = s.start[g0];
         let start = s
             .start
