@@ -234,12 +234,11 @@ impl Kernel {
     ) {
         match self {
             Kernel::Csr { plain } => csr::pools(body, state, *plain, screen, share),
-            Kernel::Cubic(s) => stencil::pools(s, state, screen, share.map(|s| s.chunks())),
-            Kernel::Hex(s) => stencil::pools(s, state, screen, share.map(|s| s.chunks())),
+            Kernel::Cubic(s) => stencil::pools(s, state, screen, self.chunks_for(share)),
+            Kernel::Hex(s) => stencil::pools(s, state, screen, self.chunks_for(share)),
             Kernel::Rows(r) => {
                 rows::refresh_displacements(r, body, state, share);
-                let chunks = share.map(|s| s.chunks()).or_else(|| r.own_chunks());
-                stencil::pools(r, state, screen, chunks)
+                stencil::pools(r, state, screen, self.chunks_for(share))
             }
         }
     }
@@ -294,15 +293,14 @@ impl Kernel {
         if killed.is_empty() {
             return;
         }
-        let chunks = share.map_or(0..body.nodes().div_ceil(CHUNK), |s| s.chunks());
+        let chunks = self
+            .chunks_for(share)
+            .unwrap_or(0..body.nodes().div_ceil(CHUNK));
         match self {
             Kernel::Csr { plain } => csr::repair(body, state, *plain, killed),
             Kernel::Cubic(s) => stencil::repair(s, body, state, killed, chunks),
             Kernel::Hex(s) => stencil::repair(s, body, state, killed, chunks),
-            Kernel::Rows(r) => {
-                let chunks = r.own_chunks().filter(|_| share.is_none()).unwrap_or(chunks);
-                stencil::repair(r, body, state, killed, chunks)
-            }
+            Kernel::Rows(r) => stencil::repair(r, body, state, killed, chunks),
         }
     }
 
@@ -334,7 +332,9 @@ impl Kernel {
         partials: &mut [SweepSums],
         share: Option<&crate::team::Share>,
     ) -> SweepSums {
-        let chunks = share.map_or(0..body.nodes().div_ceil(CHUNK), |s| s.chunks());
+        let chunks = self
+            .chunks_for(share)
+            .unwrap_or(0..body.nodes().div_ceil(CHUNK));
         const OUT: &str = "a kernel that reads displacements from state.u drifts out of place";
         match self {
             Kernel::Csr { .. } => {
@@ -351,10 +351,19 @@ impl Kernel {
             }
             Kernel::Rows(r) => {
                 rows::refresh_pools(r, state, share);
-                let chunks = r.own_chunks().filter(|_| share.is_none()).unwrap_or(chunks);
                 stencil::force_kick_drift(r, state, inv_mass, p, u_next, partials, chunks)
             }
         }
+    }
+
+    /// The node chunks a sweep covers: a rank's share, or for a row kernel that holds one
+    /// share's rows those chunks even when called without the share (it may sweep no other);
+    /// `None`: every chunk.
+    fn chunks_for(&self, share: Option<&crate::team::Share>) -> Option<std::ops::Range<usize>> {
+        share.map(|s| s.chunks()).or_else(|| match self {
+            Kernel::Rows(r) => r.own_chunks(),
+            _ => None,
+        })
     }
 
     /// Whether sweep 2 may write the new displacements over `state.u` (the row kernel: its
