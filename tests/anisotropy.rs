@@ -36,8 +36,7 @@ fn random_levers(mut body: Body, seed: u64) -> Body {
     let mut rng = Rng::new(seed);
     body.lever = Some(
         body.lattice
-            .bonds
-            .rest
+            .rest_lengths()
             .iter()
             .map(|&l| rng.sym(1.5) * l)
             .collect(),
@@ -82,7 +81,7 @@ fn levers_equal_to_the_rest_lengths_change_no_bit() {
     for kind in [LatticeKind::Random3d, LatticeKind::Hex] {
         let plain = small_body(kind, 0.7, 5);
         let mut weighted = plain.clone();
-        weighted.lever = Some(plain.lattice.bonds.rest.clone());
+        weighted.lever = Some(plain.lattice.rest_lengths().into_owned());
         let mut rng = Rng::new(9);
         let mut state = State::new(&plain);
         kill_random(&plain, &mut state, &mut rng, 0.2);

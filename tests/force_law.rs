@@ -279,7 +279,7 @@ fn kill_bond_updates_normalisers() {
     let b = 0;
     let [i, j] = body.lattice.bonds.ends[b].map(|v| v as usize);
     let (si, sj) = (state.norm()[i], state.norm()[j]);
-    let kl2 = body.k[b] * body.lattice.bonds.rest[b].powi(2);
+    let kl2 = body.k[b] * body.lattice.rest(b).powi(2);
     assert!(state.kill_bond(&body, b));
     assert!(
         (state.norm()[i] - (si - kl2)).abs() < 1e-12

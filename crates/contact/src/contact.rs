@@ -57,7 +57,7 @@ impl ContactOptions {
     /// Defaults for a body: `c = 0.1`, radius `a/2`, fragment contact at 0.8 of the shortest
     /// spring.
     pub fn for_body(body: &Body) -> Self {
-        let shortest = body.lattice.bonds.shortest();
+        let shortest = body.lattice.shortest();
         ContactOptions {
             stiffness_factor: 0.1,
             radius: 0.5 * body.lattice.spacing,
@@ -198,14 +198,7 @@ impl Contact {
 
     pub fn new(body: &Body, bodies: Vec<RigidBody>, opts: ContactOptions) -> Self {
         let n = body.nodes();
-        let shortest = body
-            .lattice
-            .bonds
-            .rest
-            .iter()
-            .cloned()
-            .fold(Real::INFINITY, Real::min)
-            .min(body.lattice.spacing);
+        let shortest = body.lattice.shortest().min(body.lattice.spacing);
         let nb = bodies.len();
         // How far a body reaches from its reference point (bounded shapes).
         let reach = bodies

@@ -29,7 +29,7 @@ fn main() {
     let a = Body::uniform(lat, 1.0, 0.2, 1.0);
     let mut b = a.clone();
     if !dealing {
-        b.lattice.bonds.rest[3] *= 1.0 + 4.0 * f64::EPSILON;
+        b.lattice.rest_lengths_mut()[3] *= 1.0 + 4.0 * f64::EPSILON;
     }
     let mut sa = State::new(&a);
     for i in 0..a.nodes() {

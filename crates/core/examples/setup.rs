@@ -63,7 +63,7 @@ fn main() {
     for e in &lat.bonds.ends {
         h.word(((e[0] as u64) << 32) | e[1] as u64);
     }
-    h.reals(lat.bonds.rest.iter().copied());
+    h.reals(lat.rest_lengths().iter().copied());
     if let Some(c) = &lat.cells {
         h.reals(c.node.iter().copied());
         h.reals(c.spring.iter().copied());

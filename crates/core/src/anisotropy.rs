@@ -738,7 +738,7 @@ impl Body {
         );
         for b in 0..bonds.len() {
             let [i, j] = bonds.ends[b].map(|v| v as usize);
-            let l = bonds.rest[b];
+            let l = lattice.rest(b);
             let (kb, w) = family(lattice.reference_vector(i, j), l)?;
             k.push(kb);
             lever.push(w * l);

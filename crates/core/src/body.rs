@@ -8,6 +8,32 @@ use crate::lattice::Lattice;
 use crate::material::{self, Elastic, PlaneModel};
 use crate::math::Real;
 
+/// Each spring's dispersion lever `lambda_s` ([`Body::levers`]): the direction-weighted
+/// material's, or the rest length `L_s` (stored, or computed once the lattice shed them).
+#[derive(Clone, Copy, Debug)]
+pub struct Levers<'a> {
+    stored: Option<&'a [Real]>,
+    lattice: &'a Lattice,
+}
+
+impl<'a> Levers<'a> {
+    /// Spring `b`'s lever (m).
+    #[inline(always)]
+    pub fn get(&self, b: usize) -> Real {
+        match self.stored {
+            Some(l) => l[b],
+            None => self.lattice.rest(b),
+        }
+    }
+
+    /// Every lever as a slice, where they are stored (not for the rest lengths of a lattice
+    /// that shed them).
+    #[inline]
+    pub fn stored(&self) -> Option<&'a [Real]> {
+        self.stored
+    }
+}
+
 /// A lattice with its spring constants and node masses.
 #[derive(Clone, Debug)]
 pub struct Body {
@@ -36,7 +62,7 @@ impl Body {
             ("positions", lat.pos.heap_bytes()),
             ("rows (offsets, springs; neighbours if kept)", b.row_bytes()),
             ("spring ends", bytes(&b.ends)),
-            ("rest lengths", bytes(&b.rest)),
+            ("rest lengths", b.rest_bytes()),
             ("stiffnesses", bytes(&self.k)),
             ("masses", bytes(&self.mass)),
         ];
@@ -81,7 +107,7 @@ impl Body {
         let k = cells
             .spring
             .iter()
-            .zip(&lattice.bonds.rest)
+            .zip(lattice.rest_lengths().iter())
             .map(|(&v, &l)| kappa * v / (per * l * l))
             .collect();
         let mass = cells.node.iter().map(|&v| density * v).collect();
@@ -199,8 +225,14 @@ impl Body {
     /// Each spring's dispersion lever: [`Body::lever`] for a direction-weighted material, the
     /// rest lengths otherwise.
     #[inline]
-    pub fn levers(&self) -> &[Real] {
-        self.lever.as_deref().unwrap_or(&self.lattice.bonds.rest)
+    pub fn levers(&self) -> Levers<'_> {
+        Levers {
+            stored: self
+                .lever
+                .as_deref()
+                .or_else(|| self.lattice.bonds.stored_rest()),
+            lattice: &self.lattice,
+        }
     }
 
     /// Number of nodes.

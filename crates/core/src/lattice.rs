@@ -87,14 +87,16 @@ pub struct Bonds {
     pub bond: Vec<u32>,
     /// End nodes of each undirected spring, `ends[b][0] < ends[b][1]`.
     pub ends: Vec<[u32; 2]>,
-    /// Rest length `L_b` of each spring (m).
-    pub rest: Vec<Real>,
+    /// Rest length `L_b` of each spring (m), or empty once shed ([`Lattice::shed_setup`]):
+    /// read them with [`Lattice::rest`].
+    rest: Vec<Real>,
 }
 
 impl Bonds {
-    /// The shortest rest length (m); infinity without springs.
-    pub fn shortest(&self) -> Real {
-        self.rest.iter().cloned().fold(Real::INFINITY, Real::min)
+    /// The stored rest lengths, or `None` once shed (then [`Lattice::rest`] computes each).
+    #[inline]
+    pub fn stored_rest(&self) -> Option<&[Real]> {
+        (self.rest.len() == self.ends.len()).then_some(&self.rest[..])
     }
 
     /// Build from a list of undirected springs `(i, j)` with `i != j`; rest lengths from `pos`
@@ -229,6 +231,11 @@ impl Bonds {
         (!self.nbr.is_empty() || self.bond.is_empty()).then_some(&self.nbr[..])
     }
 
+    /// Heap bytes of the stored rest lengths (none once shed).
+    pub fn rest_bytes(&self) -> usize {
+        crate::memory::bytes(&self.rest)
+    }
+
     /// Heap bytes of the rows: offsets, neighbours (while kept), springs.
     pub fn row_bytes(&self) -> usize {
         use crate::memory::bytes;
@@ -356,12 +363,97 @@ impl Lattice {
     /// bytes per node (`hooke bench --json`, `memory_parts`). A body built from the lattice
     /// afterwards ([`crate::body::Body::from_cells`]) or a traction spread over it would need
     /// them: both refuse a shed lattice. Regular lattices keep nothing of the kind.
+    ///
+    /// The rest lengths go too where every one of them is `|X_j - X_i|` to the bit, computed
+    /// as [`Bonds::from_pairs`] computed it (a lattice that was not moved or periodic since),
+    /// and no kernel streams them ([`crate::kernel::Kernel::csr_may_run`]): [`Lattice::rest`]
+    /// then recomputes each one, a square root of values already loaded, instead of 8 bytes
+    /// per spring (59 bytes per random3d node).
     pub fn shed_setup(&mut self) {
         if let Some(c) = &mut self.cells {
             c.spring = Vec::new();
             c.surface = Vec::new();
             c.node.shrink_to_fit();
         }
+        if !crate::kernel::Kernel::csr_may_run(self.period) {
+            self.shed_rest();
+        }
+    }
+
+    /// Free the stored rest lengths if every one is `|X_j - X_i|` to the bit, computed as
+    /// [`Bonds::from_pairs`] computed it (no periodic axis, and no node moved since); whether
+    /// they are shed. [`Lattice::rest`] then recomputes each one where it is read.
+    pub fn shed_rest(&mut self) -> bool {
+        if !self.is_periodic() && self.rest_is_geometric() {
+            self.bonds.rest = Vec::new();
+        }
+        self.bonds.stored_rest().is_none() && !self.bonds.is_empty()
+    }
+
+    /// Whether every stored rest length equals the one [`Lattice::rest`] would compute, bit
+    /// for bit (true once shed).
+    fn rest_is_geometric(&self) -> bool {
+        let Some(rest) = self.bonds.stored_rest() else {
+            return true;
+        };
+        rest.par_iter()
+            .with_min_len(1 << 16)
+            .enumerate()
+            .all(|(b, &l)| self.geometric_rest(b).to_bits() == l.to_bits())
+    }
+
+    /// Rest length `L_b` of spring `b` (m): stored, or `|X_j - X_i|` by the operations that
+    /// built it ([`Bonds::from_pairs`]) once shed ([`Lattice::shed_setup`]).
+    #[inline(always)]
+    pub fn rest(&self, b: usize) -> Real {
+        match self.bonds.rest.get(b) {
+            Some(&l) => l,
+            None => self.geometric_rest(b),
+        }
+    }
+
+    #[inline(always)]
+    fn geometric_rest(&self, b: usize) -> Real {
+        let [i, j] = self.bonds.ends[b];
+        let d = self.reference_vector(i as usize, j as usize);
+        (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+    }
+
+    /// Every rest length (allocated when shed; see [`Lattice::rest`]).
+    pub fn rest_lengths(&self) -> std::borrow::Cow<'_, [Real]> {
+        match self.bonds.stored_rest() {
+            Some(r) => r.into(),
+            None => (0..self.bonds.len())
+                .into_par_iter()
+                .with_min_len(1 << 16)
+                .map(|b| self.geometric_rest(b))
+                .collect::<Vec<_>>()
+                .into(),
+        }
+    }
+
+    /// The rest lengths to change them (stored again if they were shed): for lattices whose
+    /// springs are not meant to be at rest where their nodes are.
+    pub fn rest_lengths_mut(&mut self) -> &mut [Real] {
+        self.keep_rest();
+        &mut self.bonds.rest
+    }
+
+    /// Store the rest lengths again if they were shed: for a caller that runs the CSR kernel,
+    /// which streams them, on a lattice that shed them (as [`Bonds::keep_neighbours`]).
+    pub fn keep_rest(&mut self) {
+        if self.bonds.stored_rest().is_none() {
+            self.bonds.rest = self.rest_lengths().into_owned();
+        }
+    }
+
+    /// The shortest rest length (m); infinity without springs.
+    pub fn shortest(&self) -> Real {
+        (0..self.bonds.len())
+            .into_par_iter()
+            .with_min_len(1 << 16)
+            .map(|b| self.rest(b))
+            .reduce(|| Real::INFINITY, Real::min)
     }
 
     /// Whether [`Lattice::shed_setup`] freed the set-up's volumes.

@@ -85,7 +85,29 @@ pub fn spring_geometry(
     j: usize,
     rest: Real,
 ) -> SpringGeometry {
+    geometry_from(lat.reference_vector(i, j), u, i, j, rest)
+}
+
+/// [`spring_geometry`] of spring `b` from `i` to `j`, and its rest length `L_b`
+/// ([`Lattice::rest`]): where the lattice shed them, `|D|` of the same reference vector `D`.
+#[inline(always)]
+pub fn spring_geometry_rest(
+    lat: &Lattice,
+    u: &Coords,
+    b: usize,
+    i: usize,
+    j: usize,
+) -> (SpringGeometry, Real) {
     let big = lat.reference_vector(i, j);
+    let rest = match lat.bonds.stored_rest() {
+        Some(r) => r[b],
+        None => (big[0] * big[0] + big[1] * big[1] + big[2] * big[2]).sqrt(),
+    };
+    (geometry_from(big, u, i, j, rest), rest)
+}
+
+#[inline(always)]
+fn geometry_from(big: [Real; 3], u: &Coords, i: usize, j: usize, rest: Real) -> SpringGeometry {
     let w = [
         u.x()[j] - u.x()[i],
         u.y()[j] - u.y()[i],
@@ -121,9 +143,9 @@ fn node_pool(body: &Body, u: &Coords, sp: Springs<'_>, n: usize) -> Real {
     for e in bonds.row(n) {
         let b = bonds.bond[e] as usize;
         if sp.alive[b] {
-            let rest = bonds.rest[b];
+            let rest = body.lattice.rest(b);
             pi += sp.k[b]
-                * sp.lever[b]
+                * sp.lever.get(b)
                 * spring_geometry(&body.lattice, u, n, bonds.neighbour(n, e), rest).dl;
         }
     }
@@ -169,9 +191,9 @@ pub fn node_force(
             continue;
         }
         let j = bonds.neighbour(n, e);
-        let rest = bonds.rest[b];
+        let rest = lat.rest(b);
         let g = spring_geometry(lat, u, n, j, rest);
-        let s = tension(sp.k[b], sp.lever[b], g.dl, q, pool[n], pool[j]) / g.l;
+        let s = tension(sp.k[b], sp.lever.get(b), g.dl, q, pool[n], pool[j]) / g.l;
         f[0] += s * g.d[0];
         f[1] += s * g.d[1];
         f[2] += s * g.d[2];
@@ -220,7 +242,14 @@ pub fn energy(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> Energy
             return 0.0;
         }
         let [i, j] = bonds.ends[b];
-        let dl = spring_geometry(&body.lattice, u, i as usize, j as usize, bonds.rest[b]).dl;
+        let dl = spring_geometry(
+            &body.lattice,
+            u,
+            i as usize,
+            j as usize,
+            body.lattice.rest(b),
+        )
+        .dl;
         0.5 * sp.k[b] * dl * dl
     });
     let dispersive = if body.q == 0.0 {
@@ -254,10 +283,10 @@ pub fn spring_tensions(body: &Body, u: &Coords, sp: Springs<'_>, pool: &[Real]) 
                 return 0.0;
             }
             let [i, j] = bonds.ends[b].map(|v| v as usize);
-            let rest = bonds.rest[b];
+            let rest = body.lattice.rest(b);
             tension(
                 sp.k[b],
-                sp.lever[b],
+                sp.lever.get(b),
                 spring_geometry(&body.lattice, u, i, j, rest).dl,
                 body.q,
                 pool[i],
@@ -308,7 +337,7 @@ pub fn frame_fields(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> 
 #[derive(Clone, Debug, Default)]
 pub struct FrameScratch {
     geo: Vec<[Real; 4]>,
-    ext: Vec<Real>,
+    ext: Vec<[Real; 2]>,
     terms: Vec<[Real; 2]>,
 }
 
@@ -336,11 +365,14 @@ pub fn frame_fields_in(
     let q = body.q;
     let chunk = crate::kernel::CHUNK;
     // Pass 1, over the springs: the vector `d` from the first end and the length `l` (`geo`,
-    // whose `l` becomes `T/l` in pass 3), the extension `dL`, and the two terms the pool pass
-    // adds, `k L dL` and `k dL^2 / 4` (a quarter of the spring's direct energy at each end).
+    // whose `l` becomes `T/l` in pass 3), the extension `dL` with `q k L` (what the tension
+    // needs besides the pools; the lever `L` is computed once, here, where the lattice shed
+    // the rest lengths), and the two terms the pool pass adds, `k L dL` and `k dL^2 / 4` (a
+    // quarter of the spring's direct energy at each end).
     let FrameScratch { geo, ext, terms } = scratch;
+    let levers = sp.lever.stored();
     geo.resize(ns, [0.0; 4]);
-    ext.resize(ns, 0.0);
+    ext.resize(ns, [0.0; 2]);
     terms.resize(ns, [0.0; 2]);
     geo.par_chunks_mut(chunk)
         .zip(ext.par_chunks_mut(chunk))
@@ -351,15 +383,17 @@ pub fn frame_fields_in(
                 let b = c * chunk + o;
                 if !sp.alive[b] {
                     // A broken spring's extension is +0: its direct energy adds +0.
-                    (*g, *x, *t) = ([0.0; 4], 0.0, [0.0; 2]);
+                    (*g, *x, *t) = ([0.0; 4], [0.0; 2], [0.0; 2]);
                     continue;
                 }
                 let [i, j] = bonds.ends[b].map(|v| v as usize);
-                let s = spring_geometry(lat, u, i, j, bonds.rest[b]);
+                let (s, rest) = spring_geometry_rest(lat, u, b, i, j);
+                let lever = levers.map_or(rest, |l| l[b]);
                 let k = sp.k[b];
                 *g = [s.d[0], s.d[1], s.d[2], s.l];
-                *x = s.dl;
-                *t = [k * sp.lever[b] * s.dl, 0.25 * k * s.dl * s.dl];
+                // `q k L` rounds as in `tension`'s `q * k * lever * (p_i + p_j)`.
+                *x = [s.dl, q * k * lever];
+                *t = [k * lever * s.dl, 0.25 * k * s.dl * s.dl];
             }
         });
     // Pass 2, over the nodes: the pool Pi_n, its ratio p_n, and a quarter of the springs'
@@ -399,12 +433,13 @@ pub fn frame_fields_in(
             g.iter_mut()
                 .zip(x)
                 .enumerate()
-                .map(|(o, (g, &dl))| {
+                .map(|(o, (g, &[dl, qkl]))| {
                     let b = c * chunk + o;
                     let k = sp.k[b];
                     if sp.alive[b] {
                         let [i, j] = bonds.ends[b].map(|v| v as usize);
-                        g[3] = tension(k, sp.lever[b], dl, q, pool[i], pool[j]) / g[3];
+                        // `tension(k, L, dL, q, p_i, p_j)`, its `q k L` from pass 1.
+                        g[3] = (k * dl + qkl * (pool[i] + pool[j])) / g[3];
                     }
                     0.5 * k * dl * dl
                 })

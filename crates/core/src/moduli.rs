@@ -961,7 +961,7 @@ pub fn interior_stress(body: &Body, state: &State, lo: Real, hi: Real) -> Matrix
         let f = inside_fraction(lat.pos.get(i as usize), d, lo, hi, dim);
         if f > 0.0 {
             let v = Vector::new(d[0], d[1], d[2]);
-            s += (f * t[b] / lat.bonds.rest[b]) * v * v.transpose();
+            s += (f * t[b] / lat.rest(b)) * v * v.transpose();
         }
     }
     s / (hi - lo).powi(dim as i32)

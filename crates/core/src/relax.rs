@@ -65,7 +65,7 @@ fn fictitious_mass(body: &Body, state: &State) -> Vec<Real> {
                 .filter(|&e| state.alive[bonds.bond[e] as usize])
                 .map(|e| {
                     let b = bonds.bond[e] as usize;
-                    kk[b] * lever[b]
+                    kk[b] * lever.get(b)
                 })
                 .sum()
         })
@@ -87,11 +87,12 @@ fn fictitious_mass(body: &Body, state: &State) -> Vec<Real> {
                     continue;
                 }
                 let j = bonds.neighbour(i, e);
-                let rest = bonds.rest[b];
+                let rest = body.lattice.rest(b);
                 let g = law::spring_geometry(&body.lattice, &state.u, i, j, rest);
-                let t = law::tension(kk[b], lever[b], g.dl, body.q, state.pool[i], state.pool[j]);
+                let (k, pools) = (kk[b], (state.pool[i], state.pool[j]));
+                let t = law::tension(k, lever.get(b), g.dl, body.q, pools.0, pools.1);
                 direct += kk[b] + (t / g.l).abs();
-                disp += kk[b] * lever[b] * a[j] * inv_s(j);
+                disp += kk[b] * lever.get(b) * a[j] * inv_s(j);
             }
             let row = 2.0 * (3.0 as Real).sqrt() * (direct + body.q.abs() * disp);
             // A node with no intact spring gets a unit mass: it has no stiffness to bound.

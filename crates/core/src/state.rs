@@ -315,7 +315,7 @@ pub fn node_norm(body: &Body, springs: Springs<'_>, n: usize) -> Real {
     for e in bonds.row(n) {
         let b = bonds.bond[e] as usize;
         if springs.alive[b] {
-            s += springs.k[b] * springs.lever[b] * springs.lever[b];
+            s += springs.k[b] * springs.lever.get(b) * springs.lever.get(b);
         }
     }
     s
@@ -333,7 +333,7 @@ pub struct Springs<'a> {
     pub k: &'a [Real],
     /// Each spring's dispersion lever ([`Body::levers`]): its rest length for an isotropic
     /// material.
-    pub lever: &'a [Real],
+    pub lever: crate::body::Levers<'a>,
 }
 
 impl<'a> Springs<'a> {

@@ -51,19 +51,19 @@ impl Tangent {
             .with_min_len(4096)
             .map(|b| {
                 let [i, j] = bonds.ends[b].map(|v| v as usize);
-                let rest = bonds.rest[b];
+                let rest = body.lattice.rest(b);
                 let g = crate::law::spring_geometry(&body.lattice, &state.u, i, j, rest);
                 let e = [g.d[0] / g.l, g.d[1] / g.l, g.d[2] / g.l];
                 if state.alive[b] {
                     let t = crate::law::tension(
                         kk[b],
-                        lever[b],
+                        lever.get(b),
                         g.dl,
                         body.q,
                         state.pool[i],
                         state.pool[j],
                     );
-                    [e[0], e[1], e[2], kk[b], kk[b] * lever[b], t / g.l]
+                    [e[0], e[1], e[2], kk[b], kk[b] * lever.get(b), t / g.l]
                 } else {
                     [e[0], e[1], e[2], 0.0, 0.0, 0.0]
                 }

@@ -257,7 +257,7 @@ impl Fracture {
                     let b = b as usize;
                     if state.alive()[b] {
                         let [i, j] = bonds.ends[b].map(|v| v as usize);
-                        let dl = shifted_extension(body, state, h, i, j, bonds.rest[b]);
+                        let dl = shifted_extension(body, state, h, i, j, body.lattice.rest(b));
                         e += 0.5 * k[b] * dl * dl;
                     }
                 }
@@ -339,14 +339,14 @@ fn new_weight(
     i: usize,
     j: usize,
 ) -> Option<Real> {
-    let rest = body.lattice.bonds.rest[b];
+    let rest = body.lattice.rest(b);
     let g = spring_geometry(&body.lattice, &state.u, i, j, rest);
     let w = state.weight_of(b);
     let next = crit.weight(
         &SpringState {
             k: state.springs(body).k[b],
             rest,
-            lever: body.levers()[b],
+            lever: body.levers().get(b),
             dir: crate::criterion::reference_direction(body, i, j),
             dl: g.dl,
             pool: [state.pool[i], state.pool[j]],
@@ -426,9 +426,10 @@ fn shifted_dispersive_energy(body: &Body, state: &State, h: Real, n: usize) -> R
     for e in bonds.row(n) {
         let b = bonds.bond[e] as usize;
         if state.alive()[b] {
-            let rest = bonds.rest[b];
-            pi +=
-                k[b] * lever[b] * shifted_extension(body, state, h, n, bonds.neighbour(n, e), rest);
+            let rest = body.lattice.rest(b);
+            pi += k[b]
+                * lever.get(b)
+                * shifted_extension(body, state, h, n, bonds.neighbour(n, e), rest);
         }
     }
     0.5 * body.q * pi * pi / s

@@ -524,8 +524,9 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
                 if !state.alive()[b] || !breakable[i] || !breakable[j] {
                     continue;
                 }
-                let stretch = spring_geometry(&body.lattice, &state.u, i, j, bonds.rest[b]).dl
-                    / bonds.rest[b];
+                let stretch = spring_geometry(&body.lattice, &state.u, i, j, body.lattice.rest(b))
+                    .dl
+                    / body.lattice.rest(b);
                 worst = worst.max(stretch / law.peak);
                 let w = state.weight_of(b);
                 let next = law.weight_at(stretch).min(w);
@@ -545,8 +546,9 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
                     return true;
                 }
                 let [i, j] = bonds.ends[b].map(|v| v as usize);
-                let stretch = spring_geometry(&body.lattice, &state.u, i, j, bonds.rest[b]).dl
-                    / bonds.rest[b];
+                let stretch = spring_geometry(&body.lattice, &state.u, i, j, body.lattice.rest(b))
+                    .dl
+                    / body.lattice.rest(b);
                 stretch >= most * (1.0 - 1e-9)
             });
             if changes.is_empty() {
@@ -596,11 +598,11 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
             if !state.alive()[b] || !breakable[i] || !breakable[j] {
                 continue;
             }
-            let g = spring_geometry(&body.lattice, &state.u, i, j, bonds.rest[b]);
+            let g = spring_geometry(&body.lattice, &state.u, i, j, body.lattice.rest(b));
             let s = SpringState {
                 k: body.k[b],
-                rest: bonds.rest[b],
-                lever: body.levers()[b],
+                rest: body.lattice.rest(b),
+                lever: body.levers().get(b),
                 dir: crate::criterion::reference_direction(&body, i, j),
                 dl: g.dl,
                 pool: [state.pool[i], state.pool[j]],

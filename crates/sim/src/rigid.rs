@@ -73,7 +73,7 @@ pub fn contact_options(body: &Body, spec: &ContactSpec) -> Result<ContactOptions
     }
     if let Some(d) = spec.fragment_distance {
         let d = positive(d, "contact.fragment_distance", "m")?;
-        let shortest = body.lattice.bonds.shortest();
+        let shortest = body.lattice.shortest();
         if d >= 0.95 * shortest {
             return Err(BuildError::new(
                 "contact.fragment_distance",

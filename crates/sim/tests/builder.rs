@@ -172,6 +172,10 @@ fn a_random_body_sheds_its_set_up_volumes_once_built() {
     assert_eq!(cells.node.len(), sim.body.nodes());
     let parts: Vec<_> = sim.body.footprint().into_iter().map(|(p, _)| p).collect();
     assert!(parts.contains(&"node volumes") && parts.contains(&"stiffnesses"));
+    // The rest lengths go too where no kernel streams them: a case's random lattice is built
+    // where it stands, so each one is `|X_j - X_i|` to the bit.
+    let may_stream = hooke_core::kernel::Kernel::csr_may_run(lat.period);
+    assert_eq!(lat.bonds.stored_rest().is_some(), may_stream);
     // The top face's area is w t; the loads spread the traction over exactly that (to the
     // rounding of the boundary facets' areas).
     let total: f64 = sim.loading.loads.iter().map(|l| l.force[1]).sum();

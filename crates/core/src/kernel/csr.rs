@@ -113,8 +113,8 @@ fn pools_impl<const D: usize, const P: bool>(
             let springs = Springs {
                 ends: &bonds.ends[start..start + n],
                 k: &kk[start..start + n],
-                rest: &bonds.rest[start..start + n],
-                lever: &levers[start..start + n],
+                rest: bonds.stored_rest().map(|r| &r[start..start + n]),
+                lever: levers.stored().map(|l| &l[start..start + n]),
                 alive: &alive[start..start + n],
             };
             #[cfg(target_arch = "x86_64")]
@@ -163,14 +163,14 @@ fn spring_one<const D: usize, const P: bool>(
     q: Real,
     k: Real,
     bonds: &crate::lattice::Bonds,
-    lev: &[Real],
+    lev: crate::body::Levers,
     alive: bool,
     b: usize,
     rec: &mut [Real],
     pi: &mut Real,
 ) {
-    let rest = bonds.rest[b];
-    let lever = lev[b];
+    let rest = lat.rest(b);
+    let lever = lev.get(b);
     let (k, l2, num) = if alive {
         let [i, j] = bonds.ends[b].map(|v| v as usize);
         let (d, d2, nm) = vector::<D, P>(lat, u, i, j);
@@ -256,12 +256,14 @@ pub(crate) fn hot_springs(state: &State, springs: usize, out: &mut Vec<u32>) {
     }
 }
 
-/// The per-spring inputs of one chunk of sweep 1.
+/// The per-spring inputs of one chunk of sweep 1. Rest lengths that the lattice shed
+/// ([`Lattice::rest`]) are recomputed from the reference positions, and levers that are the
+/// rest lengths are read from them (`None`).
 struct Springs<'a> {
     ends: &'a [[u32; 2]],
     k: &'a [Real],
-    rest: &'a [Real],
-    lever: &'a [Real],
+    rest: Option<&'a [Real]>,
+    lever: Option<&'a [Real]>,
     alive: &'a [bool],
 }
 
@@ -336,16 +338,24 @@ fn spring_chunk<const D: usize, const P: bool>(
         // re-checking their lengths.
         let ends = &sp.ends[b0..b0 + m];
         let (brest, blever, balive, bk) = (
-            &sp.rest[b0..b0 + m],
-            &sp.lever[b0..b0 + m],
+            sp.rest.map(|r| &r[b0..b0 + m]),
+            sp.lever.map(|l| &l[b0..b0 + m]),
             &sp.alive[b0..b0 + m],
             &sp.k[b0..b0 + m],
         );
         let brec = &mut rec[w * b0..w * (b0 + m)];
         for s in 0..m {
             let r = &mut brec[w * s..w * s + w];
-            rest[s] = brest[s];
-            lever[s] = blever[s];
+            rest[s] = match brest {
+                Some(l) => l[s],
+                // Shed only where nothing is periodic (`Lattice::shed_setup`).
+                None => {
+                    let [i, j] = ends[s].map(|v| v as usize);
+                    let big = [0, 1, 2].map(|c| pos[c][j] - pos[c][i]);
+                    (big[0] * big[0] + big[1] * big[1] + big[2] * big[2]).sqrt()
+                }
+            };
+            lever[s] = blever.map_or(rest[s], |l| l[s]);
             if !balive[s] {
                 r[2..].fill(0.0);
                 continue;
@@ -569,14 +579,14 @@ mod tests {
             let sp = Springs {
                 ends: &body.lattice.bonds.ends,
                 k: &body.k,
-                rest: &body.lattice.bonds.rest,
-                lever: body.levers(),
+                rest: body.lattice.bonds.stored_rest(),
+                lever: body.levers().stored(),
                 alive: &state.alive,
             };
             let dl: Vec<Real> = (0..n)
                 .map(|b| {
                     let [i, j] = body.lattice.bonds.ends[b].map(|v| v as usize);
-                    let rest = body.lattice.bonds.rest[b];
+                    let rest = body.lattice.rest(b);
                     crate::law::spring_geometry(&body.lattice, &state.u, i, j, rest).dl
                 })
                 .collect();
@@ -584,7 +594,7 @@ mod tests {
             let screen = 0.9
                 * (0..n)
                     .filter(|&b| state.alive[b])
-                    .map(|b| dl[b] / body.lattice.bonds.rest[b])
+                    .map(|b| dl[b] / body.lattice.rest(b))
                     .fold(0.0, Real::max);
             let w = stride(dim);
             let run = |wide: bool| {
@@ -620,7 +630,7 @@ mod tests {
             let expect: Vec<bool> = (0..n.div_ceil(BLOCK))
                 .map(|blk| {
                     (blk * BLOCK..((blk + 1) * BLOCK).min(n))
-                        .any(|b| state.alive[b] && dl[b] > screen * body.lattice.bonds.rest[b])
+                        .any(|b| state.alive[b] && dl[b] > screen * body.lattice.rest(b))
                 })
                 .collect();
             assert_eq!(portable.2, expect);

@@ -161,9 +161,12 @@ impl RowKernel {
         let springs = state.springs(body);
         let lever = body.lever.is_some();
         let pos = &lat.pos;
-        let stored = bonds.ends.iter().zip(&bonds.rest).any(|(&[i, j], &l)| {
-            let big = [0, 1, 2].map(|c| pos.comp(c)[j as usize] - pos.comp(c)[i as usize]);
-            rest_of::<3>(big).to_bits() != l.to_bits()
+        // Shed rest lengths are `|X_j - X_i|` already (`Lattice::shed_setup`).
+        let stored = bonds.stored_rest().is_some_and(|rest| {
+            bonds.ends.iter().zip(rest).any(|(&[i, j], &l)| {
+                let big = [0, 1, 2].map(|c| pos.comp(c)[j as usize] - pos.comp(c)[i as usize]);
+                rest_of::<3>(big).to_bits() != l.to_bits()
+            })
         });
         let groups = n.div_ceil(8);
         let (lanes, at) = if dealt {
@@ -208,10 +211,10 @@ impl RowKernel {
                             j.push(bonds.neighbour(i, e) as u32);
                             k.push(springs.k[b]);
                             if stored {
-                                rest.push(bonds.rest[b]);
+                                rest.push(lat.rest(b));
                             }
                             if lever {
-                                levers.push(springs.lever[b]);
+                                levers.push(springs.lever.get(b));
                             }
                         }
                         _ => {
@@ -1109,7 +1112,7 @@ mod tests {
         };
         let mut lat = Lattice::random(dim, [0.0; 3], hi, 1.0, 1.0, spec, &|_| true).unwrap();
         if stored {
-            lat.bonds.rest[3] *= 1.0 + 4.0 * Real::EPSILON;
+            lat.rest_lengths_mut()[3] *= 1.0 + 4.0 * Real::EPSILON;
         }
         let mut body = Body::uniform(lat, 1.0, q, 1.0);
         for (b, k) in body.k.iter_mut().enumerate() {
@@ -1117,7 +1120,7 @@ mod tests {
         }
         if levers {
             // Signed levers, as direction-weighted dispersion may give.
-            let rest = &body.lattice.bonds.rest;
+            let rest = body.lattice.rest_lengths();
             body.lever = Some(
                 rest.iter()
                     .enumerate()
@@ -1339,6 +1342,19 @@ mod tests {
                     assert!(
                         bits(&s) == bits(&csr) && s.alive == csr.alive,
                         "dim {dim} q {q} levers {levers} stored {stored} {path:?}: states differ"
+                    );
+                }
+                // A lattice that shed its rest lengths (`Lattice::shed_rest`) gives the same
+                // bits on every path, the CSR kernel's (which then recomputes them) included;
+                // one whose lengths are not `|X_j - X_i|` keeps them.
+                let mut shed = body.clone();
+                assert_eq!(shed.lattice.shed_rest(), !stored);
+                assert_eq!(shed.lattice.bonds.stored_rest().is_none(), !stored);
+                for &path in paths.iter().chain(&[Path::Csr]) {
+                    let s = run(&shed, path).0;
+                    assert!(
+                        bits(&s) == bits(&csr) && s.alive == csr.alive,
+                        "dim {dim} q {q} levers {levers} shed {path:?}: states differ"
                     );
                 }
             }

@@ -461,7 +461,7 @@ impl RandomDesign {
             .map(|b| {
                 let [i, j] = bonds.ends[b].map(|v| v as usize);
                 let d = lattice.reference_vector(i, j);
-                let l = bonds.rest[b];
+                let l = lattice.rest(b);
                 let n = d.map(|x| x / l);
                 (
                     self.kappa_at(n) * cells.spring[b] / (l * l),
