@@ -761,6 +761,18 @@ fn bench_frame(args: &BenchArgs) -> Result<()> {
         // same steps alone. A - B is what a frame adds to the run's wall time (the background
         // writer included); the frame call alone is what the stepping thread waits.
         let (mut ta, mut tb, mut tf) = (Vec::new(), Vec::new(), Vec::new());
+        // Every window must take its steps: a run that reaches its end time stops stepping,
+        // and windows of no steps would time nothing.
+        let needed = 2 * args.repeats as u64 * args.steps;
+        let left = run.simulation().end_time - run.simulation().state.time;
+        let dt = run.integrator().dt;
+        if (needed as Real) * dt > left {
+            return Err(InputError(format!(
+                "the windows need {needed} steps ({:.3e} s) but the case ends {left:.3e} s after --crack-time: use fewer --repeats or --steps, or an earlier --crack-time",
+                needed as Real * dt
+            ))
+            .into());
+        }
         for _ in 0..args.repeats {
             let t0 = Instant::now();
             run.frame()?;

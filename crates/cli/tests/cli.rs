@@ -1162,3 +1162,43 @@ fn bench_fracture_reports_the_overheads() {
         assert!(r > 0.2 && r < 20.0, "{key} = {r} in {v}");
     }
 }
+
+/// `hooke bench --frame --json` times a frame of a case against the steps it interrupts and
+/// prints `frame_over_step`; windows that would run past the case's end time are refused
+/// (they would time steps that are never taken).
+#[test]
+fn bench_frame_reports_the_cost_and_refuses_windows_past_the_end() {
+    let case =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../cases/mode1_plate.toml");
+    let run = |repeats: &str, crack: &str| {
+        hooke(&[
+            "bench",
+            "--frame",
+            "--case",
+            case.to_str().unwrap(),
+            "--scale",
+            "0.25",
+            "--threads",
+            "1",
+            "--steps",
+            "3",
+            "--repeats",
+            repeats,
+            "--crack-time",
+            crack,
+            "--json",
+        ])
+    };
+    let o = run("3", "1e-6");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let (frame, step) = (
+        v["frame_call_seconds"].as_f64().unwrap_or(-1.0),
+        v["step_seconds"].as_f64().unwrap_or(-1.0),
+    );
+    assert!(frame > 0.0 && step > 0.0, "{v}");
+    assert!(v["frame_over_step"].as_f64().is_some(), "{v}");
+    let o = run("100000", "1e-6");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--repeats"), "{}", stderr(&o));
+}
