@@ -382,7 +382,7 @@ impl Integrator {
         // Lanczos run (as many force sweeps as 20 steps) at set-up.
         // The estimate's drift scratch is the integrator's own, cleared after it (a plate's
         // drift leaves z alone, so z must start at zero).
-        let mut u_next = Coords::zeros(body.nodes());
+        let mut u_next = stability::drift_scratch(body, &kernel);
         // The estimate's unit masses become the inverse masses afterwards (one array fewer to
         // first-touch).
         let mut inv_mass = Vec::new();
@@ -420,12 +420,9 @@ impl Integrator {
             )
         };
         drop(split);
-        if kernel.drifts_in_place() {
-            // The steps write the new displacements over the old: the estimate's scratch goes.
-            u_next = Coords::default();
-        } else {
-            u_next.fill_zero();
-        }
+        // The steps of a kernel that drifts in place write the new displacements over the old
+        // (the estimate's drifts did too): it has no scratch.
+        u_next.fill_zero();
         inv_mass
             .par_iter_mut()
             .with_min_len(1 << 14)

@@ -93,7 +93,7 @@ pub fn estimate_in(
     iterations: usize,
     tolerance: Real,
 ) -> StableStep {
-    let mut u_next = Coords::zeros(body.nodes());
+    let mut u_next = drift_scratch(body, kernel);
     let mut ones = Vec::new();
     estimate_using(
         body,
@@ -158,6 +158,17 @@ impl<'a> Split<'a> {
     }
 }
 
+/// The drift's scratch for an estimate with `kernel`: none for a kernel that drifts in place
+/// ([`Kernel::drifts_in_place`]), whose drifted displacements land in the state's, which each
+/// evaluation forms afresh and the estimate gives back; otherwise an array as long as the body.
+pub(crate) fn drift_scratch(body: &Body, kernel: &Kernel) -> Coords {
+    if kernel.drifts_in_place() {
+        Coords::default()
+    } else {
+        Coords::zeros(body.nodes())
+    }
+}
+
 /// The nodes and node chunks a pass of the estimate covers: a rank's own, or all.
 fn own(split: &Option<&mut Split>, n: usize) -> (std::ops::Range<usize>, std::ops::Range<usize>) {
     match split {
@@ -166,7 +177,7 @@ fn own(split: &Option<&mut Split>, n: usize) -> (std::ops::Range<usize>, std::op
     }
 }
 
-/// [`estimate_in`] with the drift's scratch `u_next` (as many nodes as the body) and a vector
+/// [`estimate_in`] with the drift's scratch `u_next` ([`drift_scratch`]) and a vector
 /// `ones` from the caller, who may keep them: an integrator's own drift scratch, which it
 /// clears afterwards, and its inverse masses, which the estimate leaves holding 1 per node (the
 /// unit masses of its force evaluations). Large bodies' set-up is dominated by first touches
@@ -465,12 +476,15 @@ impl<'a> KernelJacobian<'a> {
             accel: [0.0; 3],
             plane: false,
         };
+        // A kernel that drifts in place writes over the displacements just formed, which the
+        // next evaluation forms again (and the estimate gives back at its end).
+        let u_next = (!kernel.drifts_in_place()).then_some(&mut *self.u_next);
         kernel.force_kick_drift_shared(
             body,
             self.scratch,
             self.unit_inv_mass,
             &p,
-            Some(&mut *self.u_next),
+            u_next,
             &mut self.partials,
             share,
         );
