@@ -1481,18 +1481,42 @@ impl Integrator {
     /// velocity, the energy balance and the derived fields, with `state.pool` and `state.f`
     /// refreshed. The same values as [`Integrator::full_velocity`] and
     /// [`Integrator::energy`], bit for bit, at a fraction of their cost.
+    ///
+    /// Shared by a team, each rank computes the fields of its own nodes
+    /// ([`law::FramePart`]); the pools and forces are then gathered whole on every rank (the
+    /// velocity, the reactions and a checkpoint read them), and the energy densities and
+    /// stresses too with `whole` (for a writer of whole frames), else they hold this rank's
+    /// nodes only. The displacements must be whole (`gather_state`).
     pub fn frame_view(
         &mut self,
         body: &Body,
         state: &mut State,
+        whole: bool,
     ) -> (Coords, EnergyBalance, law::FrameFields) {
-        let fields = law::frame_fields_in(
+        let part = self.team.as_ref().map(|t| law::FramePart {
+            team: &*t.team,
+            share: &t.share,
+        });
+        let mut fields = law::frame_fields_part(
             body,
             &state.u,
             state.springs(body),
             &state.norm,
             &mut self.frame_scratch,
+            part,
         );
+        if let Some(p) = part {
+            let nodes = &p.share.nodes;
+            let dims = if self.plane { 2 } else { 3 };
+            for c in fields.force.xyz_mut().into_iter().take(dims) {
+                p.team.gather(c, nodes);
+            }
+            if whole {
+                p.team.gather(&mut fields.energy_density, nodes);
+                let nine: Vec<_> = nodes.iter().map(|r| 9 * r.start..9 * r.end).collect();
+                p.team.gather(fields.stress.as_flattened_mut(), &nine);
+            }
+        }
         // Kept while glibc's heap would keep its blocks anyway once a set-up is done (below the
         // mapping threshold): a larger body gives them back after each frame, as before, so
         // frames never raise a large run's resident memory.

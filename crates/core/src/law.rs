@@ -358,12 +358,97 @@ pub fn frame_fields_in(
     norm: &[Real],
     scratch: &mut FrameScratch,
 ) -> FrameFields {
+    frame_fields_part(body, u, sp, norm, scratch, None)
+}
+
+/// One rank's part of a frame of a run shared by a team ([`crate::team`]): the rank computes
+/// the fields of its own nodes (`share.mine()`), from the springs of their rows, and its part of
+/// the strain energy's partial sums; the pools are all-gathered between the passes (a spring's
+/// tension reads the pools at both ends). Every rank needs the whole displacement field
+/// (gathered before a frame).
+#[derive(Clone, Copy)]
+pub struct FramePart<'a> {
+    pub team: &'a dyn crate::team::Team,
+    pub share: &'a crate::team::Share,
+}
+
+impl FramePart<'_> {
+    /// Every rank's chunks of springs (of [`crate::kernel::CHUNK`]) for the direct energy's
+    /// partial sums: chunk c goes to the rank that owns its first spring's lower end (springs
+    /// are sorted by it), so the parts are contiguous and cover every chunk.
+    fn spring_chunk_parts(&self, body: &Body) -> Vec<std::ops::Range<usize>> {
+        let ends = &body.lattice.bonds.ends;
+        let chunks = ends.len().div_ceil(crate::kernel::CHUNK);
+        // The first chunk whose first spring's lower end is at or past `node` (a binary
+        // search: those ends ascend).
+        let first = |node: usize| {
+            let (mut lo, mut hi) = (0, chunks);
+            while lo < hi {
+                let mid = (lo + hi) / 2;
+                if (ends[mid * crate::kernel::CHUNK][0] as usize) < node {
+                    lo = mid + 1;
+                } else {
+                    hi = mid;
+                }
+            }
+            lo
+        };
+        let nodes = &self.share.nodes;
+        (0..nodes.len())
+            .map(|r| {
+                let lo = first(nodes[r].start);
+                let hi = match nodes.get(r + 1) {
+                    Some(next) => first(next.start),
+                    None => chunks,
+                };
+                lo..hi.max(lo)
+            })
+            .collect()
+    }
+}
+
+/// [`frame_fields_in`], or with `part` one rank's part of it ([`FramePart`]): then the pools
+/// are whole and the energies every rank's, while the forces, energy densities and stresses
+/// hold this rank's nodes only (zeros elsewhere). The same bits as the whole computation at
+/// every value it gives.
+pub fn frame_fields_part(
+    body: &Body,
+    u: &Coords,
+    sp: Springs<'_>,
+    norm: &[Real],
+    scratch: &mut FrameScratch,
+    part: Option<FramePart<'_>>,
+) -> FrameFields {
     let n = body.nodes();
     let ns = body.springs();
     let lat = &body.lattice;
     let bonds = &lat.bonds;
     let q = body.q;
     let chunk = crate::kernel::CHUNK;
+    let chunks = ns.div_ceil(chunk);
+    // What this rank computes: its nodes; the springs of their rows, as whole chunks of the
+    // springs whose lower end is one of them (widened to this rank's chunks of the energy
+    // sum) and one by one those whose lower end is another rank's.
+    let parts = part.map(|p| p.spring_chunk_parts(body));
+    let (nodes, springs, foreign) = match (part, &parts) {
+        (Some(p), Some(parts)) => {
+            let own = p.share.mine();
+            let ends = &bonds.ends;
+            let s0 = ends.partition_point(|e| (e[0] as usize) < own.start);
+            let s1 = ends.partition_point(|e| (e[0] as usize) < own.end);
+            let mine = &parts[p.share.rank];
+            let lo = (s0 / chunk).min(mine.start) * chunk;
+            let hi = (s1.div_ceil(chunk).max(mine.end) * chunk).min(ns);
+            let foreign: Vec<u32> = own
+                .clone()
+                .flat_map(|i| bonds.row(i).map(move |e| (i, e)))
+                .filter(|&(_, e)| (bonds.bond[e] as usize) < lo)
+                .map(|(_, e)| bonds.bond[e])
+                .collect();
+            (own, lo..hi.max(lo), foreign)
+        }
+        _ => (0..n, 0..ns, Vec::new()),
+    };
     // Pass 1, over the springs: the vector `d` from the first end and the length `l` (`geo`,
     // whose `l` becomes `T/l` in pass 3), the extension `dL` with `q k L` (what the tension
     // needs besides the pools; the lever `L` is computed once, here, where the lattice shed
@@ -374,39 +459,50 @@ pub fn frame_fields_in(
     geo.resize(ns, [0.0; 4]);
     ext.resize(ns, [0.0; 2]);
     terms.resize(ns, [0.0; 2]);
-    geo.par_chunks_mut(chunk)
-        .zip(ext.par_chunks_mut(chunk))
-        .zip(terms.par_chunks_mut(chunk))
+    let one = |b: usize| -> ([Real; 4], [Real; 2], [Real; 2]) {
+        if !sp.alive[b] {
+            // A broken spring's extension is +0: its direct energy adds +0.
+            return ([0.0; 4], [0.0; 2], [0.0; 2]);
+        }
+        let [i, j] = bonds.ends[b].map(|v| v as usize);
+        let (s, rest) = spring_geometry_rest(lat, u, b, i, j);
+        let lever = levers.map_or(rest, |l| l[b]);
+        let k = sp.k[b];
+        // `q k L` rounds as in `tension`'s `q * k * lever * (p_i + p_j)`.
+        (
+            [s.d[0], s.d[1], s.d[2], s.l],
+            [s.dl, q * k * lever],
+            [k * lever * s.dl, 0.25 * k * s.dl * s.dl],
+        )
+    };
+    let first = springs.start;
+    geo[springs.clone()]
+        .par_chunks_mut(chunk)
+        .zip(ext[springs.clone()].par_chunks_mut(chunk))
+        .zip(terms[springs.clone()].par_chunks_mut(chunk))
         .enumerate()
         .for_each(|(c, ((g, x), t))| {
             for (o, ((g, x), t)) in g.iter_mut().zip(x).zip(t).enumerate() {
-                let b = c * chunk + o;
-                if !sp.alive[b] {
-                    // A broken spring's extension is +0: its direct energy adds +0.
-                    (*g, *x, *t) = ([0.0; 4], [0.0; 2], [0.0; 2]);
-                    continue;
-                }
-                let [i, j] = bonds.ends[b].map(|v| v as usize);
-                let (s, rest) = spring_geometry_rest(lat, u, b, i, j);
-                let lever = levers.map_or(rest, |l| l[b]);
-                let k = sp.k[b];
-                *g = [s.d[0], s.d[1], s.d[2], s.l];
-                // `q k L` rounds as in `tension`'s `q * k * lever * (p_i + p_j)`.
-                *x = [s.dl, q * k * lever];
-                *t = [k * lever * s.dl, 0.25 * k * s.dl * s.dl];
+                (*g, *x, *t) = one(first + c * chunk + o);
             }
         });
+    for &b in &foreign {
+        let b = b as usize;
+        (geo[b], ext[b], terms[b]) = one(b);
+    }
     // Pass 2, over the nodes: the pool Pi_n, its ratio p_n, and a quarter of the springs'
     // direct energy.
     let mut pi = vec![0.0; n];
     let mut quarter = vec![0.0; n];
     let mut pool = vec![0.0; n];
-    pi.par_iter_mut()
-        .zip(quarter.par_iter_mut())
-        .zip(pool.par_iter_mut())
+    pi[nodes.clone()]
+        .par_iter_mut()
+        .zip(quarter[nodes.clone()].par_iter_mut())
+        .zip(pool[nodes.clone()].par_iter_mut())
         .with_min_len(MIN_NODES_PER_TASK)
         .enumerate()
-        .for_each(|(i, ((p, e4), ratio))| {
+        .for_each(|(k, ((p, e4), ratio))| {
+            let i = nodes.start + k;
             let (mut s, mut d) = (0.0, 0.0);
             for e in bonds.row(i) {
                 let b = bonds.bond[e] as usize;
@@ -423,43 +519,57 @@ pub fn frame_fields_in(
                 0.0
             };
         });
+    if let Some(p) = part {
+        p.team.gather(&mut pool, &p.share.nodes);
+    }
     // Pass 3, over the springs: each spring's `T/l`, and its direct energy summed per chunk in
     // the order of [`energy`] (a broken spring's extension is +0: it adds +0).
-    let partial: Vec<Real> = geo
+    let tension_of = |b: usize, g: &mut [Real; 4], [dl, qkl]: [Real; 2]| -> Real {
+        let k = sp.k[b];
+        if sp.alive[b] {
+            let [i, j] = bonds.ends[b].map(|v| v as usize);
+            // `tension(k, L, dL, q, p_i, p_j)`, its `q k L` from pass 1.
+            g[3] = (k * dl + qkl * (pool[i] + pool[j])) / g[3];
+        }
+        0.5 * k * dl * dl
+    };
+    let mut partial = vec![0.0; chunks];
+    geo[springs.clone()]
         .par_chunks_mut(chunk)
-        .zip(ext.par_chunks(chunk))
+        .zip(ext[springs.clone()].par_chunks(chunk))
+        .zip(partial[first / chunk..springs.end.div_ceil(chunk)].par_iter_mut())
         .enumerate()
-        .map(|(c, (g, x))| {
-            g.iter_mut()
+        .for_each(|(c, ((g, x), out))| {
+            *out = g
+                .iter_mut()
                 .zip(x)
                 .enumerate()
-                .map(|(o, (g, &[dl, qkl]))| {
-                    let b = c * chunk + o;
-                    let k = sp.k[b];
-                    if sp.alive[b] {
-                        let [i, j] = bonds.ends[b].map(|v| v as usize);
-                        // `tension(k, L, dL, q, p_i, p_j)`, its `q k L` from pass 1.
-                        g[3] = (k * dl + qkl * (pool[i] + pool[j])) / g[3];
-                    }
-                    0.5 * k * dl * dl
-                })
-                .sum::<Real>()
-        })
-        .collect();
+                .map(|(o, (g, &x))| tension_of(first + c * chunk + o, g, x))
+                .sum::<Real>();
+        });
+    for &b in &foreign {
+        let b = b as usize;
+        tension_of(b, &mut geo[b], ext[b]);
+    }
+    if let (Some(p), Some(parts)) = (part, &parts) {
+        p.team.gather(&mut partial, parts);
+    }
     let direct = partial.iter().sum();
     // Pass 4, over the nodes: forces, energy densities and virial stresses.
     let mut force = Coords::zeros(n);
     let mut energy_density = vec![0.0; n];
     let mut stress = vec![[0.0; 9]; n];
     let [fx, fy, fz] = force.xyz_mut();
-    fx.par_iter_mut()
-        .zip(fy.par_iter_mut())
-        .zip(fz.par_iter_mut())
-        .zip(energy_density.par_iter_mut())
-        .zip(stress.par_iter_mut())
+    fx[nodes.clone()]
+        .par_iter_mut()
+        .zip(fy[nodes.clone()].par_iter_mut())
+        .zip(fz[nodes.clone()].par_iter_mut())
+        .zip(energy_density[nodes.clone()].par_iter_mut())
+        .zip(stress[nodes.clone()].par_iter_mut())
         .with_min_len(MIN_NODES_PER_TASK)
         .enumerate()
-        .for_each(|(i, ((((fx, fy), fz), ed), st))| {
+        .for_each(|(k, ((((fx, fy), fz), ed), st))| {
+            let i = nodes.start + k;
             let mut f = [0.0; 3];
             // xx, yy, zz, xy, yz, xz: `e (x) e` is symmetric, and `-d` gives the same terms.
             let mut m = [0.0; 6];
@@ -500,16 +610,30 @@ pub fn frame_fields_in(
             let [xx, yy, zz, xy, yz, xz] = m.map(|x| x * w);
             *st = [xx, xy, xz, xy, yy, yz, xz, yz, zz];
         });
+    // As `ordered_sum` forms it: per chunk of nodes, the chunks added in order.
     let dispersive = if q == 0.0 {
         0.0
     } else {
-        ordered_sum(n, |i| {
+        let disp = |i: usize| {
             if norm[i] > 0.0 {
                 0.5 * q * pi[i] * pi[i] / norm[i]
             } else {
                 0.0
             }
-        })
+        };
+        let mut partial = vec![0.0; n.div_ceil(chunk)];
+        let mine = nodes.start / chunk..nodes.end.div_ceil(chunk);
+        partial[mine.clone()]
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(k, out)| {
+                let c = mine.start + k;
+                *out = (c * chunk..((c + 1) * chunk).min(n)).map(disp).sum();
+            });
+        if let Some(p) = part {
+            p.team.gather(&mut partial, &p.share.chunk_parts(1));
+        }
+        partial.iter().sum()
     };
     FrameFields {
         pool,

@@ -483,4 +483,85 @@ pub(crate) mod tests {
             }
         }
     }
+
+    /// A frame computed in parts by 1 to 4 ranks ([`crate::law::FramePart`]) gives the whole
+    /// computation's bits: the pools and both energies on every rank, the forces, energy
+    /// densities and stresses at each rank's own nodes; with broken springs and shed rest
+    /// lengths.
+    #[test]
+    fn a_frame_in_parts_gives_the_bits_of_the_whole() {
+        use crate::law::{frame_fields_in, frame_fields_part, FramePart, FrameScratch};
+        let mut body = block([32.0, 28.0, 26.0]);
+        body.lattice.shed_rest();
+        let n = body.nodes();
+        let mut state = crate::State::new(&body);
+        for b in (0..body.springs()).step_by(13) {
+            state.kill_bond(&body, b);
+        }
+        for i in 0..n {
+            let x = body.lattice.pos.get(i);
+            state.u.x_mut()[i] = 0.01 * (1.3 * x.y).sin();
+            state.u.y_mut()[i] = 0.02 * (0.7 * x.x + 0.2 * x.z).cos();
+            state.u.z_mut()[i] = 0.015 * (0.9 * x.x).sin();
+        }
+        let sp = state.springs(&body);
+        let whole = frame_fields_in(
+            &body,
+            &state.u,
+            sp,
+            state.norm(),
+            &mut FrameScratch::default(),
+        );
+        let bits = |x: &[Real]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        for size in 1..=4 {
+            std::thread::scope(|scope| {
+                for team in Threads::team(size) {
+                    let (body, state, whole) = (&body, &state, &whole);
+                    scope.spawn(move || {
+                        let share = Share::new(body, size, team.rank(), &[]);
+                        let part = FramePart {
+                            team: &team,
+                            share: &share,
+                        };
+                        let f = frame_fields_part(
+                            body,
+                            &state.u,
+                            state.springs(body),
+                            state.norm(),
+                            &mut FrameScratch::default(),
+                            Some(part),
+                        );
+                        let at = format!("{size} ranks, rank {}", team.rank());
+                        assert_eq!(bits(&f.pool), bits(&whole.pool), "{at}");
+                        assert_eq!(
+                            f.strain.direct.to_bits(),
+                            whole.strain.direct.to_bits(),
+                            "{at}"
+                        );
+                        assert_eq!(
+                            f.strain.dispersive.to_bits(),
+                            whole.strain.dispersive.to_bits(),
+                            "{at}"
+                        );
+                        let m = share.mine();
+                        for c in 0..3 {
+                            let (a, b) = (f.force.comp(c), whole.force.comp(c));
+                            assert_eq!(bits(&a[m.clone()]), bits(&b[m.clone()]), "{at}");
+                        }
+                        let ed = (
+                            &f.energy_density[m.clone()],
+                            &whole.energy_density[m.clone()],
+                        );
+                        assert_eq!(bits(ed.0), bits(ed.1), "{at}");
+                        let st = |s: &[[Real; 9]]| bits(s.as_flattened());
+                        assert_eq!(
+                            st(&f.stress[m.clone()]),
+                            st(&whole.stress[m.clone()]),
+                            "{at}"
+                        );
+                    });
+                }
+            });
+        }
+    }
 }

@@ -752,7 +752,10 @@ impl Run {
         self.settle();
         let body = &self.sim.body;
         // One evaluation for the velocity, the energy and the derived fields.
-        let (v, b, fields) = self.it.frame_view(body, &mut self.sim.state);
+        // Pieces need their own nodes' fields; whole frames (HDF5, written by rank 0) every
+        // node's.
+        let whole = self.sim.hdf5;
+        let (v, b, fields) = self.it.frame_view(body, &mut self.sim.state, whole);
         let forces = self.it.boundary_forces(body, &self.sim.state, &v);
         let reactions = region_reactions(&self.sim, &forces);
         let sim = &self.sim;
