@@ -331,9 +331,10 @@ pub fn frame_fields(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> 
     frame_fields_in(body, u, sp, norm, &mut FrameScratch::default())
 }
 
-/// The per-spring arrays of [`frame_fields_in`] (56 bytes a spring), kept by a caller that
-/// writes frame after frame: a frame then allocates and fills no fresh memory for them (in a run
-/// on the glass plate, collecting them afresh made the first pass take 3.4 to 6.9 ms).
+/// The per-spring arrays of [`frame_fields_in`] (64 bytes a spring; of a rank's springs only,
+/// [`FramePart`]), kept by a caller that writes frame after frame: a frame then allocates and
+/// fills no fresh memory for them (in a run on the glass plate, collecting them afresh made the
+/// first pass take 3.4 to 6.9 ms).
 #[derive(Clone, Debug, Default)]
 pub struct FrameScratch {
     geo: Vec<[Real; 4]>,
@@ -439,12 +440,14 @@ pub fn frame_fields_part(
             let mine = &parts[p.share.rank];
             let lo = (s0 / chunk).min(mine.start) * chunk;
             let hi = (s1.div_ceil(chunk).max(mine.end) * chunk).min(ns);
-            let foreign: Vec<u32> = own
+            let mut foreign: Vec<u32> = own
                 .clone()
                 .flat_map(|i| bonds.row(i).map(move |e| (i, e)))
                 .filter(|&(_, e)| (bonds.bond[e] as usize) < lo)
                 .map(|(_, e)| bonds.bond[e])
                 .collect();
+            foreign.sort_unstable();
+            foreign.dedup();
             (own, lo..hi.max(lo), foreign)
         }
         _ => (0..n, 0..ns, Vec::new()),
@@ -454,11 +457,25 @@ pub fn frame_fields_part(
     // needs besides the pools; the lever `L` is computed once, here, where the lattice shed
     // the rest lengths), and the two terms the pool pass adds, `k L dL` and `k dL^2 / 4` (a
     // quarter of the spring's direct energy at each end).
+    // The per-spring arrays hold this rank's springs only: the range, then the foreign ones
+    // (all of them, in order, in one process).
     let FrameScratch { geo, ext, terms } = scratch;
     let levers = sp.lever.stored();
-    geo.resize(ns, [0.0; 4]);
-    ext.resize(ns, [0.0; 2]);
-    terms.resize(ns, [0.0; 2]);
+    let (lo, width) = (springs.start, springs.len());
+    let slots = width + foreign.len();
+    let slot = |b: usize| -> usize {
+        if b >= lo {
+            b - lo
+        } else {
+            width
+                + foreign
+                    .binary_search(&(b as u32))
+                    .expect("a foreign spring of the rows")
+        }
+    };
+    geo.resize(slots, [0.0; 4]);
+    ext.resize(slots, [0.0; 2]);
+    terms.resize(slots, [0.0; 2]);
     let one = |b: usize| -> ([Real; 4], [Real; 2], [Real; 2]) {
         if !sp.alive[b] {
             // A broken spring's extension is +0: its direct energy adds +0.
@@ -476,19 +493,18 @@ pub fn frame_fields_part(
         )
     };
     let first = springs.start;
-    geo[springs.clone()]
+    geo[..width]
         .par_chunks_mut(chunk)
-        .zip(ext[springs.clone()].par_chunks_mut(chunk))
-        .zip(terms[springs.clone()].par_chunks_mut(chunk))
+        .zip(ext[..width].par_chunks_mut(chunk))
+        .zip(terms[..width].par_chunks_mut(chunk))
         .enumerate()
         .for_each(|(c, ((g, x), t))| {
             for (o, ((g, x), t)) in g.iter_mut().zip(x).zip(t).enumerate() {
                 (*g, *x, *t) = one(first + c * chunk + o);
             }
         });
-    for &b in &foreign {
-        let b = b as usize;
-        (geo[b], ext[b], terms[b]) = one(b);
+    for (k, &b) in foreign.iter().enumerate() {
+        (geo[width + k], ext[width + k], terms[width + k]) = one(b as usize);
     }
     // Pass 2, over the nodes: the pool Pi_n, its ratio p_n, and a quarter of the springs'
     // direct energy.
@@ -507,7 +523,7 @@ pub fn frame_fields_part(
             for e in bonds.row(i) {
                 let b = bonds.bond[e] as usize;
                 if sp.alive[b] {
-                    let [kl, e] = terms[b];
+                    let [kl, e] = terms[slot(b)];
                     d += e;
                     s += kl;
                 }
@@ -534,9 +550,9 @@ pub fn frame_fields_part(
         0.5 * k * dl * dl
     };
     let mut partial = vec![0.0; chunks];
-    geo[springs.clone()]
+    geo[..width]
         .par_chunks_mut(chunk)
-        .zip(ext[springs.clone()].par_chunks(chunk))
+        .zip(ext[..width].par_chunks(chunk))
         .zip(partial[first / chunk..springs.end.div_ceil(chunk)].par_iter_mut())
         .enumerate()
         .for_each(|(c, ((g, x), out))| {
@@ -547,9 +563,8 @@ pub fn frame_fields_part(
                 .map(|(o, (g, &x))| tension_of(first + c * chunk + o, g, x))
                 .sum::<Real>();
         });
-    for &b in &foreign {
-        let b = b as usize;
-        tension_of(b, &mut geo[b], ext[b]);
+    for (k, &b) in foreign.iter().enumerate() {
+        tension_of(b as usize, &mut geo[width + k], ext[width + k]);
     }
     if let (Some(p), Some(parts)) = (part, &parts) {
         p.team.gather(&mut partial, parts);
@@ -578,7 +593,7 @@ pub fn frame_fields_part(
                 if !sp.alive[b] {
                     continue;
                 }
-                let [dx, dy, dz, s] = geo[b];
+                let [dx, dy, dz, s] = geo[slot(b)];
                 // A spring's first end is its lower node (`Bonds::from_pairs`).
                 let d = if i < bonds.neighbour(i, e) {
                     [dx, dy, dz]
