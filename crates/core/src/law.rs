@@ -442,9 +442,9 @@ pub fn frame_fields_part(
             let hi = (s1.div_ceil(chunk).max(mine.end) * chunk).min(ns);
             let mut foreign: Vec<u32> = own
                 .clone()
-                .flat_map(|i| bonds.row(i).map(move |e| (i, e)))
-                .filter(|&(_, e)| (bonds.bond[e] as usize) < lo)
-                .map(|(_, e)| bonds.bond[e])
+                .flat_map(|i| bonds.row(i))
+                .map(|e| bonds.bond[e])
+                .filter(|&b| (b as usize) < lo)
                 .collect();
             foreign.sort_unstable();
             foreign.dedup();
@@ -457,8 +457,8 @@ pub fn frame_fields_part(
     // needs besides the pools; the lever `L` is computed once, here, where the lattice shed
     // the rest lengths), and the two terms the pool pass adds, `k L dL` and `k dL^2 / 4` (a
     // quarter of the spring's direct energy at each end).
-    // The per-spring arrays hold this rank's springs only: the range, then the foreign ones
-    // (all of them, in order, in one process).
+    // The per-spring arrays hold this rank's springs only: the range (every spring, in one
+    // process), then the foreign ones.
     let FrameScratch { geo, ext, terms } = scratch;
     let levers = sp.lever.stored();
     let (lo, width) = (springs.start, springs.len());
