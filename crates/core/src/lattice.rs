@@ -152,10 +152,7 @@ impl Bonds {
         let rest = ends
             .par_iter()
             .with_min_len(1 << 16)
-            .map(|&[i, j]| {
-                let d = reference_vector(pos, period, i as usize, j as usize);
-                (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
-            })
+            .map(|&[i, j]| reference_length(reference_vector(pos, period, i as usize, j as usize)))
             .collect();
         let mut bonds = Bonds {
             offsets,
@@ -295,6 +292,14 @@ pub fn reference_vector(pos: &Coords, period: [Real; 3], i: usize, j: usize) -> 
     d
 }
 
+/// A spring's rest length from its reference vector `D`, `|D|`: the one formula that builds
+/// the rest lengths ([`Bonds::from_pairs`]) and recomputes them once shed ([`Lattice::rest`]),
+/// so both give the same bits.
+#[inline(always)]
+pub fn reference_length(d: [Real; 3]) -> Real {
+    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+}
+
 /// Volumes that differ from node to node and from spring to spring (random lattices): what each
 /// node and each spring stands for, in m^3 (a 2D plate's areas times its thickness).
 #[derive(Clone, Debug, PartialEq)]
@@ -415,8 +420,7 @@ impl Lattice {
     #[inline(always)]
     fn geometric_rest(&self, b: usize) -> Real {
         let [i, j] = self.bonds.ends[b];
-        let d = self.reference_vector(i as usize, j as usize);
-        (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+        reference_length(self.reference_vector(i as usize, j as usize))
     }
 
     /// Every rest length (allocated when shed; see [`Lattice::rest`]).

@@ -101,7 +101,7 @@ pub fn spring_geometry_rest(
     let big = lat.reference_vector(i, j);
     let rest = match lat.bonds.stored_rest() {
         Some(r) => r[b],
-        None => (big[0] * big[0] + big[1] * big[1] + big[2] * big[2]).sqrt(),
+        None => crate::lattice::reference_length(big),
     };
     (geometry_from(big, u, i, j, rest), rest)
 }

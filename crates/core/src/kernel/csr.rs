@@ -351,8 +351,7 @@ fn spring_chunk<const D: usize, const P: bool>(
                 // Shed only where nothing is periodic (`Lattice::shed_setup`).
                 None => {
                     let [i, j] = ends[s].map(|v| v as usize);
-                    let big = [0, 1, 2].map(|c| pos[c][j] - pos[c][i]);
-                    (big[0] * big[0] + big[1] * big[1] + big[2] * big[2]).sqrt()
+                    crate::lattice::reference_length([0, 1, 2].map(|c| pos[c][j] - pos[c][i]))
                 }
             };
             lever[s] = blever.map_or(rest[s], |l| l[s]);

@@ -595,7 +595,7 @@ fn deal(n: usize, len: impl Fn(usize) -> usize) -> (Vec<u8>, Vec<u8>) {
 #[inline(always)]
 fn rest_of<const D: usize>(big: [Real; 3]) -> Real {
     if D == 3 {
-        (big[0] * big[0] + big[1] * big[1] + big[2] * big[2]).sqrt()
+        crate::lattice::reference_length(big)
     } else {
         (big[0] * big[0] + big[1] * big[1]).sqrt()
     }
