@@ -34,7 +34,7 @@
 
 use rayon::prelude::*;
 
-use super::{kick_drift, sweep_chunks, ChunkOut, StepParams, SweepSums, CHUNK};
+use super::{sweep_chunks, StepParams, SweepSums, CHUNK};
 use crate::body::Body;
 use crate::lattice::{reference_vector, Lattice};
 use crate::math::{Coords, Real};
@@ -500,11 +500,7 @@ fn fkd<const D: usize, const W: usize>(
         &mut state.v,
         u_next,
         partials,
-        |r, o| {
-            let ChunkOut {
-                v: [vx, vy, vz],
-                u_next: [nx, ny, nz],
-            } = o;
+        |r, mut o| {
             let mut sums = SweepSums::default();
             for (k, i) in r.enumerate() {
                 let mut f = [0.0; 3];
@@ -528,17 +524,8 @@ fn fkd<const D: usize, const W: usize>(
                     // A body that was not meant for this kernel (see `csr_may_run`).
                     None => bonds.links(i).for_each(|(j, b)| add(j, b)),
                 }
-                let (d, w) = kick_drift(
-                    dims,
-                    f,
-                    inv_mass[i],
-                    p,
-                    [&mut vx[k], &mut vy[k], &mut vz[k]],
-                    [u.x()[i], u.y()[i], u.z()[i]],
-                    [&mut nx[k], &mut ny[k], &mut nz[k]],
-                );
-                sums.dissipated += d;
-                sums.body_work += w;
+                let u_old = [u.x()[i], u.y()[i], u.z()[i]];
+                o.kick_drift(k, dims, f, inv_mass[i], p, u_old, &mut sums);
             }
             sums
         },

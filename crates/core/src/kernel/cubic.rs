@@ -18,6 +18,8 @@
 //! spring as the scalar loop does), so the two give the same bits: results depend neither on
 //! which nodes took which path nor on the thread count or the processor.
 
+use std::sync::{Arc, Mutex};
+
 use super::stencil::{simd_lanes, Factors, Lanes, Src, Stencil};
 use super::{StepParams, SweepSums};
 use rayon::prelude::*;
@@ -104,16 +106,54 @@ pub struct CubicStencil {
     reach: usize,
     /// The vector path's instructions (`None`: the portable path).
     simd: Option<Lanes>,
+    /// The forward directions (`off_d > 0`), in direction order.
+    forward: [usize; 9],
+    /// Each direction's row of the wavefront rings: its own place in `forward`, or its
+    /// opposite's.
+    row: [usize; 18],
+    /// Node slots per ring row (`R`, see [`wave`]).
+    ring_len: usize,
+    /// One ring per part of a wavefront sweep.
+    rings: Arc<Vec<Mutex<wave::Ring>>>,
+    /// Whether the rows are long enough for the wavefront sweeps (at least 9 nodes), and they
+    /// are not switched off ([`CubicStencil::set_wave`]).
+    wave_ok: bool,
 }
+
+pub(crate) mod wave;
 
 impl CubicStencil {
     /// Heap memory by part (see [`crate::memory::Footprint`]).
     pub fn footprint(&self) -> crate::memory::Footprint {
         use crate::memory::bytes;
-        vec![(
-            "stencil masks and normalisers",
-            bytes(&self.mask) + bytes(&self.inv_norm),
-        )]
+        vec![
+            (
+                "stencil masks and normalisers",
+                bytes(&self.mask) + bytes(&self.inv_norm),
+            ),
+            (
+                "stencil wavefront rings",
+                self.rings.len() * 9 * (self.ring_len + 8) * std::mem::size_of::<Real>(),
+            ),
+        ]
+    }
+
+    /// Whether the sweeps take the wavefront path ([`wave`]: AVX-512, rows of at least 9
+    /// nodes), which gives the gather sweeps' bits computing each spring once.
+    pub fn wave(&self) -> bool {
+        self.wave_ok && self.simd == Some(Lanes::Avx512)
+    }
+
+    /// Split the wavefront sweeps into `parts` parts (by default one per worker thread of the
+    /// pool the stencil was built in); the results do not depend on it.
+    pub fn set_parts(&mut self, parts: usize) {
+        self.rings = Arc::new(wave::rings(self.reach, parts).0);
+    }
+
+    /// Allow (the default) or forbid the wavefront sweeps, e.g. to compare them with the
+    /// gather sweeps; they still need AVX-512 and rows of at least 9 nodes.
+    pub fn set_wave(&mut self, on: bool) {
+        self.wave_ok = on && self.off[2] >= 9;
     }
 
     /// The stencil for `body` if it is a non-periodic box of the cubic lattice (at least 3 nodes
@@ -144,6 +184,18 @@ impl CubicStencil {
             rest[d] = a * ((dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]) as Real).sqrt();
         }
         let reach = off.iter().map(|o| o.unsigned_abs()).max().unwrap_or(0);
+        let mut forward = [0; 9];
+        let mut row = [0; 18];
+        let mut f = 0;
+        for d in 0..18 {
+            if off[d] > 0 {
+                forward[f] = d;
+                row[d] = f;
+                row[d ^ 1] = f;
+                f += 1;
+            }
+        }
+        let (rings, ring_len) = wave::rings(reach, rayon::current_num_threads());
         let mut s = CubicStencil {
             n: lat.len(),
             off,
@@ -159,6 +211,11 @@ impl CubicStencil {
             inv_norm: vec![0.0; lat.len()],
             reach,
             simd: simd_lanes(),
+            forward,
+            row,
+            ring_len,
+            rings: Arc::new(rings),
+            wave_ok: sy >= 9,
         };
         // Each node's mask from its own row (a gather, in parallel: on a large block this is
         // mostly first writes to fresh memory), then its 1/S_n.
@@ -409,7 +466,7 @@ mod avx512 {
     /// lengths.
     #[inline]
     #[target_feature(enable = "avx512f")]
-    unsafe fn vector8(
+    pub(super) unsafe fn vector8(
         s: &CubicStencil,
         u: &Coords,
         i: usize,
@@ -440,7 +497,11 @@ mod avx512 {
 
     #[inline]
     #[target_feature(enable = "avx512f")]
-    unsafe fn load_block(s: &CubicStencil, u: &Coords, i: usize) -> ([__m512d; 3], __m256i) {
+    pub(super) unsafe fn load_block(
+        s: &CubicStencil,
+        u: &Coords,
+        i: usize,
+    ) -> ([__m512d; 3], __m256i) {
         // SAFETY (caller): i..i+8 is in bounds.
         unsafe {
             (
@@ -459,7 +520,7 @@ mod avx512 {
     /// row of [`super::Factors`] (multiplying by 1 is exact, so the other blocks skip it).
     #[inline]
     #[target_feature(enable = "avx512f")]
-    fn classes(s: &CubicStencil, mask: __m256i) -> Option<__m512i> {
+    pub(super) fn classes(s: &CubicStencil, mask: __m256i) -> Option<__m512i> {
         if !s.factors.on {
             return None;
         }
@@ -470,7 +531,7 @@ mod avx512 {
     /// The factors of direction `d` for the lanes' classes.
     #[inline]
     #[target_feature(enable = "avx512f")]
-    unsafe fn factors(s: &CubicStencil, c: __m512i, d: usize) -> __m512d {
+    pub(super) unsafe fn factors(s: &CubicStencil, c: __m512i, d: usize) -> __m512d {
         // SAFETY: a row of the table is 8 doubles.
         unsafe { _mm512_permutexvar_pd(c, _mm512_loadu_pd(s.factors.w[d].as_ptr())) }
     }
@@ -478,12 +539,90 @@ mod avx512 {
     /// Lanes whose spring in direction `d` is intact.
     #[inline]
     #[target_feature(enable = "avx512f")]
-    unsafe fn lanes(mask: __m256i, d: usize) -> __mmask8 {
+    pub(super) unsafe fn lanes(mask: __m256i, d: usize) -> __mmask8 {
         let bits = _mm512_cvtepu32_epi64(mask);
         _mm512_test_epi64_mask(bits, _mm512_set1_epi64(1 << d))
     }
 
-    /// Sweep 1 for the 8 nodes at `i`.
+    /// `dL = l - L` of the block at `i`'s springs in direction `d`: one square root.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn extension(
+        s: &CubicStencil,
+        u: &Coords,
+        i: usize,
+        d: usize,
+        ui: [__m512d; 3],
+    ) -> __m512d {
+        // SAFETY (caller): the block is inside.
+        let (_, ss) = unsafe { vector8(s, u, i, d, ui) };
+        _mm512_sub_pd(_mm512_sqrt_pd(ss), _mm512_set1_pd(s.rest[d]))
+    }
+
+    /// The vectors `x` of the block at `i`'s springs in direction `d` and their force factors
+    /// `s = T / l`, `T = (k dL + q k L (p_i + p_j)) w` (the force on node i is `s x`).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) unsafe fn factor(
+        s: &CubicStencil,
+        u: &Coords,
+        pool: &[Real],
+        i: usize,
+        d: usize,
+        ui: [__m512d; 3],
+        pi: __m512d,
+        cls: Option<__m512i>,
+    ) -> ([__m512d; 3], __m512d) {
+        let j = (i as isize + s.off[d]) as usize;
+        // SAFETY (caller): the block is inside, so j..j+8 is in bounds.
+        let (x, ss) = unsafe { vector8(s, u, i, d, ui) };
+        let l = _mm512_sqrt_pd(ss);
+        let dl = _mm512_sub_pd(l, _mm512_set1_pd(s.rest[d]));
+        let pj = unsafe { _mm512_loadu_pd(pool.as_ptr().add(j)) };
+        let mut t = _mm512_add_pd(
+            _mm512_mul_pd(_mm512_set1_pd(s.k), dl),
+            _mm512_mul_pd(_mm512_set1_pd(s.q * s.k * s.rest[d]), _mm512_add_pd(pi, pj)),
+        );
+        if let Some(c) = cls {
+            t = _mm512_mul_pd(t, unsafe { factors(s, c, d) });
+        }
+        (x, _mm512_div_pd(t, l))
+    }
+
+    /// Add the terms `s x` of the lanes `m` to the forces `f`.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    pub(super) fn add_terms(f: &mut [__m512d; 3], m: __mmask8, sc: __m512d, x: [__m512d; 3]) {
+        for c in 0..3 {
+            f[c] = _mm512_mask_add_pd(f[c], m, f[c], _mm512_mul_pd(sc, x[c]));
+        }
+    }
+
+    /// Add the pool shares `k L dL w` of the lanes `m` to `acc`, and flag those past the screen.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) unsafe fn add_share(
+        s: &CubicStencil,
+        d: usize,
+        m: __mmask8,
+        dl: __m512d,
+        cls: Option<__m512i>,
+        screen: Real,
+        acc: &mut __m512d,
+        hot: &mut __mmask8,
+    ) {
+        let mut share = _mm512_mul_pd(_mm512_set1_pd(s.k * s.rest[d]), dl);
+        if let Some(c) = cls {
+            share = _mm512_mul_pd(share, unsafe { factors(s, c, d) });
+        }
+        *acc = _mm512_mask_add_pd(*acc, m, *acc, share);
+        *hot |= _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m, dl, _mm512_set1_pd(screen * s.rest[d]));
+    }
+
+    /// Sweep 1 for the 8 nodes at `i`. The loop over the directions is unrolled (a tenth off
+    /// the sweep: their constants become immediate offsets, and the loop's branches go).
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn pools8(
         s: &CubicStencil,
@@ -496,22 +635,14 @@ mod avx512 {
         let cls = classes(s, mask);
         let mut acc = _mm512_setzero_pd();
         let mut hot: __mmask8 = 0;
-        for d in 0..18 {
-            let m = unsafe { lanes(mask, d) };
-            if m == 0 {
-                continue;
+        macro_rules! directions { ($($d:literal)*) => { $( {
+            let m = unsafe { lanes(mask, $d) };
+            if m != 0 {
+                let dl = unsafe { extension(s, u, i, $d, ui) };
+                unsafe { add_share(s, $d, m, dl, cls, screen, &mut acc, &mut hot) };
             }
-            // The pool needs only the length, not its inverse: one square root.
-            let (_, ss) = unsafe { vector8(s, u, i, d, ui) };
-            let l = _mm512_sqrt_pd(ss);
-            let dl = _mm512_sub_pd(l, _mm512_set1_pd(s.rest[d]));
-            let mut share = _mm512_mul_pd(_mm512_set1_pd(s.k * s.rest[d]), dl);
-            if let Some(c) = cls {
-                share = _mm512_mul_pd(share, unsafe { factors(s, c, d) });
-            }
-            acc = _mm512_mask_add_pd(acc, m, acc, share);
-            hot |= _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m, dl, _mm512_set1_pd(screen * s.rest[d]));
-        }
+        } )* } }
+        directions!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17);
         // SAFETY: out has 8 entries; inv_norm[i..i+8] is in bounds.
         unsafe {
             let inv = _mm512_loadu_pd(s.inv_norm.as_ptr().add(i));
@@ -520,7 +651,8 @@ mod avx512 {
         hot != 0
     }
 
-    /// Sweep 2 for the 8 nodes at `i`: force, kick, drift.
+    /// Sweep 2 for the 8 nodes at `i`: force, kick, drift (the directions unrolled, as in
+    /// sweep 1).
     #[allow(clippy::too_many_arguments)]
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn force_kick_drift8(
@@ -537,30 +669,15 @@ mod avx512 {
         let (ui, mask) = unsafe { load_block(s, u, i) };
         let cls = classes(s, mask);
         let pi = unsafe { _mm512_loadu_pd(pool.as_ptr().add(i)) };
-        let kv = _mm512_set1_pd(s.k);
         let mut f = [_mm512_setzero_pd(); 3];
-        for d in 0..18 {
-            let m = unsafe { lanes(mask, d) };
-            if m == 0 {
-                continue;
+        macro_rules! directions { ($($d:literal)*) => { $( {
+            let m = unsafe { lanes(mask, $d) };
+            if m != 0 {
+                let (x, sc) = unsafe { factor(s, u, pool, i, $d, ui, pi, cls) };
+                add_terms(&mut f, m, sc, x);
             }
-            let j = (i as isize + s.off[d]) as usize;
-            let (x, ss) = unsafe { vector8(s, u, i, d, ui) };
-            let l = _mm512_sqrt_pd(ss);
-            let dl = _mm512_sub_pd(l, _mm512_set1_pd(s.rest[d]));
-            let pj = unsafe { _mm512_loadu_pd(pool.as_ptr().add(j)) };
-            let mut t = _mm512_add_pd(
-                _mm512_mul_pd(kv, dl),
-                _mm512_mul_pd(_mm512_set1_pd(s.q * s.k * s.rest[d]), _mm512_add_pd(pi, pj)),
-            );
-            if let Some(c) = cls {
-                t = _mm512_mul_pd(t, unsafe { factors(s, c, d) });
-            }
-            let sc = _mm512_div_pd(t, l);
-            for c in 0..3 {
-                f[c] = _mm512_mask_add_pd(f[c], m, f[c], _mm512_mul_pd(sc, x[c]));
-            }
-        }
+        } )* } }
+        directions!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17);
         // SAFETY (caller): the block is in bounds.
         unsafe {
             super::super::stencil::avx512::kick_drift8(3, f, Some(u), inv_mass, p, i, v, un, sums)

@@ -24,6 +24,8 @@ pub mod hex;
 pub mod rows;
 mod stencil;
 
+use std::ops::Range;
+
 use crate::body::Body;
 use crate::math::{Coords, Real};
 use crate::state::State;
@@ -234,6 +236,9 @@ impl Kernel {
     ) {
         match self {
             Kernel::Csr { plain } => csr::pools(body, state, *plain, screen, share),
+            Kernel::Cubic(s) if s.wave() => {
+                cubic::wave::pools(s, state, screen, self.chunks_for(share))
+            }
             Kernel::Cubic(s) => stencil::pools(s, state, screen, self.chunks_for(share)),
             Kernel::Hex(s) => stencil::pools(s, state, screen, self.chunks_for(share)),
             Kernel::Rows(r) => {
@@ -341,6 +346,10 @@ impl Kernel {
                 let u_next = u_next.expect(OUT);
                 csr::force_kick_drift(body, state, inv_mass, p, u_next, partials, chunks)
             }
+            Kernel::Cubic(s) if s.wave() => {
+                let u_next = u_next.expect(OUT);
+                cubic::wave::force_kick_drift(s, state, inv_mass, p, u_next, partials, chunks)
+            }
             Kernel::Cubic(s) => {
                 assert!(u_next.is_some(), "{OUT}");
                 stencil::force_kick_drift(s, state, inv_mass, p, u_next, partials, chunks)
@@ -446,20 +455,88 @@ pub(crate) struct ChunkOut<'a> {
     pub u_next: [&'a mut [Real]; 3],
 }
 
+impl<'a> ChunkOut<'a> {
+    /// The entries of nodes `r` of the shared outputs `v` and `u_next`.
+    ///
+    /// # Safety
+    /// As [`Disjoint::range`]: no two live results may overlap.
+    unsafe fn of(
+        v: &'a [Disjoint<Real>; 3],
+        u_next: &'a [Disjoint<Real>; 3],
+        r: Range<usize>,
+    ) -> Self {
+        // SAFETY: the caller's contract.
+        unsafe {
+            ChunkOut {
+                v: v.each_ref().map(|d| d.range(r.clone())),
+                u_next: u_next.each_ref().map(|d| d.range(r.clone())),
+            }
+        }
+    }
+
+    /// The velocities and next displacements of the chunk's nodes `r` (counted from its first).
+    pub(crate) fn block(&mut self, r: Range<usize>) -> ([&mut [Real]; 3], [&mut [Real]; 3]) {
+        let [vx, vy, vz] = &mut self.v;
+        let [nx, ny, nz] = &mut self.u_next;
+        (
+            [&mut vx[r.clone()], &mut vy[r.clone()], &mut vz[r.clone()]],
+            [&mut nx[r.clone()], &mut ny[r.clone()], &mut nz[r]],
+        )
+    }
+
+    /// [`kick_drift`] of the chunk's node `k` (inverse mass `inv_m`, force `f`, displacements
+    /// `u_old` before the step), its shares added to `sums`.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn kick_drift(
+        &mut self,
+        k: usize,
+        dims: usize,
+        f: [Real; 3],
+        inv_m: Real,
+        p: &StepParams,
+        u_old: [Real; 3],
+        sums: &mut SweepSums,
+    ) {
+        let [vx, vy, vz] = &mut self.v;
+        let [nx, ny, nz] = &mut self.u_next;
+        let (d, w) = kick_drift(
+            dims,
+            f,
+            inv_m,
+            p,
+            [&mut vx[k], &mut vy[k], &mut vz[k]],
+            u_old,
+            [&mut nx[k], &mut ny[k], &mut nz[k]],
+        );
+        sums.dissipated += d;
+        sums.body_work += w;
+    }
+}
+
+/// The sum of the chunks' partial sums, in chunk order.
+fn in_chunk_order(partials: &[SweepSums]) -> SweepSums {
+    let mut total = SweepSums::default();
+    for &s in partials {
+        total += s;
+    }
+    total
+}
+
 /// Run sweep 2 over the fixed chunks `chunks` of `n` nodes in parallel: `chunk(range, out)`
 /// handles the nodes of one chunk and returns their sums, which are stored per chunk in
 /// `partials` (one entry per chunk, owned by the caller so that nothing is allocated) and
 /// added in chunk order into the total.
 pub(crate) fn sweep_chunks<F>(
     n: usize,
-    chunks: std::ops::Range<usize>,
+    chunks: Range<usize>,
     v: &mut Coords,
     u_next: &mut Coords,
     partials: &mut [SweepSums],
     chunk: F,
 ) -> SweepSums
 where
-    F: Fn(std::ops::Range<usize>, ChunkOut<'_>) -> SweepSums + Sync,
+    F: Fn(Range<usize>, ChunkOut<'_>) -> SweepSums + Sync,
 {
     use rayon::prelude::*;
     let chunks = chunks.start..chunks.end.min(n.div_ceil(CHUNK));
@@ -474,19 +551,51 @@ where
             let r = c * CHUNK..((c + 1) * CHUNK).min(n);
             // SAFETY: chunk ranges are disjoint, each task takes only its own, and the slices do
             // not outlive this call, during which `v` and `u_next` are borrowed mutably.
-            let o = unsafe {
-                ChunkOut {
-                    v: vs.each_ref().map(|d| d.range(r.clone())),
-                    u_next: us.each_ref().map(|d| d.range(r.clone())),
-                }
-            };
+            let o = unsafe { ChunkOut::of(&vs, &us, r.clone()) };
             *out = chunk(r, o);
         });
-    let mut total = SweepSums::default();
-    for &s in &partials[chunks] {
-        total += s;
+    in_chunk_order(&partials[chunks])
+}
+
+/// [`sweep_chunks`] for a sweep that carries scratch from one chunk to the next (the cubic
+/// stencil's wavefront rings): the chunks are split into at most `parts.len()` contiguous
+/// parts, each run in chunk order by one task holding its part's scratch. The partial sums are
+/// still formed per chunk and added in chunk order, so the split changes no bit.
+pub(crate) fn sweep_parts<T: Send, F>(
+    n: usize,
+    chunks: Range<usize>,
+    parts: &[std::sync::Mutex<T>],
+    v: &mut Coords,
+    u_next: &mut Coords,
+    partials: &mut [SweepSums],
+    chunk: F,
+) -> SweepSums
+where
+    F: Fn(&mut T, Range<usize>, ChunkOut<'_>) -> SweepSums + Sync,
+{
+    use rayon::prelude::*;
+    let chunks = chunks.start..chunks.end.min(n.div_ceil(CHUNK));
+    if !chunks.is_empty() {
+        let vs = v.xyz_mut().map(Disjoint::new);
+        let us = u_next.xyz_mut().map(Disjoint::new);
+        let per = chunks.len().div_ceil(parts.len().clamp(1, chunks.len()));
+        let first = chunks.start;
+        partials[chunks.clone()]
+            .par_chunks_mut(per)
+            .zip(parts)
+            .enumerate()
+            .for_each(|(k, (outs, part))| {
+                let mut part = part.lock().unwrap_or_else(|e| e.into_inner());
+                for (c, out) in outs.iter_mut().enumerate() {
+                    let c = first + k * per + c;
+                    let r = c * CHUNK..((c + 1) * CHUNK).min(n);
+                    // SAFETY: as in `sweep_chunks`; each part takes only its own chunks.
+                    let o = unsafe { ChunkOut::of(&vs, &us, r.clone()) };
+                    *out = chunk(&mut part, r, o);
+                }
+            });
     }
-    total
+    in_chunk_order(&partials[chunks])
 }
 
 /// The kick-drift of one node's first `dims` components (every kernel shares it, so they

@@ -9,7 +9,7 @@
 
 use rayon::prelude::*;
 
-use super::{kick_drift, sweep_chunks, ChunkOut, StepParams, SweepSums, CHUNK};
+use super::{sweep_chunks, StepParams, SweepSums, CHUNK};
 use crate::body::Body;
 use crate::math::{Coords, Real};
 use crate::state::State;
@@ -381,11 +381,7 @@ pub(crate) fn force_kick_drift<S: Stencil>(
     };
     let pool: &[Real] = pool;
     let dims = p.dims(s.dim());
-    sweep_chunks(s.nodes(), chunks, v, out, partials, |r, o| {
-        let ChunkOut {
-            v: [vx, vy, vz],
-            u_next: [nx, ny, nz],
-        } = o;
+    sweep_chunks(s.nodes(), chunks, v, out, partials, |r, mut o| {
         let mut sums = SweepSums::default();
         let len = r.len();
         let b = s.block_len();
@@ -394,40 +390,20 @@ pub(crate) fn force_kick_drift<S: Stencil>(
             let i = r.start + k;
             #[cfg(target_arch = "x86_64")]
             if k + b <= len && s.vector_block(i) {
+                let (v, un) = o.block(k..k + b);
                 // SAFETY: `vector_block` holds for i; the output slices hold the block's
                 // nodes.
-                unsafe {
-                    s.force_kick_drift_block(
-                        u,
-                        pool,
-                        inv_mass,
-                        p,
-                        i,
-                        [&mut vx[k..k + b], &mut vy[k..k + b], &mut vz[k..k + b]],
-                        [&mut nx[k..k + b], &mut ny[k..k + b], &mut nz[k..k + b]],
-                        &mut sums,
-                    )
-                };
+                unsafe { s.force_kick_drift_block(u, pool, inv_mass, p, i, v, un, &mut sums) };
                 k += b;
                 continue;
             }
             let f = s.force_one(u, pool, i);
             let u_old = if in_place {
-                [nx[k], ny[k], nz[k]]
+                o.u_next.each_ref().map(|c| c[k])
             } else {
                 [u.x()[i], u.y()[i], u.z()[i]]
             };
-            let (d, w) = kick_drift(
-                dims,
-                f,
-                inv_mass[i],
-                p,
-                [&mut vx[k], &mut vy[k], &mut vz[k]],
-                u_old,
-                [&mut nx[k], &mut ny[k], &mut nz[k]],
-            );
-            sums.dissipated += d;
-            sums.body_work += w;
+            o.kick_drift(k, dims, f, inv_mass[i], p, u_old, &mut sums);
             k += 1;
         }
         sums

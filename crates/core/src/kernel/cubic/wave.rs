@@ -1,0 +1,529 @@
+//! The cubic stencil's wavefront sweeps (AVX-512): each spring's length, and in sweep 2 its
+//! force factor, computed once instead of once from each end.
+//!
+//! The gather form of the sweeps ([`super::super::stencil`]) has every node evaluate all 18 of
+//! its springs, so each spring's square root (and in sweep 2 its division) is done twice. Here
+//! a sweep walks its nodes in index order, 8 to a vector block, and keeps what a node computes
+//! for its 9 *forward* springs (those to a higher index, `off_d > 0`) in a ring: sweep 1 keeps
+//! the extension `dL = l - L`, sweep 2 the factor `s = T / l` of the force `s x` with tension
+//! `T = k dL + q k L (p_i + p_j)` (times the spring's cell weight). A *backward* spring of node
+//! `n` (`off_d < 0`) is the forward spring `d^1` of node `m = n + off_d < n`, which the sweep
+//! has passed: its value is read from the ring, and node `n` still adds its own term `s x_n`
+//! to its own force (the sweeps stay gathers: each node writes only its own entries).
+//!
+//! **The same bits as the gather sweeps.** Seen from `n`, the spring's vector is
+//! `x_n = D_d + (u_m - u_n)`, the exact negation of `x_m = D_{d^1} + (u_n - u_m)` (`D_{d^1} =
+//! -D_d` exactly, and every rounded difference negates), so `|x|^2`, `l`, `dL` are the same
+//! numbers at both ends; `p_m + p_n = p_n + p_m` in IEEE arithmetic, `L_d = L_{d^1}`, and a
+//! cell weight belongs to the spring, so `T` and `s = T / l` are too. Each node then adds its
+//! 18 terms in direction order as the gather sweep does, and a node off the vector path takes
+//! that sweep's scalar code: the two sweeps give the same bits on every node (tested against
+//! the portable path, with broken springs and cell weights).
+//!
+//! **The ring** holds, per forward direction, one value per node slot `m mod R`, `R >= reach +
+//! 8` (a multiple of 8): a block at `i` (a multiple of 8) reads nodes `i + off_d >= i - reach`
+//! and writes nodes `i..i + 8`, all in distinct slots. Slots `R..R + 8` mirror `0..8`, so an
+//! unaligned read of 8 slots never wraps. A read of the block's own nodes (`off_d = -1`) comes
+//! after the forward direction that wrote them (`d^1 = d - 1`); the other backward directions
+//! whose partner comes later in the order (`[1, -1, 0]`, `[1, 0, -1]`, `[0, 1, -1]`) reach at
+//! least 8 nodes back once rows hold 9 nodes or more, which the path requires. On a block of
+//! `10^6` nodes the ring is 0.7 MB per part, resident in the core's L2 cache.
+//!
+//! **Parts.** A sweep splits its chunks into a few contiguous parts (one per worker thread of
+//! the pool the stencil was built in), each with its own ring; a part's first vector block
+//! first fills the ring with the forward values of the `reach` nodes before it. Which part
+//! computes a node changes none of its bits, so results do not depend on the thread count;
+//! the partial sums are still formed per fixed chunk, in node order.
+
+use std::ops::Range;
+use std::sync::Mutex;
+
+use rayon::prelude::*;
+
+use super::CubicStencil;
+use crate::kernel::stencil::SCREEN;
+use crate::kernel::{sweep_parts, ChunkOut, StepParams, SweepSums, CHUNK};
+use crate::math::{Coords, Real};
+use crate::state::State;
+
+/// One part's ring (see the module docs): 9 rows of `R + 8` values, and the node up to which
+/// it holds the forward values of every node the sweep passed (`usize::MAX`: none yet).
+#[derive(Debug)]
+pub(crate) struct Ring {
+    buf: Vec<Real>,
+    next: usize,
+}
+
+/// `parts` empty rings for a stencil whose largest index offset is `reach`; their length `R`.
+pub(super) fn rings(reach: usize, parts: usize) -> (Vec<Mutex<Ring>>, usize) {
+    let r = (reach + 8).next_multiple_of(8);
+    let rings = (0..parts.max(1))
+        .map(|_| {
+            Mutex::new(Ring {
+                buf: vec![0.0; 9 * (r + 8)],
+                next: usize::MAX,
+            })
+        })
+        .collect();
+    (rings, r)
+}
+
+/// Whether the node block at `i` runs on the wavefront's vector path.
+#[inline]
+fn vector_block(s: &CubicStencil, i: usize, k: usize, len: usize) -> bool {
+    i.is_multiple_of(8) && k + 8 <= len && s.block_inside(i)
+}
+
+/// First nodes of the blocks whose forward values a part's first vector block at `i` reads.
+fn lead_in(s: &CubicStencil, i: usize) -> impl Iterator<Item = usize> {
+    // `block_inside(i)` gives i >= reach.
+    ((i - s.reach) / 8 * 8..i).step_by(8)
+}
+
+/// Sweep 1 ([`crate::kernel::stencil::pools`]) on the wavefront path: the same pools and
+/// screen flags.
+pub(crate) fn pools(
+    s: &CubicStencil,
+    state: &mut State,
+    screen: Real,
+    chunks: Option<Range<usize>>,
+) {
+    let n = s.n;
+    if s.q == 0.0 && !screen.is_finite() {
+        state.pool.fill(0.0);
+        return;
+    }
+    let blocks = n.div_ceil(SCREEN);
+    if state.hot.len() != blocks {
+        state.hot = vec![false; blocks];
+    }
+    let shared = chunks.is_some();
+    let chunks = chunks.unwrap_or(0..n.div_ceil(CHUNK));
+    if shared {
+        state.hot.fill(false);
+    }
+    let chunks = chunks.start..chunks.end.min(n.div_ceil(CHUNK));
+    if chunks.is_empty() {
+        return;
+    }
+    let per = chunks.len().div_ceil(s.rings.len().min(chunks.len()));
+    let flags_per = CHUNK / SCREEN;
+    let nodes = chunks.start * CHUNK..(chunks.end * CHUNK).min(n);
+    let flags = chunks.start * flags_per..(chunks.end * flags_per).min(blocks);
+    let first = chunks.start * CHUNK;
+    let u = &state.u;
+    state.pool[nodes]
+        .par_chunks_mut(per * CHUNK)
+        .zip(state.hot[flags].par_chunks_mut(per * flags_per))
+        .zip(s.rings.par_iter())
+        .enumerate()
+        .for_each(|(k, ((out, hot), ring))| {
+            let mut ring = ring.lock().unwrap_or_else(|e| e.into_inner());
+            pool_part(s, u, first + k * per * CHUNK, out, hot, screen, &mut ring);
+        });
+}
+
+/// Sweep 1 over the nodes from `start` (a chunk's first) whose pools are `out`.
+fn pool_part(
+    s: &CubicStencil,
+    u: &Coords,
+    start: usize,
+    out: &mut [Real],
+    hot: &mut [bool],
+    screen: Real,
+    ring: &mut Ring,
+) {
+    hot.fill(false);
+    ring.next = usize::MAX;
+    let mut k = 0;
+    while k < out.len() {
+        let i = start + k;
+        #[cfg(target_arch = "x86_64")]
+        if vector_block(s, i, k, out.len()) {
+            // SAFETY: the wavefront path is on only with AVX-512F; the block and its
+            // neighbours are inside the arrays, as are those of the lead-in blocks before it.
+            let h = unsafe {
+                if ring.next != i {
+                    for m in lead_in(s, i) {
+                        avx512::forward_lengths8(s, u, m, ring);
+                    }
+                }
+                avx512::pools8(s, u, i, &mut out[k..k + 8], screen, ring)
+            };
+            ring.next = i + 8;
+            // An aligned block lies within one screen block.
+            hot[k / SCREEN] |= h;
+            k += 8;
+            continue;
+        }
+        let (p, h) = s.pool_scalar(u, i, screen);
+        out[k] = p;
+        hot[k / SCREEN] |= h;
+        k += 1;
+    }
+    if s.q == 0.0 {
+        out.fill(0.0);
+    }
+}
+
+/// Sweep 2 ([`crate::kernel::stencil::force_kick_drift`]) on the wavefront path over the node
+/// chunks `chunks`, the new displacements into `u_next`: the same bits, the same partial sums.
+pub(crate) fn force_kick_drift(
+    s: &CubicStencil,
+    state: &mut State,
+    inv_mass: &[Real],
+    p: &StepParams,
+    u_next: &mut Coords,
+    partials: &mut [SweepSums],
+    chunks: Range<usize>,
+) -> SweepSums {
+    let State { u, v, pool, .. } = state;
+    let (u, pool): (&Coords, &[Real]) = (u, pool);
+    let dims = p.dims(3);
+    // The rings hold nothing of this sweep yet (a part fills its own from its lead-in).
+    for ring in s.rings.iter() {
+        ring.lock().unwrap_or_else(|e| e.into_inner()).next = usize::MAX;
+    }
+    sweep_parts(s.n, chunks, &s.rings, v, u_next, partials, |ring, r, o| {
+        force_chunk(s, u, pool, inv_mass, p, dims, r, o, ring)
+    })
+}
+
+/// Sweep 2 over the nodes `r` of one chunk, continuing its part's ring.
+#[allow(clippy::too_many_arguments)]
+fn force_chunk(
+    s: &CubicStencil,
+    u: &Coords,
+    pool: &[Real],
+    inv_mass: &[Real],
+    p: &StepParams,
+    dims: usize,
+    r: Range<usize>,
+    o: ChunkOut<'_>,
+    ring: &mut Ring,
+) -> SweepSums {
+    let mut o = o;
+    let mut sums = SweepSums::default();
+    let len = r.len();
+    let mut k = 0;
+    while k < len {
+        let i = r.start + k;
+        #[cfg(target_arch = "x86_64")]
+        if vector_block(s, i, k, len) {
+            let (v, un) = o.block(k..k + 8);
+            // SAFETY: as in `pool_part`; the output slices hold the block's nodes.
+            unsafe {
+                if ring.next != i {
+                    for m in lead_in(s, i) {
+                        avx512::forward_factors8(s, u, pool, m, ring);
+                    }
+                }
+                let f = avx512::forces8(s, u, pool, i, ring);
+                crate::kernel::stencil::avx512::kick_drift8(
+                    3,
+                    f,
+                    Some(u),
+                    inv_mass,
+                    p,
+                    i,
+                    v,
+                    un,
+                    &mut sums,
+                );
+            }
+            ring.next = i + 8;
+            k += 8;
+            continue;
+        }
+        // The gather sweep's scalar step (crate::kernel::stencil::force_kick_drift).
+        let f = s.force_scalar(u, pool, i);
+        let u_old = [u.x()[i], u.y()[i], u.z()[i]];
+        o.kick_drift(k, dims, f, inv_mass[i], p, u_old, &mut sums);
+        k += 1;
+    }
+    sums
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx512 {
+    use std::arch::x86_64::*;
+
+    use super::super::avx512::{
+        add_share, add_terms, classes, extension, factor, lanes, load_block, vector8,
+    };
+    use super::{CubicStencil, Ring};
+    use crate::math::{Coords, Real};
+
+    /// Store a forward direction's 8 values of the block in slots `at..at + 8` of its ring
+    /// row `row` (and in the mirror slots when `at` is 0).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn keep(s: &CubicStencil, ring: &mut Ring, row: usize, at: usize, x: __m512d) {
+        let r = s.ring_len;
+        // SAFETY (caller): `at + 8 <= r` (a block's slot is a multiple of 8), within the row.
+        unsafe {
+            let base = ring.buf.as_mut_ptr().add(row * (r + 8));
+            _mm512_storeu_pd(base.add(at), x);
+            if at == 0 {
+                _mm512_storeu_pd(base.add(r), x);
+            }
+        }
+    }
+
+    /// The 8 values of ring row `row` for the nodes `off` (< 0, at least `-reach`) from the
+    /// block whose slot is `at`.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn recall(s: &CubicStencil, ring: &Ring, row: usize, at: usize, off: isize) -> __m512d {
+        let r = s.ring_len;
+        // The slot of node `i + off`, `(at + off) mod r`, without a division.
+        let back = at as isize + off;
+        let slot = if back < 0 { back + r as isize } else { back } as usize;
+        // SAFETY: `slot + 8 <= r + 8`, within the row and its mirror.
+        unsafe { _mm512_loadu_pd(ring.buf.as_ptr().add(row * (r + 8) + slot)) }
+    }
+
+    /// Fill the ring with the forward springs' `dL` of the block at `m` (a lead-in block).
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn forward_lengths8(s: &CubicStencil, u: &Coords, m: usize, ring: &mut Ring) {
+        let (ui, mask) = unsafe { load_block(s, u, m) };
+        for &d in &s.forward {
+            if unsafe { lanes(mask, d) } != 0 {
+                unsafe { keep(s, ring, s.row[d], m % s.ring_len, extension(s, u, m, d, ui)) };
+            }
+        }
+    }
+
+    /// Whether direction `D` is forward (`off_D > 0`): the sign of its last non-zero step
+    /// along z, y, x, since `off = dx + sy dy + sz dz` with `sz > sy + 1 > 2`.
+    const fn forward<const D: usize>() -> bool {
+        let [dx, dy, dz] = super::super::DIRS[D];
+        dz > 0 || (dz == 0 && (dy > 0 || (dy == 0 && dx > 0)))
+    }
+
+    /// Direction `D`'s term of sweep 1 for the block at `i` (slot `at`).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    unsafe fn pool_term<const D: usize>(
+        s: &CubicStencil,
+        u: &Coords,
+        i: usize,
+        ui: [__m512d; 3],
+        mask: __m256i,
+        cls: Option<__m512i>,
+        screen: Real,
+        ring: &mut Ring,
+        at: usize,
+        acc: &mut __m512d,
+        hot: &mut __mmask8,
+    ) {
+        // SAFETY (caller): AVX-512F, the block is inside and the ring holds its lead-in.
+        unsafe {
+            let m = lanes(mask, D);
+            if m == 0 {
+                return;
+            }
+            let dl = if forward::<D>() {
+                let dl = extension(s, u, i, D, ui);
+                keep(s, ring, s.row[D], at, dl);
+                dl
+            } else {
+                recall(s, ring, s.row[D], at, s.off[D])
+            };
+            add_share(s, D, m, dl, cls, screen, acc, hot);
+        }
+    }
+
+    /// Sweep 1 for the 8 nodes at `i`: the gather sweep's sums, with each backward spring's
+    /// `dL` recalled from the ring.
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn pools8(
+        s: &CubicStencil,
+        u: &Coords,
+        i: usize,
+        out: &mut [Real],
+        screen: Real,
+        ring: &mut Ring,
+    ) -> bool {
+        let (ui, mask) = unsafe { load_block(s, u, i) };
+        let cls = classes(s, mask);
+        let at = i % s.ring_len;
+        let mut acc = _mm512_setzero_pd();
+        let mut hot: __mmask8 = 0;
+        // Each direction's term, the loop unrolled (a tenth off the sweep: the directions'
+        // constants become immediate offsets and the branches go).
+        macro_rules! directions { ($($d:literal)*) => { $( unsafe {
+            pool_term::<$d>(s, u, i, ui, mask, cls, screen, ring, at, &mut acc, &mut hot)
+        }; )* } }
+        directions!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17);
+        // SAFETY: out has 8 entries; inv_norm[i..i+8] is in bounds.
+        unsafe {
+            let inv = _mm512_loadu_pd(s.inv_norm.as_ptr().add(i));
+            _mm512_storeu_pd(out.as_mut_ptr(), _mm512_mul_pd(acc, inv));
+        }
+        hot != 0
+    }
+
+    /// Fill the ring with the forward springs' force factors of the block at `m` (a lead-in
+    /// block).
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn forward_factors8(
+        s: &CubicStencil,
+        u: &Coords,
+        pool: &[Real],
+        m: usize,
+        ring: &mut Ring,
+    ) {
+        let (ui, mask) = unsafe { load_block(s, u, m) };
+        let cls = classes(s, mask);
+        let pi = unsafe { _mm512_loadu_pd(pool.as_ptr().add(m)) };
+        for &d in &s.forward {
+            if unsafe { lanes(mask, d) } != 0 {
+                let (_, sc) = unsafe { factor(s, u, pool, m, d, ui, pi, cls) };
+                unsafe { keep(s, ring, s.row[d], m % s.ring_len, sc) };
+            }
+        }
+    }
+
+    /// Sweep 2's forces on the 8 nodes at `i`: the gather sweep's sums, with each backward
+    /// spring's factor recalled from the ring.
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn forces8(
+        s: &CubicStencil,
+        u: &Coords,
+        pool: &[Real],
+        i: usize,
+        ring: &mut Ring,
+    ) -> [__m512d; 3] {
+        let (ui, mask) = unsafe { load_block(s, u, i) };
+        let cls = classes(s, mask);
+        let pi = unsafe { _mm512_loadu_pd(pool.as_ptr().add(i)) };
+        let at = i % s.ring_len;
+        let mut f = [_mm512_setzero_pd(); 3];
+        macro_rules! directions { ($($d:literal)*) => { $( unsafe {
+            force_term::<$d>(s, u, pool, i, ui, mask, cls, pi, ring, at, &mut f)
+        }; )* } }
+        directions!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17);
+        f
+    }
+
+    /// Direction `D`'s term of the forces on the block at `i` (slot `at`).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    unsafe fn force_term<const D: usize>(
+        s: &CubicStencil,
+        u: &Coords,
+        pool: &[Real],
+        i: usize,
+        ui: [__m512d; 3],
+        mask: __m256i,
+        cls: Option<__m512i>,
+        pi: __m512d,
+        ring: &mut Ring,
+        at: usize,
+        f: &mut [__m512d; 3],
+    ) {
+        // SAFETY (caller): AVX-512F, the block is inside and the ring holds its lead-in.
+        unsafe {
+            let m = lanes(mask, D);
+            if m == 0 {
+                return;
+            }
+            let (x, sc) = if forward::<D>() {
+                let (x, sc) = factor(s, u, pool, i, D, ui, pi, cls);
+                keep(s, ring, s.row[D], at, sc);
+                (x, sc)
+            } else {
+                // The square length is left unused (and not computed).
+                let (x, _) = vector8(s, u, i, D, ui);
+                (x, recall(s, ring, s.row[D], at, s.off[D]))
+            };
+            add_terms(f, m, sc, x);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::body::Body;
+    use crate::kernel::Kernel;
+    use crate::lattice::Lattice;
+
+    /// Pools, screen flags, velocities, next displacements and partial sums of one step.
+    type Step = (Vec<Real>, Vec<bool>, Coords, Coords, Vec<(Real, Real)>);
+
+    fn step(kernel: &Kernel, body: &Body, state: &State) -> Step {
+        let mut s = state.clone();
+        let n = body.nodes();
+        let inv: Vec<Real> = (0..n).map(|i| 1.0 / (1.0 + (i % 7) as Real)).collect();
+        let p = StepParams {
+            dt: 0.1,
+            damping: 0.3,
+            accel: [0.0, 0.0, -1e-3],
+            plane: false,
+        };
+        let mut u_next = Coords::zeros(n);
+        let mut partials = vec![SweepSums::default(); crate::kernel::partials_len(n)];
+        kernel.pools_screened(body, &mut s, 2e-3);
+        kernel.force_kick_drift(body, &mut s, &inv, &p, &mut u_next, &mut partials);
+        let sums = partials
+            .iter()
+            .map(|x| (x.dissipated, x.body_work))
+            .collect();
+        (s.pool, s.hot, s.v, u_next, sums)
+    }
+
+    /// The wavefront sweeps give the gather sweeps' bits (vector and portable) on a damaged,
+    /// deformed, cell-weighted block, however the chunks are split into parts (each part fills
+    /// its ring from its own lead-in), with screen flags set and rows of 11 nodes (the path
+    /// needs 9).
+    #[test]
+    fn the_wavefront_gives_the_gather_bits_for_any_split() {
+        let lat = Lattice::cubic_box([11, 13, 60], 1.0).unwrap();
+        let body = Body::uniform(lat, 1.0, 0.2, 1.0)
+            .with_cell_weights()
+            .unwrap();
+        let mut state = State::new(&body);
+        let hash =
+            |k: u64| (k.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 11) as Real / (1u64 << 53) as Real;
+        for (b, alive) in state.alive.iter_mut().enumerate() {
+            *alive = hash(b as u64) > 0.1;
+        }
+        for c in 0..3 {
+            for (i, x) in state.u.comp_mut(c).iter_mut().enumerate() {
+                // Strains past the screen near nodes 4000..4100 only.
+                let size = if (4000..4100).contains(&i) {
+                    1e-2
+                } else {
+                    1e-4
+                };
+                *x = size * (hash((3 * i + c) as u64 + 7) - 0.5);
+            }
+        }
+        let Kernel::Cubic(stencil) = Kernel::for_body(&body, &state) else {
+            panic!("a cubic box has its stencil");
+        };
+        if !stencil.wave() {
+            // No AVX-512 here (or HOOKE_NO_SIMD): nothing to compare.
+            return;
+        }
+        let mut gather = stencil.clone();
+        gather.set_wave(false);
+        let mut portable = stencil.clone();
+        portable.set_simd(false);
+        let reference = step(&Kernel::Cubic(portable), &body, &state);
+        assert!(reference.1.iter().any(|&h| h) && !reference.1.iter().all(|&h| h));
+        assert_eq!(step(&Kernel::Cubic(gather), &body, &state), reference);
+        for parts in [1, 2, 3] {
+            let mut wave = stencil.clone();
+            wave.set_parts(parts);
+            assert!(wave.wave());
+            let got = step(&Kernel::Cubic(wave), &body, &state);
+            assert!(
+                got == reference,
+                "{parts} parts: not the gather sweeps' bits"
+            );
+        }
+    }
+}
