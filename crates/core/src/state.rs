@@ -1,6 +1,8 @@
 //! The mutable state of a body: positions, velocities, forces, which springs are intact, and
 //! each node's dispersion normaliser.
 
+use rayon::prelude::*;
+
 use crate::body::Body;
 use crate::math::{Coords, Real, Vector};
 
@@ -158,9 +160,13 @@ impl State {
             hot: Vec::new(),
             rec: Vec::new(),
         };
-        for i in 0..n {
-            s.norm[i] = node_norm(body, s.springs(body), i);
-        }
+        // Each node's sum is its own: in parallel (a large body's set-up), the same bits.
+        let springs = Springs::of(body, &s.alive, &s.k_eff);
+        s.norm
+            .par_iter_mut()
+            .with_min_len(1 << 12)
+            .enumerate()
+            .for_each(|(i, x)| *x = node_norm(body, springs, i));
         s
     }
 
@@ -315,7 +321,9 @@ pub fn node_norm(body: &Body, springs: Springs<'_>, n: usize) -> Real {
     for e in bonds.row(n) {
         let b = bonds.bond[e] as usize;
         if springs.alive[b] {
-            s += springs.k[b] * springs.lever.get(b) * springs.lever.get(b);
+            // Once: a lattice that shed its rest lengths computes each (a square root).
+            let l = springs.lever.get(b);
+            s += springs.k[b] * l * l;
         }
     }
     s
