@@ -559,8 +559,9 @@ where
 
 /// [`sweep_chunks`] for a sweep that carries scratch from one chunk to the next (the cubic
 /// stencil's wavefront rings): the chunks are split into at most `parts.len()` contiguous
-/// parts, each run in chunk order by one task holding its part's scratch. The partial sums are
-/// still formed per chunk and added in chunk order, so the split changes no bit.
+/// parts, each run in chunk order by one task holding its part's scratch (locked for the whole
+/// part; `chunk` is told which chunk is a part's first). The partial sums are still formed per
+/// chunk and added in chunk order, so the split changes no bit.
 pub(crate) fn sweep_parts<T: Send, F>(
     n: usize,
     chunks: Range<usize>,
@@ -571,7 +572,7 @@ pub(crate) fn sweep_parts<T: Send, F>(
     chunk: F,
 ) -> SweepSums
 where
-    F: Fn(&mut T, Range<usize>, ChunkOut<'_>) -> SweepSums + Sync,
+    F: Fn(&mut T, bool, Range<usize>, ChunkOut<'_>) -> SweepSums + Sync,
 {
     use rayon::prelude::*;
     let chunks = chunks.start..chunks.end.min(n.div_ceil(CHUNK));
@@ -591,7 +592,7 @@ where
                     let r = c * CHUNK..((c + 1) * CHUNK).min(n);
                     // SAFETY: as in `sweep_chunks`; each part takes only its own chunks.
                     let o = unsafe { ChunkOut::of(&vs, &us, r.clone()) };
-                    *out = chunk(&mut part, r, o);
+                    *out = chunk(&mut part, c == first + k * per, r, o);
                 }
             });
     }

@@ -180,13 +180,21 @@ pub(crate) fn force_kick_drift(
     let State { u, v, pool, .. } = state;
     let (u, pool): (&Coords, &[Real]) = (u, pool);
     let dims = p.dims(3);
-    // The rings hold nothing of this sweep yet (a part fills its own from its lead-in).
-    for ring in s.rings.iter() {
-        ring.lock().unwrap_or_else(|e| e.into_inner()).next = usize::MAX;
-    }
-    sweep_parts(s.n, chunks, &s.rings, v, u_next, partials, |ring, r, o| {
-        force_chunk(s, u, pool, inv_mass, p, dims, r, o, ring)
-    })
+    sweep_parts(
+        s.n,
+        chunks,
+        &s.rings,
+        v,
+        u_next,
+        partials,
+        |ring, first, r, o| {
+            if first {
+                // The ring holds nothing of this sweep yet: the part fills it from its lead-in.
+                ring.next = usize::MAX;
+            }
+            force_chunk(s, u, pool, inv_mass, p, dims, r, o, ring)
+        },
+    )
 }
 
 /// Sweep 2 over the nodes `r` of one chunk, continuing its part's ring.
