@@ -153,7 +153,13 @@ impl CubicStencil {
     /// Allow (the default) or forbid the wavefront sweeps, e.g. to compare them with the
     /// gather sweeps; they still need AVX-512 and rows of at least 9 nodes.
     pub fn set_wave(&mut self, on: bool) {
-        self.wave_ok = on && self.off[2] >= 9;
+        self.wave_ok = on && Self::wave_fits(&self.off);
+    }
+
+    /// Whether a box with index offsets `off` can take the wavefront sweeps: rows of at least 9
+    /// nodes, and the forward directions those the sweeps take for forward.
+    fn wave_fits(off: &[isize; 18]) -> bool {
+        off[2] >= 9 && (0..18).all(|d| (off[d] > 0) == wave::is_forward(d))
     }
 
     /// The stencil for `body` if it is a non-periodic box of the cubic lattice (at least 3 nodes
@@ -215,7 +221,7 @@ impl CubicStencil {
             row,
             ring_len,
             rings: Arc::new(rings),
-            wave_ok: sy >= 9,
+            wave_ok: Self::wave_fits(&off),
         };
         // Each node's mask from its own row (a gather, in parallel: on a large block this is
         // mostly first writes to fresh memory), then its 1/S_n.

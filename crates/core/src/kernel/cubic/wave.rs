@@ -68,6 +68,14 @@ pub(super) fn rings(reach: usize, parts: usize) -> (Vec<Mutex<Ring>>, usize) {
     (rings, r)
 }
 
+/// Whether direction `d` is forward (`off_d > 0`) in every box the wavefront runs: the sign of
+/// its last non-zero step along z, y, x, since `off = dx + sy dy + sz dz` with `sz > sy + 1 > 2`
+/// (checked against the offsets where the stencil is built). A constant in the unrolled sweeps.
+pub(super) const fn is_forward(d: usize) -> bool {
+    let [dx, dy, dz] = super::DIRS[d];
+    dz > 0 || (dz == 0 && (dy > 0 || (dy == 0 && dx > 0)))
+}
+
 /// Whether the node block at `i` runs on the wavefront's vector path.
 #[inline]
 fn vector_block(s: &CubicStencil, i: usize, k: usize, len: usize) -> bool {
@@ -302,13 +310,6 @@ mod avx512 {
         }
     }
 
-    /// Whether direction `D` is forward (`off_D > 0`): the sign of its last non-zero step
-    /// along z, y, x, since `off = dx + sy dy + sz dz` with `sz > sy + 1 > 2`.
-    const fn forward<const D: usize>() -> bool {
-        let [dx, dy, dz] = super::super::DIRS[D];
-        dz > 0 || (dz == 0 && (dy > 0 || (dy == 0 && dx > 0)))
-    }
-
     /// Direction `D`'s term of sweep 1 for the block at `i` (slot `at`).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
@@ -331,7 +332,7 @@ mod avx512 {
             if m == 0 {
                 return;
             }
-            let dl = if forward::<D>() {
+            let dl = if const { super::is_forward(D) } {
                 let dl = extension(s, u, i, D, ui);
                 keep(s, ring, s.row[D], at, dl);
                 dl
@@ -437,7 +438,7 @@ mod avx512 {
             if m == 0 {
                 return;
             }
-            let (x, sc) = if forward::<D>() {
+            let (x, sc) = if const { super::is_forward(D) } {
                 let (x, sc) = factor(s, u, pool, i, D, ui, pi, cls);
                 keep(s, ring, s.row[D], at, sc);
                 (x, sc)
