@@ -106,11 +106,6 @@ pub struct CubicStencil {
     reach: usize,
     /// The vector path's instructions (`None`: the portable path).
     simd: Option<Lanes>,
-    /// The forward directions (`off_d > 0`), in direction order.
-    forward: [usize; 9],
-    /// Each direction's row of the wavefront rings: its own place in `forward`, or its
-    /// opposite's.
-    row: [usize; 18],
     /// Node slots per ring row (`R`, see [`wave`]).
     ring_len: usize,
     /// One ring per part of a wavefront sweep.
@@ -190,17 +185,6 @@ impl CubicStencil {
             rest[d] = a * ((dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]) as Real).sqrt();
         }
         let reach = off.iter().map(|o| o.unsigned_abs()).max().unwrap_or(0);
-        let mut forward = [0; 9];
-        let mut row = [0; 18];
-        let mut f = 0;
-        for d in 0..18 {
-            if off[d] > 0 {
-                forward[f] = d;
-                row[d] = f;
-                row[d ^ 1] = f;
-                f += 1;
-            }
-        }
         let (rings, ring_len) = wave::rings(reach, rayon::current_num_threads());
         let mut s = CubicStencil {
             n: lat.len(),
@@ -217,8 +201,6 @@ impl CubicStencil {
             inv_norm: vec![0.0; lat.len()],
             reach,
             simd: simd_lanes(),
-            forward,
-            row,
             ring_len,
             rings: Arc::new(rings),
             wave_ok: Self::wave_fits(&off),

@@ -236,35 +236,60 @@ pub(crate) fn pools<S: Stencil>(
     screen: Real,
     chunks: Option<std::ops::Range<usize>>,
 ) {
-    let n = s.nodes();
-    if s.q() == 0.0 && !screen.is_finite() {
-        state.pool.fill(0.0);
+    let Some(span) = pools_span(s.nodes(), s.q(), state, screen, chunks) else {
         return;
-    }
-    let blocks = n.div_ceil(SCREEN);
-    if state.hot.len() != blocks {
-        state.hot = vec![false; blocks];
-    }
-    let all = 0..n.div_ceil(CHUNK);
-    let shared = chunks.is_some();
-    let chunks = chunks.unwrap_or(all);
-    if shared {
-        state.hot.fill(false);
-    }
+    };
     let u = Src {
         u: &state.u,
         rec: &state.rec,
         norm: &state.norm,
         in_place: false,
     };
-    let (first, per) = (chunks.start, CHUNK / SCREEN);
-    let nodes = (first * CHUNK).min(n)..(chunks.end * CHUNK).min(n);
-    let flags = (first * per).min(blocks)..(chunks.end * per).min(blocks);
-    state.pool[nodes]
+    let first = span.chunks.start;
+    state.pool[span.nodes]
         .par_chunks_mut(CHUNK)
-        .zip(state.hot[flags].par_chunks_mut(per))
+        .zip(state.hot[span.flags].par_chunks_mut(CHUNK / SCREEN))
         .enumerate()
         .for_each(|(c, (out, hot))| pool_chunk(s, &u, first + c, out, hot, screen));
+}
+
+/// What a sweep 1 of `n` nodes covers: its node chunks, and the pools and screen flags they
+/// hold.
+pub(crate) struct PoolSpan {
+    pub chunks: std::ops::Range<usize>,
+    pub nodes: std::ops::Range<usize>,
+    pub flags: std::ops::Range<usize>,
+}
+
+/// The preparation every stencil's sweep 1 shares: with the plain law and no screen the pools
+/// are +0 and there is nothing to sweep (`None`); otherwise the screen flags are sized (and for
+/// one rank's `chunks`, cleared), and the span of `chunks` (every chunk: `None`) is returned.
+pub(crate) fn pools_span(
+    n: usize,
+    q: Real,
+    state: &mut State,
+    screen: Real,
+    chunks: Option<std::ops::Range<usize>>,
+) -> Option<PoolSpan> {
+    if q == 0.0 && !screen.is_finite() {
+        state.pool.fill(0.0);
+        return None;
+    }
+    let blocks = n.div_ceil(SCREEN);
+    if state.hot.len() != blocks {
+        state.hot = vec![false; blocks];
+    }
+    if chunks.is_some() {
+        state.hot.fill(false);
+    }
+    let chunks = chunks.unwrap_or(0..n.div_ceil(CHUNK));
+    let chunks = chunks.start..chunks.end.min(n.div_ceil(CHUNK));
+    let per = CHUNK / SCREEN;
+    Some(PoolSpan {
+        nodes: (chunks.start * CHUNK).min(n)..(chunks.end * CHUNK).min(n),
+        flags: (chunks.start * per).min(blocks)..(chunks.end * per).min(blocks),
+        chunks,
+    })
 }
 
 /// Sweep 1 over chunk `c` (its pools `out` and screen flags `hot`).

@@ -41,7 +41,7 @@ use std::sync::Mutex;
 use rayon::prelude::*;
 
 use super::CubicStencil;
-use crate::kernel::stencil::SCREEN;
+use crate::kernel::stencil::{pools_span, SCREEN};
 use crate::kernel::{sweep_parts, ChunkOut, StepParams, SweepSums, CHUNK};
 use crate::math::{Coords, Real};
 use crate::state::State;
@@ -76,6 +76,32 @@ pub(super) const fn is_forward(d: usize) -> bool {
     dz > 0 || (dz == 0 && (dy > 0 || (dy == 0 && dx > 0)))
 }
 
+/// The forward directions, in direction order.
+const FORWARD: [usize; 9] = {
+    let mut f = [0; 9];
+    let (mut d, mut k) = (0, 0);
+    while d < 18 {
+        if is_forward(d) {
+            f[k] = d;
+            k += 1;
+        }
+        d += 1;
+    }
+    f
+};
+
+/// Each direction's row of the rings: its own place in [`FORWARD`], or its opposite's.
+const ROW: [usize; 18] = {
+    let mut row = [0; 18];
+    let mut k = 0;
+    while k < 9 {
+        row[FORWARD[k]] = k;
+        row[FORWARD[k] ^ 1] = k;
+        k += 1;
+    }
+    row
+};
+
 /// Whether the node block at `i` runs on the wavefront's vector path.
 #[inline]
 fn vector_block(s: &CubicStencil, i: usize, k: usize, len: usize) -> bool {
@@ -96,33 +122,19 @@ pub(crate) fn pools(
     screen: Real,
     chunks: Option<Range<usize>>,
 ) {
-    let n = s.n;
-    if s.q == 0.0 && !screen.is_finite() {
-        state.pool.fill(0.0);
+    let Some(span) = pools_span(s.n, s.q, state, screen, chunks) else {
         return;
-    }
-    let blocks = n.div_ceil(SCREEN);
-    if state.hot.len() != blocks {
-        state.hot = vec![false; blocks];
-    }
-    let shared = chunks.is_some();
-    let chunks = chunks.unwrap_or(0..n.div_ceil(CHUNK));
-    if shared {
-        state.hot.fill(false);
-    }
-    let chunks = chunks.start..chunks.end.min(n.div_ceil(CHUNK));
+    };
+    let chunks = span.chunks;
     if chunks.is_empty() {
         return;
     }
     let per = chunks.len().div_ceil(s.rings.len().min(chunks.len()));
-    let flags_per = CHUNK / SCREEN;
-    let nodes = chunks.start * CHUNK..(chunks.end * CHUNK).min(n);
-    let flags = chunks.start * flags_per..(chunks.end * flags_per).min(blocks);
     let first = chunks.start * CHUNK;
     let u = &state.u;
-    state.pool[nodes]
+    state.pool[span.nodes]
         .par_chunks_mut(per * CHUNK)
-        .zip(state.hot[flags].par_chunks_mut(per * flags_per))
+        .zip(state.hot[span.flags].par_chunks_mut(per * (CHUNK / SCREEN)))
         .zip(s.rings.par_iter())
         .enumerate()
         .for_each(|(k, ((out, hot), ring))| {
@@ -267,7 +279,7 @@ mod avx512 {
     use super::super::avx512::{
         add_share, add_terms, classes, extension, factor, lanes, load_block, vector8,
     };
-    use super::{CubicStencil, Ring};
+    use super::{CubicStencil, Ring, FORWARD, ROW};
     use crate::math::{Coords, Real};
 
     /// Store a forward direction's 8 values of the block in slots `at..at + 8` of its ring
@@ -303,9 +315,9 @@ mod avx512 {
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn forward_lengths8(s: &CubicStencil, u: &Coords, m: usize, ring: &mut Ring) {
         let (ui, mask) = unsafe { load_block(s, u, m) };
-        for &d in &s.forward {
+        for d in FORWARD {
             if unsafe { lanes(mask, d) } != 0 {
-                unsafe { keep(s, ring, s.row[d], m % s.ring_len, extension(s, u, m, d, ui)) };
+                unsafe { keep(s, ring, ROW[d], m % s.ring_len, extension(s, u, m, d, ui)) };
             }
         }
     }
@@ -334,10 +346,10 @@ mod avx512 {
             }
             let dl = if const { super::is_forward(D) } {
                 let dl = extension(s, u, i, D, ui);
-                keep(s, ring, s.row[D], at, dl);
+                keep(s, ring, ROW[D], at, dl);
                 dl
             } else {
-                recall(s, ring, s.row[D], at, s.off[D])
+                recall(s, ring, ROW[D], at, s.off[D])
             };
             add_share(s, D, m, dl, cls, screen, acc, hot);
         }
@@ -386,10 +398,10 @@ mod avx512 {
         let (ui, mask) = unsafe { load_block(s, u, m) };
         let cls = classes(s, mask);
         let pi = unsafe { _mm512_loadu_pd(pool.as_ptr().add(m)) };
-        for &d in &s.forward {
+        for d in FORWARD {
             if unsafe { lanes(mask, d) } != 0 {
                 let (_, sc) = unsafe { factor(s, u, pool, m, d, ui, pi, cls) };
-                unsafe { keep(s, ring, s.row[d], m % s.ring_len, sc) };
+                unsafe { keep(s, ring, ROW[d], m % s.ring_len, sc) };
             }
         }
     }
@@ -440,12 +452,12 @@ mod avx512 {
             }
             let (x, sc) = if const { super::is_forward(D) } {
                 let (x, sc) = factor(s, u, pool, i, D, ui, pi, cls);
-                keep(s, ring, s.row[D], at, sc);
+                keep(s, ring, ROW[D], at, sc);
                 (x, sc)
             } else {
                 // The square length is left unused (and not computed).
                 let (x, _) = vector8(s, u, i, D, ui);
-                (x, recall(s, ring, s.row[D], at, s.off[D]))
+                (x, recall(s, ring, ROW[D], at, s.off[D]))
             };
             add_terms(f, m, sc, x);
         }
