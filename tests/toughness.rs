@@ -150,7 +150,7 @@ fn dynamic_strip(nu: Real, over: Real, ramp: Real, damping: Real) -> (Real, usiz
         ..Default::default()
     };
     let mut it = Integrator::new(&body, &mut state, loading, &opts).unwrap();
-    let bonds = &body.lattice.bonds;
+    let bonds = &*body.lattice.bonds;
     let crosses = |b: usize| {
         let [i, j] = bonds.ends[b].map(|v| v as usize);
         (body.lattice.pos.y()[i] - yc) * (body.lattice.pos.y()[j] - yc) < 0.0
@@ -346,7 +346,7 @@ fn dynamic_strip_random(nu: Real, over: Real, height: Real, seed: u64) -> Dynami
         ..Default::default()
     };
     let mut it = Integrator::new(&body, &mut state, loading, &opts).unwrap();
-    let bonds = &body.lattice.bonds;
+    let bonds = &*body.lattice.bonds;
     let mut was_alive = state.alive().to_vec();
     let mut tip = notch;
     let mut history: Vec<(Real, Real)> = Vec::new();

@@ -501,7 +501,7 @@ impl Contact {
         };
         // Only pairs with a damaged end (a node that lost a spring) can be crack faces or
         // fragments: an intact lattice has none and skips the search.
-        let bonds = &body.lattice.bonds;
+        let bonds = &*body.lattice.bonds;
         // From the broken springs' ends (a contiguous scan of the flags, then the few broken
         // ones) rather than from every node's row (an indirect read per row entry): the same
         // list, in node order.

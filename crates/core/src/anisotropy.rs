@@ -731,7 +731,7 @@ impl Body {
         density: Real,
         family: impl Fn([Real; 3], Real) -> Result<(Real, Real)>,
     ) -> Result<Body> {
-        let bonds = &lattice.bonds;
+        let bonds = &*lattice.bonds;
         let (mut k, mut lever) = (
             Vec::with_capacity(bonds.len()),
             Vec::with_capacity(bonds.len()),
@@ -746,7 +746,7 @@ impl Body {
         let mass = vec![density * lattice.cell_volume; lattice.len()];
         let body = Body {
             lattice,
-            k,
+            k: k.into(),
             q,
             mass,
             lever: Some(lever),

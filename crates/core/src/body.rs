@@ -1,6 +1,8 @@
 //! A body: a lattice with its material constants (spring stiffnesses, q, node masses).
 //! Immutable during a run; everything that changes lives in [`crate::State`].
 
+use std::sync::OnceLock;
+
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
@@ -34,12 +36,90 @@ impl<'a> Levers<'a> {
     }
 }
 
+/// Each spring's stiffness `k_b` (N/m), read as a slice (`Deref`). A body of one stiffness
+/// (`Body::uniform`) keeps the value and the count, and fills the slice only when something
+/// asks for it (the general kernels, a frame): the cubic stencil reads the one value
+/// ([`Stiffnesses::uniform`]), so a block it runs holds no per-spring stiffness (8 bytes per
+/// spring). Changing them (`DerefMut`) stores them for good.
+#[derive(Clone, Debug)]
+pub struct Stiffnesses {
+    each: OnceLock<Vec<Real>>,
+    /// The one value and the count, while every spring has it.
+    one: Option<(Real, usize)>,
+}
+
+impl Stiffnesses {
+    /// `len` springs of stiffness `k`.
+    pub fn uniform(k: Real, len: usize) -> Self {
+        Stiffnesses {
+            each: OnceLock::new(),
+            one: Some((k, len)),
+        }
+    }
+
+    /// The stiffness of every spring, while they share one.
+    #[inline]
+    pub fn uniform_value(&self) -> Option<Real> {
+        self.one.map(|(k, _)| k)
+    }
+
+    /// How many springs.
+    pub fn len(&self) -> usize {
+        match self.one {
+            Some((_, n)) => n,
+            None => self.each.get().map_or(0, |v| v.len()),
+        }
+    }
+
+    /// True for a body without springs.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Heap bytes held (none while one value stands for all).
+    pub fn bytes(&self) -> usize {
+        self.each.get().map_or(0, crate::memory::bytes)
+    }
+}
+
+impl From<Vec<Real>> for Stiffnesses {
+    fn from(v: Vec<Real>) -> Self {
+        Stiffnesses {
+            each: OnceLock::from(v),
+            one: None,
+        }
+    }
+}
+
+impl std::ops::Deref for Stiffnesses {
+    type Target = [Real];
+
+    #[inline]
+    fn deref(&self) -> &[Real] {
+        self.each.get_or_init(|| {
+            let (k, n) = self.one.expect("stiffnesses are given or uniform");
+            // Filled in parallel: first writes to a large body's fresh memory share the cores.
+            let mut out = Vec::with_capacity(n);
+            out.par_extend(rayon::iter::repeat_n(k, n));
+            out
+        })
+    }
+}
+
+impl std::ops::DerefMut for Stiffnesses {
+    fn deref_mut(&mut self) -> &mut [Real] {
+        let _ = &**self;
+        self.one = None;
+        self.each.get_mut().expect("filled just above")
+    }
+}
+
 /// A lattice with its spring constants and node masses.
 #[derive(Clone, Debug)]
 pub struct Body {
     pub lattice: Lattice,
-    /// Stiffness `k_b` of each spring (N/m).
-    pub k: Vec<Real>,
+    /// Stiffness `k_b` of each spring (N/m), read as a slice ([`Stiffnesses`]).
+    pub k: Stiffnesses,
     /// Dispersion ratio q of the material (0: plain spring lattice).
     pub q: Real,
     /// Lumped mass of each node (kg): density times the node's cell volume.
@@ -61,9 +141,9 @@ impl Body {
         let mut parts = vec![
             ("positions", lat.pos.heap_bytes()),
             ("rows (offsets, springs; neighbours if kept)", b.row_bytes()),
-            ("spring ends", bytes(&b.ends)),
+            ("spring ends", b.ends_bytes()),
             ("rest lengths", b.rest_bytes()),
-            ("stiffnesses", bytes(&self.k)),
+            ("stiffnesses", self.k.bytes()),
             ("masses", bytes(&self.mass)),
         ];
         if let Some(c) = &lat.cells {
@@ -104,7 +184,7 @@ impl Body {
         } else {
             1.0
         };
-        let k = cells
+        let k: Vec<Real> = cells
             .spring
             .iter()
             .zip(lattice.rest_lengths().iter())
@@ -113,7 +193,7 @@ impl Body {
         let mass = cells.node.iter().map(|&v| density * v).collect();
         Body {
             lattice,
-            k,
+            k: k.into(),
             q,
             mass,
             lever: None,
@@ -133,7 +213,7 @@ impl Body {
         };
         Body {
             lattice,
-            k: fill(nb, k),
+            k: Stiffnesses::uniform(k, nb),
             q,
             mass: fill(nn, node_mass),
             lever: None,
@@ -192,7 +272,12 @@ impl Body {
                 why: "the lattice is stable only for q > -1/2 (nu > -1)".into(),
             });
         }
-        if let Some(b) = self.k.iter().position(|&k| !(k.is_finite() && k > 0.0)) {
+        let bad = |k: Real| !(k.is_finite() && k > 0.0);
+        let first_bad = match self.k.uniform_value() {
+            Some(k) => (bad(k) && self.springs() > 0).then_some(0),
+            None => self.k.iter().position(|&k| bad(k)),
+        };
+        if let Some(b) = first_bad {
             return Err(Error::InvalidInput {
                 what: "spring stiffness",
                 why: format!("spring {b} has k = {}", self.k[b]),

@@ -138,7 +138,7 @@ pub fn spring_vector(lat: &Lattice, u: &Coords, i: usize, j: usize) -> (Real, Re
 /// Pool `Pi_n` of node `n` over its intact springs.
 #[inline]
 fn node_pool(body: &Body, u: &Coords, sp: Springs<'_>, n: usize) -> Real {
-    let bonds = &body.lattice.bonds;
+    let bonds = &*body.lattice.bonds;
     let mut pi = 0.0;
     for e in bonds.row(n) {
         let b = bonds.bond[e] as usize;
@@ -182,7 +182,7 @@ pub fn node_force(
     pool: &[Real],
     n: usize,
 ) -> [Real; 3] {
-    let bonds = &body.lattice.bonds;
+    let bonds = &*body.lattice.bonds;
     let lat = &body.lattice;
     let mut f = [0.0; 3];
     for e in bonds.row(n) {
@@ -236,7 +236,7 @@ pub fn ordered_sum(n: usize, f: impl Fn(usize) -> Real + Sync) -> Real {
 
 /// Strain energy `U` of displacements `u` (computed from scratch; not on the hot path).
 pub fn energy(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> Energy {
-    let bonds = &body.lattice.bonds;
+    let bonds = &*body.lattice.bonds;
     let direct = ordered_sum(bonds.len(), |b| {
         if !sp.alive[b] {
             return 0.0;
@@ -276,7 +276,7 @@ pub fn tensions(body: &Body, state: &State) -> Vec<Real> {
 
 /// Tension of every spring (0 for broken ones) for displacements `u` and pool ratios `pool`.
 pub fn spring_tensions(body: &Body, u: &Coords, sp: Springs<'_>, pool: &[Real]) -> Vec<Real> {
-    let bonds = &body.lattice.bonds;
+    let bonds = &*body.lattice.bonds;
     (0..bonds.len())
         .map(|b| {
             if !sp.alive[b] {
@@ -423,7 +423,7 @@ pub fn frame_fields_part(
     let n = body.nodes();
     let ns = body.springs();
     let lat = &body.lattice;
-    let bonds = &lat.bonds;
+    let bonds = &*lat.bonds;
     let q = body.q;
     let chunk = crate::kernel::CHUNK;
     let chunks = ns.div_ceil(chunk);
@@ -664,7 +664,7 @@ pub fn frame_fields_part(
 /// evenly between its two ends. `u` and `tension` may be current (finite strain), or zero
 /// displacement with linearised tensions (small strain).
 pub fn node_virial(body: &Body, u: &Coords, tension: &[Real], n: usize) -> Matrix {
-    let bonds = &body.lattice.bonds;
+    let bonds = &*body.lattice.bonds;
     let mut s = Matrix::zeros();
     for e in bonds.row(n) {
         let b = bonds.bond[e] as usize;

@@ -54,7 +54,7 @@ pub struct RelaxReport {
 
 /// Fictitious masses (Gershgorin bound on the tangent's rows) at the current state.
 fn fictitious_mass(body: &Body, state: &State) -> Vec<Real> {
-    let bonds = &body.lattice.bonds;
+    let bonds = &*body.lattice.bonds;
     let kk = state.springs(body).k;
     let lever = body.levers();
     let n = body.nodes();

@@ -614,15 +614,26 @@ fn largest_ritz(alpha: &[Real], beta: &[Real]) -> Real {
 
 /// `(1 + 2 max(q,0)) max_n 2 sum_t k_t / m_n`: holds for any pattern of broken springs.
 pub fn damage_bound(body: &Body) -> Real {
-    let bonds = &body.lattice.bonds;
     // Each node's sum in row order; the maximum is exact in any order.
+    let star = body.lattice.bonds.grid().map(|g| g.star());
+    let sum_k = |n: usize| -> Real {
+        match (body.lattice.bonds.grid(), body.k.uniform_value(), &star) {
+            // A box of one stiffness: as many terms k as the row has, without the rows.
+            (Some(g), Some(k), Some(star)) => {
+                let mut count = 0;
+                g.links(star, n, |_, _| count += 1);
+                std::iter::repeat_n(k, count).sum()
+            }
+            _ => {
+                let bonds = &*body.lattice.bonds;
+                bonds.row(n).map(|e| body.k[bonds.bond[e] as usize]).sum()
+            }
+        }
+    };
     let worst = (0..body.nodes())
         .into_par_iter()
         .with_min_len(BLOCK)
-        .map(|n| {
-            let ks: Real = bonds.row(n).map(|e| body.k[bonds.bond[e] as usize]).sum();
-            2.0 * ks / body.mass[n]
-        })
+        .map(|n| 2.0 * sum_k(n) / body.mass[n])
         .reduce(|| 0.0, Real::max);
     (1.0 + 2.0 * body.q.max(0.0)) * worst
 }

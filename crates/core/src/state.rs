@@ -161,6 +161,21 @@ impl State {
             rec: Vec::new(),
         };
         // Each node's sum is its own: in parallel (a large body's set-up), the same bits.
+        let grid = body.lattice.bonds.grid();
+        if let (Some(g), Some(k), None) = (grid, body.k.uniform_value(), &body.lever) {
+            // A box of one stiffness: the rows' values in their order, without the rows.
+            let star = g.star();
+            s.norm
+                .par_iter_mut()
+                .with_min_len(1 << 12)
+                .enumerate()
+                .for_each(|(i, x)| {
+                    let mut sum = 0.0;
+                    g.links(&star, i, |_, l| sum += k * l * l);
+                    *x = sum;
+                });
+            return s;
+        }
         let springs = Springs::of(body, &s.alive, &s.k_eff);
         s.norm
             .par_iter_mut()
@@ -214,7 +229,7 @@ impl State {
         }
         if self.weight.is_empty() {
             self.weight = vec![1.0; self.alive.len()];
-            self.k_eff = body.k.clone();
+            self.k_eff = body.k.to_vec();
         }
         self.weight[b] = w;
         self.k_eff[b] = w * body.k[b];
@@ -242,7 +257,7 @@ impl State {
             self.k_eff = self
                 .weight
                 .iter()
-                .zip(&body.k)
+                .zip(body.k.iter())
                 .map(|(w, k)| w * k)
                 .collect();
         }
@@ -316,7 +331,7 @@ impl State {
 
 /// `S_n` of node `n` over its intact springs, each with its current stiffness.
 pub fn node_norm(body: &Body, springs: Springs<'_>, n: usize) -> Real {
-    let bonds = &body.lattice.bonds;
+    let bonds = &*body.lattice.bonds;
     let mut s = 0.0;
     for e in bonds.row(n) {
         let b = bonds.bond[e] as usize;

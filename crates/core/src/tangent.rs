@@ -43,7 +43,7 @@ impl Tangent {
     /// Freeze the tangent at `state` (its pools must be current: call
     /// [`crate::law::update_forces`] first).
     pub fn new(body: &Body, state: &State) -> Self {
-        let bonds = &body.lattice.bonds;
+        let bonds = &*body.lattice.bonds;
         let kk = state.springs(body).k;
         let lever = body.levers();
         let data = (0..bonds.len())
@@ -98,7 +98,7 @@ impl Tangent {
     }
 
     fn compute_dpool(&mut self, body: &Body, v: &Coords) {
-        let bonds = &body.lattice.bonds;
+        let bonds = &*body.lattice.bonds;
         let mut dpool = std::mem::take(&mut self.dpool);
         if self.q == 0.0 {
             dpool.fill(0.0);
@@ -128,7 +128,7 @@ impl Tangent {
     /// `out = K v`.
     pub fn apply(&mut self, body: &Body, v: &Coords, out: &mut Coords) {
         self.compute_dpool(body, v);
-        let bonds = &body.lattice.bonds;
+        let bonds = &*body.lattice.bonds;
         let this = &*self;
         let [ox, oy, oz] = out.xyz_mut();
         ox.par_iter_mut()
@@ -163,7 +163,7 @@ impl Tangent {
     /// undirected spring id). Used to measure small-strain stresses exactly.
     pub fn tension_changes(&mut self, body: &Body, v: &Coords) -> Vec<Real> {
         self.compute_dpool(body, v);
-        let bonds = &body.lattice.bonds;
+        let bonds = &*body.lattice.bonds;
         (0..bonds.len())
             .map(|b| {
                 let [i, j] = bonds.ends[b].map(|x| x as usize);
@@ -178,7 +178,7 @@ impl Tangent {
 
     /// The diagonal of `K` (exact), for Jacobi preconditioning.
     pub fn diagonal(&self, body: &Body) -> Coords {
-        let bonds = &body.lattice.bonds;
+        let bonds = &*body.lattice.bonds;
         let n_nodes = self.nodes();
         let mut diag = Coords::zeros(n_nodes);
         for n in 0..n_nodes {

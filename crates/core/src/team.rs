@@ -104,7 +104,7 @@ impl Share {
     /// every rank's halo.
     pub fn new(body: &Body, size: usize, rank: usize, everyone: &[usize]) -> Share {
         let n = body.nodes();
-        let bonds = &body.lattice.bonds;
+        let bonds = &*body.lattice.bonds;
         let chunks = n.div_ceil(CHUNK);
         // Work of a chunk: its row entries plus one per node (the kick and drift).
         let work: Vec<usize> = (0..chunks)
@@ -228,7 +228,7 @@ pub fn trade_halo(
 /// own rows (its spring range is widened to whole blocks), and the `everyone` nodes.
 fn halo(body: &Body, nodes: &[Range<usize>], rank: usize, everyone: &[usize]) -> Halo {
     let size = nodes.len();
-    let bonds = &body.lattice.bonds;
+    let bonds = &*body.lattice.bonds;
     let n = body.nodes();
     let owner = |i: usize| nodes.partition_point(|r| r.end <= i);
     let mut send: Vec<Vec<u32>> = vec![Vec::new(); size];
@@ -444,7 +444,7 @@ pub(crate) mod tests {
                 assert_eq!(m.start, next);
                 assert!(m.start % CHUNK == 0);
                 next = m.end;
-                let bonds = &body.lattice.bonds;
+                let bonds = &*body.lattice.bonds;
                 let mut reads: std::collections::BTreeSet<u32> =
                     everyone.iter().map(|&i| i as u32).collect();
                 for i in m.clone() {

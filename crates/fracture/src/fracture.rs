@@ -53,7 +53,7 @@ pub struct Fracture {
 impl Fracture {
     /// Breaking with `criterion` on `body`.
     pub fn new(body: &Body, criterion: Box<dyn Criterion>) -> Self {
-        let bonds = &body.lattice.bonds;
+        let bonds = &*body.lattice.bonds;
         Fracture {
             criterion,
             no_fail: vec![false; body.nodes()],
@@ -178,7 +178,7 @@ impl Fracture {
     /// [`Fracture::decide`] for the springs whose lower end is in `nodes` (whole chunks): the
     /// other chunks' lists are left empty.
     fn decide_at(&mut self, body: &Body, state: &State, nodes: std::ops::Range<usize>) {
-        let bonds = &body.lattice.bonds;
+        let bonds = &*body.lattice.bonds;
         let (crit, no_fail) = (&*self.criterion, &self.no_fail);
         self.found.par_iter_mut().enumerate().for_each(|(c, list)| {
             list.clear();
@@ -222,7 +222,7 @@ impl Fracture {
         if count == 0 {
             return BreakReport::default();
         }
-        let bonds = &body.lattice.bonds;
+        let bonds = &*body.lattice.bonds;
         let back = integrator.as_deref().map(|it| it.dt);
         self.touched.clear();
         for list in &self.found {
@@ -304,7 +304,7 @@ impl Fracture {
     /// Damage of every node: the fraction of the springs it had at set-up that are broken
     /// (pre-cracks included), a softened spring counting by its lost weight `1 - w`.
     pub fn damage(&self, body: &Body, state: &State) -> Vec<Real> {
-        let bonds = &body.lattice.bonds;
+        let bonds = &*body.lattice.bonds;
         (0..body.nodes())
             .map(|n| {
                 let left: Real = if state.is_softened() {
@@ -369,7 +369,7 @@ impl Breaker for Fracture {
         for l in &mut self.found {
             l.clear();
         }
-        let bonds = &body.lattice.bonds;
+        let bonds = &*body.lattice.bonds;
         let (crit, no_fail) = (&*self.criterion, &self.no_fail);
         if let Some(list) = self.found.first_mut() {
             // Ascending spring order is (lower end, upper end) order: the order of `decide`.
@@ -420,7 +420,7 @@ fn shifted_dispersive_energy(body: &Body, state: &State, h: Real, n: usize) -> R
     if body.q == 0.0 || s <= 0.0 {
         return 0.0;
     }
-    let bonds = &body.lattice.bonds;
+    let bonds = &*body.lattice.bonds;
     let (k, lever) = (state.springs(body).k, body.levers());
     let mut pi = 0.0;
     for e in bonds.row(n) {

@@ -21,7 +21,7 @@ pub enum Crack {
 /// The springs of `body` that `crack` cuts (indices of undirected springs).
 pub fn springs_cut(body: &Body, crack: &Crack, index: usize) -> Result<Vec<usize>, FractureError> {
     let lat = &body.lattice;
-    let bonds = &lat.bonds;
+    let bonds = &*lat.bonds;
     let bad = |why: String| FractureError::BadCrack { index, why };
     let mut out = Vec::new();
     match crack {

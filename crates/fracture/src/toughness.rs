@@ -436,7 +436,7 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
     for &i in &grip {
         breakable[i] = false;
     }
-    let bonds = &body.lattice.bonds;
+    let bonds = &*body.lattice.bonds;
     // On the crack plane: crossing it (regular lattices), or with its midpoint within a quarter
     // height of it (random lattices, whose crack path is rough).
     let random = t.kind.is_random();

@@ -79,7 +79,7 @@ fn pools_impl<const D: usize, const P: bool>(
     screen: Real,
     share: Option<&Share>,
 ) {
-    let bonds = &body.lattice.bonds;
+    let bonds = &*body.lattice.bonds;
     let springs = bonds.len();
     let w = stride(D);
     if state.spring.len() != w * springs || state.spring_pi.len() != springs {
@@ -194,7 +194,7 @@ fn spring_one<const D: usize, const P: bool>(
 /// `p_n = sum_t pi_t / S_n` over node n's row (broken springs' shares are zeros).
 #[inline(always)]
 fn node_pool(body: &Body, norm: &[Real], pis: &[Real], n: usize) -> Real {
-    let bonds = &body.lattice.bonds;
+    let bonds = &*body.lattice.bonds;
     let s = norm[n];
     if s > 0.0 {
         let mut sum = 0.0;
@@ -222,7 +222,7 @@ pub(crate) fn repair(body: &Body, state: &mut State, plain: bool, changed: &[u32
     let (u, alive) = (&state.u, &state.alive);
     let kk = crate::state::Springs::of(body, alive, &state.k_eff).k;
     let levers = body.levers();
-    let bonds = &lat.bonds;
+    let bonds = &*lat.bonds;
     for &b in changed {
         let b = b as usize;
         let (rec, pi) = (&mut state.spring[w * b..w * b + w], &mut state.spring_pi[b]);
@@ -489,7 +489,7 @@ fn fkd<const D: usize, const W: usize>(
     chunks: std::ops::Range<usize>,
 ) -> SweepSums {
     let (u, pool, rec) = (&state.u, &state.pool, &state.spring);
-    let bonds = &body.lattice.bonds;
+    let bonds = &*body.lattice.bonds;
     debug_assert_eq!(W, stride(D));
     let (rec, rest) = rec.as_chunks::<W>();
     debug_assert!(rest.is_empty());

@@ -173,7 +173,10 @@ impl CubicStencil {
             return None;
         }
         // The bulk stiffness: the largest (cell weights only lower a spring's).
-        let k = body.k.par_iter().cloned().reduce(|| 0.0, Real::max);
+        let k = match body.k.uniform_value() {
+            Some(k) => k,
+            None => body.k.par_iter().cloned().reduce(|| 0.0, Real::max),
+        };
         let (sy, sz) = (g[0] as isize, (g[0] * g[1]) as isize);
         let a = lat.spacing;
         let mut off = [0isize; 18];
@@ -207,12 +210,13 @@ impl CubicStencil {
         };
         // Each node's mask from its own row (a gather, in parallel: on a large block this is
         // mostly first writes to fresh memory), then its 1/S_n.
-        let bonds = &lat.bonds;
         let off = s.off;
         // One stiffness (the common case): every node is of class 0, nothing to classify.
-        let class = if body.k.par_iter().all(|&v| v == k) {
+        let uniform = body.k.uniform_value().is_some() || body.k.par_iter().all(|&v| v == k);
+        let class = if uniform {
             Vec::new()
         } else {
+            let bonds = &*lat.bonds;
             let (class, factors) = Factors::classify(lat.len(), k, |i| {
                 let mut f = [None; 18];
                 for e in bonds.row(i) {
@@ -224,15 +228,29 @@ impl CubicStencil {
             s.factors = factors;
             class
         };
+        let grid = lat
+            .bonds
+            .grid()
+            .filter(|_| state.alive.par_iter().all(|&a| a));
+        let star = grid.map(|g| g.star());
         s.mask
             .par_iter_mut()
             .with_min_len(1 << 12)
             .enumerate()
             .for_each(|(i, m)| {
                 *m = class.get(i).map_or(0, |&c| (c as u32) << CLASS_SHIFT);
-                for e in bonds.row(i) {
-                    if state.alive[bonds.bond[e] as usize] {
-                        *m |= 1 << direction(&off, i, bonds.neighbour(i, e));
+                match grid {
+                    // Every spring intact: the directions that stay in the box, without rows.
+                    Some(g) => g.links(star.as_ref().expect("with the grid"), i, |j, _| {
+                        *m |= 1 << direction(&off, i, j)
+                    }),
+                    None => {
+                        let bonds = &*lat.bonds;
+                        for e in bonds.row(i) {
+                            if state.alive[bonds.bond[e] as usize] {
+                                *m |= 1 << direction(&off, i, bonds.neighbour(i, e));
+                            }
+                        }
                     }
                 }
             });

@@ -256,7 +256,7 @@ impl Kernel {
         match self {
             Kernel::Csr { .. } => csr::hot_springs(state, body.springs(), out),
             Kernel::Cubic(_) | Kernel::Hex(_) | Kernel::Rows(_) => {
-                let bonds = &body.lattice.bonds;
+                let bonds = &*body.lattice.bonds;
                 let n = body.nodes();
                 for (blk, _) in state.hot.iter().enumerate().filter(|(_, &h)| h) {
                     for i in blk * stencil::SCREEN..((blk + 1) * stencil::SCREEN).min(n) {

@@ -157,7 +157,7 @@ impl RowKernel {
             return None;
         }
         let n = body.nodes();
-        let bonds = &lat.bonds;
+        let bonds = &*lat.bonds;
         let springs = state.springs(body);
         let lever = body.lever.is_some();
         let pos = &lat.pos;
@@ -1270,7 +1270,9 @@ mod tests {
             c.iter_mut().for_each(|x| *x *= 1.5);
         }
         let ends = b.lattice.bonds.ends.clone();
-        b.lattice.bonds = Bonds::from_pairs(b.nodes(), ends, &pos, [0.0; 3]).unwrap();
+        b.lattice.bonds = Bonds::from_pairs(b.nodes(), ends, &pos, [0.0; 3])
+            .unwrap()
+            .into();
         b.lattice.pos = pos;
         let mut state = State::new(&a);
         for i in 0..a.nodes() {

@@ -455,7 +455,7 @@ impl RandomDesign {
                 })
             }
         };
-        let bonds = &lattice.bonds;
+        let bonds = &*lattice.bonds;
         let (k, lever): (Vec<Real>, Vec<Real>) = (0..bonds.len())
             .into_par_iter()
             .map(|b| {
@@ -472,7 +472,7 @@ impl RandomDesign {
         let mass = cells.node.iter().map(|&v| density * v).collect();
         let body = Body {
             lattice,
-            k,
+            k: k.into(),
             q: self.q,
             mass,
             lever: Some(lever),

@@ -218,7 +218,7 @@ impl Lattice {
             thickness,
             period: [0.0; 3],
             grid: None,
-            bonds,
+            bonds: bonds.into(),
             cells: Some(Cells {
                 node,
                 spring,
