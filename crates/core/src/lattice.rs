@@ -382,15 +382,18 @@ impl std::ops::DerefMut for Topology {
     }
 }
 
-/// The springs of a box of Ladd's lattice without a periodic axis, known from its grid: node
-/// `(ix, iy, iz)` is linked to each of the 18 star neighbours that lie in the box, with rest
-/// length `|X_j - X_i|` of the positions the box was built with (`g a` per axis).
+/// The springs of a box lattice without a periodic axis, known from its grid: a node is
+/// linked to each neighbour of its star that lies in the box (Ladd's 18; the hexagonal
+/// lattice's 6, which follow the row's parity), with rest length `|X_j - X_i|` of the
+/// positions the box was built with.
 #[derive(Clone, Copy, Debug)]
 pub struct GridSprings {
-    /// Nodes per axis.
+    /// Nodes per axis (`[nx, rows, 1]` for the hexagonal lattice).
     pub n: [usize; 3],
     /// Spacing `a` (m).
     pub a: Real,
+    /// The hexagonal lattice (else Ladd's).
+    hex: bool,
     springs: usize,
     /// Whether the rows, once built, leave the rest lengths to [`Lattice::rest`].
     shed_rest: bool,
@@ -410,8 +413,16 @@ const HALF_STAR: [[i64; 3]; 9] = [
     [0, 1, -1],
 ];
 
+/// A grid's star in row order ([`GridSprings::star`]): per row parity, each neighbour's grid
+/// offset and index step, ascending by step.
+#[derive(Clone, Copy, Debug)]
+pub struct Star {
+    dirs: [[([i64; 3], i64); 18]; 2],
+    len: usize,
+}
+
 impl GridSprings {
-    fn new(n: [usize; 3], a: Real) -> Self {
+    fn cubic(n: [usize; 3], a: Real) -> Self {
         // A star direction d fits (n_x - |d_x|)(n_y - |d_y|)(n_z - |d_z|) times.
         let springs = HALF_STAR
             .iter()
@@ -424,38 +435,65 @@ impl GridSprings {
         GridSprings {
             n,
             a,
+            hex: false,
             springs,
             shed_rest: false,
         }
     }
 
-    /// The 18 neighbours' grid offsets and index steps in the order a node's row lists them
-    /// (ascending neighbour index: by index step).
-    pub fn star(&self) -> [([i64; 3], i64); 18] {
-        let n = self.n.map(|v| v as i64);
-        let mut star = [([0i64; 3], 0i64); 18];
-        for (k, d) in HALF_STAR.iter().enumerate() {
-            for (s, d) in [(0, *d), (1, d.map(|x| -x))] {
-                star[2 * k + s] = (d, d[0] + n[0] * (d[1] + n[1] * d[2]));
-            }
+    fn hex(nx: usize, rows: usize, a: Real) -> Self {
+        // nx - 1 along each row, 2 nx - 1 between two rows.
+        GridSprings {
+            n: [nx, rows, 1],
+            a,
+            hex: true,
+            springs: (nx - 1) * rows + (rows - 1) * (2 * nx - 1),
+            shed_rest: false,
         }
-        star.sort_unstable_by_key(|&(_, step)| step);
+    }
+
+    /// The star's offsets in the order a node's row lists its neighbours (ascending index:
+    /// by index step), for [`GridSprings::links`].
+    pub fn star(&self) -> Star {
+        let n = self.n.map(|v| v as i64);
+        let mut star = Star {
+            dirs: [[([0i64; 3], 0i64); 18]; 2],
+            len: if self.hex { 6 } else { 18 },
+        };
+        for (parity, dirs) in star.dirs.iter_mut().enumerate() {
+            if self.hex {
+                // From an even row the rows above and below are reached at columns c - 1 and
+                // c, from an odd one at c and c + 1.
+                let s = parity as i64;
+                let hex = [[1, 0], [-1, 0], [s - 1, 1], [s, 1], [s - 1, -1], [s, -1]];
+                for (k, d) in hex.iter().enumerate() {
+                    dirs[k] = ([d[0], d[1], 0], d[0] + n[0] * d[1]);
+                }
+            } else {
+                for (k, d) in HALF_STAR.iter().enumerate() {
+                    for (s, d) in [(0, *d), (1, d.map(|x| -x))] {
+                        dirs[2 * k + s] = (d, d[0] + n[0] * (d[1] + n[1] * d[2]));
+                    }
+                }
+            }
+            dirs[..star.len].sort_unstable_by_key(|&(_, step)| step);
+        }
         star
     }
 
     /// Node `i`'s links in row order, each as `f(j, L)`: the neighbour and the rest length
     /// the built rows hold (the same bits); `star` from [`GridSprings::star`].
     #[inline]
-    pub fn links(&self, star: &[([i64; 3], i64); 18], i: usize, mut f: impl FnMut(usize, Real)) {
+    pub fn links(&self, star: &Star, i: usize, mut f: impl FnMut(usize, Real)) {
         let g = self.coords(i);
-        for &(d, step) in star {
+        let parity = if self.hex { g[1] % 2 } else { 0 };
+        let from = self.position(g);
+        for &(d, step) in &star.dirs[parity][..star.len] {
             let h = [0, 1, 2].map(|c| g[c] as i64 + d[c]);
             if (0..3).all(|c| (0..self.n[c] as i64).contains(&h[c])) {
-                let x = |c: usize| h[c] as Real * self.a - g[c] as Real * self.a;
-                f(
-                    (i as i64 + step) as usize,
-                    reference_length([x(0), x(1), x(2)]),
-                );
+                let to = self.position(h.map(|v| v as usize));
+                let l = reference_length([0, 1, 2].map(|c| to[c] - from[c]));
+                f((i as i64 + step) as usize, l);
             }
         }
     }
@@ -465,18 +503,45 @@ impl GridSprings {
         [i % nx, (i / nx) % ny, i / (nx * ny)]
     }
 
-    /// The rest length of the spring between nodes `i` and `j` (the built one's bits).
-    fn rest(&self, i: usize, j: usize) -> Real {
-        let (gi, gj) = (self.coords(i), self.coords(j));
-        let x = |c: usize| gj[c] as Real * self.a - gi[c] as Real * self.a;
-        reference_length([x(0), x(1), x(2)])
+    /// The position node `g` was built at: by the operations of [`cubic_positions`] and
+    /// [`hex_positions`].
+    #[inline(always)]
+    fn position(&self, g: [usize; 3]) -> [Real; 3] {
+        let a = self.a;
+        if self.hex {
+            let shift = if g[1] % 2 == 1 { 0.5 * a } else { 0.0 };
+            [
+                g[0] as Real * a + shift,
+                g[1] as Real * hex_row_step(a),
+                0.0,
+            ]
+        } else {
+            g.map(|v| v as Real * a)
+        }
     }
 
-    /// The rows and ends, as [`Lattice::cubic_box`] builds them.
+    /// The rest length of the spring between nodes `i` and `j` (the built one's bits).
+    fn rest(&self, i: usize, j: usize) -> Real {
+        let (pi, pj) = (self.position(self.coords(i)), self.position(self.coords(j)));
+        reference_length([0, 1, 2].map(|c| pj[c] - pi[c]))
+    }
+
+    /// The rows and ends, as the box's constructor builds them.
     fn build(&self) -> Bonds {
         let total = self.n.iter().product();
-        let pos = cubic_positions(self.n, self.a);
-        let mut b = Bonds::from_pairs(total, cubic_pairs(self.n, [false; 3]), &pos, [0.0; 3])
+        let (pos, pairs) = if self.hex {
+            let (nx, rows) = (self.n[0], self.n[1]);
+            (
+                hex_positions(nx, rows, self.a),
+                hex_pairs(nx, rows, [false; 2]),
+            )
+        } else {
+            (
+                cubic_positions(self.n, self.a),
+                cubic_pairs(self.n, [false; 3]),
+            )
+        };
+        let mut b = Bonds::from_pairs(total, pairs, &pos, [0.0; 3])
             .expect("the box was checked when it was made");
         debug_assert_eq!(b.len(), self.springs);
         if self.shed_rest {
@@ -772,7 +837,7 @@ impl Lattice {
         let bonds = if periodic.iter().any(|&p| p) {
             Bonds::from_pairs(total, cubic_pairs(n, periodic), &pos, period)?.into()
         } else {
-            Topology::of_grid(GridSprings::new(n, a))
+            Topology::of_grid(GridSprings::cubic(n, a))
         };
         Ok(Lattice {
             kind: LatticeKind::Cubic,
@@ -828,59 +893,19 @@ impl Lattice {
                 what: "box size",
                 why: format!("{nx} x {rows} nodes is more than 2^32 nodes"),
             })?;
-        let dy = a * (3.0 as Real).sqrt() / 2.0;
-        let mut pos = Coords::zeros(total);
-        for r in 0..rows {
-            for c in 0..nx {
-                let shift = if r % 2 == 1 { 0.5 * a } else { 0.0 };
-                pos.set(
-                    c + nx * r,
-                    Vector::new(c as Real * a + shift, r as Real * dy, 0.0),
-                );
-            }
-        }
-        let mut pairs = Vec::with_capacity(total * 3);
-        for r in 0..rows {
-            for c in 0..nx {
-                let i = (c + nx * r) as u32;
-                let wrap = |cc: i64| {
-                    if periodic[0] {
-                        Some(cc.rem_euclid(nx as i64) as usize)
-                    } else {
-                        (0..nx as i64).contains(&cc).then_some(cc as usize)
-                    }
-                };
-                if let Some(cc) = wrap(c as i64 + 1) {
-                    pairs.push([i, (cc + nx * r) as u32]);
-                }
-                let up = if r + 1 < rows {
-                    Some(r + 1)
-                } else if periodic[1] {
-                    Some(0)
-                } else {
-                    None
-                };
-                if let Some(ru) = up {
-                    // Up-neighbours: columns (c-1, c) from an even row, (c, c+1) from an odd row.
-                    let (lo, hi) = if r % 2 == 0 {
-                        (c as i64 - 1, c as i64)
-                    } else {
-                        (c as i64, c as i64 + 1)
-                    };
-                    for cc in [lo, hi] {
-                        if let Some(cc) = wrap(cc) {
-                            pairs.push([i, (cc + nx * ru) as u32]);
-                        }
-                    }
-                }
-            }
-        }
+        let dy = hex_row_step(a);
+        let pos = hex_positions(nx, rows, a);
+        let periodic_any = periodic.iter().any(|&p| p);
         let period = [
             if periodic[0] { nx as Real * a } else { 0.0 },
             if periodic[1] { rows as Real * dy } else { 0.0 },
             0.0,
         ];
-        let bonds = Bonds::from_pairs(total, pairs, &pos, period)?;
+        let bonds = if periodic_any {
+            Bonds::from_pairs(total, hex_pairs(nx, rows, periodic), &pos, period)?.into()
+        } else {
+            Topology::of_grid(GridSprings::hex(nx, rows, a))
+        };
         Ok(Lattice {
             kind: LatticeKind::Hex,
             spacing: a,
@@ -889,7 +914,7 @@ impl Lattice {
             thickness: h,
             period,
             grid: Some([nx, rows, 1]),
-            bonds: bonds.into(),
+            bonds,
             cells: None,
         })
     }
@@ -1009,6 +1034,71 @@ fn cubic_pairs(n: [usize; 3], periodic: [bool; 3]) -> Vec<[u32; 2]> {
             }
         }
     });
+    pairs
+}
+
+/// The row step `sqrt(3)/2 a` of the hexagonal lattice.
+fn hex_row_step(a: Real) -> Real {
+    a * (3.0 as Real).sqrt() / 2.0
+}
+
+/// The reference positions of a rectangle of the hexagonal lattice, `rows` rows of `nx` nodes:
+/// node `c + nx r` at `(c a + a/2 [r odd], r sqrt(3)/2 a)`.
+fn hex_positions(nx: usize, rows: usize, a: Real) -> Coords {
+    let total = nx * rows;
+    let dy = hex_row_step(a);
+    let mut pos = Coords::zeros(total);
+    for r in 0..rows {
+        for c in 0..nx {
+            let shift = if r % 2 == 1 { 0.5 * a } else { 0.0 };
+            pos.set(
+                c + nx * r,
+                Vector::new(c as Real * a + shift, r as Real * dy, 0.0),
+            );
+        }
+    }
+    pos
+}
+
+/// The springs of a rectangle of the hexagonal lattice (wrapping along the axes marked
+/// `periodic`), each from its lower-numbered end unless it wraps.
+fn hex_pairs(nx: usize, rows: usize, periodic: [bool; 2]) -> Vec<[u32; 2]> {
+    let mut pairs = Vec::with_capacity(nx * rows * 3);
+    for r in 0..rows {
+        for c in 0..nx {
+            let i = (c + nx * r) as u32;
+            let wrap = |cc: i64| {
+                if periodic[0] {
+                    Some(cc.rem_euclid(nx as i64) as usize)
+                } else {
+                    (0..nx as i64).contains(&cc).then_some(cc as usize)
+                }
+            };
+            if let Some(cc) = wrap(c as i64 + 1) {
+                pairs.push([i, (cc + nx * r) as u32]);
+            }
+            let up = if r + 1 < rows {
+                Some(r + 1)
+            } else if periodic[1] {
+                Some(0)
+            } else {
+                None
+            };
+            if let Some(ru) = up {
+                // Up-neighbours: columns (c-1, c) from an even row, (c, c+1) from an odd row.
+                let (lo, hi) = if r % 2 == 0 {
+                    (c as i64 - 1, c as i64)
+                } else {
+                    (c as i64, c as i64 + 1)
+                };
+                for cc in [lo, hi] {
+                    if let Some(cc) = wrap(cc) {
+                        pairs.push([i, (cc + nx * ru) as u32]);
+                    }
+                }
+            }
+        }
+    }
     pairs
 }
 
@@ -1416,9 +1506,24 @@ mod tests {
     #[test]
     fn a_box_grid_gives_its_built_rows_values_without_building_them() {
         // Thin boxes and a spacing whose multiples round, so that rest lengths of one
-        // direction differ in their last bits from node to node.
-        for n in [[4, 3, 5], [2, 2, 2], [3, 2, 4], [2, 5, 3], [7, 6, 9]] {
-            let l = Lattice::cubic_box(n, 0.1).unwrap();
+        // direction differ in their last bits from node to node; rows of 2 nodes, where a
+        // hexagonal row's steps to the row below and along it come closest.
+        let cubic = [[4, 3, 5], [2, 2, 2], [3, 2, 4], [2, 5, 3], [7, 6, 9]];
+        let hex = [[2, 2, 1], [2, 5, 1], [3, 4, 1], [9, 7, 1], [6, 11, 1]];
+        let boxes = cubic
+            .map(|n| (n, false))
+            .into_iter()
+            .chain(hex.map(|n| (n, true)));
+        for (n, is_hex) in boxes {
+            let a = 0.1;
+            let make = || {
+                if is_hex {
+                    Lattice::hex_box(n[0], n[1], a, 0.3).unwrap()
+                } else {
+                    Lattice::cubic_box(n, a).unwrap()
+                }
+            };
+            let l = make();
             assert!(!l.bonds.is_built());
             let g = *l
                 .bonds
@@ -1427,14 +1532,17 @@ mod tests {
             let springs = l.bonds.len();
             let shortest = l.shortest();
             assert!(!l.bonds.is_built(), "count and shortest read the grid");
-            // What the constructor built before the grid (the pairs through `from_pairs`).
-            let built = Bonds::from_pairs(
-                l.len(),
-                cubic_pairs(n, [false; 3]),
-                &cubic_positions(n, 0.1),
-                [0.0; 3],
-            )
-            .unwrap();
+            // What the constructors built before the grid (the pairs through `from_pairs`).
+            let (pos, pairs) = if is_hex {
+                (
+                    hex_positions(n[0], n[1], a),
+                    hex_pairs(n[0], n[1], [false; 2]),
+                )
+            } else {
+                (cubic_positions(n, a), cubic_pairs(n, [false; 3]))
+            };
+            assert_eq!(pos, l.pos);
+            let built = Bonds::from_pairs(l.len(), pairs, &pos, [0.0; 3]).unwrap();
             assert_eq!(springs, built.len(), "{n:?}");
             let star = g.star();
             for i in 0..l.len() {
@@ -1452,7 +1560,7 @@ mod tests {
             assert_eq!(l.bonds.ends, built.ends);
             assert_eq!(l.bonds.bond, built.bond);
             assert!(l.bonds.is_built() && l.bonds.grid().is_some());
-            let mut shed = Lattice::cubic_box(n, 0.1).unwrap();
+            let mut shed = make();
             for p in shed.pos.xyz_mut() {
                 p.iter_mut().for_each(|x| *x += 0.7);
             }
@@ -1462,7 +1570,7 @@ mod tests {
             }
             assert!(shed.bonds.stored_rest().is_none());
             // A change through `DerefMut` leaves the grid behind.
-            let mut changed = Lattice::cubic_box(n, 0.1).unwrap();
+            let mut changed = make();
             changed.rest_lengths_mut()[0] *= 2.0;
             assert!(changed.bonds.grid().is_none());
             assert_eq!(changed.rest(0), 2.0 * built.rest[0]);

@@ -95,7 +95,10 @@ impl HexStencil {
             return None;
         }
         // The bulk stiffness: the largest (cell weights only lower a spring's).
-        let k = body.k.iter().cloned().fold(0.0, Real::max);
+        let k = match body.k.uniform_value() {
+            Some(k) => k,
+            None => body.k.iter().cloned().fold(0.0, Real::max),
+        };
         let nx = g[0] as isize;
         let a = lat.spacing;
         let h = a * (3.0 as Real).sqrt() / 2.0;
@@ -128,15 +131,27 @@ impl HexStencil {
             reach: (nx + 1) as usize,
             simd: simd_lanes(),
         };
-        // Each node's springs' stiffnesses by direction, for the weight classes.
-        let mut stiff = vec![
-            [None; DIRS];
-            if body.k.iter().all(|&v| v == k) {
-                0
-            } else {
-                s.n
+        let uniform = body.k.uniform_value().is_some() || body.k.iter().all(|&v| v == k);
+        if let Some(g) = lat.bonds.grid() {
+            if uniform && state.alive.iter().all(|&a| a) {
+                // One stiffness, every spring intact: each node's directions that stay in the
+                // box, without the rows.
+                let star = g.star();
+                for i in 0..s.n {
+                    let mut m = 0;
+                    g.links(&star, i, |j, _| {
+                        let step = j as isize - i as isize;
+                        let d = (0..DIRS).find(|&d| s.offset(i, d) == step);
+                        m |= 1 << d.expect("a grid link is a star direction");
+                    });
+                    s.mask[i] = m;
+                    s.refresh_norm(i);
+                }
+                return Some(s);
             }
-        ];
+        }
+        // Each node's springs' stiffnesses by direction, for the weight classes.
+        let mut stiff = vec![[None; DIRS]; if uniform { 0 } else { s.n }];
         for b in 0..lat.bonds.len() {
             let (i, d) = s.direction_of(body, b)?;
             let j = lat.bonds.ends[b][1] as usize;
