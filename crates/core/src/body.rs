@@ -98,10 +98,9 @@ impl std::ops::Deref for Stiffnesses {
     fn deref(&self) -> &[Real] {
         self.each.get_or_init(|| {
             let (k, n) = self.one.expect("stiffnesses are given or uniform");
-            // Filled in parallel: first writes to a large body's fresh memory share the cores.
-            let mut out = Vec::with_capacity(n);
-            out.par_extend(rayon::iter::repeat_n(k, n));
-            out
+            // On one thread: the first read may come from a task of a parallel loop, where a
+            // rayon join could take up another task that waits for this very initialisation.
+            vec![k; n]
         })
     }
 }

@@ -131,6 +131,21 @@ impl Bonds {
             ends.sort_unstable();
             ends.dedup();
         }
+        let rest = ends
+            .par_iter()
+            .with_min_len(1 << 16)
+            .map(|&[i, j]| reference_length(reference_vector(pos, period, i as usize, j as usize)))
+            .collect();
+        let mut bonds = Self::assemble(n_nodes, ends, rest);
+        if crate::kernel::Kernel::csr_may_run(period) {
+            bonds.keep_neighbours();
+        }
+        Ok(bonds)
+    }
+
+    /// The rows of the springs `ends`, sorted by `(i, j)` with `i < j`, and their rest lengths
+    /// (one thread: see [`GridSprings::build`]).
+    fn assemble(n_nodes: usize, ends: Vec<[u32; 2]>, rest: Vec<Real>) -> Self {
         let mut deg = vec![0u32; n_nodes + 1];
         for &[i, j] in &ends {
             deg[i as usize] += 1;
@@ -151,12 +166,7 @@ impl Bonds {
                 fill[a as usize] += 1;
             }
         }
-        let rest = ends
-            .par_iter()
-            .with_min_len(1 << 16)
-            .map(|&[i, j]| reference_length(reference_vector(pos, period, i as usize, j as usize)))
-            .collect();
-        let mut bonds = Bonds {
+        let bonds = Bonds {
             offsets,
             nbr: Vec::new(),
             bond,
@@ -166,10 +176,7 @@ impl Bonds {
         debug_assert!(
             (0..n_nodes).all(|n| bonds.links(n).map(|(j, _)| j).is_sorted_by(|a, b| a < b))
         );
-        if crate::kernel::Kernel::csr_may_run(period) {
-            bonds.keep_neighbours();
-        }
-        Ok(bonds)
+        bonds
     }
 
     /// Number of undirected springs.
@@ -526,26 +533,38 @@ impl GridSprings {
         reference_length([0, 1, 2].map(|c| pj[c] - pi[c]))
     }
 
-    /// The rows and ends, as the box's constructor builds them.
+    /// The rows and ends, exactly as the box's constructor built them before: each node's
+    /// forward links in row order are the springs sorted by `(i, j)`, with the rest lengths
+    /// the constructor computed ([`GridSprings::links`]).
+    ///
+    /// On one thread, with no rayon call: the first read may come from a task of a parallel
+    /// loop, and a join here could take up another task of that loop, which would wait for
+    /// this very initialisation (a reentrant one: a deadlock).
     fn build(&self) -> Bonds {
-        let total = self.n.iter().product();
-        let (pos, pairs) = if self.hex {
-            let (nx, rows) = (self.n[0], self.n[1]);
-            (
-                hex_positions(nx, rows, self.a),
-                hex_pairs(nx, rows, [false; 2]),
-            )
-        } else {
-            (
-                cubic_positions(self.n, self.a),
-                cubic_pairs(self.n, [false; 3]),
-            )
-        };
-        let mut b = Bonds::from_pairs(total, pairs, &pos, [0.0; 3])
-            .expect("the box was checked when it was made");
-        debug_assert_eq!(b.len(), self.springs);
-        if self.shed_rest {
-            b.rest = Vec::new();
+        let total: usize = self.n.iter().product();
+        let star = self.star();
+        let mut ends = Vec::with_capacity(self.springs);
+        let mut rest = Vec::with_capacity(if self.shed_rest { 0 } else { self.springs });
+        for i in 0..total {
+            self.links(&star, i, |j, l| {
+                if j > i {
+                    ends.push([i as u32, j as u32]);
+                    if !self.shed_rest {
+                        rest.push(l);
+                    }
+                }
+            });
+        }
+        debug_assert_eq!(ends.len(), self.springs);
+        let mut b = Bonds::assemble(total, ends, rest);
+        if crate::kernel::Kernel::csr_may_run([0.0; 3]) {
+            let mut nbr = vec![0u32; b.bond.len()];
+            for n in 0..total {
+                for e in b.row(n) {
+                    nbr[e] = b.other_end(n, b.bond[e] as usize) as u32;
+                }
+            }
+            b.nbr = nbr;
         }
         b
     }
@@ -1574,6 +1593,29 @@ mod tests {
             changed.rest_lengths_mut()[0] *= 2.0;
             assert!(changed.bonds.grid().is_none());
             assert_eq!(changed.rest(0), 2.0 * built.rest[0]);
+        }
+    }
+
+    #[test]
+    fn springs_first_read_in_a_parallel_loop_are_built_once() {
+        // Every task of the loop reads them; one builds them while the others wait. (The
+        // build joins no rayon task, which could take up a task of this loop that then waits
+        // for the build on the same thread; this test does not provoke that race, it checks
+        // the built springs under concurrent first reads.)
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .build()
+            .unwrap();
+        for _ in 0..10 {
+            let l = Lattice::cubic_box([30, 20, 20], 0.1).unwrap();
+            let entries: usize = pool.install(|| {
+                (0..l.len())
+                    .into_par_iter()
+                    .with_max_len(64)
+                    .map(|i| l.bonds.row(i).len())
+                    .sum()
+            });
+            assert_eq!(entries, 2 * l.bonds.len());
         }
     }
 
