@@ -38,9 +38,9 @@ impl<'a> Levers<'a> {
 
 /// Each spring's stiffness `k_b` (N/m), read as a slice (`Deref`). A body of one stiffness
 /// (`Body::uniform`) keeps the value and the count, and fills the slice only when something
-/// asks for it (the general kernels, a frame): the cubic stencil reads the one value
-/// ([`Stiffnesses::uniform`]), so a block it runs holds no per-spring stiffness (8 bytes per
-/// spring). Changing them (`DerefMut`) stores them for good.
+/// asks for it (the general kernels, a frame): the stencils, the normalisers and the stable
+/// step read the one value ([`Stiffnesses::uniform_value`]), so a box they run holds no
+/// per-spring stiffness (8 bytes per spring). Changing them (`DerefMut`) stores them for good.
 #[derive(Clone, Debug)]
 pub struct Stiffnesses {
     each: OnceLock<Vec<Real>>,
