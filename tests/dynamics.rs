@@ -388,19 +388,36 @@ fn stencil_paths_and_thread_counts_give_the_same_bits() {
 /// the same bits as the same body with both stored: the normalisers, the stable step (its
 /// Lanczos sweeps and the damage bound), 30 steps of motion and the energy. A spacing whose
 /// multiples round makes the rest lengths of one direction differ in their last bits from node
-/// to node. A Ladd block and a hexagonal plate.
+/// to node. A Ladd block, a hexagonal plate, and a Ladd block weighted by its cubes (what a
+/// case file's box is by default), against the same block weighted through its built rows:
+/// its face, edge and corner springs and nodes stand for 1/2, 1/4 and 1/8 of the bulk's.
 #[test]
 fn a_box_of_one_stiffness_runs_without_its_rows_or_stiffnesses() {
-    let bodies = [
-        Body::uniform(Lattice::cubic_box([11, 9, 14], 0.1).unwrap(), 3.0, 0.3, 2.0),
-        Body::uniform(Lattice::hex_box(23, 17, 0.1, 0.2).unwrap(), 3.0, 0.3, 2.0),
-    ];
-    for lean in bodies {
+    let stored = |lean: &Body| {
         let mut stored = lean.clone();
         // Changed through `DerefMut`, both are stored for good.
         let _ = &mut *stored.lattice.bonds;
         stored.k = stored.k.to_vec().into();
-        assert!(stored.lattice.bonds.grid().is_none() && stored.k.uniform_value().is_none());
+        stored
+    };
+    let cubic = || Lattice::cubic_box([11, 9, 14], 0.1).unwrap();
+    let hex = Body::uniform(Lattice::hex_box(23, 17, 0.1, 0.2).unwrap(), 3.0, 0.3, 2.0);
+    let block = Body::uniform(cubic(), 3.0, 0.3, 2.0);
+    let weighted = block.clone().with_cell_weights().unwrap();
+    // Weighted through the rows: the lattice built first, each spring's fraction from them.
+    let mut built = cubic();
+    let _ = &mut *built.bonds;
+    let weighted_built = Body::uniform(built, 3.0, 0.3, 2.0)
+        .with_cell_weights()
+        .unwrap();
+    assert!(weighted.k.rule().is_some() && weighted.k.bytes() == 0);
+    assert!(weighted_built.k.rule().is_none());
+    for (lean, stored) in [
+        (block.clone(), stored(&block)),
+        (hex.clone(), stored(&hex)),
+        (weighted, weighted_built),
+    ] {
+        assert!(stored.lattice.bonds.grid().is_none() && stored.k.rule().is_none());
         let run = |body: &Body, lean: bool| {
             let mut state = State::new(body);
             state.v = smooth_field(body, 1e-3);
@@ -431,6 +448,11 @@ fn a_box_of_one_stiffness_runs_without_its_rows_or_stiffnesses() {
             stability::damage_bound(&stored).to_bits()
         );
         assert!(a.u.as_flat().iter().any(|&x| x != 0.0), "the body moved");
+        // The stiffnesses a rule fills (for the energy above) and the masses are the stored
+        // ones, bit for bit.
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&lean.k), bits(&stored.k));
+        assert_eq!(bits(&lean.mass), bits(&stored.mass));
     }
 }
 

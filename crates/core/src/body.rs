@@ -37,15 +37,39 @@ impl<'a> Levers<'a> {
 }
 
 /// Each spring's stiffness `k_b` (N/m), read as a slice (`Deref`). A body of one stiffness
-/// (`Body::uniform`) keeps the value and the count, and fills the slice only when something
-/// asks for it (the general kernels, a frame): the stencils, the normalisers and the stable
-/// step read the one value ([`Stiffnesses::uniform_value`]), so a box they run holds no
+/// (`Body::uniform`), or a box of Ladd's lattice of one stiffness weighted by its cubes
+/// (`Body::with_cell_weights`), keeps the rule and the count ([`GridStiffness`]), and fills the
+/// slice only when something asks for it (the general kernels, a frame): the stencils, the
+/// normalisers and the stable step read the rule along the grid, so a box they run holds no
 /// per-spring stiffness (8 bytes per spring). Changing them (`DerefMut`) stores them for good.
 #[derive(Clone, Debug)]
 pub struct Stiffnesses {
     each: OnceLock<Vec<Real>>,
-    /// The one value and the count, while every spring has it.
-    one: Option<(Real, usize)>,
+    /// The rule and the count, while every spring follows it.
+    rule: Option<(GridStiffness, usize)>,
+}
+
+/// Stiffnesses that follow from a rule rather than a list (see [`Stiffnesses`]).
+#[derive(Clone, Copy, Debug)]
+pub enum GridStiffness {
+    /// Every spring has this stiffness.
+    One(Real),
+    /// A box of Ladd's lattice: the bulk stiffness times each spring's share of its cubes that
+    /// lie in the box ([`crate::lattice::GridSprings::cube_share`]), as
+    /// [`Body::with_cell_weights`] weights a built box.
+    Cubes(Real, crate::lattice::GridSprings),
+}
+
+impl GridStiffness {
+    /// The stiffness of the spring between nodes `i` and `j` (of the rule's box, for `Cubes`):
+    /// the bits the stored list holds.
+    #[inline]
+    pub fn between(&self, i: usize, j: usize) -> Real {
+        match self {
+            GridStiffness::One(k) => *k,
+            GridStiffness::Cubes(k, g) => k * g.cube_share(i, j),
+        }
+    }
 }
 
 impl Stiffnesses {
@@ -53,19 +77,39 @@ impl Stiffnesses {
     pub fn uniform(k: Real, len: usize) -> Self {
         Stiffnesses {
             each: OnceLock::new(),
-            one: Some((k, len)),
+            rule: Some((GridStiffness::One(k), len)),
+        }
+    }
+
+    /// The springs of the box `grid` (Ladd's lattice), of bulk stiffness `k` weighted by their
+    /// cubes ([`GridStiffness::Cubes`]).
+    pub fn cubes(k: Real, grid: crate::lattice::GridSprings) -> Self {
+        debug_assert!(grid.is_cubic());
+        Stiffnesses {
+            each: OnceLock::new(),
+            rule: Some((GridStiffness::Cubes(k, grid), grid.springs())),
         }
     }
 
     /// The stiffness of every spring, while they share one.
     #[inline]
     pub fn uniform_value(&self) -> Option<Real> {
-        self.one.map(|(k, _)| k)
+        match self.rule {
+            Some((GridStiffness::One(k), _)) => Some(k),
+            _ => None,
+        }
+    }
+
+    /// The rule the stiffnesses follow, while no list is stored. A `Cubes` rule belongs to the
+    /// body's own grid (the lattice's [`crate::lattice::Topology::grid`]).
+    #[inline]
+    pub fn rule(&self) -> Option<GridStiffness> {
+        self.rule.map(|(r, _)| r)
     }
 
     /// How many springs.
     pub fn len(&self) -> usize {
-        match self.one {
+        match self.rule {
             Some((_, n)) => n,
             None => self.each.get().map_or(0, |v| v.len()),
         }
@@ -76,7 +120,7 @@ impl Stiffnesses {
         self.len() == 0
     }
 
-    /// Heap bytes held (none while one value stands for all).
+    /// Heap bytes held (none while a rule stands for all).
     pub fn bytes(&self) -> usize {
         self.each.get().map_or(0, crate::memory::bytes)
     }
@@ -86,7 +130,7 @@ impl From<Vec<Real>> for Stiffnesses {
     fn from(v: Vec<Real>) -> Self {
         Stiffnesses {
             each: OnceLock::from(v),
-            one: None,
+            rule: None,
         }
     }
 }
@@ -97,10 +141,26 @@ impl std::ops::Deref for Stiffnesses {
     #[inline]
     fn deref(&self) -> &[Real] {
         self.each.get_or_init(|| {
-            let (k, n) = self.one.expect("stiffnesses are given or uniform");
             // On one thread: the first read may come from a task of a parallel loop, where a
             // rayon join could take up another task that waits for this very initialisation.
-            vec![k; n]
+            match self.rule.expect("stiffnesses are given or follow a rule") {
+                (GridStiffness::One(k), n) => vec![k; n],
+                // In the springs' order: each node's forward links in row order, as the
+                // grid's rows are built.
+                (GridStiffness::Cubes(k, g), n) => {
+                    let mut out = Vec::with_capacity(n);
+                    let star = g.star();
+                    for i in 0..g.n.iter().product() {
+                        g.links(&star, i, |j, _| {
+                            if j > i {
+                                out.push(k * g.cube_share(i, j));
+                            }
+                        });
+                    }
+                    debug_assert_eq!(out.len(), n);
+                    out
+                }
+            }
         })
     }
 }
@@ -108,7 +168,7 @@ impl std::ops::Deref for Stiffnesses {
 impl std::ops::DerefMut for Stiffnesses {
     fn deref_mut(&mut self) -> &mut [Real] {
         let _ = &**self;
-        self.one = None;
+        self.rule = None;
         self.each.get_mut().expect("filled just above")
     }
 }
@@ -235,6 +295,9 @@ impl Body {
 
     /// [`Body::with_cell_weights`] in place; on an error the body is left as it was.
     pub fn weigh_by_cells(&mut self) -> Result<()> {
+        if self.weigh_grid_by_cubes() {
+            return Ok(());
+        }
         let Some((springs, nodes)) = self.lattice.cell_fractions() else {
             return Err(Error::InvalidInput {
                 what: "cell weights",
@@ -262,6 +325,32 @@ impl Body {
         Ok(())
     }
 
+    /// [`Body::weigh_by_cells`] for a box of Ladd's lattice of one stiffness, held as its grid:
+    /// the stiffnesses become the rule [`GridStiffness::Cubes`] (no per-spring list, no rows),
+    /// the masses are weighted in place by the nodes' cube shares. The same values, bit for
+    /// bit, as weighting the built box. False (and nothing changed) for any other body, or
+    /// where some spring or node lies in no cube (the general path gives the error).
+    fn weigh_grid_by_cubes(&mut self) -> bool {
+        let (Some(&g), Some(k)) = (self.lattice.bonds.grid(), self.k.uniform_value()) else {
+            return false;
+        };
+        if !g.is_cubic() || self.lattice.kind != crate::lattice::LatticeKind::Cubic {
+            return false;
+        }
+        // A box two node planes thick along every axis has every spring and node in a cube;
+        // a thinner one is refused by the general path, with the spring or node named.
+        if g.n.iter().any(|&v| v < 2) {
+            return false;
+        }
+        self.k = Stiffnesses::cubes(k, g);
+        self.mass
+            .par_iter_mut()
+            .with_min_len(1 << 12)
+            .enumerate()
+            .for_each(|(i, m)| *m *= g.cube_share(i, i));
+        true
+    }
+
     /// Check the constants are usable (positive stiffness and mass, q above the stability limit).
     pub fn validate(&self) -> Result<()> {
         if !(self.q.is_finite() && self.q > -0.5) {
@@ -272,8 +361,11 @@ impl Body {
             });
         }
         let bad = |k: Real| !(k.is_finite() && k > 0.0);
-        let first_bad = match self.k.uniform_value() {
-            Some(k) => (bad(k) && self.springs() > 0).then_some(0),
+        let first_bad = match self.k.rule() {
+            // The cube shares of a box at least two planes thick are positive.
+            Some(GridStiffness::One(k) | GridStiffness::Cubes(k, _)) => {
+                (bad(k) && self.springs() > 0).then_some(0)
+            }
             None => self.k.iter().position(|&k| bad(k)),
         };
         if let Some(b) = first_bad {
@@ -327,5 +419,36 @@ impl Body {
     /// Number of springs (intact or not).
     pub fn springs(&self) -> usize {
         self.lattice.bonds.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A box weighted by its cubes as a rule gives, bit for bit, the stiffnesses and masses of
+    /// the same box weighted through its built rows, thin boxes too (two node planes along an
+    /// axis: every node at a face).
+    #[test]
+    fn cube_weights_as_a_rule_are_the_built_rows_weights() {
+        let bits = |v: &[Real]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for n in [[2, 2, 2], [2, 3, 5], [6, 2, 3], [4, 5, 2], [7, 6, 5]] {
+            let lattice = || Lattice::cubic_box(n, 0.3).unwrap();
+            let rule = Body::uniform(lattice(), 2.5, 0.2, 1.5)
+                .with_cell_weights()
+                .unwrap();
+            assert!(rule.k.rule().is_some() && !rule.lattice.bonds.is_built());
+            let mut built = lattice();
+            let _ = &mut *built.bonds;
+            let rows = Body::uniform(built, 2.5, 0.2, 1.5)
+                .with_cell_weights()
+                .unwrap();
+            assert!(rows.k.rule().is_none());
+            assert_eq!(bits(&rule.k), bits(&rows.k), "{n:?}: stiffnesses");
+            assert_eq!(bits(&rule.mass), bits(&rows.mass), "{n:?}: masses");
+            assert!(rule.validate().is_ok());
+            // Not all alike: the faces' springs stand for less.
+            assert!(rule.k.iter().any(|&k| k < 2.5));
+        }
     }
 }

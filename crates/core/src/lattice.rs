@@ -505,6 +505,28 @@ impl GridSprings {
         }
     }
 
+    /// The cube share ([`cube_share`]) of the spring between nodes `i` and `j` of a box of
+    /// Ladd's lattice (`i == j`: of node `i`), as [`Lattice::cell_fractions`] gives it for the
+    /// built box: a cube is in the box when its corner is.
+    pub fn cube_share(&self, i: usize, j: usize) -> Real {
+        debug_assert!(!self.hex);
+        let n = self.n.map(|v| v as i64);
+        let at = |i: usize| self.coords(i).map(|v| v as i64);
+        cube_share(at(i), at(j), |c| {
+            (0..3).all(|ax| c[ax] >= 0 && c[ax] + 1 < n[ax])
+        })
+    }
+
+    /// How many springs the box has.
+    pub fn springs(&self) -> usize {
+        self.springs
+    }
+
+    /// Whether this is a box of Ladd's lattice (else the hexagonal one).
+    pub fn is_cubic(&self) -> bool {
+        !self.hex
+    }
+
     fn coords(&self, i: usize) -> [usize; 3] {
         let (nx, ny) = (self.n[0], self.n[1]);
         [i % nx, (i / nx) % ny, i / (nx * ny)]
@@ -1228,6 +1250,38 @@ fn check_spacing(a: Real) -> Result<()> {
     }
 }
 
+/// The share of the cubes of Ladd's lattice that would hold the segment from grid point `p` to
+/// `q` in the bulk (4 for an axis spring, 2 for a face diagonal, 8 for a node: `p == q`) that
+/// lie in the body (`cube(c)`, `c` a cube's lowest corner): each axis along which the two ends
+/// differ fixes the cube's corner, each other axis leaves two choices. The one formula of
+/// [`Lattice::cell_fractions`] and of a box's cell-weighted stiffnesses
+/// ([`GridSprings::cube_share`]), so both give the same bits.
+pub(crate) fn cube_share(p: [i64; 3], q: [i64; 3], cube: impl Fn([i64; 3]) -> bool) -> Real {
+    let mut count = 0;
+    let mut total = 0;
+    for k in 0..8 {
+        let mut c = [0i64; 3];
+        let mut ok = true;
+        for ax in 0..3 {
+            let bit = (k >> ax) & 1;
+            if p[ax] == q[ax] {
+                c[ax] = p[ax] - bit;
+            } else if bit == 1 {
+                ok = false;
+            } else {
+                c[ax] = p[ax].min(q[ax]);
+            }
+        }
+        if ok {
+            total += 1;
+            if cube(c) {
+                count += 1;
+            }
+        }
+    }
+    count as Real / total as Real
+}
+
 impl Lattice {
     /// The share of a bulk spring's and a bulk node's material each spring and node of a regular
     /// lattice stands for (1 inside): the fraction of the cells that would hold it in the bulk
@@ -1281,33 +1335,7 @@ impl Lattice {
                         ])
                     }),
                 };
-                // The cubes that would hold the segment from p to q: each axis along which the
-                // two ends differ fixes the cube's corner; each other axis leaves two choices.
-                let share = |p: [i64; 3], q: [i64; 3]| -> Real {
-                    let mut count = 0;
-                    let mut total = 0;
-                    for k in 0..8 {
-                        let mut c = [0i64; 3];
-                        let mut ok = true;
-                        for ax in 0..3 {
-                            let bit = (k >> ax) & 1;
-                            if p[ax] == q[ax] {
-                                c[ax] = p[ax] - bit;
-                            } else if bit == 1 {
-                                ok = false;
-                            } else {
-                                c[ax] = p[ax].min(q[ax]);
-                            }
-                        }
-                        if ok {
-                            total += 1;
-                            if cube(c) {
-                                count += 1;
-                            }
-                        }
-                    }
-                    count as Real / total as Real
-                };
+                let share = |p: [i64; 3], q: [i64; 3]| cube_share(p, q, cube);
                 let springs = bonds
                     .ends
                     .par_iter()

@@ -617,12 +617,16 @@ pub fn damage_bound(body: &Body) -> Real {
     // Each node's sum in row order; the maximum is exact in any order.
     let star = body.lattice.bonds.grid().map(|g| g.star());
     let sum_k = |n: usize| -> Real {
-        match (body.lattice.bonds.grid(), body.k.uniform_value(), &star) {
-            // A box of one stiffness: as many terms k as the row has, without the rows.
+        match (body.lattice.bonds.grid(), body.k.rule(), &star) {
+            // A box whose stiffnesses follow a rule: the row's terms in its order, without the
+            // rows.
             (Some(g), Some(k), Some(star)) => {
-                let mut count = 0;
-                g.links(star, n, |_, _| count += 1);
-                std::iter::repeat_n(k, count).sum()
+                let (mut terms, mut count) = ([0.0; 18], 0);
+                g.links(star, n, |j, _| {
+                    terms[count] = k.between(n, j);
+                    count += 1;
+                });
+                terms[..count].iter().sum()
             }
             _ => {
                 let bonds = &*body.lattice.bonds;

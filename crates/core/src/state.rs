@@ -162,8 +162,9 @@ impl State {
         };
         // Each node's sum is its own: in parallel (a large body's set-up), the same bits.
         let grid = body.lattice.bonds.grid();
-        if let (Some(g), Some(k), None) = (grid, body.k.uniform_value(), &body.lever) {
-            // A box of one stiffness: the rows' values in their order, without the rows.
+        if let (Some(g), Some(k), None) = (grid, body.k.rule(), &body.lever) {
+            // A box whose stiffnesses follow a rule: the rows' values in their order, without
+            // the rows.
             let star = g.star();
             s.norm
                 .par_iter_mut()
@@ -171,7 +172,7 @@ impl State {
                 .enumerate()
                 .for_each(|(i, x)| {
                     let mut sum = 0.0;
-                    g.links(&star, i, |_, l| sum += k * l * l);
+                    g.links(&star, i, |j, l| sum += k.between(i, j) * l * l);
                     *x = sum;
                 });
             return s;

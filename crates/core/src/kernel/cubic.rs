@@ -24,7 +24,7 @@ use super::stencil::{simd_lanes, Factors, Lanes, Src, Stencil};
 use super::{StepParams, SweepSums};
 use rayon::prelude::*;
 
-use crate::body::Body;
+use crate::body::{Body, GridStiffness};
 use crate::lattice::LatticeKind;
 use crate::math::{Coords, Real};
 use crate::state::State;
@@ -173,8 +173,10 @@ impl CubicStencil {
             return None;
         }
         // The bulk stiffness: the largest (cell weights only lower a spring's).
-        let k = match body.k.uniform_value() {
-            Some(k) => k,
+        let k = match body.k.rule() {
+            Some(GridStiffness::One(k)) => k,
+            // A box at least 3 nodes along each axis has springs in four cubes (a share of 1).
+            Some(GridStiffness::Cubes(k, _)) => k,
             None => body.k.par_iter().cloned().reduce(|| 0.0, Real::max),
         };
         let (sy, sz) = (g[0] as isize, (g[0] * g[1]) as isize);
@@ -212,19 +214,39 @@ impl CubicStencil {
         // mostly first writes to fresh memory), then its 1/S_n.
         let off = s.off;
         // One stiffness (the common case): every node is of class 0, nothing to classify.
-        let uniform = body.k.uniform_value().is_some() || body.k.par_iter().all(|&v| v == k);
+        let rule = body.k.rule();
+        let uniform = match rule {
+            Some(GridStiffness::One(_)) => true,
+            Some(GridStiffness::Cubes(..)) => false,
+            None => body.k.par_iter().all(|&v| v == k),
+        };
         let class = if uniform {
             Vec::new()
         } else {
-            let bonds = &*lat.bonds;
-            let (class, factors) = Factors::classify(lat.len(), k, |i| {
-                let mut f = [None; 18];
-                for e in bonds.row(i) {
-                    let d = direction(&off, i, bonds.neighbour(i, e));
-                    f[d] = Some(body.k[bonds.bond[e] as usize]);
+            let (class, factors) = match (rule, lat.bonds.grid()) {
+                // Cell weights without a list: each link's stiffness from the rule.
+                (Some(rule), Some(g)) => {
+                    let star = g.star();
+                    Factors::classify(lat.len(), k, |i| {
+                        let mut f = [None; 18];
+                        g.links(&star, i, |j, _| {
+                            f[direction(&off, i, j)] = Some(rule.between(i, j));
+                        });
+                        f
+                    })?
                 }
-                f
-            })?;
+                _ => {
+                    let bonds = &*lat.bonds;
+                    Factors::classify(lat.len(), k, |i| {
+                        let mut f = [None; 18];
+                        for e in bonds.row(i) {
+                            let d = direction(&off, i, bonds.neighbour(i, e));
+                            f[d] = Some(body.k[bonds.bond[e] as usize]);
+                        }
+                        f
+                    })?
+                }
+            };
             s.factors = factors;
             class
         };
