@@ -714,6 +714,14 @@ impl Lattice {
     /// they are shed. [`Lattice::rest`] then recomputes each one where it is read.
     pub fn shed_rest(&mut self) -> bool {
         let built = self.bonds.is_built();
+        if let Some(g) = self.bonds.grid().copied() {
+            // A box moved since it was built (a case's box away from the origin) may round
+            // some `|X_j - X_i|` otherwise than the lengths it was built with: those are kept,
+            // so that every reader of a shed length (the frame, the CSR kernel) finds them.
+            if !self.grid_rest_is_geometric(&g) {
+                return self.bonds.stored_rest().is_none() && built && !self.bonds.is_empty();
+            }
+        }
         if let (Some(g), false) = (&mut self.bonds.grid, built) {
             // A box's rest lengths follow from its grid, wherever its nodes now are.
             g.shed_rest = true;
@@ -723,6 +731,37 @@ impl Lattice {
             self.bonds.built_mut().rest = Vec::new();
         }
         self.bonds.stored_rest().is_none() && !self.bonds.is_empty()
+    }
+
+    /// Whether each of a box's rest lengths, those of the positions it was built with
+    /// ([`GridSprings::links`]), is `|X_j - X_i|` of its nodes' present positions, to the bit.
+    fn grid_rest_is_geometric(&self, g: &GridSprings) -> bool {
+        // Nodes where the box put them give the same lengths; only a moved box is checked
+        // spring by spring.
+        let in_place = (0..self.len())
+            .into_par_iter()
+            .with_min_len(1 << 12)
+            .all(|i| {
+                let p = g.position(g.coords(i));
+                (0..3).all(|c| self.pos.comp(c)[i].to_bits() == p[c].to_bits())
+            });
+        if in_place {
+            return true;
+        }
+        let star = g.star();
+        (0..self.len())
+            .into_par_iter()
+            .with_min_len(1 << 12)
+            .all(|i| {
+                let mut same = true;
+                g.links(&star, i, |j, l| {
+                    if j > i {
+                        let here = reference_length(self.reference_vector(i, j));
+                        same &= here.to_bits() == l.to_bits();
+                    }
+                });
+                same
+            })
     }
 
     /// Whether every stored rest length equals the one [`Lattice::rest`] would compute, bit
@@ -1550,6 +1589,54 @@ mod tests {
         }
     }
 
+    /// A box moved away from the origin (as a case's box is, by its lower corner) sheds its
+    /// rest lengths only where each is `|X_j - X_i|` of the moved nodes, to the bit: so a
+    /// reader that recomputes a shed length from the positions (the frame, the CSR kernel)
+    /// finds [`Lattice::rest`]'s, built or not. An offset that rounds some lengths otherwise
+    /// keeps them; none (or one that rounds none) sheds them.
+    #[test]
+    fn a_moved_box_sheds_only_the_lengths_its_nodes_give() {
+        let mut kept = 0;
+        for offset in [0.0, 0.0347, -1.23e-2, 7.0] {
+            for (hex, build) in [(false, false), (false, true), (true, false), (true, true)] {
+                let mut l = if hex {
+                    Lattice::hex_box(9, 7, 0.1, 0.3).unwrap()
+                } else {
+                    Lattice::cubic_box([6, 5, 7], 0.1).unwrap()
+                };
+                let dims = if hex { 2 } else { 3 };
+                for c in 0..dims {
+                    for x in l.pos.comp_mut(c) {
+                        *x += offset * (1.0 + c as Real);
+                    }
+                }
+                if build {
+                    let _ = &*l.bonds;
+                }
+                let shed = l.shed_rest();
+                assert!(l.bonds.grid().is_some());
+                if !shed {
+                    kept += 1;
+                    assert!(offset != 0.0, "nodes in place shed their lengths");
+                }
+                for b in 0..l.bonds.len() {
+                    let [i, j] = l.bonds.ends[b].map(|v| v as usize);
+                    let (_, rest) =
+                        crate::law::spring_geometry_rest(&l, &Coords::zeros(l.len()), b, i, j);
+                    assert_eq!(
+                        rest.to_bits(),
+                        l.rest(b).to_bits(),
+                        "offset {offset}, spring {b}"
+                    );
+                }
+            }
+        }
+        assert!(
+            kept > 0,
+            "no offset rounded a length otherwise: the test checks nothing"
+        );
+    }
+
     #[test]
     fn a_box_grid_gives_its_built_rows_values_without_building_them() {
         // Thin boxes and a spacing whose multiples round, so that rest lengths of one
@@ -1607,15 +1694,18 @@ mod tests {
             assert_eq!(l.bonds.ends, built.ends);
             assert_eq!(l.bonds.bond, built.bond);
             assert!(l.bonds.is_built() && l.bonds.grid().is_some());
+            // Where the box put its nodes it sheds them; moved, only where the moved nodes
+            // give the same lengths (`a_moved_box_sheds_only_the_lengths_its_nodes_give`).
+            assert!(make().shed_rest());
             let mut shed = make();
             for p in shed.pos.xyz_mut() {
                 p.iter_mut().for_each(|x| *x += 0.7);
             }
-            assert!(shed.shed_rest());
+            let was_shed = shed.shed_rest();
             for b in 0..springs {
                 assert_eq!(shed.rest(b).to_bits(), built.rest[b].to_bits());
             }
-            assert!(shed.bonds.stored_rest().is_none());
+            assert_eq!(shed.bonds.stored_rest().is_none(), was_shed);
             // A change through `DerefMut` leaves the grid behind.
             let mut changed = make();
             changed.rest_lengths_mut()[0] *= 2.0;
