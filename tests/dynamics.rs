@@ -421,26 +421,40 @@ fn a_box_of_one_stiffness_runs_without_its_rows_or_stiffnesses() {
         let run = |body: &Body, lean: bool| {
             let mut state = State::new(body);
             state.v = smooth_field(body, 1e-3);
-            let mut it = Integrator::new(
-                body,
-                &mut state,
-                Loading::default(),
-                &IntegratorOptions::default(),
-            )
-            .unwrap();
+            // One end pulled: the step computes its nodes' forces by the law (from the grid).
+            let loading = Loading {
+                prescribed: vec![pulled(x_end(body, true))],
+                ..Default::default()
+            };
+            let mut it =
+                Integrator::new(body, &mut state, loading, &IntegratorOptions::default()).unwrap();
             assert!(matches!(it.kernel, Kernel::Cubic(_) | Kernel::Hex(_)));
             it.run(body, &mut state, 30).unwrap();
+            // A frame reads the grid and the rule too (`law::frame_fields_grid`).
+            let (v, balance, fields) = it.frame_view(body, &mut state, true);
+            it.run(body, &mut state, 5).unwrap();
             assert!(
                 !lean || (!body.lattice.bonds.is_built() && body.k.bytes() == 0),
-                "the run built the rows or the stiffnesses"
+                "the run or its frame built the rows or the stiffnesses"
             );
-            // The energy is output: the reference law computes it, and builds both.
+            let frame: Vec<u64> = [v.as_flat(), fields.stress.as_flattened()]
+                .concat()
+                .iter()
+                .chain(&fields.energy_density)
+                .map(|x| x.to_bits())
+                .collect();
+            // The energy at a run's end reads the grid too; the reference law builds both.
             let e = it.energy(body, &mut state);
-            (state, it.dt, e.kinetic + e.strain.total())
+            assert!(!lean || !body.lattice.bonds.is_built());
+            let reference =
+                hooke_core::law::energy(body, &state.u, state.springs(body), state.norm());
+            assert_eq!(e.strain, reference);
+            (state, it.dt, e.kinetic + e.strain.total(), (frame, balance))
         };
-        let (a, dt_a, e_a) = run(&lean, true);
-        let (b, dt_b, e_b) = run(&stored, false);
+        let (a, dt_a, e_a, frame_a) = run(&lean, true);
+        let (b, dt_b, e_b, frame_b) = run(&stored, false);
         assert!(a == b, "{:?}: states differ", lean.lattice.kind);
+        assert!(frame_a == frame_b, "{:?}: frames differ", lean.lattice.kind);
         assert_eq!(dt_a.to_bits(), dt_b.to_bits());
         assert_eq!(e_a.to_bits(), e_b.to_bits());
         assert_eq!(
@@ -640,6 +654,20 @@ fn unstable_time_steps_are_refused_or_reported() {
     );
 }
 
+/// `nodes` pulled along x at a velocity ramped from 0 to 1e-3 over 20 time units.
+fn pulled(nodes: Vec<u32>) -> Prescribed {
+    Prescribed {
+        nodes,
+        axis: 0,
+        motion: Motion::Velocity(TimeFunction::Ramp {
+            t0: 0.0,
+            t1: 20.0,
+            from: 0.0,
+            to: 1e-3,
+        }),
+    }
+}
+
 fn x_end(body: &Body, right: bool) -> Vec<u32> {
     let xmax = body.lattice.pos.x().iter().cloned().fold(0.0, Real::max);
     (0..body.nodes() as u32)
@@ -681,16 +709,7 @@ fn energy_balance_holds_with_loads_supports_and_damping() {
                     fixed_left(0),
                     fixed_left(1),
                     fixed_left(2),
-                    Prescribed {
-                        nodes: right.clone(),
-                        axis: 0,
-                        motion: Motion::Velocity(TimeFunction::Ramp {
-                            t0: 0.0,
-                            t1: 20.0,
-                            from: 0.0,
-                            to: 1e-3,
-                        }),
-                    },
+                    pulled(right.clone()),
                 ],
                 ..Default::default()
             },

@@ -753,7 +753,17 @@ fn bench_frame(args: &BenchArgs) -> Result<()> {
     opts.out = out.clone();
     let until = args.crack_time.unwrap_or(0.5 * sim.end_time);
     let (nodes, springs) = (sim.body.nodes(), sim.body.springs());
-    let result = (|| -> Result<(f64, f64, f64, String, usize)> {
+    // What the windows measured, and what the run holds after them.
+    struct Windows {
+        with: f64,
+        without: f64,
+        call: f64,
+        kernel: String,
+        broken: usize,
+        resident: Option<u64>,
+        rows: bool,
+    }
+    let result = (|| -> Result<Windows> {
         let mut run = hooke_sim::Run::start(sim, opts)?;
         let mut quiet = hooke_sim::Silent;
         run.advance(until, &mut quiet)?;
@@ -786,11 +796,29 @@ fn bench_frame(args: &BenchArgs) -> Result<()> {
         }
         let kernel = run.integrator().kernel.name().to_string();
         let broken = run.simulation().broken().0;
+        // What the run holds once it has written frames: a box on a stencil keeps no rows.
+        let rows = run.simulation().body.lattice.bonds.is_built();
         let (a, b, f) = (median(&mut ta), median(&mut tb), median(&mut tf));
-        Ok((a, b, f, kernel, broken))
+        Ok(Windows {
+            with: a,
+            without: b,
+            call: f,
+            kernel,
+            broken,
+            resident: resident_memory(),
+            rows,
+        })
     })();
     let _ = std::fs::remove_dir_all(&out);
-    let (with, without, call, kernel, broken) = result?;
+    let Windows {
+        with,
+        without,
+        call,
+        kernel,
+        broken,
+        resident,
+        rows,
+    } = result?;
     let step = without / args.steps as f64;
     let cost = (with - without).max(0.0);
     let json = serde_json::json!({
@@ -798,7 +826,9 @@ fn bench_frame(args: &BenchArgs) -> Result<()> {
         "kernel": kernel, "threads": rayon::current_num_threads(), "repeats": args.repeats,
         "steps": args.steps, "crack_time": until, "broken_springs": broken,
         "step_seconds": step, "frame_seconds": cost, "frame_call_seconds": call,
-        "frame_over_step": cost / step,
+        "frame_over_step": cost / step, "resident_memory_bytes": resident,
+        "resident_bytes_per_node": resident.map(|r| r as f64 / nodes as f64),
+        "rows_built": rows,
     });
     if args.json {
         println!("{json}");
@@ -807,6 +837,13 @@ fn bench_frame(args: &BenchArgs) -> Result<()> {
             "{} ({nodes} nodes, {broken} springs broken), {kernel} kernel, {} threads, medians of {} alternating windows of {} steps:\n  step {:.3} ms; a frame adds {:.3} ms = {:.2} steps to the run (the stepping thread waits {:.3} ms for it)",
             case.display(), rayon::current_num_threads(), args.repeats, args.steps, step * 1e3, cost * 1e3, cost / step, call * 1e3
         );
+        if let Some(r) = resident {
+            println!(
+                "  resident after the frames: {:.1} bytes per node (the springs' rows {})",
+                r as f64 / nodes as f64,
+                if rows { "built" } else { "not built" }
+            );
+        }
     }
     Ok(())
 }

@@ -1247,8 +1247,14 @@ impl Integrator {
             self.u_before
                 .extend(self.dofs.iter().map(|d| state.u.comp(d.axis)[d.node]));
         }
-        let force =
-            |i| crate::law::node_force(body, body.q, &state.u, state.springs(body), &state.pool, i);
+        // A pristine box's forces from its grid, leaving its rows and stiffnesses unbuilt.
+        let grid = crate::law::GridLaw::of(body, state);
+        let force = |i| match &grid {
+            Some(g) => g.node_force(&state.u, &state.pool, i),
+            None => {
+                crate::law::node_force(body, body.q, &state.u, state.springs(body), &state.pool, i)
+            }
+        };
         match self.team.as_mut() {
             None => self
                 .f_before
@@ -1497,14 +1503,18 @@ impl Integrator {
             team: &*t.team,
             share: &t.share,
         });
-        let mut fields = law::frame_fields_part(
-            body,
-            &state.u,
-            state.springs(body),
-            &state.norm,
-            &mut self.frame_scratch,
-            part,
-        );
+        // A box's frame from its grid, leaving its rows and stiffnesses unbuilt (one process).
+        let grid = part.map_or_else(|| law::frame_fields_grid(body, state), |_| None);
+        let mut fields = grid.unwrap_or_else(|| {
+            law::frame_fields_part(
+                body,
+                &state.u,
+                state.springs(body),
+                &state.norm,
+                &mut self.frame_scratch,
+                part,
+            )
+        });
         if let Some(p) = part {
             let nodes = &p.share.nodes;
             let dims = if self.plane { 2 } else { 3 };
@@ -1632,6 +1642,14 @@ impl Integrator {
     /// ends are added as `(P(t) - P(t0)) dt/2`, P the power of the non-conservative forces.
     /// Without it the balance would carry an O(dt) error that grows with the load.
     pub fn energy(&self, body: &Body, state: &mut State) -> EnergyBalance {
+        // A pristine box from its grid: the same pools, forces and energy, without building its
+        // rows and stiffnesses at the end of a run that never needed them.
+        if let Some(f) = law::frame_fields_grid(body, state) {
+            state.pool.copy_from_slice(&f.pool);
+            state.f.clone_from(&f.force);
+            let v = self.velocity_from_forces(body, state);
+            return self.balance(body, state, &v, f.strain);
+        }
         let v = self.full_velocity(body, state);
         let strain = law::energy(body, &state.u, state.springs(body), &state.norm);
         self.balance(body, state, &v, strain)

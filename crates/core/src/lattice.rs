@@ -517,6 +517,15 @@ impl GridSprings {
         })
     }
 
+    /// Whether each cube about node `i` of a box of Ladd's lattice lies in the box (the node is
+    /// a spacing or more inside every face): each of its springs' [`GridSprings::cube_share`]
+    /// is then 1.
+    #[inline]
+    pub fn is_inner(&self, i: usize) -> bool {
+        let g = self.coords(i);
+        (0..3).all(|c| g[c] >= 1 && g[c] + 2 <= self.n[c])
+    }
+
     /// How many springs the box has.
     pub fn springs(&self) -> usize {
         self.springs

@@ -29,7 +29,7 @@
 
 use rayon::prelude::*;
 
-use crate::body::Body;
+use crate::body::{Body, GridStiffness};
 use crate::lattice::Lattice;
 use crate::math::{Coords, Matrix, Real, Vector};
 use crate::state::{Springs, State};
@@ -214,8 +214,12 @@ pub fn compute_forces(body: &Body, u: &Coords, sp: Springs<'_>, pool: &[Real], f
         });
 }
 
-/// Both passes on a state: refreshes `state.pool` and `state.f`.
+/// Both passes on a state: refreshes `state.pool` and `state.f` (of a pristine box, through its
+/// [`GridLaw`]: the same bits).
 pub fn update_forces(body: &Body, state: &mut State) {
+    if let Some(law) = GridLaw::of(body, state) {
+        return law.update_forces(state);
+    }
     let sp = Springs::of(body, &state.alive, &state.k_eff);
     compute_pools(body, &state.u, sp, &state.norm, &mut state.pool);
     compute_forces(body, &state.u, sp, &state.pool, &mut state.f);
@@ -613,50 +617,337 @@ pub fn frame_fields_part(
                 m[5] += hd[0] * dz;
             }
             [*fx, *fy, *fz] = f;
-            let disp = if norm[i] > 0.0 {
-                0.5 * q * pi[i] * pi[i] / norm[i]
-            } else {
-                0.0
-            };
-            // Each node's own volume (on random lattices they differ): summed times it, U.
-            let v = lat.node_volume(i);
-            *ed = (quarter[i] + disp) / v;
-            let w = 1.0 / v;
-            let [xx, yy, zz, xy, yz, xz] = m.map(|x| x * w);
-            *st = [xx, xy, xz, xy, yy, yz, xz, yz, zz];
+            (*ed, *st) = node_density_stress(body, &pi, &quarter, norm, i, m);
         });
-    // As `ordered_sum` forms it: per chunk of nodes, the chunks added in order.
-    let dispersive = if q == 0.0 {
-        0.0
-    } else {
-        let disp = |i: usize| {
-            if norm[i] > 0.0 {
-                0.5 * q * pi[i] * pi[i] / norm[i]
-            } else {
-                0.0
-            }
-        };
-        let mut partial = vec![0.0; n.div_ceil(chunk)];
-        let mine = nodes.start / chunk..nodes.end.div_ceil(chunk);
-        partial[mine.clone()]
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(k, out)| {
-                let c = mine.start + k;
-                *out = (c * chunk..((c + 1) * chunk).min(n)).map(disp).sum();
-            });
-        if let Some(p) = part {
-            p.team.gather(&mut partial, &p.share.chunk_parts(1));
-        }
-        partial.iter().sum()
-    };
     FrameFields {
         pool,
         force,
-        strain: Energy { direct, dispersive },
+        strain: Energy {
+            direct,
+            dispersive: dispersive_sum(body, &pi, norm, nodes, part),
+        },
         energy_density,
         stress,
     }
+}
+
+/// Node `i`'s energy density and virial stress from its sums: the pool `Pi_i`, a quarter of
+/// its springs' direct energy and `m`, its springs' `T l e (x) e / 2` by distinct entries
+/// (xx, yy, zz, xy, yz, xz).
+#[inline]
+fn node_density_stress(
+    body: &Body,
+    pi: &[Real],
+    quarter: &[Real],
+    norm: &[Real],
+    i: usize,
+    m: [Real; 6],
+) -> (Real, [Real; 9]) {
+    let disp = if norm[i] > 0.0 {
+        0.5 * body.q * pi[i] * pi[i] / norm[i]
+    } else {
+        0.0
+    };
+    // Each node's own volume (on random lattices they differ): summed times it, U.
+    let v = body.lattice.node_volume(i);
+    let w = 1.0 / v;
+    let [xx, yy, zz, xy, yz, xz] = m.map(|x| x * w);
+    (
+        (quarter[i] + disp) / v,
+        [xx, xy, xz, xy, yy, yz, xz, yz, zz],
+    )
+}
+
+/// The dispersive energy `sum_n q Pi_n^2 / (2 S_n)` as [`ordered_sum`] forms it (per chunk of
+/// nodes, the chunks added in order), of the pools `pi` of `nodes` (with `part`, this rank's:
+/// the chunks' partial sums are all-gathered).
+fn dispersive_sum(
+    body: &Body,
+    pi: &[Real],
+    norm: &[Real],
+    nodes: std::ops::Range<usize>,
+    part: Option<FramePart<'_>>,
+) -> Real {
+    let (q, n, chunk) = (body.q, pi.len(), crate::kernel::CHUNK);
+    if q == 0.0 {
+        return 0.0;
+    }
+    let disp = |i: usize| {
+        if norm[i] > 0.0 {
+            0.5 * q * pi[i] * pi[i] / norm[i]
+        } else {
+            0.0
+        }
+    };
+    let mut partial = vec![0.0; n.div_ceil(chunk)];
+    let mine = nodes.start / chunk..nodes.end.div_ceil(chunk);
+    partial[mine.clone()]
+        .par_iter_mut()
+        .enumerate()
+        .for_each(|(k, out)| {
+            let c = mine.start + k;
+            *out = (c * chunk..((c + 1) * chunk).min(n)).map(disp).sum();
+        });
+    if let Some(p) = part {
+        p.team.gather(&mut partial, &p.share.chunk_parts(1));
+    }
+    partial.iter().sum()
+}
+
+/// The frame of `state` ([`frame_fields`]), by [`frame_fields_grid`] where it applies, so that
+/// a box's frame leaves its rows and stiffnesses unbuilt.
+pub fn frame_fields_of(body: &Body, state: &State) -> FrameFields {
+    frame_fields_grid(body, state)
+        .unwrap_or_else(|| frame_fields(body, &state.u, state.springs(body), &state.norm))
+}
+
+/// The springs of a pristine box read from its grid ([`crate::lattice::Topology::grid`]) and
+/// its stiffness rule ([`GridStiffness`]), without the rows, the springs' ends or the stiffness
+/// list: for a box on a stencil kernel, the law's node-by-node evaluations that a run needs
+/// besides its steps (a frame, the forces at prescribed nodes), each the bits of the reference
+/// law on the built rows. Only while every spring is intact and undamaged (the state has never
+/// changed one) and the material is isotropic (each lever is the rest length).
+///
+/// Each node walks its links in row order and computes each spring's geometry from its own
+/// end: seen from the other end the vector is the exact negation and the length, extension,
+/// tension and `e (x) e` terms are the same bits, so it adds what the rows' laws add, in the
+/// same order.
+pub struct GridLaw<'a> {
+    lat: &'a Lattice,
+    grid: &'a crate::lattice::GridSprings,
+    star: crate::lattice::Star,
+    rule: GridStiffness,
+    /// The bulk stiffness, and the grid of a rule of cube weights.
+    bulk: Real,
+    cubes: Option<crate::lattice::GridSprings>,
+    q: Real,
+}
+
+impl<'a> GridLaw<'a> {
+    /// The grid law of `body` in `state`, where it applies.
+    pub fn of(body: &'a Body, state: &State) -> Option<Self> {
+        let lat = &body.lattice;
+        let grid = lat.bonds.grid()?;
+        let rule = body.k.rule()?;
+        if !state.is_pristine() || body.lever.is_some() {
+            return None;
+        }
+        let (bulk, cubes) = match rule {
+            GridStiffness::One(k) => (k, None),
+            GridStiffness::Cubes(k, g) => (k, Some(g)),
+        };
+        Some(GridLaw {
+            lat,
+            grid,
+            star: grid.star(),
+            rule,
+            bulk,
+            cubes,
+            q: body.q,
+        })
+    }
+
+    /// Node `i`'s springs in row order, each as `f(j, k, L, geometry from i)`: the stiffness
+    /// is the bulk value, which a cube share of 1 keeps to the bit, about a node inside the
+    /// faces.
+    #[inline]
+    fn links(&self, u: &Coords, i: usize, mut f: impl FnMut(usize, Real, Real, SpringGeometry)) {
+        let inner = self.is_inner(i);
+        self.grid.links(&self.star, i, |j, rest| {
+            let k = self.stiffness(inner, i, j);
+            f(j, k, rest, spring_geometry(self.lat, u, i, j, rest));
+        });
+    }
+
+    /// Whether every spring of node `i` has the bulk stiffness.
+    #[inline]
+    fn is_inner(&self, i: usize) -> bool {
+        self.cubes.is_none_or(|c| c.is_inner(i))
+    }
+
+    /// The stiffness of the spring between `i` and `j`, `inner` from [`GridLaw::is_inner`].
+    #[inline]
+    fn stiffness(&self, inner: bool, i: usize, j: usize) -> Real {
+        if inner {
+            self.bulk
+        } else {
+            self.rule.between(i.min(j), i.max(j))
+        }
+    }
+
+    /// [`node_pool`] of node `n`: `Pi_n`, the same bits.
+    fn node_pool(&self, u: &Coords, n: usize) -> Real {
+        let mut pi = 0.0;
+        self.links(u, n, |_, k, rest, g| pi += k * rest * g.dl);
+        pi
+    }
+
+    /// [`update_forces`]: [`compute_pools`] then [`compute_forces`], the same bits.
+    fn update_forces(&self, state: &mut State) {
+        let (u, norm) = (&state.u, &state.norm);
+        if self.q == 0.0 {
+            state.pool.fill(0.0);
+        } else {
+            state
+                .pool
+                .par_iter_mut()
+                .with_min_len(MIN_NODES_PER_TASK)
+                .enumerate()
+                .for_each(|(n, p)| {
+                    *p = if norm[n] > 0.0 {
+                        self.node_pool(u, n) / norm[n]
+                    } else {
+                        0.0
+                    };
+                });
+        }
+        let pool = &state.pool;
+        let [fx, fy, fz] = state.f.xyz_mut();
+        fx.par_iter_mut()
+            .zip(fy.par_iter_mut())
+            .zip(fz.par_iter_mut())
+            .with_min_len(MIN_NODES_PER_TASK)
+            .enumerate()
+            .for_each(|(n, ((fx, fy), fz))| {
+                [*fx, *fy, *fz] = self.node_force(u, pool, n);
+            });
+    }
+
+    /// [`node_force`] of node `n`, the same bits.
+    pub fn node_force(&self, u: &Coords, pool: &[Real], n: usize) -> [Real; 3] {
+        let mut f = [0.0; 3];
+        self.links(u, n, |j, k, rest, g| {
+            let s = tension(k, rest, g.dl, self.q, pool[n], pool[j]) / g.l;
+            f[0] += s * g.d[0];
+            f[1] += s * g.d[1];
+            f[2] += s * g.d[2];
+        });
+        f
+    }
+}
+
+/// [`frame_fields`] of a box read through its [`GridLaw`], bit for bit, or `None` where that
+/// does not apply. The direct energy's chunk sums, over the springs in their order (each from
+/// its lower end), find their first spring through each node's count of forward links. No
+/// per-spring memory: a case's box on a stencil kernel stays without its rows after its
+/// frames.
+pub fn frame_fields_grid(body: &Body, state: &State) -> Option<FrameFields> {
+    let law = GridLaw::of(body, state)?;
+    let (u, norm, q) = (&state.u, &state.norm[..], body.q);
+    let n = body.nodes();
+    // Pools and a quarter of the direct energy, as pass 2 of `frame_fields_part`.
+    let mut pi = vec![0.0; n];
+    let mut quarter = vec![0.0; n];
+    let mut pool = vec![0.0; n];
+    pi.par_iter_mut()
+        .zip(quarter.par_iter_mut())
+        .zip(pool.par_iter_mut())
+        .with_min_len(MIN_NODES_PER_TASK)
+        .enumerate()
+        .for_each(|(i, ((p, e4), ratio))| {
+            let (mut s, mut d) = (0.0, 0.0);
+            law.links(u, i, |_, k, rest, geo| {
+                d += 0.25 * k * geo.dl * geo.dl;
+                s += k * rest * geo.dl;
+            });
+            (*p, *e4) = (s, d);
+            *ratio = if q != 0.0 && norm[i] > 0.0 {
+                s / norm[i]
+            } else {
+                0.0
+            };
+        });
+    // Forces, energy densities and stresses, as pass 4 (the tensions of pass 3 from each end).
+    let mut force = Coords::zeros(n);
+    let mut energy_density = vec![0.0; n];
+    let mut stress = vec![[0.0; 9]; n];
+    let [fx, fy, fz] = force.xyz_mut();
+    fx.par_iter_mut()
+        .zip(fy.par_iter_mut())
+        .zip(fz.par_iter_mut())
+        .zip(energy_density.par_iter_mut())
+        .zip(stress.par_iter_mut())
+        .with_min_len(MIN_NODES_PER_TASK)
+        .enumerate()
+        .for_each(|(i, ((((fx, fy), fz), ed), st))| {
+            let mut f = [0.0; 3];
+            let mut m = [0.0; 6];
+            law.links(u, i, |j, k, rest, geo| {
+                // `tension(k, L, dL, q, p_i, p_j) / l`, its `q k L` rounded as pass 1's.
+                let qkl = q * k * rest;
+                let s = (k * geo.dl + qkl * (pool[i.min(j)] + pool[i.max(j)])) / geo.l;
+                let d = geo.d;
+                for c in 0..3 {
+                    f[c] += s * d[c];
+                }
+                let h = 0.5 * s;
+                let hd = [h * d[0], h * d[1], h * d[2]];
+                m[0] += hd[0] * d[0];
+                m[1] += hd[1] * d[1];
+                m[2] += hd[2] * d[2];
+                m[3] += hd[0] * d[1];
+                m[4] += hd[1] * d[2];
+                m[5] += hd[0] * d[2];
+            });
+            [*fx, *fy, *fz] = f;
+            (*ed, *st) = node_density_stress(body, &pi, &quarter, norm, i, m);
+        });
+    // The direct energy by chunks of springs in their order: spring `b` is forward link
+    // `b - first[i]` of node `i`, `first` the running count of forward links.
+    let mut first = Vec::with_capacity(n + 1);
+    first.push(0usize);
+    let counts: Vec<u32> = (0..n)
+        .into_par_iter()
+        .with_min_len(MIN_NODES_PER_TASK)
+        .map(|i| {
+            let mut c = 0;
+            law.grid.links(&law.star, i, |j, _| c += u32::from(j > i));
+            c
+        })
+        .collect();
+    for c in counts {
+        first.push(first.last().unwrap() + c as usize);
+    }
+    let ns = first[n];
+    debug_assert_eq!(ns, law.grid.springs());
+    let chunk = crate::kernel::CHUNK;
+    let partial: Vec<Real> = (0..ns.div_ceil(chunk))
+        .into_par_iter()
+        .map(|c| {
+            let (b0, b1) = (c * chunk, ((c + 1) * chunk).min(ns));
+            // The last node whose forward links start at or before `b0` holds it (nodes with
+            // none share their offset with the next).
+            let mut i = first.partition_point(|&o| o <= b0) - 1;
+            let mut skip = b0 - first[i];
+            let mut half = Vec::with_capacity(b1 - b0);
+            while half.len() < b1 - b0 {
+                let inner = law.is_inner(i);
+                law.grid.links(&law.star, i, |j, rest| {
+                    if j <= i || half.len() == b1 - b0 {
+                    } else if skip > 0 {
+                        skip -= 1;
+                    } else {
+                        let k = law.stiffness(inner, i, j);
+                        let dl = spring_geometry(law.lat, u, i, j, rest).dl;
+                        half.push(0.5 * k * dl * dl);
+                    }
+                });
+                i += 1;
+            }
+            half.iter().sum::<Real>()
+        })
+        .collect();
+    let direct = partial.iter().sum();
+    Some(FrameFields {
+        pool,
+        force,
+        strain: Energy {
+            direct,
+            dispersive: dispersive_sum(body, &pi, norm, 0..n, None),
+        },
+        energy_density,
+        stress,
+    })
 }
 
 /// Virial stress at node `n` (Pa in 3D; N/m times 1/h, i.e. Pa, in 2D):
@@ -675,4 +966,95 @@ pub fn node_virial(body: &Body, u: &Coords, tension: &[Real], n: usize) -> Matri
         s += (0.5 * tension[b] / l) * d * d.transpose();
     }
     s / body.lattice.node_volume(n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A box's frame, pools and forces from its grid and stiffness rule are those from its rows
+    /// and stiffness list, bit for bit, and build neither: Ladd boxes of one stiffness and weighted by their
+    /// cubes (one of several chunks of springs), a box moved off the origin, a hexagonal plate
+    /// without dispersion. With a spring broken it leaves the frame to the rows.
+    #[test]
+    fn a_box_frame_from_its_grid_is_its_rows_frame() {
+        let moved = || {
+            let mut l = Lattice::cubic_box([6, 7, 5], 0.1).unwrap();
+            for c in 0..3 {
+                l.pos.comp_mut(c).iter_mut().for_each(|x| *x += 0.0347);
+            }
+            l.shed_rest();
+            l
+        };
+        let cubic = |n| Lattice::cubic_box(n, 0.1).unwrap();
+        let bodies = [
+            Body::uniform(cubic([7, 6, 9]), 3.0, 0.3, 2.0),
+            Body::uniform(cubic([40, 31, 4]), 3.0, 0.3, 2.0)
+                .with_cell_weights()
+                .unwrap(),
+            Body::uniform(moved(), 3.0, -0.2, 2.0),
+            Body::uniform(Lattice::hex_box(23, 17, 0.1, 0.2).unwrap(), 3.0, 0.0, 2.0),
+        ];
+        let bits = |a: &[Real]| a.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for body in bodies {
+            let mut state = State::new(&body);
+            let pos = body.lattice.pos.clone();
+            let dims = body.lattice.dim();
+            for c in 0..dims {
+                for (i, u) in state.u.comp_mut(c).iter_mut().enumerate() {
+                    let (x, y, z) = (pos.x()[i], pos.y()[i], pos.z()[i]);
+                    *u = 1e-3 * (7.0 * x + 3.0 * c as Real).sin() * (5.0 * y).cos()
+                        + 2e-4 * z * (c + 1) as Real;
+                }
+            }
+            let grid = frame_fields_grid(&body, &state).expect("a box of a rule");
+            let mut lean = state.clone();
+            update_forces(&body, &mut lean);
+            assert!(!body.lattice.bonds.is_built() && body.k.bytes() == 0);
+            let (mut pool, mut force) = (vec![0.0; body.nodes()], Coords::zeros(body.nodes()));
+            compute_pools(
+                &body,
+                &state.u,
+                state.springs(&body),
+                &state.norm,
+                &mut pool,
+            );
+            compute_forces(&body, &state.u, state.springs(&body), &pool, &mut force);
+            assert_eq!(bits(&lean.pool), bits(&pool));
+            assert_eq!(bits(lean.f.as_flat()), bits(force.as_flat()));
+            assert!(
+                body.lattice.bonds.len() > 2 * crate::kernel::CHUNK
+                    || body.lattice.bonds.len() < crate::kernel::CHUNK
+            );
+            let rows = frame_fields(&body, &state.u, state.springs(&body), &state.norm);
+            let what = format!("{:?} of {} nodes", body.lattice.kind, body.nodes());
+            assert_eq!(bits(&grid.pool), bits(&rows.pool), "{what}: pools");
+            assert_eq!(
+                bits(grid.force.as_flat()),
+                bits(rows.force.as_flat()),
+                "{what}: forces"
+            );
+            assert_eq!(
+                bits(&grid.energy_density),
+                bits(&rows.energy_density),
+                "{what}: energy densities"
+            );
+            assert_eq!(
+                bits(grid.stress.as_flattened()),
+                bits(rows.stress.as_flattened()),
+                "{what}: stresses"
+            );
+            assert_eq!(grid.strain.direct.to_bits(), rows.strain.direct.to_bits());
+            assert_eq!(
+                grid.strain.dispersive.to_bits(),
+                rows.strain.dispersive.to_bits()
+            );
+            assert!(grid.strain.direct > 0.0 && grid.force.as_flat().iter().any(|&f| f != 0.0));
+            assert_eq!(body.q != 0.0, grid.strain.dispersive != 0.0, "{what}");
+            state.kill_bond(&body, 3);
+            assert!(
+                frame_fields_grid(&body, &state).is_none() && GridLaw::of(&body, &state).is_none()
+            );
+        }
+    }
 }

@@ -298,6 +298,12 @@ impl State {
         true
     }
 
+    /// Whether no spring was ever removed, restored or weakened: every spring is intact, of
+    /// its body's stiffness (as [`State::new`] made it; a state set from a checkpoint is not).
+    pub fn is_pristine(&self) -> bool {
+        self.breaks == 0 && self.k_eff.is_empty()
+    }
+
     /// Whether each spring is intact.
     pub fn alive(&self) -> &[bool] {
         &self.alive

@@ -16,9 +16,9 @@ pub struct Derived {
     pub stress: Vec<[Real; 9]>,
 }
 
-/// Compute the derived fields of `state` ([`law::frame_fields`]).
+/// Compute the derived fields of `state` ([`law::frame_fields_of`]).
 pub fn derived(body: &Body, state: &State) -> Derived {
-    law::frame_fields(body, &state.u, state.springs(body), state.norm()).into()
+    law::frame_fields_of(body, state).into()
 }
 
 impl From<law::FrameFields> for Derived {

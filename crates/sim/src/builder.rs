@@ -628,7 +628,8 @@ impl Builder {
                 .map_err(nu)?
                 .k
         } else {
-            body.k[0]
+            // The rule's value where the springs follow one (the list is then never filled).
+            body.k.uniform_value().unwrap_or_else(|| body.k[0])
         };
         Ok((body, k, h, None))
     }
