@@ -203,7 +203,11 @@ impl Checkpoint {
             }
         }
         let alive: Vec<bool> = (0..springs).map(|_| r.take(1)[0] != 0).collect();
-        state.set_alive(body, alive);
+        // An intact body's state stays as `State::new` made it (the same normalisers), so a
+        // box resumed intact still reads its grid rather than building its rows.
+        if alive.iter().any(|&a| !a) {
+            state.set_alive(body, alive);
+        }
         let extra = if version >= 2 {
             let k = r.u64() as usize;
             (0..k).map(|_| r.f64()).collect()
