@@ -325,6 +325,20 @@ fn restart_is_bit_identical() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Write the checkpoint of a run in which nothing broke.
+fn save_unbroken(path: &Path, digest: u64, state: State, it: &Integrator) {
+    Checkpoint {
+        digest,
+        state,
+        integrator: it.checkpoint(),
+        broken: 0,
+        released: 0.0,
+        extra: Vec::new(),
+    }
+    .save(path)
+    .unwrap();
+}
+
 /// An intact box read back from its checkpoint is the state `State::new` makes (pristine), so
 /// the resumed run, its frame and its final energy still read the box's grid and build no rows,
 /// and it continues bit for bit like the uninterrupted run.
@@ -344,16 +358,7 @@ fn an_intact_box_resumes_without_its_rows() {
         let mut b = State::new(&body);
         let mut it = Integrator::new(&body, &mut b, pulled(&body), &opts).unwrap();
         it.run(&body, &mut b, 60).unwrap();
-        Checkpoint {
-            digest: case,
-            state: b,
-            integrator: it.checkpoint(),
-            broken: 0,
-            released: 0.0,
-            extra: Vec::new(),
-        }
-        .save(&path)
-        .unwrap();
+        save_unbroken(&path, case, b, &it);
     }
     let lean = bar();
     let ck = Checkpoint::load(&path, &lean, case).unwrap();
@@ -384,16 +389,7 @@ fn checkpoints_refuse_what_is_not_theirs() {
         &IntegratorOptions::default(),
     )
     .unwrap();
-    Checkpoint {
-        digest: 7,
-        state,
-        integrator: it.checkpoint(),
-        broken: 0,
-        released: 0.0,
-        extra: Vec::new(),
-    }
-    .save(&path)
-    .unwrap();
+    save_unbroken(&path, 7, state, &it);
     assert!(Checkpoint::load(&path, &body, 7).is_ok());
     let e = Checkpoint::load(&path, &body, 8).unwrap_err();
     assert!(
