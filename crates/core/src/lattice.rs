@@ -279,11 +279,13 @@ impl Bonds {
     }
 }
 
-/// A lattice's springs, read as [`Bonds`] (`Deref`). A box of Ladd's lattice without a
-/// periodic axis has springs that follow from its grid alone ([`GridSprings`]): they are built
-/// when something first reads them (a frame's tensions, a broken spring's ends, the general
-/// kernels), exactly as the box's constructor built them before, and a body the cubic stencil
-/// runs never holds them (rows and ends: 146 bytes per node). Changing them through `DerefMut`
+/// A lattice's springs, read as [`Bonds`] (`Deref`). A box of Ladd's or the hexagonal lattice
+/// without a periodic axis has springs that follow from its grid alone ([`GridSprings`]): they
+/// are built when something first reads them (a broken spring's ends, the general kernels, the
+/// quasi-static solvers, a frame once a spring has broken), exactly as the box's constructor
+/// built them before, and an intact body the stencils run never holds them (Ladd's rows and
+/// ends: 146 bytes per node; its frames and prescribed nodes read the grid through
+/// [`crate::law::GridLaw`]). Changing them through `DerefMut`
 /// makes them explicit for good; the changes that keep every value (shedding or storing rest
 /// lengths, the neighbour array) keep the grid.
 #[derive(Clone, Debug)]
@@ -666,8 +668,8 @@ pub struct Lattice {
     /// For box lattices: nodes per axis (`[nx, ny, 1]` for hex, with `ny` rows). Node index is
     /// `ix + nx * (iy + ny * iz)`.
     pub grid: Option<[usize; 3]>,
-    /// The springs ([`Topology`]: read as [`Bonds`]; a box of Ladd's lattice builds them only
-    /// when first read).
+    /// The springs ([`Topology`]: read as [`Bonds`]; a box of a regular lattice builds them
+    /// only when first read).
     pub bonds: Topology,
     /// Per-node and per-spring volumes of random lattices; `None` for the regular lattices, whose
     /// nodes all stand for `cell_volume`.

@@ -299,7 +299,8 @@ impl State {
     }
 
     /// Whether no spring was ever removed, restored or weakened: every spring is intact, of
-    /// its body's stiffness (as [`State::new`] made it; a state set from a checkpoint is not).
+    /// its body's stiffness, as [`State::new`] made it (a state passed through
+    /// [`State::set_alive`] or [`State::set_weights`] is not, whatever they set).
     pub fn is_pristine(&self) -> bool {
         self.breaks == 0 && self.k_eff.is_empty()
     }
