@@ -507,7 +507,7 @@ impl GridSprings {
         }
     }
 
-    /// The cube share ([`cube_share`]) of the spring between nodes `i` and `j` of a box of
+    /// The cube share (the module's `cube_share`) of the spring between nodes `i` and `j` of a box of
     /// Ladd's lattice (`i == j`: of node `i`), as [`Lattice::cell_fractions`] gives it for the
     /// built box: a cube is in the box when its corner is.
     pub fn cube_share(&self, i: usize, j: usize) -> Real {
