@@ -1165,7 +1165,8 @@ fn bench_fracture_reports_the_overheads() {
 
 /// `hooke bench --frame --json` times a frame of a case against the steps it interrupts and
 /// prints `frame_over_step`; windows that would run past the case's end time are refused
-/// (they would time steps that are never taken).
+/// (they would time steps that are never taken). It tells whether the run built its springs'
+/// rows: an intact box's run does not.
 #[test]
 fn bench_frame_reports_the_cost_and_refuses_windows_past_the_end() {
     let case =
@@ -1201,4 +1202,33 @@ fn bench_frame_reports_the_cost_and_refuses_windows_past_the_end() {
     let o = run("100000", "1e-6");
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("--repeats"), "{}", stderr(&o));
+    // A plate whose springs can break holds its rows (the fracture crate reads them); the
+    // intact block, pulled at its ends, reads its grid through its frames and steps.
+    assert_eq!(v["rows_built"], serde_json::json!(true), "{v}");
+    let block =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../cases/compression_block.toml");
+    let o = hooke(&[
+        "bench",
+        "--frame",
+        "--case",
+        block.to_str().unwrap(),
+        "--scale",
+        "0.5",
+        "--threads",
+        "1",
+        "--steps",
+        "3",
+        "--repeats",
+        "2",
+        "--crack-time",
+        "1e-6",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["rows_built"], serde_json::json!(false), "{v}");
+    assert!(
+        v["resident_bytes_per_node"].as_f64().unwrap_or(0.0) > 0.0,
+        "{v}"
+    );
 }
