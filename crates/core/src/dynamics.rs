@@ -1247,8 +1247,13 @@ impl Integrator {
             self.u_before
                 .extend(self.dofs.iter().map(|d| state.u.comp(d.axis)[d.node]));
         }
-        // A pristine box's forces from its grid, leaving its rows and stiffnesses unbuilt.
-        let grid = crate::law::GridLaw::of(body, state);
+        // A pristine box's forces from its grid, leaving its rows and stiffnesses unbuilt (looked
+        // up only for a step that has prescribed nodes).
+        let grid = if self.dofs.is_empty() {
+            None
+        } else {
+            crate::law::GridLaw::of(body, state)
+        };
         let force = |i| match &grid {
             Some(g) => g.node_force(&state.u, &state.pool, i),
             None => {

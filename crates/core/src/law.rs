@@ -154,8 +154,13 @@ fn node_pool(body: &Body, u: &Coords, sp: Springs<'_>, n: usize) -> Real {
 
 /// Node pre-pass: `pool[n] = Pi_n / S_n` for every node.
 pub fn compute_pools(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real], pool: &mut [Real]) {
-    if body.q == 0.0 {
-        // The plain lattice: no dispersion, no pre-pass.
+    fill_pools(body.q, norm, pool, |n| node_pool(body, u, sp, n));
+}
+
+/// `pool[n] = Pi_n / S_n` with `Pi_n = pi(n)`, in parallel (0 where `S_n` is 0); the plain
+/// lattice (`q = 0`) has no pre-pass, its pools are 0.
+fn fill_pools(q: Real, norm: &[Real], pool: &mut [Real], pi: impl Fn(usize) -> Real + Sync) {
+    if q == 0.0 {
         pool.fill(0.0);
         return;
     }
@@ -164,11 +169,7 @@ pub fn compute_pools(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real], po
         .enumerate()
         .for_each(|(n, p)| {
             let s = norm[n];
-            *p = if s > 0.0 {
-                node_pool(body, u, sp, n) / s
-            } else {
-                0.0
-            };
+            *p = if s > 0.0 { pi(n) / s } else { 0.0 };
         });
 }
 
@@ -203,15 +204,18 @@ pub fn node_force(
 
 /// Spring pass: internal force on every node from the current pools.
 pub fn compute_forces(body: &Body, u: &Coords, sp: Springs<'_>, pool: &[Real], f: &mut Coords) {
+    fill_forces(f, |n| node_force(body, body.q, u, sp, pool, n));
+}
+
+/// `f[n] = force(n)` for every node, in parallel (each node writes only its own force).
+fn fill_forces(f: &mut Coords, force: impl Fn(usize) -> [Real; 3] + Sync) {
     let [x, y, z] = f.xyz_mut();
     x.par_iter_mut()
         .zip(y.par_iter_mut())
         .zip(z.par_iter_mut())
         .with_min_len(MIN_NODES_PER_TASK)
         .enumerate()
-        .for_each(|(n, ((fx, fy), fz))| {
-            [*fx, *fy, *fz] = node_force(body, body.q, u, sp, pool, n);
-        });
+        .for_each(|(n, ((fx, fy), fz))| [*fx, *fy, *fz] = force(n));
 }
 
 /// Both passes on a state: refreshes `state.pool` and `state.f` (of a pristine box, through its
@@ -784,33 +788,12 @@ impl<'a> GridLaw<'a> {
 
     /// [`update_forces`]: [`compute_pools`] then [`compute_forces`], the same bits.
     fn update_forces(&self, state: &mut State) {
-        let (u, norm) = (&state.u, &state.norm);
-        if self.q == 0.0 {
-            state.pool.fill(0.0);
-        } else {
-            state
-                .pool
-                .par_iter_mut()
-                .with_min_len(MIN_NODES_PER_TASK)
-                .enumerate()
-                .for_each(|(n, p)| {
-                    *p = if norm[n] > 0.0 {
-                        self.node_pool(u, n) / norm[n]
-                    } else {
-                        0.0
-                    };
-                });
-        }
+        let u = &state.u;
+        fill_pools(self.q, &state.norm, &mut state.pool, |n| {
+            self.node_pool(u, n)
+        });
         let pool = &state.pool;
-        let [fx, fy, fz] = state.f.xyz_mut();
-        fx.par_iter_mut()
-            .zip(fy.par_iter_mut())
-            .zip(fz.par_iter_mut())
-            .with_min_len(MIN_NODES_PER_TASK)
-            .enumerate()
-            .for_each(|(n, ((fx, fy), fz))| {
-                [*fx, *fy, *fz] = self.node_force(u, pool, n);
-            });
+        fill_forces(&mut state.f, |n| self.node_force(u, pool, n));
     }
 
     /// [`node_force`] of node `n`, the same bits.
