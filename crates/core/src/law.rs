@@ -304,8 +304,8 @@ pub fn spring_tensions(body: &Body, u: &Coords, sp: Springs<'_>, pool: &[Real]) 
         .collect()
 }
 
-/// Everything an output frame shows of the lattice, from two passes over the springs and two
-/// over the rows instead of a set of passes per field: the pools, forces and strain energy of
+/// Everything an output frame shows of the lattice, from a pass over the springs and two over
+/// the rows instead of a set of passes per field: the pools, forces and strain energy of
 /// [`update_forces`] and [`energy`], and the per-node energy density and virial stress. The
 /// pools, forces and energies are those of the separate functions, bit for bit (the same
 /// operations in the same order); the stress is [`node_virial`]'s to round-off (it is
@@ -328,13 +328,13 @@ pub struct FrameFields {
 /// See [`FrameFields`]. Parallel over nodes and springs (each writes its own entries) and
 /// bit-identical for any thread count.
 ///
-/// Each spring's geometry, and later its force per unit length `T/l`, is computed once, from
-/// its first end, into per-spring arrays ([`FrameScratch`]); the row passes read them. Seen from the
-/// other end the vector is the exact negation (every rounded difference negates) and the
-/// length, extension and tension are the same bits (`p_i + p_j` commutes), so both ends read
-/// what they would compute. That halves the divisions of the force pass and keeps each row
-/// pass's reads to one record per spring (16 bytes for the pools, 32 for the forces), where
-/// reading a 56-byte record per end made the frame cost several steps on the glass plate.
+/// Each spring's geometry is computed once, from its first end, into per-spring arrays
+/// ([`FrameScratch`]), with its direct energy summed per chunk; the row passes read them. Seen
+/// from the other end the vector is the exact negation (every rounded difference negates) and
+/// the length and extension are the same bits, so both ends read what they would compute. The
+/// force pass forms each spring's `T/l` at both ends (the same bits: `p_i + p_j` commutes): a
+/// division more per spring, where a pass over the springs that stored it cost more (1.2 ms of
+/// a 9 ms frame on the glass plate).
 pub fn frame_fields(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> FrameFields {
     frame_fields_in(body, u, sp, norm, &mut FrameScratch::default())
 }
@@ -460,8 +460,8 @@ pub fn frame_fields_part(
         }
         _ => (0..n, 0..ns, Vec::new()),
     };
-    // Pass 1, over the springs: the vector `d` from the first end and the length `l` (`geo`,
-    // whose `l` becomes `T/l` in pass 3), the extension `dL` with `q k L` (what the tension
+    // Pass 1, over the springs: the vector `d` from the first end and the length `l` (`geo`),
+    // the extension `dL` with `q k L` (what the tension
     // needs besides the pools; the lever `L` is computed once, here, where the lattice shed
     // the rest lengths), and the two terms the pool pass adds, `k L dL` and `k dL^2 / 4` (a
     // quarter of the spring's direct energy at each end).
@@ -500,16 +500,26 @@ pub fn frame_fields_part(
             [k * lever * s.dl, 0.25 * k * s.dl * s.dl],
         )
     };
+    // The direct energy `k dL^2 / 2` of each spring is summed per chunk here, in the order of
+    // [`energy`] (a broken spring's extension is +0: it adds +0).
     let first = springs.start;
+    let mut partial = vec![0.0; chunks];
     geo[..width]
         .par_chunks_mut(chunk)
         .zip(ext[..width].par_chunks_mut(chunk))
         .zip(terms[..width].par_chunks_mut(chunk))
+        .zip(partial[first / chunk..springs.end.div_ceil(chunk)].par_iter_mut())
         .enumerate()
-        .for_each(|(c, ((g, x), t))| {
-            for (o, ((g, x), t)) in g.iter_mut().zip(x).zip(t).enumerate() {
-                (*g, *x, *t) = one(first + c * chunk + o);
+        .for_each(|(c, (((g, x), t), out))| {
+            let b0 = first + c * chunk;
+            for (o, ((g, x), t)) in g.iter_mut().zip(x.iter_mut()).zip(t).enumerate() {
+                (*g, *x, *t) = one(b0 + o);
             }
+            *out = x
+                .iter()
+                .enumerate()
+                .map(|(o, &[dl, _])| 0.5 * sp.k[b0 + o] * dl * dl)
+                .sum::<Real>();
         });
     for (k, &b) in foreign.iter().enumerate() {
         (geo[width + k], ext[width + k], terms[width + k]) = one(b as usize);
@@ -546,39 +556,11 @@ pub fn frame_fields_part(
     if let Some(p) = part {
         p.team.gather(&mut pool, &p.share.nodes);
     }
-    // Pass 3, over the springs: each spring's `T/l`, and its direct energy summed per chunk in
-    // the order of [`energy`] (a broken spring's extension is +0: it adds +0).
-    let tension_of = |b: usize, g: &mut [Real; 4], [dl, qkl]: [Real; 2]| -> Real {
-        let k = sp.k[b];
-        if sp.alive[b] {
-            let [i, j] = bonds.ends[b].map(|v| v as usize);
-            // `tension(k, L, dL, q, p_i, p_j)`, its `q k L` from pass 1.
-            g[3] = (k * dl + qkl * (pool[i] + pool[j])) / g[3];
-        }
-        0.5 * k * dl * dl
-    };
-    let mut partial = vec![0.0; chunks];
-    geo[..width]
-        .par_chunks_mut(chunk)
-        .zip(ext[..width].par_chunks(chunk))
-        .zip(partial[first / chunk..springs.end.div_ceil(chunk)].par_iter_mut())
-        .enumerate()
-        .for_each(|(c, ((g, x), out))| {
-            *out = g
-                .iter_mut()
-                .zip(x)
-                .enumerate()
-                .map(|(o, (g, &x))| tension_of(first + c * chunk + o, g, x))
-                .sum::<Real>();
-        });
-    for (k, &b) in foreign.iter().enumerate() {
-        tension_of(b as usize, &mut geo[width + k], ext[width + k]);
-    }
     if let (Some(p), Some(parts)) = (part, &parts) {
         p.team.gather(&mut partial, parts);
     }
     let direct = partial.iter().sum();
-    // Pass 4, over the nodes: forces, energy densities and virial stresses.
+    // Pass 3, over the nodes: forces, energy densities and virial stresses.
     let mut force = Coords::zeros(n);
     let mut energy_density = vec![0.0; n];
     let mut stress = vec![[0.0; 9]; n];
@@ -601,13 +583,16 @@ pub fn frame_fields_part(
                 if !sp.alive[b] {
                     continue;
                 }
-                let [dx, dy, dz, s] = geo[slot(b)];
+                let at = slot(b);
+                let [dx, dy, dz, l] = geo[at];
+                let [dl, qkl] = ext[at];
+                let j = bonds.neighbour(i, e);
+                // `T/l`: `tension(k, L, dL, q, p_i, p_j) / l` with its `q k L` from pass 1 (the
+                // sum of the two pools is the same number from either end). Each spring's from
+                // both ends: a division each time, cheaper than a pass that stores it.
+                let s = (sp.k[b] * dl + qkl * (pool[i] + pool[j])) / l;
                 // A spring's first end is its lower node (`Bonds::from_pairs`).
-                let d = if i < bonds.neighbour(i, e) {
-                    [dx, dy, dz]
-                } else {
-                    [-dx, -dy, -dz]
-                };
+                let d = if i < j { [dx, dy, dz] } else { [-dx, -dy, -dz] };
                 for c in 0..3 {
                     f[c] += s * d[c];
                 }
@@ -840,7 +825,7 @@ pub fn frame_fields_grid(body: &Body, state: &State) -> Option<FrameFields> {
                 0.0
             };
         });
-    // Forces, energy densities and stresses, as pass 4 (the tensions of pass 3 from each end).
+    // Forces, energy densities and stresses, as pass 3 of `frame_fields_part`.
     let mut force = Coords::zeros(n);
     let mut energy_density = vec![0.0; n];
     let mut stress = vec![[0.0; 9]; n];

@@ -510,10 +510,15 @@ pub fn frame_vtk_nodes(
 ) -> Vtk {
     let n = nodes.len();
     let first = nodes.start;
-    let x = state.positions(body);
+    // `X + u`, the bits of `State::positions`, without its whole copy of the positions.
+    let (x, u) = (&body.lattice.pos, &state.u);
     let mut points = Vec::with_capacity(3 * n);
     for i in nodes.clone() {
-        points.extend([x.x()[i], x.y()[i], x.z()[i]]);
+        points.extend([
+            x.x()[i] + u.x()[i],
+            x.y()[i] + u.y()[i],
+            x.z()[i] + u.z()[i],
+        ]);
     }
     // One vertex cell per node, so that every reader shows the nodes; intact springs as lines
     // on request (for small models: they double the file size per 9 springs per node).
