@@ -305,9 +305,13 @@ impl Fracture {
     /// (pre-cracks included), a softened spring counting by its lost weight `1 - w`.
     pub fn damage(&self, body: &Body, state: &State) -> Vec<Real> {
         let bonds = &*body.lattice.bonds;
+        let (alive, softened) = (state.alive(), state.is_softened());
+        // Each node's value from its own row: parallel, the same bits for any thread count.
         (0..body.nodes())
+            .into_par_iter()
+            .with_min_len(4096)
             .map(|n| {
-                let left: Real = if state.is_softened() {
+                let left: Real = if softened {
                     bonds
                         .row(n)
                         .map(|e| state.weight_of(bonds.bond[e] as usize))
@@ -315,7 +319,7 @@ impl Fracture {
                 } else {
                     bonds
                         .row(n)
-                        .filter(|&e| state.alive()[bonds.bond[e] as usize])
+                        .filter(|&e| alive[bonds.bond[e] as usize])
                         .count() as Real
                 };
                 if self.initial[n] == 0 {
