@@ -461,10 +461,9 @@ pub fn frame_fields_part(
         _ => (0..n, 0..ns, Vec::new()),
     };
     // Pass 1, over the springs: the vector `d` from the first end and the length `l` (`geo`),
-    // the extension `dL` with `q k L` (what the tension
-    // needs besides the pools; the lever `L` is computed once, here, where the lattice shed
-    // the rest lengths), and the two terms the pool pass adds, `k L dL` and `k dL^2 / 4` (a
-    // quarter of the spring's direct energy at each end).
+    // `k dL` and `q k L` (what the tension needs besides the pools; the lever `L` is computed
+    // once, here, where the lattice shed the rest lengths), and the two terms the pool pass
+    // adds, `k L dL` and `k dL^2 / 4` (a quarter of the spring's direct energy at each end).
     // The per-spring arrays hold this rank's springs only: the range (every spring, in one
     // process), then the foreign ones.
     let FrameScratch { geo, ext, terms } = scratch;
@@ -484,24 +483,25 @@ pub fn frame_fields_part(
     geo.resize(slots, [0.0; 4]);
     ext.resize(slots, [0.0; 2]);
     terms.resize(slots, [0.0; 2]);
-    let one = |b: usize| -> ([Real; 4], [Real; 2], [Real; 2]) {
+    // What pass 1 keeps of a spring, and its direct energy `k dL^2 / 2`.
+    let one = |b: usize| -> ([Real; 4], [Real; 2], [Real; 2], Real) {
         if !sp.alive[b] {
             // A broken spring's extension is +0: its direct energy adds +0.
-            return ([0.0; 4], [0.0; 2], [0.0; 2]);
+            return ([0.0; 4], [0.0; 2], [0.0; 2], 0.0);
         }
         let [i, j] = bonds.ends[b].map(|v| v as usize);
         let (s, rest) = spring_geometry_rest(lat, u, b, i, j);
         let lever = levers.map_or(rest, |l| l[b]);
         let k = sp.k[b];
-        // `q k L` rounds as in `tension`'s `q * k * lever * (p_i + p_j)`.
+        // `k dL` and `q k L` round as in `tension`'s `k * dl + q * k * lever * (p_i + p_j)`.
         (
             [s.d[0], s.d[1], s.d[2], s.l],
-            [s.dl, q * k * lever],
+            [k * s.dl, q * k * lever],
             [k * lever * s.dl, 0.25 * k * s.dl * s.dl],
+            0.5 * k * s.dl * s.dl,
         )
     };
-    // The direct energy `k dL^2 / 2` of each spring is summed per chunk here, in the order of
-    // [`energy`] (a broken spring's extension is +0: it adds +0).
+    // The direct energy is summed per chunk here, in the order of [`energy`].
     let first = springs.start;
     let mut partial = vec![0.0; chunks];
     geo[..width]
@@ -512,17 +512,20 @@ pub fn frame_fields_part(
         .enumerate()
         .for_each(|(c, (((g, x), t), out))| {
             let b0 = first + c * chunk;
-            for (o, ((g, x), t)) in g.iter_mut().zip(x.iter_mut()).zip(t).enumerate() {
-                (*g, *x, *t) = one(b0 + o);
-            }
-            *out = x
-                .iter()
+            *out = g
+                .iter_mut()
+                .zip(x)
+                .zip(t)
                 .enumerate()
-                .map(|(o, &[dl, _])| 0.5 * sp.k[b0 + o] * dl * dl)
+                .map(|(o, ((g, x), t))| {
+                    let energy;
+                    (*g, *x, *t, energy) = one(b0 + o);
+                    energy
+                })
                 .sum::<Real>();
         });
     for (k, &b) in foreign.iter().enumerate() {
-        (geo[width + k], ext[width + k], terms[width + k]) = one(b as usize);
+        (geo[width + k], ext[width + k], terms[width + k], _) = one(b as usize);
     }
     // Pass 2, over the nodes: the pool Pi_n, its ratio p_n, and a quarter of the springs'
     // direct energy.
@@ -585,12 +588,13 @@ pub fn frame_fields_part(
                 }
                 let at = slot(b);
                 let [dx, dy, dz, l] = geo[at];
-                let [dl, qkl] = ext[at];
+                let [kdl, qkl] = ext[at];
                 let j = bonds.neighbour(i, e);
-                // `T/l`: `tension(k, L, dL, q, p_i, p_j) / l` with its `q k L` from pass 1 (the
-                // sum of the two pools is the same number from either end). Each spring's from
-                // both ends: a division each time, cheaper than a pass that stores it.
-                let s = (sp.k[b] * dl + qkl * (pool[i] + pool[j])) / l;
+                // `T/l`: `tension(k, L, dL, q, p_i, p_j) / l` with its `k dL` and `q k L` from
+                // pass 1 (the sum of the two pools is the same number from either end). Each
+                // spring's from both ends: a division each time, cheaper than a pass that
+                // stores it.
+                let s = (kdl + qkl * (pool[i] + pool[j])) / l;
                 // A spring's first end is its lower node (`Bonds::from_pairs`).
                 let d = if i < j { [dx, dy, dz] } else { [-dx, -dy, -dz] };
                 for c in 0..3 {
