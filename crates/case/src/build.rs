@@ -329,7 +329,7 @@ pub fn load_str_with(
 
 /// As [`load`], from text (`path` only names the file in messages).
 ///
-/// TOML -> the raw schema ([`parse`]) -> each section validated into the library's
+/// TOML -> the raw schema (`parse`) -> each section validated into the library's
 /// [`Builder`] (`lattice`, `material`, `precracks`, `boundaries`, `schedule`) -> the built
 /// simulation, then the rigid bodies and contact, which need the body.
 pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, CaseError> {

@@ -30,7 +30,7 @@ pub struct RelaxOptions {
     pub tolerance: Real,
     pub max_iterations: usize,
     /// A force scale (N) for the residual when the reactions are not a good one, e.g. once a
-    /// body has been cut through [none].
+    /// body has been cut through (default: none).
     pub reference_force: Option<Real>,
 }
 

@@ -27,7 +27,7 @@ use crate::tangent::Tangent;
 pub struct StaticOptions {
     /// Relative residual to reach [1e-9].
     pub tolerance: Real,
-    /// Newton iterations allowed [30]; a near-linear problem needs 2 to 4.
+    /// Newton iterations allowed (default 30); a near-linear problem needs 2 to 4.
     pub max_newton: usize,
     /// CG iterations allowed per Newton iteration [20 000]; a 70-spacing bar needs a few hundred.
     pub max_cg: usize,
@@ -35,7 +35,7 @@ pub struct StaticOptions {
     /// wastes CG iterations on a linearisation that is about to change; larger costs Newton steps.
     pub forcing: Real,
     /// A force scale (N) to measure the residual against when the reactions are not a good
-    /// one, e.g. once a body has been cut through and carries no load [none].
+    /// one, e.g. once a body has been cut through and carries no load (default: none).
     pub reference_force: Option<Real>,
 }
 

@@ -191,7 +191,7 @@ const RANDOM3D_DISSIPATION: &[(Real, Real)] = &[(0.0, 1.1766), (0.25, 1.1518), (
 
 /// Random3d softening springs: their factor over the brittle calibration
 /// ([`crate::softening::toughness_factor`]) is the cubic one times this, so that G_f stands on
-/// the dissipation-based random3d factor ([`RANDOM3D_DISSIPATION`]) rather than the release
+/// the dissipation-based random3d factor (`RANDOM3D_DISSIPATION`) rather than the release
 /// rate the brittle criteria are calibrated to.
 pub fn random3d_softening_reference(nu: Real) -> Real {
     interpolate(RANDOM3D_DISSIPATION, nu) / interpolate(RANDOM3D_TOUGHNESS, nu)

@@ -47,7 +47,7 @@ pub(crate) const fn stride(dim: usize) -> usize {
 }
 
 /// Sweep 1: the spring records and pool shares, then the pools (zero for the plain law, `q =
-/// 0`). With a finite `screen` s, it also flags each block of [`BLOCK`] springs holding an
+/// 0`). With a finite `screen` s, it also flags each block of `BLOCK` springs holding an
 /// intact spring with `dL > s L` in `state.hot` (the fracture check then looks at those blocks
 /// only); pass infinity for no screen.
 ///

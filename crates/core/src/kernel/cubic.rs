@@ -3,7 +3,7 @@
 //!
 //! A node's 18 neighbours sit at fixed index offsets `dx + nx (dy + ny dz)`, so no neighbour
 //! index is stored: a node costs one 18-bit mask (which of its springs exist and are intact),
-//! its weight class in bits [`CLASS_SHIFT`].. of the same word ([`Factors`]), plus its `1/S_n`. Spring vectors are `D_d + (u_j - u_n)` with `D_d` the constant reference
+//! its weight class in bits `CLASS_SHIFT`.. of the same word (`Factors`), plus its `1/S_n`. Spring vectors are `D_d + (u_j - u_n)` with `D_d` the constant reference
 //! vector of direction `d`.
 //!
 //! On processors with AVX-512F, blocks of 8 consecutive nodes are processed in one vector (with
@@ -133,7 +133,7 @@ impl CubicStencil {
         ]
     }
 
-    /// Whether the sweeps take the wavefront path ([`wave`]: AVX-512, rows of at least 9
+    /// Whether the sweeps take the wavefront path (`wave`: AVX-512, rows of at least 9
     /// nodes), which gives the gather sweeps' bits computing each spring once.
     pub fn wave(&self) -> bool {
         self.wave_ok && self.simd == Some(Lanes::Avx512)
@@ -159,7 +159,7 @@ impl CubicStencil {
 
     /// The stencil for `body` if it is a non-periodic box of the cubic lattice (at least 3 nodes
     /// per axis) with a single stiffness, or one bulk stiffness with factors of at most
-    /// [`super::stencil::CLASSES`] kinds of node (cell weights); `None` otherwise.
+    /// `stencil::CLASSES` kinds of node (cell weights); `None` otherwise.
     pub fn new(body: &Body, state: &State) -> Option<Self> {
         let lat = &body.lattice;
         let g = lat.grid?;

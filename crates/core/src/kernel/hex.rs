@@ -11,7 +11,7 @@
 //! ```
 //!
 //! so no neighbour index is stored: a node costs a 6-bit mask (which of its springs exist and are
-//! intact) with its weight class in bits [`CLASS_SHIFT`].. of the same word ([`Factors`]), and
+//! intact) with its weight class in bits `CLASS_SHIFT`.. of the same word (`Factors`), and
 //! its `1/S_n`. A spring's current vector is `D_d + w` with `D_d` the direction's
 //! constant reference vector and `w = u_j - u_n`; its extension is the cancellation-free
 //! `dL = (2 D_d.w + w.w) / (l + L)` of the reference law ([`crate::law::spring_geometry`]), so
@@ -80,7 +80,7 @@ impl HexStencil {
 
     /// The stencil for `body` if it is a non-periodic box of the hexagonal lattice (at least 2
     /// nodes per row and 2 rows) with a single stiffness, or one bulk stiffness with factors of
-    /// at most [`super::stencil::CLASSES`] kinds of node (cell weights), and the isotropic law;
+    /// at most `stencil::CLASSES` kinds of node (cell weights), and the isotropic law;
     /// `None` otherwise.
     pub fn new(body: &Body, state: &State) -> Option<Self> {
         let lat = &body.lattice;

@@ -8,7 +8,7 @@
 //! the group's longest, *sliced ELLPACK*), so that each lane adds its node's springs in the
 //! order of its CSR row, exactly as the CSR kernel sums the records of that row. The groups of
 //! a window of 64 consecutive nodes take its nodes longest row first, so that a group's rows
-//! are about as long as each other (padding 4 % of the slots instead of 20 %; see [`deal`]).
+//! are about as long as each other (padding 4 % of the slots instead of 20 %; see `deal`).
 //! What a slot needs of the 8 neighbours comes from one 64-byte record per node,
 //!
 //! ```text
