@@ -619,15 +619,15 @@ impl Observer for CliObserver {
                 None => {
                     self.bar.set_position((p.fraction * BAR_LEN as f64) as u64);
                     self.bar.set_message(format!(
-                        "t = {:.3e} s  {:.0} steps/s  broken springs {}  energy {:.3e} J (balance {:.1e})",
-                        p.time, p.steps_per_second, p.broken_springs, p.energy, p.balance
+                        "t = {:.3e} s  {:.0} steps/s  broken springs {}  energy {:.3e} J{} (balance {:.1e})",
+                        p.time, p.steps_per_second, p.broken_springs, p.energy, energy_when(p, 3), p.balance
                     ));
                 }
             }
         } else {
             // One line a report, for a cluster job's log.
             eprintln!(
-                "[{:>7.0} s] t = {:.4e} s of {:.4e} s ({:5.1} %), {:.0} steps/s, ETA {}, broken springs {}, energy {:.4e} J, balance {:.1e}",
+                "[{:>7.0} s] t = {:.4e} s of {:.4e} s ({:5.1} %), {:.0} steps/s, ETA {}, broken springs {}, energy {:.4e} J{}, balance {:.1e}",
                 self.started.elapsed().as_secs_f64(),
                 p.time,
                 p.end_time,
@@ -637,6 +637,7 @@ impl Observer for CliObserver {
                     .map_or("unknown".to_string(), |s| format!("{s:.0} s")),
                 p.broken_springs,
                 p.energy,
+                energy_when(p, 4),
                 p.balance
             );
         }
@@ -644,6 +645,16 @@ impl Observer for CliObserver {
 
     fn interrupted(&self) -> bool {
         self.stop.load(Ordering::SeqCst)
+    }
+}
+
+/// Where a progress report shows an earlier evaluation of the energy (a large body's, see
+/// `Progress::energy_time`), when it was: " at t = ... s"; nothing otherwise.
+fn energy_when(p: &hooke_sim::Progress, digits: usize) -> String {
+    if p.energy_time == p.time {
+        String::new()
+    } else {
+        format!(" at t = {:.*e} s", digits, p.energy_time)
     }
 }
 

@@ -18,9 +18,14 @@ pub struct Progress {
     /// Estimated wall-clock seconds left.
     pub eta_seconds: Option<f64>,
     pub broken_springs: usize,
-    /// Kinetic + strain energy (J) and the relative energy-balance error.
+    /// Kinetic + strain energy (J) and the relative energy-balance error, evaluated at
+    /// simulated time `energy_time` (s).
     pub energy: Real,
     pub balance: Real,
+    /// When `energy` and `balance` were evaluated: `time`, unless the evaluation (a force
+    /// evaluation by the reference law) would cost a large body's run more than about 5 % at
+    /// this rate of reports, and an earlier one is shown again.
+    pub energy_time: Real,
     /// Quasi-static runs: (load step, load steps in all).
     pub load_step: Option<(usize, usize)>,
 }
@@ -29,7 +34,8 @@ pub struct Progress {
 ///
 /// The drivers call [`Observer::interrupted`] after every step (keep it cheap: an atomic flag)
 /// and [`Observer::progress`] about every [`Observer::progress_interval`] of wall-clock time
-/// (each report costs one force evaluation for the energy).
+/// (a report evaluates the energy when that costs the run at most about 5 %, see
+/// [`Progress::energy_time`]).
 pub trait Observer {
     /// Wall-clock time between progress reports; `None` (the default): no reports.
     fn progress_interval(&self) -> Option<Duration> {

@@ -227,6 +227,7 @@ fn drive(
                     energy: e.total(),
                     balance: (e.total() + sim.broken().1 + dissipated - w_ext - w_bc).abs()
                         / (w_ext + w_bc).abs().max(e.total()).max(1e-300),
+                    energy_time: t,
                     load_step: Some((k, steps)),
                 });
             }

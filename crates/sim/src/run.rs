@@ -312,7 +312,25 @@ pub struct Run {
     t_start: Real,
     step_start: u64,
     last_report: Instant,
+    /// The progress reports' last energy evaluation (see [`Progress::energy_time`]).
+    report_energy: Option<ReportEnergy>,
     provenance: Option<Provenance>,
+}
+
+/// A progress report evaluates the energy again once at least this many times the previous
+/// evaluation's cost has passed, so that the evaluations take at most about 5 % of a run. Each
+/// is a force evaluation by the reference law: on a terminal (a report every half second) a
+/// glass plate of 224 000 nodes ran 17-19 % slower than in a batch job when every report made
+/// one.
+const REPORT_SHARE: u32 = 20;
+
+/// The energy a progress report shows, and when and at what cost it was evaluated.
+struct ReportEnergy {
+    time: Real,
+    energy: Real,
+    balance: Real,
+    at: Instant,
+    cost: std::time::Duration,
 }
 
 impl Run {
@@ -450,6 +468,7 @@ impl Run {
             next_reactions,
             started: Instant::now(),
             last_report: Instant::now(),
+            report_energy: None,
             provenance,
         };
         if !resuming {
@@ -625,7 +644,23 @@ impl Run {
         let wall = self.started.elapsed().as_secs_f64();
         let rate = (sim.state.step - self.step_start) as f64 / wall.max(1e-9);
         let broken = sim.broken().0;
-        let b = self.it.energy(&self.sim.body, &mut self.sim.state);
+        let due = self
+            .report_energy
+            .as_ref()
+            .is_none_or(|e| e.at.elapsed() >= REPORT_SHARE * e.cost);
+        if due {
+            let began = Instant::now();
+            let b = self.it.energy(&self.sim.body, &mut self.sim.state);
+            let at = Instant::now();
+            self.report_energy = Some(ReportEnergy {
+                time: self.sim.state.time,
+                energy: b.kinetic + b.strain.total(),
+                balance: b.relative_error,
+                at,
+                cost: at - began,
+            });
+        }
+        let e = self.report_energy.as_ref().expect("evaluated above");
         Progress {
             time: self.sim.state.time,
             end_time: self.sim.end_time,
@@ -634,8 +669,9 @@ impl Run {
             steps_per_second: rate,
             eta_seconds: (frac > 0.0).then(|| wall * (1.0 - frac) / frac),
             broken_springs: broken,
-            energy: b.kinetic + b.strain.total(),
-            balance: b.relative_error,
+            energy: e.energy,
+            balance: e.balance,
+            energy_time: e.time,
             load_step: None,
         }
     }

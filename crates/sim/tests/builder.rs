@@ -190,3 +190,71 @@ fn a_random_body_sheds_its_set_up_volumes_once_built() {
     });
     assert!(again.is_err());
 }
+
+/// Progress reports every step (an observer asking that often): the energy they show is
+/// evaluated again only once twenty times its cost has passed, so the reports cannot take over
+/// the run, and a report that shows an earlier evaluation says when it was.
+#[test]
+fn progress_reports_reuse_the_energy_they_cannot_afford() {
+    struct EveryStep(Vec<hooke_sim::Progress>);
+    impl hooke_sim::Observer for EveryStep {
+        fn progress_interval(&self) -> Option<std::time::Duration> {
+            Some(std::time::Duration::ZERO)
+        }
+        fn progress(&mut self, p: &hooke_sim::Progress) {
+            self.0.push(p.clone());
+        }
+    }
+    let dir = std::env::temp_dir().join(format!("hooke-progress-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let sim = Builder::new(LatticeKind::Hex, 0.1e-3)
+        .thickness(1e-3)
+        .solid(Solid::cuboid([0.0; 3], [10e-3, 5e-3, 0.0]))
+        .material(70e9, 0.25, 2500.0)
+        .boundary(
+            Bc::on(Region::Face(Face {
+                axis: 0,
+                high: true,
+            }))
+            .velocity(0, TimeFunction::Constant(1.0)),
+        )
+        .end_time(20e-6)
+        .output_every(1.0)
+        .build()
+        .unwrap();
+    let mut obs = EveryStep(Vec::new());
+    let s = hooke_sim::run(sim, hooke_sim::RunOptions::new(&dir, "p"), &mut obs).unwrap();
+    let reports = &obs.0;
+    assert!(
+        reports.len() as u64 + 1 >= s.steps,
+        "{} reports",
+        reports.len()
+    );
+    // The first report evaluates; none shows an evaluation from its future or older than the
+    // one before it, and reports that show one evaluation show the same numbers.
+    assert_eq!(reports[0].energy_time, reports[0].time);
+    for w in reports.windows(2) {
+        assert!(w[1].energy_time <= w[1].time);
+        assert!(w[1].energy_time >= w[0].energy_time);
+        if w[1].energy_time == w[0].energy_time {
+            assert_eq!(w[1].energy.to_bits(), w[0].energy.to_bits());
+            assert_eq!(w[1].balance.to_bits(), w[0].balance.to_bits());
+        }
+    }
+    // An evaluation costs more than a step (the reference law's four passes against the
+    // kernel's two sweeps), so most reports show an earlier one, and some are fresh.
+    let fresh = reports.iter().filter(|p| p.energy_time == p.time).count();
+    eprintln!("{fresh} of {} reports evaluated the energy", reports.len());
+    assert!(
+        fresh * 4 < reports.len(),
+        "{fresh} of {} reports evaluated the energy",
+        reports.len()
+    );
+    assert!(
+        fresh >= 2,
+        "only {fresh} evaluations in {} reports",
+        reports.len()
+    );
+    assert!(reports.iter().all(|p| p.energy > 0.0 || p.time == 0.0));
+    std::fs::remove_dir_all(&dir).ok();
+}
