@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use hooke_core::dynamics::{Integrator, Interaction};
+use hooke_core::dynamics::{EnergyBalance, Integrator, Interaction};
 use hooke_core::team::Team;
 use hooke_core::{Coords, Real};
 use hooke_io::{Checkpoint, VtkSeries};
@@ -314,6 +314,10 @@ pub struct Run {
     last_report: Instant,
     /// The progress reports' last energy evaluation (see [`Progress::energy_time`]).
     report_energy: Option<ReportEnergy>,
+    /// The step of the last frame with its energy balance and reactions: the summary of a run
+    /// that ends on a frame (every run does) takes them from it, the same bits, rather than
+    /// evaluate the forces twice more by the reference law.
+    last_frame: Option<(u64, EnergyBalance, Vec<RegionReaction>)>,
     provenance: Option<Provenance>,
 }
 
@@ -469,6 +473,7 @@ impl Run {
             started: Instant::now(),
             last_report: Instant::now(),
             report_energy: None,
+            last_frame: None,
             provenance,
         };
         if !resuming {
@@ -722,7 +727,14 @@ impl Run {
         for s in &mut self.sinks {
             s.finish()?;
         }
-        let b = self.it.energy(&self.sim.body, &mut self.sim.state);
+        // The last frame's, when it shows this state (`Integrator::frame_view` gives the bits
+        // of `Integrator::energy` and of the reactions' `full_velocity`).
+        let step = self.sim.state.step;
+        let at_frame = self.last_frame.take().filter(|f| f.0 == step);
+        let b = match &at_frame {
+            Some((_, b, _)) => *b,
+            None => self.it.energy(&self.sim.body, &mut self.sim.state),
+        };
         let wall = self.started.elapsed().as_secs_f64();
         let sim = &mut self.sim;
         if let (Some(c), Some(h)) = (sim.contact.as_mut(), &self.contact_history) {
@@ -735,7 +747,10 @@ impl Run {
         }
         outputs.push(("checkpoint".into(), self.opts.checkpoint_path()));
         let energy = EnergyRow::from_balance(sim.state.time, &b);
-        let reactions = self.reactions();
+        let reactions = match at_frame {
+            Some((_, _, r)) => r,
+            None => self.reactions(),
+        };
         let sim = &self.sim;
         let summary = Summary {
             steps: sim.state.step - self.step_start,
@@ -794,6 +809,7 @@ impl Run {
         let (v, b, fields) = self.it.frame_view(body, &mut self.sim.state, whole);
         let forces = self.it.boundary_forces(body, &self.sim.state, &v);
         let reactions = region_reactions(&self.sim, &forces);
+        self.last_frame = Some((self.sim.state.step, b, reactions.clone()));
         let sim = &self.sim;
         let damage = sim.fracture.as_ref().map(|f| f.damage(body, &sim.state));
         let frame = Frame {
