@@ -258,3 +258,64 @@ fn progress_reports_reuse_the_energy_they_cannot_afford() {
     assert!(reports.iter().all(|p| p.energy > 0.0 || p.time == 0.0));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A run ends on a frame, and its summary takes the energy balance and the reactions from it;
+/// a run resumed at its end writes no frame and evaluates them: the same bits.
+#[test]
+fn a_summary_from_the_last_frame_is_the_evaluated_one() {
+    let dir = std::env::temp_dir().join(format!("hooke-summary-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let sim = || {
+        plate()
+            .boundary(
+                Bc::on(Region::Face(Face {
+                    axis: 1,
+                    high: false,
+                }))
+                .fixed(0)
+                .fixed(1)
+                .named("bottom"),
+            )
+            .boundary(
+                Bc::on(Region::Face(Face {
+                    axis: 1,
+                    high: true,
+                }))
+                .velocity(1, TimeFunction::Constant(0.5))
+                .named("top"),
+            )
+            .end_time(5e-6)
+            .output_every(2e-6)
+            .build()
+            .unwrap()
+    };
+    let first = hooke_sim::run(
+        sim(),
+        hooke_sim::RunOptions::new(&dir, "s"),
+        &mut hooke_sim::Silent,
+    )
+    .unwrap();
+    let mut opts = hooke_sim::RunOptions::new(dir.join("again"), "s");
+    opts.resume = Some(dir.join("s.ckpt"));
+    let again = hooke_sim::run(sim(), opts, &mut hooke_sim::Silent).unwrap();
+    assert_eq!(again.steps, 0, "the resumed run starts at its end");
+    assert!(first.energy.kinetic > 0.0 && first.reactions[1].force[1] != 0.0);
+    let bits = |s: &hooke_sim::Summary| {
+        let e = &s.energy;
+        let mut v = vec![
+            e.kinetic,
+            e.strain_direct,
+            e.strain_dispersive,
+            e.external_work,
+            e.boundary_work,
+            e.balance_error,
+            s.balance,
+        ];
+        for r in &s.reactions {
+            v.extend(r.force);
+        }
+        v.into_iter().map(f64::to_bits).collect::<Vec<_>>()
+    };
+    assert_eq!(bits(&first), bits(&again));
+    std::fs::remove_dir_all(&dir).ok();
+}
