@@ -12,6 +12,14 @@ fn plate() -> Builder {
         .end_time(1e-6)
 }
 
+/// The plate held at its bottom edge ("bottom") and moved at its top edge ("top") by `top`.
+fn gripped(top: impl FnOnce(Bc) -> Bc) -> Builder {
+    let edge = |high| Bc::on(Region::Face(Face { axis: 1, high }));
+    plate()
+        .boundary(edge(false).fixed(0).fixed(1).named("bottom"))
+        .boundary(top(edge(true)).named("top"))
+}
+
 fn err(b: Builder) -> hooke_sim::BuildError {
     b.build().expect_err("should be refused")
 }
@@ -78,37 +86,22 @@ fn bad_input_names_the_item_and_the_fix() {
 fn a_built_simulation_runs_and_its_grips_balance() {
     let dir = std::env::temp_dir().join(format!("hooke-builder-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let sim = plate()
-        .boundary(
-            Bc::on(Region::Face(Face {
-                axis: 1,
-                high: false,
-            }))
-            .fixed(0)
-            .fixed(1)
-            .named("bottom"),
+    let sim = gripped(|top| {
+        top.displacement(
+            1,
+            TimeFunction::SmoothRamp {
+                t0: 0.0,
+                t1: 20e-6,
+                from: 0.0,
+                to: 1e-7,
+            },
         )
-        .boundary(
-            Bc::on(Region::Face(Face {
-                axis: 1,
-                high: true,
-            }))
-            .displacement(
-                1,
-                TimeFunction::SmoothRamp {
-                    t0: 0.0,
-                    t1: 20e-6,
-                    from: 0.0,
-                    to: 1e-7,
-                },
-            )
-            .named("top"),
-        )
-        .damping(2e5)
-        .end_time(40e-6)
-        .output_every(10e-6)
-        .build()
-        .unwrap();
+    })
+    .damping(2e5)
+    .end_time(40e-6)
+    .output_every(10e-6)
+    .build()
+    .unwrap();
     let s = hooke_sim::run(
         sim,
         hooke_sim::RunOptions::new(&dir, "plate"),
@@ -266,24 +259,7 @@ fn a_summary_from_the_last_frame_is_the_evaluated_one() {
     let dir = std::env::temp_dir().join(format!("hooke-summary-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let sim = || {
-        plate()
-            .boundary(
-                Bc::on(Region::Face(Face {
-                    axis: 1,
-                    high: false,
-                }))
-                .fixed(0)
-                .fixed(1)
-                .named("bottom"),
-            )
-            .boundary(
-                Bc::on(Region::Face(Face {
-                    axis: 1,
-                    high: true,
-                }))
-                .velocity(1, TimeFunction::Constant(0.5))
-                .named("top"),
-            )
+        gripped(|top| top.velocity(1, TimeFunction::Constant(0.5)))
             .end_time(5e-6)
             .output_every(2e-6)
             .build()
