@@ -1617,6 +1617,41 @@ impl Integrator {
     /// velocity, as after [`Integrator::full_velocity`]. Summed over a boundary region it is the
     /// force that region exerts on the body (a load-displacement curve's load).
     pub fn boundary_forces(&self, body: &Body, state: &State, v: &Coords) -> Coords {
+        self.boundary_forces_from(
+            body,
+            state,
+            |_, i, c| state.f.comp(c)[i],
+            |_, i, c| v.comp(c)[i],
+        )
+    }
+
+    /// [`Integrator::boundary_forces`] at the full step, as after
+    /// [`Integrator::full_velocity`], the same bits, from the forces of the prescribed nodes
+    /// alone ([`law::forces_at`]): a reaction record between frames costs a few rows, not two
+    /// passes over the body. Leaves the state as it is.
+    pub fn boundary_forces_now(&self, body: &Body, state: &State) -> Coords {
+        let nodes: Vec<usize> = self.dofs.iter().map(|d| d.node).collect();
+        let forces = law::forces_at(body, state, &nodes);
+        // A prescribed DOF's full-step velocity is its prescribed one
+        // (`Integrator::velocity_from_forces`).
+        let (u, t) = (&state.u, state.time);
+        self.boundary_forces_from(
+            body,
+            state,
+            |k, _, c| forces[k][c],
+            |k, i, c| self.prescribed_at(&self.dofs[k], u.comp(c)[i], t).1,
+        )
+    }
+
+    /// [`Integrator::boundary_forces`] with the internal force and the velocity of prescribed
+    /// DOF `k` (node `i`, axis `c`) from `force(k, i, c)` and `velocity(k, i, c)`.
+    fn boundary_forces_from(
+        &self,
+        body: &Body,
+        state: &State,
+        force: impl Fn(usize, usize, usize) -> Real,
+        velocity: impl Fn(usize, usize, usize) -> Real,
+    ) -> Coords {
         let t = state.time;
         let g = self.loading.body_acceleration;
         let mut out = Coords::zeros(body.nodes());
@@ -1626,7 +1661,7 @@ impl Integrator {
             out.set(i, out.get(i) + f);
         }
         let h = self.dt;
-        for d in &self.dofs {
+        for (k, d) in self.dofs.iter().enumerate() {
             let (i, c) = (d.node, d.axis);
             let accel = match &self.motions[d.motion] {
                 Motion::Fixed => 0.0,
@@ -1636,9 +1671,9 @@ impl Integrator {
                 }
             };
             let m = body.mass[i];
-            let vc = v.comp(c)[i];
+            let vc = velocity(k, i, c);
             // Loads on this DOF are already in `out`: the support adds what is missing.
-            let reaction = m * accel - state.f.comp(c)[i] - self.load_on(d, c, t) - m * g[c]
+            let reaction = m * accel - force(k, i, c) - self.load_on(d, c, t) - m * g[c]
                 + self.damping * m * vc;
             out.comp_mut(c)[i] += reaction;
         }

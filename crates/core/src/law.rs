@@ -183,6 +183,19 @@ pub fn node_force(
     pool: &[Real],
     n: usize,
 ) -> [Real; 3] {
+    node_force_with(body, q, u, sp, |i| pool[i], n)
+}
+
+/// [`node_force`] with the pools from `pool(i)`.
+#[inline]
+fn node_force_with(
+    body: &Body,
+    q: Real,
+    u: &Coords,
+    sp: Springs<'_>,
+    pool: impl Fn(usize) -> Real,
+    n: usize,
+) -> [Real; 3] {
     let bonds = &*body.lattice.bonds;
     let lat = &body.lattice;
     let mut f = [0.0; 3];
@@ -194,12 +207,58 @@ pub fn node_force(
         let j = bonds.neighbour(n, e);
         let rest = lat.rest(b);
         let g = spring_geometry(lat, u, n, j, rest);
-        let s = tension(sp.k[b], sp.lever.get(b), g.dl, q, pool[n], pool[j]) / g.l;
+        let s = tension(sp.k[b], sp.lever.get(b), g.dl, q, pool(n), pool(j)) / g.l;
         f[0] += s * g.d[0];
         f[1] += s * g.d[1];
         f[2] += s * g.d[2];
     }
     f
+}
+
+/// The forces of a few nodes `nodes` (a boundary's), each the bits [`update_forces`] gives it,
+/// from the pools of those nodes and their neighbours alone: a reaction between two frames
+/// costs a few rows instead of two passes over the body.
+pub fn forces_at(body: &Body, state: &State, nodes: &[usize]) -> Vec<[Real; 3]> {
+    let u = &state.u;
+    let grid = GridLaw::of(body, state);
+    let sp = state.springs(body);
+    // `fill_pools`' ratio of a node: 0 for the plain law and where `S_n` is 0.
+    let ratio = |n: usize, pi: Real| {
+        let s = state.norm[n];
+        if body.q != 0.0 && s > 0.0 {
+            pi / s
+        } else {
+            0.0
+        }
+    };
+    let mut pools = std::collections::HashMap::new();
+    for &n in nodes {
+        let mut reach = vec![n];
+        match &grid {
+            Some(g) => g.links(u, n, |j, _, _, _| reach.push(j)),
+            None => {
+                let bonds = &*body.lattice.bonds;
+                reach.extend(bonds.row(n).map(|e| bonds.neighbour(n, e)));
+            }
+        }
+        for m in reach {
+            pools.entry(m).or_insert_with(|| {
+                let pi = match &grid {
+                    Some(g) => g.node_pool(u, m),
+                    None => node_pool(body, u, sp, m),
+                };
+                ratio(m, pi)
+            });
+        }
+    }
+    let pool = |i: usize| pools[&i];
+    nodes
+        .iter()
+        .map(|&n| match &grid {
+            Some(g) => g.node_force_with(u, pool, n),
+            None => node_force_with(body, body.q, u, sp, pool, n),
+        })
+        .collect()
 }
 
 /// Spring pass: internal force on every node from the current pools.
@@ -787,9 +846,15 @@ impl<'a> GridLaw<'a> {
 
     /// [`node_force`] of node `n`, the same bits.
     pub fn node_force(&self, u: &Coords, pool: &[Real], n: usize) -> [Real; 3] {
+        self.node_force_with(u, |i| pool[i], n)
+    }
+
+    /// [`GridLaw::node_force`] with the pools from `pool(i)`.
+    #[inline]
+    fn node_force_with(&self, u: &Coords, pool: impl Fn(usize) -> Real, n: usize) -> [Real; 3] {
         let mut f = [0.0; 3];
         self.links(u, n, |j, k, rest, g| {
-            let s = tension(k, rest, g.dl, self.q, pool[n], pool[j]) / g.l;
+            let s = tension(k, rest, g.dl, self.q, pool(n), pool(j)) / g.l;
             f[0] += s * g.d[0];
             f[1] += s * g.d[1];
             f[2] += s * g.d[2];
@@ -943,6 +1008,70 @@ pub fn node_virial(body: &Body, u: &Coords, tension: &[Real], n: usize) -> Matri
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The forces of a few nodes from the pools of their neighbourhoods alone are the bits of
+    /// [`update_forces`] at those nodes: a box from its grid (one stiffness, and without
+    /// dispersion), the box with springs broken (its rows), random plates and solids with broken
+    /// springs, with and without dispersion; corners, faces and the inside.
+    #[test]
+    fn forces_at_a_few_nodes_are_update_forces_bits() {
+        let spec = crate::random::RandomSpec::default();
+        let random = |dim: usize| {
+            let hi = if dim == 2 {
+                [9.0, 7.0, 0.0]
+            } else {
+                [5.0, 4.0, 4.0]
+            };
+            Lattice::random(dim, [0.0; 3], hi, 1.0, 1.0, spec, &|_| true).unwrap()
+        };
+        let cases = [
+            (
+                Body::uniform(Lattice::cubic_box([6, 5, 4], 0.1).unwrap(), 3.0, 0.3, 2.0),
+                false,
+            ),
+            (
+                Body::uniform(Lattice::cubic_box([6, 5, 4], 0.1).unwrap(), 3.0, 0.3, 2.0),
+                true,
+            ),
+            (
+                Body::uniform(Lattice::hex_box(9, 7, 0.1, 0.2).unwrap(), 3.0, 0.0, 2.0),
+                false,
+            ),
+            (Body::uniform(random(2), 1.0, 0.3, 1.0), true),
+            (Body::uniform(random(3), 1.0, -0.2, 1.0), true),
+            (Body::uniform(random(3), 1.0, 0.0, 1.0), true),
+        ];
+        for (body, broken) in cases {
+            let mut state = State::new(&body);
+            let pos = body.lattice.pos.clone();
+            for c in 0..body.lattice.dim() {
+                for (i, u) in state.u.comp_mut(c).iter_mut().enumerate() {
+                    let (x, y, z) = (pos.x()[i], pos.y()[i], pos.z()[i]);
+                    *u = 1e-3 * (7.0 * x + 3.0 * c as Real).sin() * (5.0 * y).cos() + 2e-4 * z;
+                }
+            }
+            if broken {
+                for b in (0..body.springs()).step_by(7) {
+                    state.kill_bond(&body, b);
+                }
+            }
+            let n = body.nodes();
+            let nodes = [0, n - 1, n / 2, n / 3, 1, n / 7];
+            let some = forces_at(&body, &state, &nodes);
+            let mut all = state.clone();
+            update_forces(&body, &mut all);
+            for (k, &i) in nodes.iter().enumerate() {
+                let whole = [0, 1, 2].map(|c| all.f.comp(c)[i].to_bits());
+                assert_eq!(
+                    some[k].map(Real::to_bits),
+                    whole,
+                    "{:?}, q {}, node {i}",
+                    body.lattice.kind,
+                    body.q
+                );
+            }
+        }
+    }
 
     /// A box's frame, pools and forces from its grid and stiffness rule are those from its rows
     /// and stiffness list, bit for bit, and build neither: Ladd boxes of one stiffness and weighted by their

@@ -546,11 +546,11 @@ impl Run {
         self.it.energy(&self.sim.body, &mut self.sim.state)
     }
 
-    /// The reactions of the boundary regions now (one force evaluation).
+    /// The reactions of the boundary regions now (the forces of the prescribed nodes alone:
+    /// [`Integrator::boundary_forces_now`]).
     pub fn reactions(&mut self) -> Vec<RegionReaction> {
         self.settle();
-        let v = self.it.full_velocity(&self.sim.body, &mut self.sim.state);
-        let f = self.it.boundary_forces(&self.sim.body, &self.sim.state, &v);
+        let f = self.it.boundary_forces_now(&self.sim.body, &self.sim.state);
         region_reactions(&self.sim, &f)
     }
 

@@ -295,3 +295,30 @@ fn a_summary_from_the_last_frame_is_the_evaluated_one() {
     assert_eq!(bits(&first), bits(&again));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A reaction record between frames evaluates only the prescribed nodes' forces: the bits of
+/// the boundary forces after a whole-body force evaluation, at several times of a pull.
+#[test]
+fn reactions_from_the_prescribed_nodes_are_the_whole_evaluations() {
+    let dir = std::env::temp_dir().join(format!("hooke-reactions-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let sim = gripped(|top| top.velocity(1, TimeFunction::Constant(0.5)))
+        .damping(1e5)
+        .end_time(5e-6)
+        .build()
+        .unwrap();
+    let mut run = hooke_sim::Run::start(sim, hooke_sim::RunOptions::new(&dir, "r")).unwrap();
+    for _ in 0..4 {
+        run.steps(37, &mut hooke_sim::Silent).unwrap();
+        let (body, it) = (&run.simulation().body, run.integrator());
+        let mut state = run.simulation().state.clone();
+        let v = it.full_velocity(body, &mut state);
+        let whole = it.boundary_forces(body, &state, &v);
+        let sparse = it.boundary_forces_now(body, &run.simulation().state);
+        let bits =
+            |c: &hooke_core::Coords| c.as_flat().iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&whole), bits(&sparse));
+        assert!(whole.as_flat().iter().any(|&f| f != 0.0));
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
