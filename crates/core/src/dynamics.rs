@@ -1632,14 +1632,20 @@ impl Integrator {
     pub fn boundary_forces_now(&self, body: &Body, state: &State) -> Coords {
         let nodes: Vec<usize> = self.dofs.iter().map(|d| d.node).collect();
         let forces = law::forces_at(body, state, &nodes);
-        // A prescribed DOF's full-step velocity is its prescribed one
-        // (`Integrator::velocity_from_forces`).
+        // A prescribed DOF's full-step velocity is its prescribed one, the last DOF's where
+        // regions that overlap prescribe one twice (as `Integrator::velocity_from_forces`
+        // writes them, in order).
         let (u, t) = (&state.u, state.time);
+        let mut prescribed = std::collections::HashMap::new();
+        for d in &self.dofs {
+            let v = self.prescribed_at(d, u.comp(d.axis)[d.node], t).1;
+            prescribed.insert((d.node, d.axis), v);
+        }
         self.boundary_forces_from(
             body,
             state,
             |k, _, c| forces[k][c],
-            |k, i, c| self.prescribed_at(&self.dofs[k], u.comp(c)[i], t).1,
+            |_, i, c| prescribed[&(i, c)],
         )
     }
 
