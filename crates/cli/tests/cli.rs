@@ -16,6 +16,13 @@ fn hooke_caching(args: &[&str], cache: &str) -> Output {
         .expect("the hooke binary runs")
 }
 
+/// A shipped case file.
+fn shipped(name: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../cases")
+        .join(name)
+}
+
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
@@ -1136,8 +1143,7 @@ fn toughness_json_reports_g_measured_near_g_c() {
 /// `running_crack_overhead` (ratios of medians, so positive and of order one).
 #[test]
 fn bench_fracture_reports_the_overheads() {
-    let case =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../cases/mode1_plate.toml");
+    let case = shipped("mode1_plate.toml");
     let o = hooke(&[
         "bench",
         "--fracture",
@@ -1169,8 +1175,7 @@ fn bench_fracture_reports_the_overheads() {
 /// rows: an intact box's run does not.
 #[test]
 fn bench_frame_reports_the_cost_and_refuses_windows_past_the_end() {
-    let case =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../cases/mode1_plate.toml");
+    let case = shipped("mode1_plate.toml");
     let run = |repeats: &str, crack: &str| {
         hooke(&[
             "bench",
@@ -1205,8 +1210,7 @@ fn bench_frame_reports_the_cost_and_refuses_windows_past_the_end() {
     // A plate whose springs can break holds its rows (the fracture crate reads them); the
     // intact block, pulled at its ends, reads its grid through its frames and steps.
     assert_eq!(v["rows_built"], serde_json::json!(true), "{v}");
-    let block =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../cases/compression_block.toml");
+    let block = shipped("compression_block.toml");
     let o = hooke(&[
         "bench",
         "--frame",

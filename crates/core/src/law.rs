@@ -167,10 +167,18 @@ fn fill_pools(q: Real, norm: &[Real], pool: &mut [Real], pi: impl Fn(usize) -> R
     pool.par_iter_mut()
         .with_min_len(MIN_NODES_PER_TASK)
         .enumerate()
-        .for_each(|(n, p)| {
-            let s = norm[n];
-            *p = if s > 0.0 { pi(n) / s } else { 0.0 };
-        });
+        .for_each(|(n, p)| *p = pool_ratio(q, norm[n], || pi(n)));
+}
+
+/// The pool ratio `p_n = Pi_n / S_n` of a node with normaliser `s` and pool `pi()`: 0 for the
+/// plain law (`q = 0`, `pi` not evaluated) and where `S_n` is 0.
+#[inline]
+fn pool_ratio(q: Real, s: Real, pi: impl FnOnce() -> Real) -> Real {
+    if q != 0.0 && s > 0.0 {
+        pi() / s
+    } else {
+        0.0
+    }
 }
 
 /// Force of node `n` from the state's displacements and pools, with dispersion ratio `q`.
@@ -222,15 +230,6 @@ pub fn forces_at(body: &Body, state: &State, nodes: &[usize]) -> Vec<[Real; 3]> 
     let u = &state.u;
     let grid = GridLaw::of(body, state);
     let sp = state.springs(body);
-    // `fill_pools`' ratio of a node: 0 for the plain law and where `S_n` is 0.
-    let ratio = |n: usize, pi: Real| {
-        let s = state.norm[n];
-        if body.q != 0.0 && s > 0.0 {
-            pi / s
-        } else {
-            0.0
-        }
-    };
     let mut pools = std::collections::HashMap::new();
     for &n in nodes {
         let mut reach = vec![n];
@@ -243,11 +242,10 @@ pub fn forces_at(body: &Body, state: &State, nodes: &[usize]) -> Vec<[Real; 3]> 
         }
         for m in reach {
             pools.entry(m).or_insert_with(|| {
-                let pi = match &grid {
+                pool_ratio(body.q, state.norm[m], || match &grid {
                     Some(g) => g.node_pool(u, m),
                     None => node_pool(body, u, sp, m),
-                };
-                ratio(m, pi)
+                })
             });
         }
     }
@@ -609,11 +607,7 @@ pub fn frame_fields_part(
                 }
             }
             (*p, *e4) = (s, d);
-            *ratio = if q != 0.0 && norm[i] > 0.0 {
-                s / norm[i]
-            } else {
-                0.0
-            };
+            *ratio = pool_ratio(q, norm[i], || s);
         });
     if let Some(p) = part {
         p.team.gather(&mut pool, &p.share.nodes);
@@ -888,11 +882,7 @@ pub fn frame_fields_grid(body: &Body, state: &State) -> Option<FrameFields> {
                 s += k * rest * geo.dl;
             });
             (*p, *e4) = (s, d);
-            *ratio = if q != 0.0 && norm[i] > 0.0 {
-                s / norm[i]
-            } else {
-                0.0
-            };
+            *ratio = pool_ratio(q, norm[i], || s);
         });
     // Forces, energy densities and stresses, as pass 3 of `frame_fields_part`.
     let mut force = Coords::zeros(n);
