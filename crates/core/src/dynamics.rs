@@ -1617,12 +1617,7 @@ impl Integrator {
     /// velocity, as after [`Integrator::full_velocity`]. Summed over a boundary region it is the
     /// force that region exerts on the body (a load-displacement curve's load).
     pub fn boundary_forces(&self, body: &Body, state: &State, v: &Coords) -> Coords {
-        self.boundary_forces_from(
-            body,
-            state,
-            |_, i, c| state.f.comp(c)[i],
-            |_, i, c| v.comp(c)[i],
-        )
+        self.boundary_forces_from(body, state, |i, c| state.f.comp(c)[i], |i, c| v.comp(c)[i])
     }
 
     /// [`Integrator::boundary_forces`] at the full step, as after
@@ -1630,8 +1625,13 @@ impl Integrator {
     /// alone ([`law::forces_at`]): a reaction record between frames costs a few rows, not two
     /// passes over the body. Leaves the state as it is.
     pub fn boundary_forces_now(&self, body: &Body, state: &State) -> Coords {
-        let nodes: Vec<usize> = self.dofs.iter().map(|d| d.node).collect();
+        // Each node once, though a grip prescribes its two or three axes.
+        let mut nodes: Vec<usize> = self.dofs.iter().map(|d| d.node).collect();
+        nodes.sort_unstable();
+        nodes.dedup();
         let forces = law::forces_at(body, state, &nodes);
+        let force =
+            |i: usize, c: usize| forces[nodes.binary_search(&i).expect("a prescribed node")][c];
         // A prescribed DOF's full-step velocity is its prescribed one, the last DOF's where
         // regions that overlap prescribe one twice (as `Integrator::velocity_from_forces`
         // writes them, in order).
@@ -1641,22 +1641,17 @@ impl Integrator {
             let v = self.prescribed_at(d, u.comp(d.axis)[d.node], t).1;
             prescribed.insert((d.node, d.axis), v);
         }
-        self.boundary_forces_from(
-            body,
-            state,
-            |k, _, c| forces[k][c],
-            |_, i, c| prescribed[&(i, c)],
-        )
+        self.boundary_forces_from(body, state, force, |i, c| prescribed[&(i, c)])
     }
 
-    /// [`Integrator::boundary_forces`] with the internal force and the velocity of prescribed
-    /// DOF `k` (node `i`, axis `c`) from `force(k, i, c)` and `velocity(k, i, c)`.
+    /// [`Integrator::boundary_forces`] with the internal force and the velocity of a prescribed
+    /// DOF (node `i`, axis `c`) from `force(i, c)` and `velocity(i, c)`.
     fn boundary_forces_from(
         &self,
         body: &Body,
         state: &State,
-        force: impl Fn(usize, usize, usize) -> Real,
-        velocity: impl Fn(usize, usize, usize) -> Real,
+        force: impl Fn(usize, usize) -> Real,
+        velocity: impl Fn(usize, usize) -> Real,
     ) -> Coords {
         let t = state.time;
         let g = self.loading.body_acceleration;
@@ -1667,7 +1662,7 @@ impl Integrator {
             out.set(i, out.get(i) + f);
         }
         let h = self.dt;
-        for (k, d) in self.dofs.iter().enumerate() {
+        for d in &self.dofs {
             let (i, c) = (d.node, d.axis);
             let accel = match &self.motions[d.motion] {
                 Motion::Fixed => 0.0,
@@ -1677,10 +1672,10 @@ impl Integrator {
                 }
             };
             let m = body.mass[i];
-            let vc = velocity(k, i, c);
+            let vc = velocity(i, c);
             // Loads on this DOF are already in `out`: the support adds what is missing.
-            let reaction = m * accel - force(k, i, c) - self.load_on(d, c, t) - m * g[c]
-                + self.damping * m * vc;
+            let reaction =
+                m * accel - force(i, c) - self.load_on(d, c, t) - m * g[c] + self.damping * m * vc;
             out.comp_mut(c)[i] += reaction;
         }
         out
