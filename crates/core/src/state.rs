@@ -321,6 +321,12 @@ impl State {
         self.breaks
     }
 
+    /// Carry another state's counter of changes (a piece cut out of a whole state: see
+    /// [`crate::team::Piece::state`]).
+    pub(crate) fn set_breaks(&mut self, breaks: u64) {
+        self.breaks = breaks;
+    }
+
     /// Set which springs are intact (e.g. from a checkpoint) and recompute every normaliser.
     pub fn set_alive(&mut self, body: &Body, alive: Vec<bool>) {
         assert_eq!(alive.len(), body.springs(), "one flag per spring");

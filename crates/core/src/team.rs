@@ -37,6 +37,9 @@ use crate::body::Body;
 use crate::kernel::CHUNK;
 use crate::math::Real;
 
+mod piece;
+pub use piece::{Piece, PAD};
+
 /// The processes sharing a run, and the two collective operations a step needs.
 ///
 /// Every rank calls the operations in the same order with the same `parts`.
@@ -126,7 +129,19 @@ impl Share {
             }
             nodes.push((first * CHUNK).min(n)..(c * CHUNK).min(n));
         }
-        let mine = nodes[rank.min(size - 1)].clone();
+        Share::with_nodes(body, nodes, rank.min(size - 1), everyone)
+    }
+
+    /// Rank `rank`'s share when the ranks own `nodes` (whole chunks, ascending, covering the
+    /// body's nodes).
+    pub fn with_nodes(
+        body: &Body,
+        nodes: Vec<Range<usize>>,
+        rank: usize,
+        everyone: &[usize],
+    ) -> Share {
+        let bonds = &*body.lattice.bonds;
+        let mine = nodes[rank].clone();
         let block = crate::kernel::csr::BLOCK;
         let m = bonds.len();
         // Springs are sorted by (lower end, upper end): those with the lower end here are one
@@ -425,6 +440,21 @@ pub(crate) mod tests {
         body
     }
 
+    /// `body` strained by a smooth displacement field, with every `every`-th spring broken.
+    pub(crate) fn strained(body: &Body, every: usize) -> crate::State {
+        let mut state = crate::State::new(body);
+        for b in (0..body.springs()).step_by(every) {
+            state.kill_bond(body, b);
+        }
+        for i in 0..body.nodes() {
+            let x = body.lattice.pos.get(i);
+            state.u.x_mut()[i] = 0.01 * (1.3 * x.y).sin();
+            state.u.y_mut()[i] = 0.02 * (0.7 * x.x + 0.2 * x.z).cos();
+            state.u.z_mut()[i] = 0.015 * (0.9 * x.x).sin();
+        }
+        state
+    }
+
     /// The shares cover every node once, in whole chunks, and every spring of a rank's rows
     /// is in its range or in its foreign list; each rank receives from every other what that
     /// one sends it, and that covers every node its sweeps read.
@@ -493,17 +523,7 @@ pub(crate) mod tests {
         use crate::law::{frame_fields_in, frame_fields_part, FramePart, FrameScratch};
         let mut body = block([32.0, 28.0, 26.0]);
         body.lattice.shed_rest();
-        let n = body.nodes();
-        let mut state = crate::State::new(&body);
-        for b in (0..body.springs()).step_by(13) {
-            state.kill_bond(&body, b);
-        }
-        for i in 0..n {
-            let x = body.lattice.pos.get(i);
-            state.u.x_mut()[i] = 0.01 * (1.3 * x.y).sin();
-            state.u.y_mut()[i] = 0.02 * (0.7 * x.x + 0.2 * x.z).cos();
-            state.u.z_mut()[i] = 0.015 * (0.9 * x.x).sin();
-        }
+        let state = strained(&body, 13);
         let sp = state.springs(&body);
         let whole = frame_fields_in(
             &body,

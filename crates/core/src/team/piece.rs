@@ -1,0 +1,395 @@
+//! A rank's piece of a body: its own nodes and its ghosts alone, renumbered. The first brick
+//! of a distributed-memory run, in which no rank holds the whole body or state.
+//!
+//! A [`Share`] says which nodes a rank owns (whole chunks of [`CHUNK`] nodes) and which other
+//! nodes its sweeps read (its [`Halo`]'s ghosts). [`Piece::cut`] keeps those nodes and every
+//! spring with an end among the rank's own, and numbers them so that the sweeps over the piece
+//! give, at the owned nodes, the bits of the sweeps over the whole body:
+//!
+//! - **The order of the nodes is kept.** Local index order is global index order, so a
+//!   spring's lower end stays its lower end, the springs keep their order (sorted by
+//!   `(lower, upper)`), and each owned node's row lists its springs in the same order: every
+//!   sum over a row adds the same terms in the same order.
+//! - **Owned nodes start on a chunk.** The ghosts before the owned nodes are preceded by
+//!   `pad` isolated dummy nodes (no springs, unit mass), so that the owned nodes start at a
+//!   multiple of [`CHUNK`] in the piece, as they do in the body: a piece's chunk `c` of owned
+//!   nodes is the body's chunk `c - own.start / CHUNK + first / CHUNK`, node for node, and the
+//!   kernels' windows and per-chunk partial sums fall as they fall in the body.
+//!
+//! Values at the ghosts are whatever their owners last sent: a piece's sweeps compute them
+//! from incomplete rows (a ghost's row holds only its springs to owned nodes) and the halo
+//! trades overwrite them, as in a shared run over the whole body.
+//!
+//! At most `CHUNK - 1` dummies, a few hundred kilobytes, are the price of keeping the body's
+//! chunking without an index shift inside the kernels.
+
+use std::ops::Range;
+
+use crate::body::Body;
+use crate::error::Result;
+use crate::kernel::CHUNK;
+use crate::lattice::{Bonds, Cells, Lattice, Topology};
+use crate::math::{Coords, Real};
+use crate::state::State;
+use crate::team::{Halo, Share};
+
+/// Marks a dummy node in [`Piece::global`].
+pub const PAD: u32 = u32::MAX;
+
+/// Where a rank's piece sits in the body (see the module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Piece {
+    /// The body's index of each of the piece's nodes ([`PAD`] for the dummies), ascending
+    /// apart from the dummies, which come first.
+    pub global: Vec<u32>,
+    /// The owned nodes, in the piece's numbering: whole chunks from a multiple of [`CHUNK`].
+    pub own: Range<usize>,
+    /// The same nodes in the body's numbering.
+    pub first: usize,
+    /// Nodes of the whole body.
+    pub total: usize,
+    /// The body's index of each of the piece's springs, ascending.
+    pub springs: Vec<u32>,
+    /// The rank's trades in the piece's numbering: the same nodes, in the same order, as the
+    /// share's halo, so that the peers' messages match.
+    pub halo: Halo,
+}
+
+impl Piece {
+    /// Cut rank `share.rank`'s piece out of `body`: the piece's description and its body.
+    ///
+    /// Every body is cut alike, but the bits of the whole body's sweeps are kept only where a
+    /// kernel sweeps the piece as it sweeps the body: bodies without a grid (random lattices),
+    /// whose kernels read rows. A box of a regular lattice is swept by its stencil.
+    pub fn cut(body: &Body, share: &Share) -> Result<(Piece, Body)> {
+        let mine = share.mine();
+        let bonds = &*body.lattice.bonds;
+        // The ghosts: every node the halo receives (which holds the far ends of the rank's
+        // springs that cross, and the nodes every rank reads).
+        let mut ghosts: Vec<u32> = share.halo.recv.iter().flatten().copied().collect();
+        ghosts.sort_unstable();
+        ghosts.dedup();
+        let below = ghosts.partition_point(|&g| (g as usize) < mine.start);
+        let pad = below.next_multiple_of(CHUNK) - below;
+        let mut global = vec![PAD; pad];
+        global.extend_from_slice(&ghosts[..below]);
+        global.extend(mine.clone().map(|i| i as u32));
+        global.extend_from_slice(&ghosts[below..]);
+        let own = pad + below..pad + below + mine.len();
+        let local = |g: u32| -> u32 {
+            let g = g as usize;
+            if mine.contains(&g) {
+                (g - mine.start + own.start) as u32
+            } else {
+                let at = ghosts
+                    .binary_search(&(g as u32))
+                    .expect("a ghost of the piece");
+                (if at < below {
+                    pad + at
+                } else {
+                    own.end + at - below
+                }) as u32
+            }
+        };
+        // Every spring with an end here, in the body's order.
+        let mut springs: Vec<u32> = mine
+            .clone()
+            .flat_map(|i| bonds.row(i).map(|e| bonds.bond[e]))
+            .collect();
+        springs.sort_unstable();
+        springs.dedup();
+        let pairs: Vec<[u32; 2]> = springs
+            .iter()
+            .map(|&b| bonds.ends[b as usize].map(local))
+            .collect();
+        let n = global.len();
+        let lat = &body.lattice;
+        let pick = |x: &[Real], fill: Real| -> Vec<Real> {
+            global
+                .iter()
+                .map(|&g| if g == PAD { fill } else { x[g as usize] })
+                .collect()
+        };
+        let p = &lat.pos;
+        let pos = Coords::from_components(&pick(p.x(), 0.0), &pick(p.y(), 0.0), &pick(p.z(), 0.0));
+        // The rest lengths follow from the positions by the body's own formula (the same bits:
+        // `Bonds::from_pairs`); the piece's pairs are in the body's order already.
+        let piece_bonds = Bonds::from_pairs(n, pairs, &pos, lat.period)?;
+        debug_assert_eq!(piece_bonds.len(), springs.len());
+        let per_spring = |x: &[Real]| -> Vec<Real> {
+            if x.is_empty() {
+                Vec::new()
+            } else {
+                springs.iter().map(|&b| x[b as usize]).collect()
+            }
+        };
+        let cells = lat.cells.as_ref().map(|c| Cells {
+            node: pick(&c.node, 0.0),
+            spring: per_spring(&c.spring),
+            surface: if c.surface.is_empty() {
+                Vec::new()
+            } else {
+                global
+                    .iter()
+                    .map(|&g| {
+                        if g == PAD {
+                            [0.0; 3]
+                        } else {
+                            c.surface[g as usize]
+                        }
+                    })
+                    .collect()
+            },
+            sampler: c.sampler,
+        });
+        let mut lattice = Lattice {
+            kind: lat.kind,
+            spacing: lat.spacing,
+            pos,
+            cell_volume: lat.cell_volume,
+            thickness: lat.thickness,
+            period: lat.period,
+            grid: None,
+            bonds: Topology::from(piece_bonds),
+            cells,
+        };
+        if lat.bonds.stored_rest().is_none() {
+            // The body sheds its rest lengths (each `|X_j - X_i|` to the bit): so does its piece.
+            lattice.shed_rest();
+        }
+        let k = per_spring(&body.k[..]);
+        let piece_body = Body {
+            lattice,
+            k: k.into(),
+            q: body.q,
+            mass: pick(&body.mass, 1.0),
+            lever: body.lever.as_ref().map(|l| per_spring(l)),
+        };
+        let to_local = |list: &Vec<u32>| list.iter().map(|&g| local(g)).collect();
+        let halo = Halo {
+            send: share.halo.send.iter().map(to_local).collect(),
+            recv: share.halo.recv.iter().map(to_local).collect(),
+        };
+        let piece = Piece {
+            global,
+            own,
+            first: mine.start,
+            total: body.nodes(),
+            springs,
+            halo,
+        };
+        Ok((piece, piece_body))
+    }
+
+    /// Nodes of the piece, dummies and ghosts included.
+    pub fn len(&self) -> usize {
+        self.global.len()
+    }
+
+    /// True for a piece without nodes.
+    pub fn is_empty(&self) -> bool {
+        self.global.is_empty()
+    }
+
+    /// The body's chunk of the piece's chunk `c` of owned nodes.
+    pub fn global_chunk(&self, c: usize) -> usize {
+        c - self.own.start / CHUNK + self.first / CHUNK
+    }
+
+    /// The piece's share of its own sweeps: its owned nodes as one rank's whole chunks, with the
+    /// springs that its sweep 1 computes (its owned nodes' springs from their lower ends, those
+    /// whose lower end is a ghost one by one), and no halo (the piece's halo is traded with
+    /// the ranks, [`Piece::halo`]).
+    pub fn share(&self, body: &Body) -> Share {
+        let n = self.len();
+        let mut nodes = vec![0..self.own.start, self.own.clone()];
+        if self.own.end < n {
+            nodes.push(self.own.end..n);
+        }
+        let mut share = Share::with_nodes(body, nodes, 1, &[]);
+        share.halo = Halo::default();
+        share
+    }
+
+    /// The piece's state cut out of the whole body's `state` (`piece_body` as [`Piece::cut`]
+    /// gave it): every value at the piece's nodes and springs.
+    pub fn state(&self, piece_body: &Body, state: &State) -> State {
+        let mut s = State::new(piece_body);
+        let pick = |dst: &mut [Real], src: &[Real]| {
+            for (d, &g) in dst.iter_mut().zip(&self.global) {
+                if g != PAD {
+                    *d = src[g as usize];
+                }
+            }
+        };
+        for (a, b) in [
+            (&mut s.u, &state.u),
+            (&mut s.v, &state.v),
+            (&mut s.f, &state.f),
+        ] {
+            for (c, dst) in a.xyz_mut().into_iter().enumerate() {
+                pick(dst, b.comp(c));
+            }
+        }
+        pick(&mut s.pool, &state.pool);
+        pick(&mut s.norm, &state.norm);
+        s.alive = self
+            .springs
+            .iter()
+            .map(|&b| state.alive[b as usize])
+            .collect();
+        if !state.weight.is_empty() {
+            s.weight = self
+                .springs
+                .iter()
+                .map(|&b| state.weight[b as usize])
+                .collect();
+            s.k_eff = self
+                .springs
+                .iter()
+                .map(|&b| state.k_eff[b as usize])
+                .collect();
+        }
+        s.time = state.time;
+        s.step = state.step;
+        s.set_breaks(state.breaks());
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernel::{Kernel, StepParams, SweepSums};
+    use crate::team::tests::{block, strained};
+    use crate::team::{trade_halo, Team, Threads};
+
+    /// Steps of the two sweeps over a body or a rank's piece of it (with `piece`: the ghosts'
+    /// pools and displacements traded between the sweeps, as a shared run trades them).
+    fn sweeps(
+        kernel: &Kernel,
+        body: &Body,
+        state: &mut State,
+        steps: usize,
+        p: &StepParams,
+        rank: Option<(&dyn Team, &Piece, &Share)>,
+    ) -> Vec<SweepSums> {
+        let inv_mass: Vec<Real> = body.mass.iter().map(|m| 1.0 / m).collect();
+        let mut partials = vec![SweepSums::default(); body.nodes().div_ceil(CHUNK)];
+        let mut u_next = Coords::zeros(body.nodes());
+        let size = rank.map_or(1, |r| r.0.size());
+        let (mut out, mut inp) = (vec![Vec::new(); size], vec![Vec::new(); size]);
+        for _ in 0..steps {
+            kernel.pools_shared(body, state, Real::INFINITY, rank.map(|r| r.2));
+            if let Some((team, piece, _)) = rank {
+                trade_halo(
+                    team,
+                    &piece.halo,
+                    &mut out,
+                    &mut inp,
+                    &mut [&mut state.pool],
+                );
+            }
+            let in_place = kernel.drifts_in_place();
+            kernel.force_kick_drift_shared(
+                body,
+                state,
+                &inv_mass,
+                p,
+                (!in_place).then_some(&mut u_next),
+                &mut partials,
+                rank.map(|r| r.2),
+            );
+            if !in_place {
+                std::mem::swap(&mut state.u, &mut u_next);
+            }
+            if let Some((team, piece, _)) = rank {
+                let mut u = state.u.xyz_mut();
+                trade_halo(team, &piece.halo, &mut out, &mut inp, &mut u[..]);
+            }
+            state.time += p.dt;
+            state.step += 1;
+        }
+        partials
+    }
+
+    /// Pieces of 2 and 3 ranks, stepped with their halos traded between the sweeps, end with
+    /// the whole body's bits at their owned nodes: displacements, velocities and pools, and
+    /// the per-chunk partial sums of damping and body-force work; with the vector paths and
+    /// the portable ones, broken springs, direction levers and shed rest lengths.
+    #[test]
+    fn pieces_step_with_the_bits_of_the_whole() {
+        let mut body = block([30.0, 24.0, 22.0]);
+        body.lattice.shed_setup();
+        let m = body.springs();
+        body.lever = Some(
+            (0..m)
+                .map(|b| body.lattice.rest(b) * (1.0 + 0.1 * ((b % 7) as Real)))
+                .collect(),
+        );
+        let n = body.nodes();
+        let mut start = strained(&body, 17);
+        for i in 0..n {
+            start.v.x_mut()[i] = 0.003 * (0.5 * body.lattice.pos.get(i).z).cos();
+        }
+        let p = StepParams {
+            dt: 0.05,
+            damping: 0.3,
+            accel: [0.0, -0.2, 0.1],
+            plane: false,
+        };
+        let bits = |x: &[Real]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        for simd in [true, false] {
+            let mut kernel = Kernel::for_body(&body, &start);
+            kernel.set_simd(simd);
+            let mut whole = start.clone();
+            let sums = sweeps(&kernel, &body, &mut whole, 6, &p, None);
+            for size in [2, 3] {
+                std::thread::scope(|scope| {
+                    for team in Threads::team(size) {
+                        let (body, start, whole, sums, bits) =
+                            (&body, &start, &whole, &sums, &bits);
+                        scope.spawn(move || {
+                            let share = Share::new(body, size, team.rank(), &[]);
+                            let (piece, pb) = Piece::cut(body, &share).unwrap();
+                            assert_eq!(piece.own.start % CHUNK, 0);
+                            assert!(piece.len() < n, "a piece holds less than the body");
+                            let mut ps = piece.state(&pb, start);
+                            let mut kernel = Kernel::for_body_in(&pb, &ps, Some(piece.own.clone()));
+                            kernel.set_simd(simd);
+                            let pshare = piece.share(&pb);
+                            let local = sweeps(
+                                &kernel,
+                                &pb,
+                                &mut ps,
+                                6,
+                                &p,
+                                Some((&team, &piece, &pshare)),
+                            );
+                            let at = format!("{size} ranks, rank {}, simd {simd}", team.rank());
+                            let g: Vec<usize> = piece.global[piece.own.clone()]
+                                .iter()
+                                .map(|&g| g as usize)
+                                .collect();
+                            let pick =
+                                |x: &[Real]| bits(&g.iter().map(|&i| x[i]).collect::<Vec<_>>());
+                            let own = |x: &[Real]| bits(&x[piece.own.clone()]);
+                            for c in 0..3 {
+                                assert_eq!(own(ps.u.comp(c)), pick(whole.u.comp(c)), "u {at}");
+                                assert_eq!(own(ps.v.comp(c)), pick(whole.v.comp(c)), "v {at}");
+                            }
+                            assert_eq!(own(&ps.pool), pick(&whole.pool), "pools {at}");
+                            for c in piece.own.start / CHUNK..piece.own.end.div_ceil(CHUNK) {
+                                assert_eq!(
+                                    local[c],
+                                    sums[piece.global_chunk(c)],
+                                    "chunk {c}, {at}"
+                                );
+                            }
+                        });
+                    }
+                });
+            }
+        }
+    }
+}
