@@ -31,7 +31,7 @@ use crate::loading::{Loading, Motion};
 use crate::math::{Coords, Real, Vector};
 use crate::stability::{self, StableStep, DEFAULT_SAFETY};
 use crate::state::State;
-use crate::team::{Share, Team};
+use crate::team::{Piece, Share, Team};
 
 /// How the time step is chosen.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -217,6 +217,10 @@ pub struct Integrator {
     plane: bool,
 }
 
+/// What an instability's error suggests.
+const UNSTABLE_HINT: &str =
+    "reduce the time step (or its safety factor), or check loads and boundary conditions";
+
 /// Which pools a gather from their owners takes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Pools {
@@ -258,6 +262,19 @@ struct Shared {
     stale_u: bool,
     stale_pool: bool,
     v_partial: bool,
+    /// Set once the rank holds only its piece of the body ([`Integrator::cut`]).
+    piece: Option<Box<Pieced>>,
+}
+
+/// What an integrator that steps a rank's piece keeps (see [`Integrator::cut`]). Its `Shared`
+/// keeps the share in the body's numbering: which rank owns which nodes and chunks.
+#[derive(Debug)]
+struct Pieced {
+    piece: Piece,
+    /// The piece's own share, in its numbering: what its kernel sweeps.
+    sweeps: Share,
+    /// The partial sums of every chunk of the body, for their all-gather.
+    partials: Vec<crate::kernel::SweepSums>,
 }
 
 /// Where a step's new displacements are: the integrator's second buffer, or `state.u` for a
@@ -290,12 +307,36 @@ impl Shared {
     /// Send this rank's values of `fields` at the nodes its peers read and take theirs at its
     /// ghosts (one message per peer, a node's fields side by side).
     fn trade(&mut self, fields: &mut [&mut [Real]]) {
-        crate::team::trade_halo(
-            &*self.team,
-            &self.share.halo,
-            &mut self.out,
-            &mut self.inp,
-            fields,
+        let halo = match &self.piece {
+            Some(p) => &p.piece.halo,
+            None => &self.share.halo,
+        };
+        crate::team::trade_halo(&*self.team, halo, &mut self.out, &mut self.inp, fields);
+    }
+
+    /// The share the kernel sweeps: the rank's in the body, or its piece's own.
+    fn sweeps(&self) -> &Share {
+        match &self.piece {
+            Some(p) => &p.sweeps,
+            None => &self.share,
+        }
+    }
+
+    /// The body's index of node `i` of what this rank holds.
+    fn global(&self, i: u32) -> usize {
+        match &self.piece {
+            Some(p) => p.piece.global[i as usize] as usize,
+            None => i as usize,
+        }
+    }
+
+    /// A rank that steps its piece holds no whole state: what would read it (output,
+    /// checkpoints, breaking, contact) is not supported on pieces yet, only the steps are.
+    /// Reaching it is a caller's error ([`Integrator::cut`] says so).
+    fn whole(&self, what: &str) {
+        assert!(
+            self.piece.is_none(),
+            "{what} reads the whole state, which a rank stepping its piece does not hold"
         );
     }
 }
@@ -747,7 +788,7 @@ impl Integrator {
             self.kernel = Kernel::for_body(body, state);
             self.kernel.set_simd(simd);
             if let Some(t) = &self.team {
-                self.kernel.keep_rows(t.share.mine());
+                self.kernel.keep_rows(t.sweeps().mine());
             }
         }
         self.synced = state.breaks();
@@ -804,12 +845,105 @@ impl Integrator {
                 stale_u: false,
                 stale_pool: false,
                 v_partial: false,
+                piece: None,
             }
         });
         // From here on this rank sweeps its own nodes only.
         if let Some(t) = &self.team {
             self.kernel.keep_rows(t.share.mine());
         }
+    }
+
+    /// Cut this rank's piece out of `body` and `state` ([`crate::team::Piece`]: its own nodes
+    /// and its ghosts, renumbered in the body's order) and step only that from here on: the
+    /// caller drops the whole body and state and passes the returned piece body and state to
+    /// every following step. The steps keep the bits of one process at the rank's own nodes,
+    /// and the energy ledger's sums are every rank's alike.
+    ///
+    /// This is the first part of a distributed-memory run, and only the steps and the blow-up
+    /// check ([`Integrator::check_shared`], which names the bad node by its index in the body)
+    /// are supported on pieces: breaking, contact, output frames and checkpoints read the whole
+    /// state, and panic on a piece. Node indices in the returned body are the piece's
+    /// ([`Integrator::piece`] maps them to the body's). The body must be one that its kernel
+    /// sweeps by rows (a random lattice; not a box of a regular lattice, whose stencil kernel
+    /// needs the whole box), the integrator distributed, and `state` current.
+    pub fn cut(&mut self, body: &Body, state: &State) -> Result<(Body, State)> {
+        let Some(t) = self.team.as_mut() else {
+            return Err(Error::InvalidInput {
+                what: "a piece of the body",
+                why: "the integrator is not shared between processes: there is nothing to cut"
+                    .into(),
+            });
+        };
+        if t.piece.is_some() || t.stale_u || t.stale_pool || t.v_partial {
+            return Err(Error::InvalidInput {
+                what: "a piece of the body",
+                why: "cut the body once, before the first step".into(),
+            });
+        }
+        if matches!(self.kernel, Kernel::Cubic(_) | Kernel::Hex(_)) {
+            return Err(Error::InvalidInput {
+                what: "a piece of the body",
+                why: format!(
+                    "the {} kernel sweeps the whole box; pieces are cut from bodies swept by rows \
+                     (random lattices)",
+                    self.kernel.name()
+                ),
+            });
+        }
+        let (piece, piece_body) = Piece::cut(body, &t.share)?;
+        let mut piece_state = piece.state(&piece_body, state);
+        let local = |i: usize| {
+            piece
+                .local(i)
+                .expect("every loaded or prescribed node is a ghost")
+        };
+        for l in &mut self.loading.loads {
+            l.nodes
+                .iter_mut()
+                .for_each(|i| *i = local(*i as usize) as u32);
+        }
+        for p in &mut self.loading.prescribed {
+            p.nodes
+                .iter_mut()
+                .for_each(|i| *i = local(*i as usize) as u32);
+        }
+        self.dofs.iter_mut().for_each(|d| d.node = local(d.node));
+        self.loaded.iter_mut().for_each(|l| l.0 = local(l.0));
+        t.special
+            .iter_mut()
+            .for_each(|i| *i = local(*i as usize) as u32);
+        self.inv_mass = piece_body.mass.iter().map(|&m| 1.0 / m).collect();
+        if !self.u_next.is_empty() {
+            self.u_next = Coords::zeros(piece_body.nodes());
+        }
+        let sweeps = piece.share(&piece_body);
+        let simd = self.kernel.simd();
+        self.kernel = match self.kernel {
+            Kernel::Csr { plain } => Kernel::Csr { plain },
+            _ => Kernel::for_body_in(&piece_body, &piece_state, Some(sweeps.mine())),
+        };
+        self.kernel.set_simd(simd);
+        // Size the kernel's scratch now, so that no step allocates; the pools it computes at
+        // the ghosts come from their partial rows, so the state's are kept.
+        let pools = piece_state.pool.clone();
+        self.kernel
+            .pools_shared(&piece_body, &mut piece_state, Real::INFINITY, Some(&sweeps));
+        piece_state.pool = pools;
+        self.partials = vec![Default::default(); piece_body.nodes().div_ceil(crate::kernel::CHUNK)];
+        self.synced = piece_state.breaks();
+        let chunks = piece.total.div_ceil(crate::kernel::CHUNK);
+        t.piece = Some(Box::new(Pieced {
+            piece,
+            sweeps,
+            partials: vec![Default::default(); chunks],
+        }));
+        Ok((piece_body, piece_state))
+    }
+
+    /// The piece this rank steps, if it was cut ([`Integrator::cut`]).
+    pub fn piece(&self) -> Option<&Piece> {
+        self.team.as_ref()?.piece.as_ref().map(|p| &p.piece)
     }
 
     /// The team this integrator shares its steps with, if any.
@@ -856,6 +990,7 @@ impl Integrator {
         let Some(t) = self.team.as_mut() else {
             return;
         };
+        t.whole("gathering the whole state");
         if u && t.stale_u {
             for c in state.u.xyz_mut().into_iter().take(dims) {
                 t.team.gather(c, &t.share.nodes);
@@ -882,6 +1017,7 @@ impl Integrator {
         let Some(t) = self.team.as_mut() else {
             return;
         };
+        t.whole("a breaker's per-chunk lists");
         let chunk = crate::kernel::CHUNK;
         t.listed_parts.clear();
         t.listed_parts.extend(
@@ -955,11 +1091,14 @@ impl Integrator {
         if k == 0 || nodes.is_empty() {
             return;
         }
+        // A piece's numbering keeps the body's order: the owners' runs of `nodes` are where
+        // their body indices fall.
         t.listed_parts.clear();
-        t.listed_parts.extend(t.share.nodes.iter().map(|r| {
-            k * nodes.partition_point(|&i| (i as usize) < r.start)
-                ..k * nodes.partition_point(|&i| (i as usize) < r.end)
-        }));
+        for r in &t.share.nodes {
+            let at = |end: usize| k * nodes.partition_point(|&i| t.global(i) < end);
+            let part = at(r.start)..at(r.end);
+            t.listed_parts.push(part);
+        }
         t.listed.resize(k * nodes.len(), 0.0);
         let mine = t.listed_parts[t.share.rank].clone();
         let (first, last) = (mine.start / k, mine.end / k);
@@ -1040,7 +1179,7 @@ impl Integrator {
             None => self.kernel.pools_screened(body, state, screen),
             Some(t) => {
                 self.kernel
-                    .pools_shared(body, state, screen, Some(&t.share));
+                    .pools_shared(body, state, screen, Some(t.sweeps()));
                 t.trade(&mut [&mut state.pool[..]]);
                 t.stale_pool = true;
                 if screen.is_finite() {
@@ -1071,11 +1210,17 @@ impl Integrator {
             params,
             (!in_place).then_some(&mut self.u_next),
             &mut self.partials,
-            self.team.as_ref().map(|t| &t.share),
+            self.team.as_ref().map(Shared::sweeps),
         );
         let Some(t) = self.team.as_mut() else {
             return own;
         };
+        if let Some(pc) = &mut t.piece {
+            // The piece's chunks of owned nodes are the body's chunks from `first`.
+            for c in pc.sweeps.chunks() {
+                pc.partials[pc.piece.global_chunk(c)] = self.partials[c];
+            }
+        }
         // A plate's z components stay exact zeros on every rank (no force, load or
         // acceleration acts along z), so they need no exchange.
         let dims = params.dims(body.lattice.dim());
@@ -1085,14 +1230,22 @@ impl Integrator {
         t.v_partial = true;
         let (team, share) = (&t.team, &t.share);
         let parts = share.chunk_parts(2);
-        let p = &mut self.partials;
+        let p = match &mut t.piece {
+            Some(pc) => &mut pc.partials,
+            None => &mut self.partials,
+        };
         // SAFETY: `SweepSums` is `repr(C)` with two `Real` fields and no padding, so `p` is
         // `2 p.len()` initialised reals; the view lives only for this call.
         let flat =
             unsafe { std::slice::from_raw_parts_mut(p.as_mut_ptr() as *mut Real, 2 * p.len()) };
         team.gather(flat, &parts);
         let mut total = crate::kernel::SweepSums::default();
-        for &s in &self.partials[..body.nodes().div_ceil(crate::kernel::CHUNK)] {
+        let chunks = share
+            .nodes
+            .last()
+            .map_or(0, |r| r.end)
+            .div_ceil(crate::kernel::CHUNK);
+        for &s in &p[..chunks] {
             total += s;
         }
         total
@@ -1183,7 +1336,7 @@ impl Integrator {
         }
         let killed = std::mem::take(&mut self.killed);
         self.kernel
-            .repair_shared(body, state, &killed, self.team.as_ref().map(|t| &t.share));
+            .repair_shared(body, state, &killed, self.team.as_ref().map(Shared::sweeps));
         if !killed.is_empty() {
             // Only a broken spring's ends change their pools, and only their owners hold
             // what those pools read: every rank takes them from the owners (the rest of its
@@ -1215,6 +1368,7 @@ impl Integrator {
         if let (Some(it), Some(t)) = (interaction.as_mut(), self.team.as_ref()) {
             // Contact reads the displacements and velocities of whichever nodes come near: of
             // those its lists hold, or of all when it rebuilds them.
+            t.whole("contact");
             match it.reads(body, state, &t.share.nodes) {
                 Reads::All => self.current(state, true, false, true),
                 Reads::Nodes(list) => {
@@ -1432,6 +1586,9 @@ impl Integrator {
     /// so that every member finds the same first node and reports it alike (before, every
     /// member gathered and checked the whole body). Collective. Alone: [`Integrator::check`].
     pub fn check_shared(&mut self, body: &Body, state: &mut State) -> Result<()> {
+        if let Some(t) = self.team.as_ref().filter(|t| t.piece.is_some()) {
+            return Self::check_piece(t, body, state);
+        }
         if let Some(t) = &self.team {
             let mine = t.share.nodes[t.share.rank].clone();
             let mut failed = [Self::check_nodes(body, state, mine).is_err()];
@@ -1444,28 +1601,75 @@ impl Integrator {
         self.check(body, state)
     }
 
+    /// [`Integrator::check_shared`] on pieces: each rank checks its own nodes, and the first
+    /// failure of the lowest failing rank (whose nodes come first in the body) is every
+    /// rank's error, named by the node's index in the body.
+    fn check_piece(t: &Shared, body: &Body, state: &State) -> Result<()> {
+        let pc = t.piece.as_ref().expect("a piece");
+        let size = t.team.size();
+        let parts: Vec<_> = (0..size).map(|r| 3 * r..3 * r + 3).collect();
+        let mut found = vec![-1.0; 3 * size];
+        let total = pc.piece.total;
+        if let Err(Error::Unstable { node, .. }) =
+            Self::check_nodes_of(body, state, pc.sweeps.mine(), total)
+        {
+            let u = state.u.get(node);
+            let r = t.team.rank();
+            found[3 * r] = pc.piece.global[node] as Real;
+            found[3 * r + 1] = Real::from(u8::from(
+                u.iter().chain(&state.v.get(node)).all(|x| x.is_finite()),
+            ));
+            found[3 * r + 2] = u.norm();
+        }
+        t.team.gather(&mut found, &parts);
+        match found.chunks_exact(3).find(|f| f[0] >= 0.0) {
+            None => Ok(()),
+            Some(f) => Err(Error::Unstable {
+                step: state.step,
+                time: state.time,
+                node: f[0] as usize,
+                reason: Self::unstable_reason(f[1] == 1.0, f[2]),
+                hint: UNSTABLE_HINT,
+            }),
+        }
+    }
+
     fn check_nodes(body: &Body, state: &State, nodes: std::ops::Range<usize>) -> Result<()> {
-        let size = body.lattice.spacing * (body.nodes() as Real).cbrt().max(1.0) * 1e3;
+        Self::check_nodes_of(body, state, nodes, body.nodes())
+    }
+
+    /// Why a node is unstable: a non-finite value (`finite` false), or a displacement of
+    /// `moved` metres.
+    fn unstable_reason(finite: bool, moved: Real) -> String {
+        if finite {
+            format!("moved {moved:.3e} m, a thousand times the body's size")
+        } else {
+            "has a non-finite displacement or velocity".to_string()
+        }
+    }
+
+    /// [`Integrator::check_nodes`] with the size limit of a body of `total` nodes (a piece's
+    /// whole body).
+    fn check_nodes_of(
+        body: &Body,
+        state: &State,
+        nodes: std::ops::Range<usize>,
+        total: usize,
+    ) -> Result<()> {
+        let size = body.lattice.spacing * (total as Real).cbrt().max(1.0) * 1e3;
         for i in nodes {
             let u = state.u.get(i);
             let v = state.v.get(i);
-            let reason = if !u.iter().all(|x| x.is_finite()) || !v.iter().all(|x| x.is_finite()) {
-                Some("has a non-finite displacement or velocity".to_string())
-            } else if u.norm() > size {
-                Some(format!(
-                    "moved {:.3e} m, a thousand times the body's size",
-                    u.norm()
-                ))
-            } else {
-                None
-            };
+            let finite = u.iter().chain(&v).all(|x| x.is_finite());
+            let reason =
+                (!finite || u.norm() > size).then(|| Self::unstable_reason(finite, u.norm()));
             if let Some(reason) = reason {
                 return Err(Error::Unstable {
                     step: state.step,
                     time: state.time,
                     node: i,
                     reason,
-                    hint: "reduce the time step (or its safety factor), or check loads and boundary conditions",
+                    hint: UNSTABLE_HINT,
                 });
             }
         }
@@ -1509,6 +1713,9 @@ impl Integrator {
         state: &mut State,
         whole: bool,
     ) -> (Coords, EnergyBalance, law::FrameFields) {
+        if let Some(t) = &self.team {
+            t.whole("an output frame");
+        }
         let part = self.team.as_ref().map(|t| law::FramePart {
             team: &*t.team,
             share: &t.share,

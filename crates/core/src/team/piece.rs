@@ -181,6 +181,13 @@ impl Piece {
         Ok((piece, piece_body))
     }
 
+    /// The piece's index of the body's node `g`, if the piece holds it.
+    pub fn local(&self, g: usize) -> Option<usize> {
+        let pad = self.global.partition_point(|&x| x == PAD);
+        let real = &self.global[pad..];
+        real.binary_search(&(g as u32)).ok().map(|at| pad + at)
+    }
+
     /// Nodes of the piece, dummies and ghosts included.
     pub fn len(&self) -> usize {
         self.global.len()
@@ -390,6 +397,179 @@ mod tests {
                     }
                 });
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod integrator_tests {
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::dynamics::{Integrator, IntegratorOptions, Ledger};
+    use crate::loading::{Load, Loading, Motion, Prescribed, TimeFunction};
+    use crate::team::tests::{block, strained};
+    use crate::team::{Team, Threads};
+
+    /// Grip the block's low-x face, pull its high-x face at a constant velocity along y, load
+    /// a few nodes, with damping and gravity.
+    fn loading(body: &Body) -> Loading {
+        let x = body.lattice.pos.x();
+        let hi = x.iter().copied().fold(Real::MIN, Real::max);
+        let face = |f: &dyn Fn(Real) -> bool| -> Vec<u32> {
+            (0..body.nodes() as u32)
+                .filter(|&i| f(x[i as usize]))
+                .collect()
+        };
+        let low = face(&|x| x < 0.5);
+        let high = face(&|x| x > hi - 0.5);
+        let n = body.nodes() as u32;
+        Loading {
+            prescribed: vec![
+                Prescribed {
+                    nodes: low.clone(),
+                    axis: 0,
+                    motion: Motion::Fixed,
+                },
+                Prescribed {
+                    nodes: low,
+                    axis: 1,
+                    motion: Motion::Fixed,
+                },
+                Prescribed {
+                    nodes: high,
+                    axis: 1,
+                    motion: Motion::Velocity(TimeFunction::Constant(0.02)),
+                },
+            ],
+            loads: vec![Load {
+                nodes: vec![n / 3, n / 2, n - 7],
+                force: [0.1, -0.05, 0.2].into(),
+                scale: TimeFunction::Constant(1.0),
+            }],
+            body_acceleration: [0.0, -0.3, 0.0].into(),
+        }
+    }
+
+    fn ledger_bits(l: Ledger) -> [u64; 5] {
+        [
+            l.external_work,
+            l.boundary_work,
+            l.body_work,
+            l.dissipated,
+            l.released,
+        ]
+        .map(Real::to_bits)
+    }
+
+    /// An integrator that steps its rank's piece ([`Integrator::cut`]) keeps one process's
+    /// bits at its own nodes and in the energy ledger, with prescribed motion, loads, damping
+    /// and gravity, for teams of 2 and 3, the vector and the portable paths.
+    #[test]
+    fn a_pieced_integrator_steps_with_the_bits_of_one_process() {
+        let body = block([30.0, 24.0, 22.0]);
+        let start = strained(&body, 23);
+        let steps = 25;
+        for portable in [false, true] {
+            let opts = IntegratorOptions {
+                damping: 0.2,
+                portable,
+                damage_proof: true,
+                ..Default::default()
+            };
+            let mut alone = start.clone();
+            let mut it = Integrator::new(&body, &mut alone, loading(&body), &opts).unwrap();
+            for _ in 0..steps {
+                it.step(&body, &mut alone);
+            }
+            let ledger = ledger_bits(it.ledger());
+            for size in [2, 3] {
+                std::thread::scope(|scope| {
+                    for team in Threads::team(size) {
+                        let (body, start, alone, opts) = (&body, &start, &alone, &opts);
+                        scope.spawn(move || {
+                            let rank = team.rank();
+                            let team: Arc<dyn Team> = Arc::new(team);
+                            let mut state = start.clone();
+                            let mut it = Integrator::new_shared(
+                                body,
+                                &mut state,
+                                loading(body),
+                                opts,
+                                Some(team),
+                            )
+                            .unwrap();
+                            let (pb, mut ps) = it.cut(body, &state).unwrap();
+                            drop(state);
+                            for _ in 0..steps {
+                                it.step(&pb, &mut ps);
+                            }
+                            it.check_shared(&pb, &mut ps).unwrap();
+                            let at = format!("{size} ranks, rank {rank}, portable {portable}");
+                            assert_eq!(ledger_bits(it.ledger()), ledger, "ledger, {at}");
+                            let piece = it.piece().unwrap();
+                            for i in piece.own.clone() {
+                                let g = piece.global[i] as usize;
+                                for c in 0..3 {
+                                    assert_eq!(
+                                        ps.u.comp(c)[i].to_bits(),
+                                        alone.u.comp(c)[g].to_bits(),
+                                        "u of node {g}, {at}"
+                                    );
+                                    assert_eq!(
+                                        ps.v.comp(c)[i].to_bits(),
+                                        alone.v.comp(c)[g].to_bits(),
+                                        "v of node {g}, {at}"
+                                    );
+                                }
+                            }
+                            assert_eq!(ps.step, alone.step);
+                        });
+                    }
+                });
+            }
+        }
+    }
+
+    /// A blow-up on pieces stops every rank with one process's message: the first bad node
+    /// of the body, named by its index there, wherever it is owned.
+    #[test]
+    fn an_instability_on_pieces_names_the_bodys_first_bad_node() {
+        let body = block([30.0, 24.0, 22.0]);
+        let mut start = strained(&body, 23);
+        let bad = 2 * body.nodes() / 3;
+        start.v.y_mut()[bad] = Real::NAN;
+        let opts = IntegratorOptions::default();
+        let mut alone = start.clone();
+        let mut it = Integrator::new(&body, &mut alone, Loading::default(), &opts).unwrap();
+        for _ in 0..3 {
+            it.step(&body, &mut alone);
+        }
+        let expected = it.check_shared(&body, &mut alone).unwrap_err().to_string();
+        for size in [2, 3] {
+            std::thread::scope(|scope| {
+                for team in Threads::team(size) {
+                    let (body, start, opts, expected) = (&body, &start, &opts, &expected);
+                    scope.spawn(move || {
+                        let team: Arc<dyn Team> = Arc::new(team);
+                        let mut state = start.clone();
+                        let mut it = Integrator::new_shared(
+                            body,
+                            &mut state,
+                            Loading::default(),
+                            opts,
+                            Some(team),
+                        )
+                        .unwrap();
+                        let (pb, mut ps) = it.cut(body, &state).unwrap();
+                        for _ in 0..3 {
+                            it.step(&pb, &mut ps);
+                        }
+                        let found = it.check_shared(&pb, &mut ps).unwrap_err().to_string();
+                        assert_eq!(&found, expected, "{size} ranks");
+                    });
+                }
+            });
         }
     }
 }
