@@ -5,6 +5,8 @@
 #     histories and a checkpoint identical bit for bit to the build without MPI, with breaking,
 #     rigid-body contact and fragment contact;
 #   - a run checkpointed with one N resumes with another and still gives those bits;
+#   - `bench --pieces` (each rank holding only its piece of a random block) steps with the bits
+#     of the build without MPI, and a rank's arrays shrink with N;
 #   - bad input stops every rank with one message and exit code 2.
 # Usage: tools/mpi_check.sh SCRATCH_DIR
 set -euo pipefail
@@ -58,6 +60,26 @@ $mpirun -np 3 "$work/hooke-mpi" run cases/kalthoff_winkler.toml --scale 0.3 --se
 python3 tools/compare_runs.py "$work/kalthoff_winkler.alone" "$work/resumed" | tail -1
 cmp "$work/kalthoff_winkler.alone/kalthoff_winkler.ckpt" "$work/resumed/kalthoff_winkler.ckpt"
 echo "kalthoff_winkler: checkpointed with -np 2, resumed with -np 3: bit-identical"
+
+# Distributed memory, first part: with `bench --pieces` each rank keeps only its piece of the
+# block (its own nodes and ghosts) and drops the whole body and state after the set-up. The steps
+# must give the bits of the build without MPI (`state_digest`: every node's displacement and
+# velocity), and rank 0's arrays must shrink with N: at most 1/N of one process's plus a quarter
+# (the ghosts and the dummies that align a piece on a chunk).
+digest() { python3 -c 'import json,sys; d=json.load(sys.stdin); print(d["state_digest"], round(d["memory_bytes_per_node"]))'; }
+for lat in random3d random2d; do
+  read -r want alone < <("$work/hooke" bench --lattice $lat --nodes 60000 --steps 20 --threads 1 --json | digest)
+  for np in 2 3 4; do
+    read -r got bytes < <($mpirun -np $np "$work/hooke-mpi" bench --lattice $lat --nodes 60000 --steps 20 \
+      --threads 1 --pieces --json | digest)
+    if [ "$got" != "$want" ]; then
+      echo "bench --pieces $lat -np $np: state digest $got, the build without MPI $want"; exit 1
+    fi
+    python3 -c "import sys; b, a, n = $bytes, $alone, $np; sys.exit(0 if b <= a * (1 / n + 0.25) else 1)" || {
+      echo "bench --pieces $lat -np $np: rank 0 holds $bytes bytes per node, one process $alone"; exit 1; }
+    echo "bench --pieces $lat -np $np: bit-identical (digest $got), rank 0 holds $bytes bytes per node of the block (one process $alone)"
+  done
+done
 
 # Bad input: every rank stops, one message, exit code 2.
 printf '[lattice]\nkind = "hex"\nspacing = -1e-3\n' > "$work/bad.toml"

@@ -9,6 +9,7 @@ use hooke_core::dynamics::{Integrator, IntegratorOptions};
 use hooke_core::loading::Loading;
 use hooke_core::material::q_from_nu;
 use hooke_core::moduli::{block_test, BlockTest};
+use hooke_core::team::Piece;
 use hooke_core::{Body, Lattice, LatticeKind, Real, State};
 
 use crate::moduli::LatticeArg;
@@ -102,6 +103,12 @@ pub struct BenchArgs {
     /// Simulated time (s) the --case is run to before timing.
     #[arg(long)]
     pub crack_time: Option<Real>,
+    /// Under `mpirun -np N` (N > 1): after the set-up, each rank keeps only its piece of the
+    /// block (its own nodes and their ghosts, `hooke_core::team::Piece`) and drops the whole
+    /// body and state, as a distributed-memory run will; the steps give the same bits. Random
+    /// lattices only (the regular boxes' stencil kernels sweep the whole box).
+    #[arg(long)]
+    pub pieces: bool,
 }
 
 #[derive(Debug, serde::Serialize)]
@@ -125,6 +132,14 @@ struct BenchJson {
     memory_parts: std::collections::BTreeMap<&'static str, f64>,
     /// Their sum, bytes per node.
     memory_bytes_per_node: f64,
+    /// With --pieces: the nodes this rank holds (rank 0's: its own, its ghosts and the
+    /// dummies that align its own on a chunk). `memory_parts` are still per node of the block.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    piece_nodes: Option<usize>,
+    /// Digest of every node's displacement and velocity after the steps, in hexadecimal
+    /// (`Integrator::state_digest`): the same for any number of ranks, with or without
+    /// --pieces, exactly when the bits are.
+    state_digest: String,
     setup_seconds: f64,
     /// Where the set-up's seconds went: the lattice (nodes, springs), the body (stiffnesses,
     /// masses, state) and the integrator (its stable-step estimate, mostly).
@@ -162,6 +177,24 @@ fn status_bytes(key: &str) -> Option<u64> {
 }
 
 pub fn run(args: BenchArgs) -> Result<()> {
+    if args.pieces
+        && (args.static_solve || args.compare || args.fracture || args.frame || args.contact)
+    {
+        return Err(InputError(
+            "--pieces times the steps alone: it takes none of --static-solve, --compare, \
+             --fracture, --frame and --contact, which read the whole state"
+                .into(),
+        )
+        .into());
+    }
+    if args.pieces && matches!(args.lattice, LatticeArg::Cubic | LatticeArg::Hex) {
+        return Err(InputError(
+            "--pieces cuts random lattices (--lattice random3d or random2d): a regular box's \
+             stencil kernel sweeps the whole box"
+                .into(),
+        )
+        .into());
+    }
     if args.static_solve {
         return bench_static(&args);
     }
@@ -192,6 +225,14 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if team.as_ref().is_some_and(|t| t.rank() != 0) {
         crate::set_quiet();
     }
+    if args.pieces && team.as_ref().is_none_or(|t| t.size() < 2) {
+        return Err(InputError(
+            "--pieces cuts the block between MPI ranks: run it under `mpirun -np N` with N > 1 \
+             (a build with `--features mpi`)"
+                .into(),
+        )
+        .into());
+    }
     let setup = Instant::now();
     let lattice = bench_lattice(&args)?;
     let lattice_seconds = setup.elapsed().as_secs_f64();
@@ -201,7 +242,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         (LawArg::Dispersive, LatticeKind::Cubic | LatticeKind::Random3d) => 0.3,
         (LawArg::Dispersive, LatticeKind::Hex | LatticeKind::Random2d) => 0.45,
     };
-    let (body, mut state, mut it, [body_seconds, integrator_seconds]) =
+    let (body, state, mut it, [body_seconds, integrator_seconds]) =
         bench_run_timed(&args, lattice, q_from_nu(kind, nu)?, team.clone())?;
     let setup_parts = [
         ("lattice", lattice_seconds),
@@ -210,13 +251,21 @@ pub fn run(args: BenchArgs) -> Result<()> {
     ]
     .into_iter()
     .collect();
-    let setup_seconds = setup.elapsed().as_secs_f64();
-    // As `hooke run` does after its set-up (hooke_sim::Run::start).
-    hooke_core::memory::release_free_memory();
     if let Some(path) = &args.export_lammps {
         write_lammps(path, &body, &state, it.dt)
             .with_context(|| format!("writing the LAMMPS data file {}", path.display()))?;
     }
+    let (nodes, springs) = (body.nodes(), body.springs());
+    let (body, mut state) = if args.pieces {
+        let piece = it.cut(&body, &state)?;
+        drop((body, state));
+        piece
+    } else {
+        (body, state)
+    };
+    let setup_seconds = setup.elapsed().as_secs_f64();
+    // As `hooke run` does after its set-up (hooke_sim::Run::start).
+    hooke_core::memory::release_free_memory();
     for _ in 0..3 {
         it.step(&body, &mut state);
     }
@@ -225,7 +274,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
         it.step(&body, &mut state);
     }
     let seconds = start.elapsed().as_secs_f64();
-    it.check(&body, &state)?;
+    it.check_shared(&body, &mut state)?;
+    let state_digest = format!("{:016x}", it.state_digest(&state));
     let contact_overhead = if args.contact {
         // Alternate windows with and without contact on the same body and take the median of
         // each: this machine's speed drifts by more than the figure we want.
@@ -255,7 +305,6 @@ pub fn run(args: BenchArgs) -> Result<()> {
     } else {
         None
     };
-    let springs = body.springs();
     let mut memory_parts = std::collections::BTreeMap::new();
     for (name, b) in body
         .footprint()
@@ -263,7 +312,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         .chain(state.footprint())
         .chain(it.footprint())
     {
-        *memory_parts.entry(name).or_insert(0.0) += b as f64 / body.nodes() as f64;
+        *memory_parts.entry(name).or_insert(0.0) += b as f64 / nodes as f64;
     }
     memory_parts.retain(|_, b| *b > 0.0);
     let memory_bytes_per_node = memory_parts.values().sum();
@@ -274,18 +323,20 @@ pub fn run(args: BenchArgs) -> Result<()> {
         },
         lattice: kind.name(),
         kernel: it.kernel.name().to_string(),
-        nodes: body.nodes(),
+        nodes,
         springs,
         steps: args.steps,
         threads: rayon::current_num_threads(),
         seconds,
         seconds_per_step: seconds / args.steps as f64,
         spring_updates_per_s: springs as f64 * args.steps as f64 / seconds,
-        node_updates_per_s: body.nodes() as f64 * args.steps as f64 / seconds,
+        node_updates_per_s: nodes as f64 * args.steps as f64 / seconds,
         peak_memory_bytes: peak_memory(),
         resident_memory_bytes: resident_memory(),
         memory_parts,
         memory_bytes_per_node,
+        piece_nodes: it.piece().map(Piece::len),
+        state_digest,
         setup_seconds,
         setup_parts,
         contact_overhead,
@@ -338,6 +389,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
             out.memory_bytes_per_node,
             largest.join(", ")
         );
+        if let Some(n) = out.piece_nodes {
+            println!("  each rank holds its piece only: rank 0 {n} nodes");
+        }
         if out.processes > 1 {
             println!(
                 "  {} MPI ranks: {:.2} MB received per rank and step ({} ghost nodes), {} halo \

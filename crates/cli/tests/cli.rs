@@ -1007,6 +1007,43 @@ fn bench_json_has_the_contract_keys() {
     assert_eq!(o.status.code(), Some(2));
 }
 
+/// `--pieces` says what it needs instead of running something else: MPI ranks, a random
+/// lattice, the steps alone. The state digest is the same for any thread count.
+#[test]
+fn bench_pieces_says_what_it_needs() {
+    for (args, says) in [
+        (&["--lattice", "random2d"][..], "mpirun"),
+        (&["--lattice", "hex"][..], "random lattices"),
+        (&["--lattice", "random3d", "--compare"][..], "steps alone"),
+    ] {
+        let mut all = vec!["bench", "--nodes", "2000", "--steps", "1", "--pieces"];
+        all.extend_from_slice(args);
+        let o = hooke(&all);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(says), "{args:?}: {}", stderr(&o));
+    }
+    let digest = |threads: &str| {
+        let o = hooke(&[
+            "bench",
+            "--lattice",
+            "random2d",
+            "--nodes",
+            "20000",
+            "--steps",
+            "5",
+            "--threads",
+            threads,
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        v["state_digest"].as_str().unwrap().to_string()
+    };
+    let one = digest("1");
+    assert_eq!(one.len(), 16, "{one}");
+    assert_eq!(one, digest("2"));
+}
+
 /// `hooke bench --json` says where a run's memory is: its parts add up to the total, the
 /// per-spring arrays hold what their sizes say, and a random body has freed what only its
 /// set-up read (the springs' volumes, the boundary areas).

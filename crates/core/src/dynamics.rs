@@ -941,6 +941,47 @@ impl Integrator {
         Ok((piece_body, piece_state))
     }
 
+    /// A digest of every node's displacement and velocity, in the body's node order: the same
+    /// for one process and for any team, with or without pieces, exactly when those bits are
+    /// the same (FNV-1a over each chunk's values, the chunks' digests folded in chunk order;
+    /// each rank digests its own chunks, which are current, and the digests are all-gathered).
+    /// Collective. What `hooke bench --json` prints as `state_digest`, so that runs on
+    /// different numbers of ranks can be compared without writing their states.
+    pub fn state_digest(&mut self, state: &State) -> u64 {
+        let chunk = crate::kernel::CHUNK;
+        let (own, first, total) = match &self.team {
+            None => (0..state.u.len(), 0, state.u.len()),
+            Some(t) => match &t.piece {
+                Some(p) => (p.piece.own.clone(), p.piece.first, p.piece.total),
+                None => {
+                    let mine = t.share.mine();
+                    let total = t.share.nodes.last().map_or(0, |r| r.end);
+                    (mine.clone(), mine.start, total)
+                }
+            },
+        };
+        let fnv = |h: u64, x: u64| (h ^ x).wrapping_mul(0x0000_0100_0000_01b3);
+        let basis = 0xcbf2_9ce4_8422_2325_u64;
+        let mut digests = vec![0.0; total.div_ceil(chunk)];
+        for (k, c) in own.clone().step_by(chunk).enumerate() {
+            let mut h = basis;
+            for i in c..(c + chunk).min(own.end) {
+                for x in (0..3)
+                    .map(|d| state.u.comp(d)[i])
+                    .chain((0..3).map(|d| state.v.comp(d)[i]))
+                {
+                    h = fnv(h, x.to_bits());
+                }
+            }
+            // Carried as a real's bits: the all-gather copies bytes.
+            digests[first / chunk + k] = Real::from_bits(h);
+        }
+        if let Some(t) = &self.team {
+            t.team.gather(&mut digests, &t.share.chunk_parts(1));
+        }
+        digests.iter().fold(basis, |h, d| fnv(h, d.to_bits()))
+    }
+
     /// The piece this rank steps, if it was cut ([`Integrator::cut`]).
     pub fn piece(&self) -> Option<&Piece> {
         self.team.as_ref()?.piece.as_ref().map(|p| &p.piece)
