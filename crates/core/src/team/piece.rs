@@ -464,16 +464,18 @@ mod integrator_tests {
 
     /// An integrator that steps its rank's piece ([`Integrator::cut`]) keeps one process's
     /// bits at its own nodes and in the energy ledger, with prescribed motion, loads, damping
-    /// and gravity, for teams of 2 and 3, the vector and the portable paths.
+    /// and gravity, for teams of 2 and 3: the row kernel's vector and portable paths, and the
+    /// CSR kernel (what a processor without AVX2 runs).
     #[test]
     fn a_pieced_integrator_steps_with_the_bits_of_one_process() {
         let body = block([30.0, 24.0, 22.0]);
         let start = strained(&body, 23);
         let steps = 25;
-        for portable in [false, true] {
+        for (portable, force_csr) in [(false, false), (true, false), (false, true)] {
             let opts = IntegratorOptions {
                 damping: 0.2,
                 portable,
+                force_csr,
                 damage_proof: true,
                 ..Default::default()
             };
@@ -505,7 +507,9 @@ mod integrator_tests {
                                 it.step(&pb, &mut ps);
                             }
                             it.check_shared(&pb, &mut ps).unwrap();
-                            let at = format!("{size} ranks, rank {rank}, portable {portable}");
+                            let at = format!(
+                                "{size} ranks, rank {rank}, portable {portable}, csr {force_csr}"
+                            );
                             assert_eq!(ledger_bits(it.ledger()), ledger, "ledger, {at}");
                             let piece = it.piece().unwrap();
                             for i in piece.own.clone() {
