@@ -464,11 +464,13 @@ mod integrator_tests {
 
     /// An integrator that steps its rank's piece ([`Integrator::cut`]) keeps one process's
     /// bits at its own nodes and in the energy ledger, with prescribed motion, loads, damping
-    /// and gravity, for teams of 2 and 3: the row kernel's vector and portable paths, and the
-    /// CSR kernel (what a processor without AVX2 runs).
+    /// and gravity, for teams of 2, 3 and 7 (the body has 5 chunks: some of 7 ranks own no
+    /// node): the row kernel's vector and portable paths, and the CSR kernel (what a processor
+    /// without AVX2 runs).
     #[test]
     fn a_pieced_integrator_steps_with_the_bits_of_one_process() {
         let body = block([30.0, 24.0, 22.0]);
+        assert!(body.nodes() <= 5 * CHUNK, "{} nodes", body.nodes());
         let start = strained(&body, 23);
         let steps = 25;
         for (portable, force_csr) in [(false, false), (true, false), (false, true)] {
@@ -485,7 +487,7 @@ mod integrator_tests {
                 it.step(&body, &mut alone);
             }
             let ledger = ledger_bits(it.ledger());
-            for size in [2, 3] {
+            for size in [2, 3, 7] {
                 std::thread::scope(|scope| {
                     for team in Threads::team(size) {
                         let (body, start, alone, opts) = (&body, &start, &alone, &opts);
