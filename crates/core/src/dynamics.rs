@@ -626,6 +626,7 @@ impl Integrator {
     /// What a checkpoint must keep of the integrator to continue a run bit for bit (the rest
     /// is the [`State`], whose `v` holds the half-step velocities, and the loading).
     pub fn checkpoint(&self) -> IntegratorCheckpoint {
+        self.whole("a checkpoint");
         IntegratorCheckpoint {
             dt: self.dt,
             ledger: self.ledger,
@@ -738,6 +739,7 @@ impl Integrator {
     /// Break spring `b`: the state (its intact flags and both nodes' normalisers) and the
     /// kernel's spring masks change together. Returns false if it was already broken.
     pub fn break_spring(&mut self, body: &Body, state: &mut State, b: usize) -> bool {
+        self.whole("breaking a spring");
         let in_sync = state.breaks() == self.synced;
         if !state.kill_bond(body, b) {
             return false;
@@ -756,6 +758,7 @@ impl Integrator {
     /// damage). `w = 0` breaks it ([`Integrator::break_spring`]). Returns false if nothing
     /// changed (the weight was not lower).
     pub fn soften_spring(&mut self, body: &Body, state: &mut State, b: usize, w: Real) -> bool {
+        self.whole("softening a spring");
         if w <= 0.0 {
             return self.break_spring(body, state, b);
         }
@@ -980,6 +983,13 @@ impl Integrator {
             t.team.gather(&mut digests, &t.share.chunk_parts(1));
         }
         digests.iter().fold(basis, |h, d| fnv(h, d.to_bits()))
+    }
+
+    /// Panics on a piece ([`Integrator::cut`]): `what` reads the whole state.
+    fn whole(&self, what: &str) {
+        if let Some(t) = &self.team {
+            t.whole(what);
+        }
     }
 
     /// The piece this rank steps, if it was cut ([`Integrator::cut`]).
@@ -1346,6 +1356,7 @@ impl Integrator {
     /// start). The breaker must decide idempotently: deciding again at the same state breaks
     /// nothing more, so settling never changes a run.
     pub fn settle(&mut self, body: &Body, state: &mut State, breaker: &mut dyn Breaker) {
+        self.whole("breaking");
         self.sync(body, state);
         self.killed.clear();
         self.break_at_start(body, state, breaker);
@@ -1395,6 +1406,9 @@ impl Integrator {
         mut interaction: Option<&mut dyn Interaction>,
         breaker: Option<&mut dyn Breaker>,
     ) {
+        if breaker.is_some() {
+            self.whole("breaking");
+        }
         self.sync(body, state);
         self.killed.clear();
         // Sweep 1 done (and consistent with every break) before the contact forces.
@@ -1619,6 +1633,7 @@ impl Integrator {
 
     /// Look for non-finite values or springs stretched beyond any physical meaning.
     pub fn check(&self, body: &Body, state: &State) -> Result<()> {
+        self.whole("the one-process blow-up check");
         Self::check_nodes(body, state, 0..body.nodes())
     }
 
@@ -1734,6 +1749,7 @@ impl Integrator {
     /// Full-step velocity `v(t)` (for output and energy): `v(t-dt/2) + dt/2 a(t)` on free DOFs,
     /// the prescribed velocity on prescribed ones. Refreshes `state.f` and `state.pool`.
     pub fn full_velocity(&self, body: &Body, state: &mut State) -> Coords {
+        self.whole("the full-step velocity");
         law::update_forces(body, state);
         self.velocity_from_forces(body, state)
     }
@@ -1754,9 +1770,7 @@ impl Integrator {
         state: &mut State,
         whole: bool,
     ) -> (Coords, EnergyBalance, law::FrameFields) {
-        if let Some(t) = &self.team {
-            t.whole("an output frame");
-        }
+        self.whole("an output frame");
         let part = self.team.as_ref().map(|t| law::FramePart {
             team: &*t.team,
             share: &t.share,
@@ -1865,6 +1879,7 @@ impl Integrator {
     /// velocity, as after [`Integrator::full_velocity`]. Summed over a boundary region it is the
     /// force that region exerts on the body (a load-displacement curve's load).
     pub fn boundary_forces(&self, body: &Body, state: &State, v: &Coords) -> Coords {
+        self.whole("a reaction record");
         self.boundary_forces_from(body, state, |i, c| state.f.comp(c)[i], |i, c| v.comp(c)[i])
     }
 
@@ -1873,6 +1888,7 @@ impl Integrator {
     /// alone ([`law::forces_at`]): a reaction record between frames costs a few rows, not two
     /// passes over the body. Leaves the state as it is.
     pub fn boundary_forces_now(&self, body: &Body, state: &State) -> Coords {
+        self.whole("a reaction record");
         // Each node once, though a grip prescribes its two or three axes.
         let mut nodes: Vec<usize> = self.dofs.iter().map(|d| d.node).collect();
         nodes.sort_unstable();
@@ -1936,6 +1952,7 @@ impl Integrator {
     /// ends are added as `(P(t) - P(t0)) dt/2`, P the power of the non-conservative forces.
     /// Without it the balance would carry an O(dt) error that grows with the load.
     pub fn energy(&self, body: &Body, state: &mut State) -> EnergyBalance {
+        self.whole("the energy balance");
         // A pristine box from its grid: the same pools, forces and energy, without building its
         // rows and stiffnesses at the end of a run that never needed them.
         if let Some(f) = law::frame_fields_grid(body, state) {

@@ -578,4 +578,47 @@ mod integrator_tests {
             });
         }
     }
+
+    /// What reads the whole state says so on a piece rather than reading a piece as a body:
+    /// a checkpoint, a frame, the energy balance, the full-step velocity, a reaction record.
+    #[test]
+    fn a_piece_refuses_what_reads_the_whole_state() {
+        use std::panic::{catch_unwind, AssertUnwindSafe};
+        let body = block([30.0, 24.0, 22.0]);
+        let start = strained(&body, 23);
+        std::thread::scope(|scope| {
+            for team in Threads::team(2) {
+                let (body, start) = (&body, &start);
+                scope.spawn(move || {
+                    let team: Arc<dyn Team> = Arc::new(team);
+                    let mut state = start.clone();
+                    let opts = IntegratorOptions::default();
+                    let mut it =
+                        Integrator::new_shared(body, &mut state, loading(body), &opts, Some(team))
+                            .unwrap();
+                    let (pb, mut ps) = it.cut(body, &state).unwrap();
+                    it.step(&pb, &mut ps);
+                    let said = |r: std::thread::Result<()>| {
+                        let e = r.expect_err("refused");
+                        let m = e.downcast_ref::<String>().cloned().unwrap_or_default();
+                        assert!(m.contains("does not hold"), "{m}");
+                    };
+                    said(catch_unwind(AssertUnwindSafe(|| {
+                        it.checkpoint();
+                    })));
+                    said(catch_unwind(AssertUnwindSafe(|| {
+                        it.energy(&pb, &mut ps.clone());
+                    })));
+                    said(catch_unwind(AssertUnwindSafe(|| {
+                        it.full_velocity(&pb, &mut ps.clone());
+                    })));
+                    said(catch_unwind(AssertUnwindSafe(|| {
+                        it.boundary_forces_now(&pb, &ps);
+                    })));
+                    // A second cut is an error, not a panic.
+                    assert!(it.cut(&pb, &ps).is_err());
+                });
+            }
+        });
+    }
 }
