@@ -489,7 +489,6 @@ pub fn frame_fields_part(
     let ns = body.springs();
     let lat = &body.lattice;
     let bonds = &*lat.bonds;
-    let q = body.q;
     let chunk = crate::kernel::CHUNK;
     let chunks = ns.div_ceil(chunk);
     // What this rank computes: its nodes; the springs of their rows, as whole chunks of the
@@ -540,24 +539,7 @@ pub fn frame_fields_part(
     geo.resize(slots, [0.0; 4]);
     ext.resize(slots, [0.0; 2]);
     terms.resize(slots, [0.0; 2]);
-    // What pass 1 keeps of a spring, and its direct energy `k dL^2 / 2`.
-    let one = |b: usize| -> ([Real; 4], [Real; 2], [Real; 2], Real) {
-        if !sp.alive[b] {
-            // A broken spring's extension is +0: its direct energy adds +0.
-            return ([0.0; 4], [0.0; 2], [0.0; 2], 0.0);
-        }
-        let [i, j] = bonds.ends[b].map(|v| v as usize);
-        let (s, rest) = spring_geometry_rest(lat, u, b, i, j);
-        let lever = levers.map_or(rest, |l| l[b]);
-        let k = sp.k[b];
-        // `k dL` and `q k L` round as in `tension`'s `k * dl + q * k * lever * (p_i + p_j)`.
-        (
-            [s.d[0], s.d[1], s.d[2], s.l],
-            [k * s.dl, q * k * lever],
-            [k * lever * s.dl, 0.25 * k * s.dl * s.dl],
-            0.5 * k * s.dl * s.dl,
-        )
-    };
+    let one = |b: usize| frame_spring(body, u, sp, levers, b);
     // The direct energy is summed per chunk here, in the order of [`energy`].
     let first = springs.start;
     let mut partial = vec![0.0; chunks];
@@ -586,6 +568,210 @@ pub fn frame_fields_part(
     }
     // Pass 2, over the nodes: the pool Pi_n, its ratio p_n, and a quarter of the springs'
     // direct energy.
+    let [pi, quarter, mut pool] = frame_pools(body, sp, terms, slot, norm, nodes.clone());
+    if let Some(p) = part {
+        p.team.gather(&mut pool, &p.share.nodes);
+    }
+    if let (Some(p), Some(parts)) = (part, &parts) {
+        p.team.gather(&mut partial, parts);
+    }
+    let direct = partial.iter().sum();
+    // Pass 3, over the nodes: forces, energy densities and virial stresses.
+    let (force, energy_density, stress) = frame_forces(
+        body,
+        sp,
+        (&geo[..], &ext[..]),
+        slot,
+        (&pool, &pi, &quarter, norm),
+        nodes.clone(),
+    );
+    FrameFields {
+        pool,
+        force,
+        strain: Energy {
+            direct,
+            dispersive: dispersive_sum(body, &pi, norm, nodes, part),
+        },
+        energy_density,
+        stress,
+    }
+}
+
+/// A rank's piece of a frame ([`crate::team::Piece`], what [`frame_fields_piece`] computes on):
+/// the team, the piece and the share of the whole body the piece was cut by.
+#[derive(Clone, Copy)]
+pub struct PieceFrame<'a> {
+    pub team: &'a dyn crate::team::Team,
+    pub piece: &'a crate::team::Piece,
+    pub share: &'a crate::team::Share,
+}
+
+/// [`frame_fields_part`] on a rank's piece (`body`, `u`, `sp` and `norm` the piece's): the
+/// pools at its own nodes and ghosts, the forces, energy densities and stresses at its own
+/// nodes, and both strain energies, each the bits of the whole body's frame.
+///
+/// The pools at the ghosts come through the piece's halo. The direct energy is the whole
+/// body's sum in spring order, per chunk of [`crate::kernel::CHUNK`] springs, the chunks added
+/// in order ([`energy`]): chunk c is summed by the rank owning the lower end of its first
+/// spring, and the springs of that chunk whose lower ends the next ranks own are sent to it
+/// (one trade; every rank's range of springs is all-gathered first, so each knows what to send
+/// and to expect). The dispersive energy's chunks are the body's chunks of nodes, whole on
+/// their owners. Collective.
+pub fn frame_fields_piece(
+    body: &Body,
+    u: &Coords,
+    sp: Springs<'_>,
+    norm: &[Real],
+    scratch: &mut FrameScratch,
+    pf: PieceFrame<'_>,
+) -> FrameFields {
+    let (ns, chunk) = (body.springs(), crate::kernel::CHUNK);
+    let bonds = &*body.lattice.bonds;
+    let (team, piece) = (pf.team, pf.piece);
+    let (size, rank) = (team.size(), team.rank());
+    let own = piece.own.clone();
+    let levers = sp.lever.stored();
+    // Pass 1 over every spring of the piece (each has an end among the owned nodes).
+    let FrameScratch { geo, ext, terms } = scratch;
+    geo.resize(ns, [0.0; 4]);
+    ext.resize(ns, [0.0; 2]);
+    terms.resize(ns, [0.0; 2]);
+    let mut direct_of = vec![0.0; ns];
+    geo.par_iter_mut()
+        .zip(ext.par_iter_mut())
+        .zip(terms.par_iter_mut())
+        .zip(direct_of.par_iter_mut())
+        .with_min_len(MIN_NODES_PER_TASK)
+        .enumerate()
+        .for_each(|(b, (((g, x), t), e))| {
+            (*g, *x, *t, *e) = frame_spring(body, u, sp, levers, b);
+        });
+    // The springs whose lower end is owned here: a range of the piece's, and of the body's.
+    let ends = &bonds.ends;
+    let l0 = ends.partition_point(|e| (e[0] as usize) < own.start);
+    let l1 = ends.partition_point(|e| (e[0] as usize) < own.end);
+    let mut ranges = vec![-1.0; 2 * size];
+    if l0 < l1 {
+        ranges[2 * rank] = piece.springs[l0] as Real;
+        ranges[2 * rank + 1] = (piece.springs[l1 - 1] + 1) as Real;
+    }
+    let pairs: Vec<_> = (0..size).map(|r| 2 * r..2 * r + 2).collect();
+    team.gather(&mut ranges, &pairs);
+    let range = |r: usize| -> std::ops::Range<usize> {
+        if ranges[2 * r] < 0.0 {
+            0..0
+        } else {
+            ranges[2 * r] as usize..ranges[2 * r + 1] as usize
+        }
+    };
+    let total = (0..size).map(|r| range(r).end).max().unwrap_or(0);
+    // Rank r sums the chunks whose first spring is in its range.
+    let mut parts = Vec::with_capacity(size);
+    let mut next = 0;
+    for r in 0..size {
+        let g = range(r);
+        if !g.is_empty() {
+            next = g.start.div_ceil(chunk);
+            parts.push(next..g.end.div_ceil(chunk));
+            next = g.end.div_ceil(chunk);
+        } else {
+            parts.push(next..next);
+        }
+    }
+    // Whose chunk the head of rank s's range falls in, when it does not start a chunk.
+    let owner_of_head = |s: usize| -> Option<usize> {
+        let g = range(s);
+        (!g.is_empty() && g.start % chunk != 0)
+            .then(|| parts.iter().position(|p| p.contains(&(g.start / chunk))))
+            .flatten()
+    };
+    let head = |s: usize| -> usize {
+        let g = range(s);
+        g.len().min((g.start / chunk + 1) * chunk - g.start)
+    };
+    let mut out = vec![Vec::new(); size];
+    let mut inp = vec![Vec::new(); size];
+    if let Some(to) = owner_of_head(rank) {
+        out[to].extend_from_slice(&direct_of[l0..l0 + head(rank)]);
+    }
+    for s in (0..size).filter(|&s| s != rank) {
+        if owner_of_head(s) == Some(rank) {
+            inp[s].resize(head(s), 0.0);
+        }
+    }
+    team.trade(&out, &mut inp);
+    let mut partial = vec![0.0; total.div_ceil(chunk)];
+    let mine = range(rank);
+    for c in parts[rank].clone() {
+        let b0 = c * chunk;
+        let b1 = ((c + 1) * chunk).min(total);
+        let here = b1.min(mine.end);
+        let local = l0 + (b0 - mine.start)..l0 + (here - mine.start);
+        // In spring order: this rank's springs, then the heads of the next ranks' ranges
+        // (ranks ascend with their springs), one fold as the whole body's chunk sum.
+        let heads = if b1 > mine.end { &inp[..] } else { &[] };
+        debug_assert_eq!(heads.iter().map(Vec::len).sum::<usize>(), b1 - here);
+        partial[c] = direct_of[local]
+            .iter()
+            .chain(heads.iter().flatten())
+            .copied()
+            .sum::<Real>();
+    }
+    team.gather(&mut partial, &parts);
+    let direct = partial.iter().sum();
+    // Pass 2 over the owned nodes; the ghosts' pools from their owners.
+    let q = body.q;
+    let [pi, quarter, mut pool] = frame_pools(body, sp, terms, |b| b, norm, own.clone());
+    crate::team::trade_halo(team, &piece.halo, &mut out, &mut inp, &mut [&mut pool[..]]);
+    // The dispersive energy per chunk of the body's nodes, as `dispersive_sum` forms it.
+    let dispersive = if q == 0.0 {
+        0.0
+    } else {
+        let disp = |i: usize| {
+            if norm[i] > 0.0 {
+                0.5 * q * pi[i] * pi[i] / norm[i]
+            } else {
+                0.0
+            }
+        };
+        let mut partial = vec![0.0; piece.total.div_ceil(chunk)];
+        for c in (own.start / chunk)..own.end.div_ceil(chunk) {
+            partial[piece.global_chunk(c)] =
+                (c * chunk..((c + 1) * chunk).min(own.end)).map(disp).sum();
+        }
+        team.gather(&mut partial, &pf.share.chunk_parts(1));
+        partial.iter().sum()
+    };
+    // Pass 3 over the owned nodes.
+    let (force, energy_density, stress) = frame_forces(
+        body,
+        sp,
+        (&geo[..], &ext[..]),
+        |b| b,
+        (&pool, &pi, &quarter, norm),
+        own.clone(),
+    );
+    FrameFields {
+        pool,
+        force,
+        strain: Energy { direct, dispersive },
+        energy_density,
+        stress,
+    }
+}
+
+/// A frame's pass 2 over `nodes` ([`frame_node_pool`]): each node's pool `Pi_n`, a quarter of
+/// its springs' direct energy and its pool ratio `p_n` (zero at the other nodes).
+fn frame_pools(
+    body: &Body,
+    sp: Springs<'_>,
+    terms: &[[Real; 2]],
+    slot: impl Fn(usize) -> usize + Sync + Copy,
+    norm: &[Real],
+    nodes: std::ops::Range<usize>,
+) -> [Vec<Real>; 3] {
+    let n = body.nodes();
+    let q = body.q;
     let mut pi = vec![0.0; n];
     let mut quarter = vec![0.0; n];
     let mut pool = vec![0.0; n];
@@ -597,26 +783,24 @@ pub fn frame_fields_part(
         .enumerate()
         .for_each(|(k, ((p, e4), ratio))| {
             let i = nodes.start + k;
-            let (mut s, mut d) = (0.0, 0.0);
-            for e in bonds.row(i) {
-                let b = bonds.bond[e] as usize;
-                if sp.alive[b] {
-                    let [kl, e] = terms[slot(b)];
-                    d += e;
-                    s += kl;
-                }
-            }
+            let (s, d) = frame_node_pool(body, sp, terms, slot, i);
             (*p, *e4) = (s, d);
             *ratio = pool_ratio(q, norm[i], || s);
         });
-    if let Some(p) = part {
-        p.team.gather(&mut pool, &p.share.nodes);
-    }
-    if let (Some(p), Some(parts)) = (part, &parts) {
-        p.team.gather(&mut partial, parts);
-    }
-    let direct = partial.iter().sum();
-    // Pass 3, over the nodes: forces, energy densities and virial stresses.
+    [pi, quarter, pool]
+}
+
+/// A frame's pass 3 over `nodes` ([`frame_node_force`], [`node_density_stress`]): forces,
+/// energy densities and virial stresses (zero at the other nodes).
+fn frame_forces(
+    body: &Body,
+    sp: Springs<'_>,
+    spring: (&[[Real; 4]], &[[Real; 2]]),
+    slot: impl Fn(usize) -> usize + Sync + Copy,
+    (pool, pi, quarter, norm): (&[Real], &[Real], &[Real], &[Real]),
+    nodes: std::ops::Range<usize>,
+) -> (Coords, Vec<Real>, Vec<[Real; 9]>) {
+    let n = body.nodes();
     let mut force = Coords::zeros(n);
     let mut energy_density = vec![0.0; n];
     let mut stress = vec![[0.0; 9]; n];
@@ -631,50 +815,108 @@ pub fn frame_fields_part(
         .enumerate()
         .for_each(|(k, ((((fx, fy), fz), ed), st))| {
             let i = nodes.start + k;
-            let mut f = [0.0; 3];
-            // xx, yy, zz, xy, yz, xz: `e (x) e` is symmetric, and `-d` gives the same terms.
-            let mut m = [0.0; 6];
-            for e in bonds.row(i) {
-                let b = bonds.bond[e] as usize;
-                if !sp.alive[b] {
-                    continue;
-                }
-                let at = slot(b);
-                let [dx, dy, dz, l] = geo[at];
-                let [kdl, qkl] = ext[at];
-                let j = bonds.neighbour(i, e);
-                // `T/l`: `tension(k, L, dL, q, p_i, p_j) / l` with its `k dL` and `q k L` from
-                // pass 1 (the sum of the two pools is the same number from either end). Each
-                // spring's from both ends: a division each time, cheaper than a pass that
-                // stores it.
-                let s = (kdl + qkl * (pool[i] + pool[j])) / l;
-                // A spring's first end is its lower node (`Bonds::from_pairs`).
-                let d = if i < j { [dx, dy, dz] } else { [-dx, -dy, -dz] };
-                for c in 0..3 {
-                    f[c] += s * d[c];
-                }
-                let h = 0.5 * s;
-                let hd = [h * dx, h * dy, h * dz];
-                m[0] += hd[0] * dx;
-                m[1] += hd[1] * dy;
-                m[2] += hd[2] * dz;
-                m[3] += hd[0] * dy;
-                m[4] += hd[1] * dz;
-                m[5] += hd[0] * dz;
-            }
+            let (f, m) = frame_node_force(body, sp, spring, slot, pool, i);
             [*fx, *fy, *fz] = f;
-            (*ed, *st) = node_density_stress(body, &pi, &quarter, norm, i, m);
+            (*ed, *st) = node_density_stress(body, pi, quarter, norm, i, m);
         });
-    FrameFields {
-        pool,
-        force,
-        strain: Energy {
-            direct,
-            dispersive: dispersive_sum(body, &pi, norm, nodes, part),
-        },
-        energy_density,
-        stress,
+    (force, energy_density, stress)
+}
+
+/// What a frame's pass 1 keeps of spring `b` (its vector from the first end and length, `k dL`
+/// and `q k L`, `k L dL` and `k dL^2 / 4`), and its direct energy `k dL^2 / 2`.
+#[inline]
+fn frame_spring(
+    body: &Body,
+    u: &Coords,
+    sp: Springs<'_>,
+    levers: Option<&[Real]>,
+    b: usize,
+) -> ([Real; 4], [Real; 2], [Real; 2], Real) {
+    if !sp.alive[b] {
+        // A broken spring's extension is +0: its direct energy adds +0.
+        return ([0.0; 4], [0.0; 2], [0.0; 2], 0.0);
     }
+    let [i, j] = body.lattice.bonds.ends[b].map(|v| v as usize);
+    let (s, rest) = spring_geometry_rest(&body.lattice, u, b, i, j);
+    let lever = levers.map_or(rest, |l| l[b]);
+    let k = sp.k[b];
+    let q = body.q;
+    // `k dL` and `q k L` round as in `tension`'s `k * dl + q * k * lever * (p_i + p_j)`.
+    (
+        [s.d[0], s.d[1], s.d[2], s.l],
+        [k * s.dl, q * k * lever],
+        [k * lever * s.dl, 0.25 * k * s.dl * s.dl],
+        0.5 * k * s.dl * s.dl,
+    )
+}
+
+/// A frame's pass 2 at node `i`: its pool `Pi_i` and a quarter of its springs' direct energy,
+/// from pass 1's `terms` (at `slot(b)` for spring `b`).
+#[inline]
+fn frame_node_pool(
+    body: &Body,
+    sp: Springs<'_>,
+    terms: &[[Real; 2]],
+    slot: impl Fn(usize) -> usize,
+    i: usize,
+) -> (Real, Real) {
+    let bonds = &*body.lattice.bonds;
+    let (mut s, mut d) = (0.0, 0.0);
+    for e in bonds.row(i) {
+        let b = bonds.bond[e] as usize;
+        if sp.alive[b] {
+            let [kl, e] = terms[slot(b)];
+            d += e;
+            s += kl;
+        }
+    }
+    (s, d)
+}
+
+/// A frame's pass 3 at node `i`: its force and its springs' `T l e (x) e / 2` by distinct
+/// entries (xx, yy, zz, xy, yz, xz), from pass 1's `geo` and `ext` and the pools.
+#[inline]
+fn frame_node_force(
+    body: &Body,
+    sp: Springs<'_>,
+    (geo, ext): (&[[Real; 4]], &[[Real; 2]]),
+    slot: impl Fn(usize) -> usize,
+    pool: &[Real],
+    i: usize,
+) -> ([Real; 3], [Real; 6]) {
+    let bonds = &*body.lattice.bonds;
+    let mut f = [0.0; 3];
+    // xx, yy, zz, xy, yz, xz: `e (x) e` is symmetric, and `-d` gives the same terms.
+    let mut m = [0.0; 6];
+    for e in bonds.row(i) {
+        let b = bonds.bond[e] as usize;
+        if !sp.alive[b] {
+            continue;
+        }
+        let at = slot(b);
+        let [dx, dy, dz, l] = geo[at];
+        let [kdl, qkl] = ext[at];
+        let j = bonds.neighbour(i, e);
+        // `T/l`: `tension(k, L, dL, q, p_i, p_j) / l` with its `k dL` and `q k L` from
+        // pass 1 (the sum of the two pools is the same number from either end). Each
+        // spring's from both ends: a division each time, cheaper than a pass that
+        // stores it.
+        let s = (kdl + qkl * (pool[i] + pool[j])) / l;
+        // A spring's first end is its lower node (`Bonds::from_pairs`).
+        let d = if i < j { [dx, dy, dz] } else { [-dx, -dy, -dz] };
+        for c in 0..3 {
+            f[c] += s * d[c];
+        }
+        let h = 0.5 * s;
+        let hd = [h * dx, h * dy, h * dz];
+        m[0] += hd[0] * dx;
+        m[1] += hd[1] * dy;
+        m[2] += hd[2] * dz;
+        m[3] += hd[0] * dy;
+        m[4] += hd[1] * dz;
+        m[5] += hd[0] * dz;
+    }
+    (f, m)
 }
 
 /// Node `i`'s energy density and virial stress from its sums: the pool `Pi_i`, a quarter of

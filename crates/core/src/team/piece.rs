@@ -320,20 +320,27 @@ mod tests {
         partials
     }
 
+    /// A random block that has shed its set-up arrays, with direction levers (each rest length
+    /// times `1 + (b mod every) / 10`).
+    pub(super) fn levered(every: usize) -> Body {
+        let mut body = block([30.0, 24.0, 22.0]);
+        body.lattice.shed_setup();
+        let m = body.springs();
+        body.lever = Some(
+            (0..m)
+                .map(|b| body.lattice.rest(b) * (1.0 + 0.1 * ((b % every) as Real)))
+                .collect(),
+        );
+        body
+    }
+
     /// Pieces of 2 and 3 ranks, stepped with their halos traded between the sweeps, end with
     /// the whole body's bits at their owned nodes: displacements, velocities and pools, and
     /// the per-chunk partial sums of damping and body-force work; with the vector paths and
     /// the portable ones, broken springs, direction levers and shed rest lengths.
     #[test]
     fn pieces_step_with_the_bits_of_the_whole() {
-        let mut body = block([30.0, 24.0, 22.0]);
-        body.lattice.shed_setup();
-        let m = body.springs();
-        body.lever = Some(
-            (0..m)
-                .map(|b| body.lattice.rest(b) * (1.0 + 0.1 * ((b % 7) as Real)))
-                .collect(),
-        );
+        let body = levered(7);
         let n = body.nodes();
         let mut start = strained(&body, 17);
         for i in 0..n {
@@ -620,5 +627,78 @@ mod integrator_tests {
                 });
             }
         });
+    }
+}
+
+#[cfg(test)]
+mod frame_tests {
+    use super::*;
+    use crate::law::{frame_fields_in, frame_fields_piece, FrameScratch, PieceFrame};
+    use crate::team::tests::strained;
+    use crate::team::{Team, Threads};
+
+    /// A frame computed on pieces gives the whole body's frame at every rank's own nodes
+    /// (pools, forces, energy densities, stresses) and both strain energies on every rank, bit
+    /// for bit: teams of 2, 3 and 7, with broken springs, levers and shed rest lengths.
+    #[test]
+    fn a_frame_on_pieces_gives_the_bits_of_the_whole() {
+        let body = super::tests::levered(5);
+        let state = strained(&body, 11);
+        let whole = frame_fields_in(
+            &body,
+            &state.u,
+            state.springs(&body),
+            state.norm(),
+            &mut FrameScratch::default(),
+        );
+        let bits = |x: Real| x.to_bits();
+        for size in [2, 3, 7] {
+            std::thread::scope(|scope| {
+                for team in Threads::team(size) {
+                    let (body, state, whole) = (&body, &state, &whole);
+                    scope.spawn(move || {
+                        let share = Share::new(body, size, team.rank(), &[]);
+                        let (piece, pb) = Piece::cut(body, &share).unwrap();
+                        let ps = piece.state(&pb, state);
+                        let f = frame_fields_piece(
+                            &pb,
+                            &ps.u,
+                            ps.springs(&pb),
+                            ps.norm(),
+                            &mut FrameScratch::default(),
+                            PieceFrame {
+                                team: &team,
+                                piece: &piece,
+                                share: &share,
+                            },
+                        );
+                        let at = format!("{size} ranks, rank {}", team.rank());
+                        assert_eq!(bits(f.strain.direct), bits(whole.strain.direct), "{at}");
+                        assert_eq!(
+                            bits(f.strain.dispersive),
+                            bits(whole.strain.dispersive),
+                            "{at}"
+                        );
+                        let ghosts = piece.halo.recv.iter().flatten().map(|&i| i as usize);
+                        for i in piece.own.clone().chain(ghosts) {
+                            let g = piece.global[i] as usize;
+                            assert_eq!(bits(f.pool[i]), bits(whole.pool[g]), "pool {g}, {at}");
+                        }
+                        for i in piece.own.clone() {
+                            let g = piece.global[i] as usize;
+                            for c in 0..3 {
+                                assert_eq!(
+                                    bits(f.force.comp(c)[i]),
+                                    bits(whole.force.comp(c)[g]),
+                                    "force {g}, {at}"
+                                );
+                            }
+                            assert_eq!(bits(f.energy_density[i]), bits(whole.energy_density[g]));
+                            assert_eq!(f.stress[i].map(bits), whole.stress[g].map(bits));
+                        }
+                    });
+                }
+            });
+        }
     }
 }
