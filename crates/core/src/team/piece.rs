@@ -20,8 +20,8 @@
 //! from incomplete rows (a ghost's row holds only its springs to owned nodes) and the halo
 //! trades overwrite them, as in a shared run over the whole body.
 //!
-//! At most `CHUNK - 1` dummies, a few hundred kilobytes, are the price of keeping the body's
-//! chunking without an index shift inside the kernels.
+//! At most `CHUNK - 1` dummies (about 2 MB of a random3d piece's arrays) are the price of
+//! keeping the body's chunking without an index shift inside the kernels.
 
 use std::ops::Range;
 
@@ -44,7 +44,7 @@ pub struct Piece {
     pub global: Vec<u32>,
     /// The owned nodes, in the piece's numbering: whole chunks from a multiple of [`CHUNK`].
     pub own: Range<usize>,
-    /// The same nodes in the body's numbering.
+    /// The body's index of the first owned node.
     pub first: usize,
     /// Nodes of the whole body.
     pub total: usize,
