@@ -129,17 +129,18 @@ impl Share {
             }
             nodes.push((first * CHUNK).min(n)..(c * CHUNK).min(n));
         }
-        Share::with_nodes(body, nodes, rank.min(size - 1), everyone)
+        let rank = rank.min(size - 1);
+        let halo = halo(body, &nodes, rank, everyone);
+        Share {
+            halo,
+            ..Share::without_halo(body, nodes, rank)
+        }
     }
 
-    /// Rank `rank`'s share when the ranks own `nodes` (whole chunks, ascending, covering the
-    /// body's nodes).
-    pub fn with_nodes(
-        body: &Body,
-        nodes: Vec<Range<usize>>,
-        rank: usize,
-        everyone: &[usize],
-    ) -> Share {
+    /// Rank `rank`'s share of its sweeps when the ranks own `nodes` (whole chunks, ascending,
+    /// covering the body's nodes), with no halo: what a piece's kernel sweeps
+    /// ([`Piece::share`], whose trades go through the piece's own halo).
+    pub fn without_halo(body: &Body, nodes: Vec<Range<usize>>, rank: usize) -> Share {
         let bonds = &*body.lattice.bonds;
         let mine = nodes[rank].clone();
         let block = crate::kernel::csr::BLOCK;
@@ -160,7 +161,10 @@ impl Share {
             .collect();
         foreign.sort_unstable();
         foreign.dedup();
-        let halo = halo(body, &nodes, rank, everyone);
+        let halo = Halo {
+            send: vec![Vec::new(); nodes.len()],
+            recv: vec![Vec::new(); nodes.len()],
+        };
         Share {
             nodes,
             rank,

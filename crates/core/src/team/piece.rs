@@ -213,9 +213,7 @@ impl Piece {
         if self.own.end < n {
             nodes.push(self.own.end..n);
         }
-        let mut share = Share::with_nodes(body, nodes, 1, &[]);
-        share.halo = Halo::default();
-        share
+        Share::without_halo(body, nodes, 1)
     }
 
     /// The piece's state cut out of the whole body's `state` (`piece_body` as [`Piece::cut`]
@@ -458,6 +456,22 @@ mod integrator_tests {
         }
     }
 
+    /// Member `team`'s integrator for `body` from `start`, distributed, and the piece it
+    /// steps from then on (the whole state dropped).
+    fn pieced(
+        team: Threads,
+        body: &Body,
+        start: &State,
+        loading: Loading,
+        opts: &IntegratorOptions,
+    ) -> (Integrator, Body, State) {
+        let team: Arc<dyn Team> = Arc::new(team);
+        let mut state = start.clone();
+        let mut it = Integrator::new_shared(body, &mut state, loading, opts, Some(team)).unwrap();
+        let (pb, ps) = it.cut(body, &state).unwrap();
+        (it, pb, ps)
+    }
+
     fn ledger_bits(l: Ledger) -> [u64; 5] {
         [
             l.external_work,
@@ -500,18 +514,8 @@ mod integrator_tests {
                         let (body, start, alone, opts) = (&body, &start, &alone, &opts);
                         scope.spawn(move || {
                             let rank = team.rank();
-                            let team: Arc<dyn Team> = Arc::new(team);
-                            let mut state = start.clone();
-                            let mut it = Integrator::new_shared(
-                                body,
-                                &mut state,
-                                loading(body),
-                                opts,
-                                Some(team),
-                            )
-                            .unwrap();
-                            let (pb, mut ps) = it.cut(body, &state).unwrap();
-                            drop(state);
+                            let (mut it, pb, mut ps) =
+                                pieced(team, body, start, loading(body), opts);
                             for _ in 0..steps {
                                 it.step(&pb, &mut ps);
                             }
@@ -564,17 +568,8 @@ mod integrator_tests {
                 for team in Threads::team(size) {
                     let (body, start, opts, expected) = (&body, &start, &opts, &expected);
                     scope.spawn(move || {
-                        let team: Arc<dyn Team> = Arc::new(team);
-                        let mut state = start.clone();
-                        let mut it = Integrator::new_shared(
-                            body,
-                            &mut state,
-                            Loading::default(),
-                            opts,
-                            Some(team),
-                        )
-                        .unwrap();
-                        let (pb, mut ps) = it.cut(body, &state).unwrap();
+                        let (mut it, pb, mut ps) =
+                            pieced(team, body, start, Loading::default(), opts);
                         for _ in 0..3 {
                             it.step(&pb, &mut ps);
                         }
@@ -597,13 +592,8 @@ mod integrator_tests {
             for team in Threads::team(2) {
                 let (body, start) = (&body, &start);
                 scope.spawn(move || {
-                    let team: Arc<dyn Team> = Arc::new(team);
-                    let mut state = start.clone();
                     let opts = IntegratorOptions::default();
-                    let mut it =
-                        Integrator::new_shared(body, &mut state, loading(body), &opts, Some(team))
-                            .unwrap();
-                    let (pb, mut ps) = it.cut(body, &state).unwrap();
+                    let (mut it, pb, mut ps) = pieced(team, body, start, loading(body), &opts);
                     it.step(&pb, &mut ps);
                     let said = |r: std::thread::Result<()>| {
                         let e = r.expect_err("refused");
