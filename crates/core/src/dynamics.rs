@@ -294,7 +294,7 @@ fn new_displacements<'a>(
 
 /// The loaded and prescribed nodes of `loading`, ascending, each once: a shared run's
 /// bookkeeping reads them on every rank.
-fn special_nodes(loading: &Loading) -> Vec<usize> {
+pub(crate) fn special_nodes(loading: &Loading) -> Vec<usize> {
     let loaded = loading.loads.iter().flat_map(|l| &l.nodes);
     let prescribed = loading.prescribed.iter().flat_map(|p| &p.nodes);
     let mut special: Vec<usize> = loaded.chain(prescribed).map(|&i| i as usize).collect();
@@ -327,6 +327,26 @@ impl Shared {
         match &self.piece {
             Some(p) => p.piece.global[i as usize] as usize,
             None => i as usize,
+        }
+    }
+
+    /// Take the loaded and prescribed nodes' forces in `state.f` from their owners (each
+    /// rank's own are current): one all-gather, `buf` its scratch.
+    fn special_forces(&self, state: &mut State, buf: &mut Vec<Real>) {
+        buf.clear();
+        buf.resize(3 * self.special.len(), 0.0);
+        let mine = self.parts3[self.share.rank].clone();
+        for k in mine.start / 3..mine.end / 3 {
+            let i = self.special[k] as usize;
+            for c in 0..3 {
+                buf[3 * k + c] = state.f.comp(c)[i];
+            }
+        }
+        self.team.gather(buf, &self.parts3);
+        for (k, &i) in self.special.iter().enumerate() {
+            for c in 0..3 {
+                state.f.comp_mut(c)[i as usize] = buf[3 * k + c];
+            }
         }
     }
 
@@ -625,8 +645,8 @@ impl Integrator {
 
     /// What a checkpoint must keep of the integrator to continue a run bit for bit (the rest
     /// is the [`State`], whose `v` holds the half-step velocities, and the loading).
+    /// On a piece, every rank's is the same (its state is the piece's).
     pub fn checkpoint(&self) -> IntegratorCheckpoint {
-        self.whole("a checkpoint");
         IntegratorCheckpoint {
             dt: self.dt,
             ledger: self.ledger,
@@ -1748,10 +1768,46 @@ impl Integrator {
 
     /// Full-step velocity `v(t)` (for output and energy): `v(t-dt/2) + dt/2 a(t)` on free DOFs,
     /// the prescribed velocity on prescribed ones. Refreshes `state.f` and `state.pool`.
+    ///
+    /// On a piece ([`Integrator::cut`]) the velocities of its own nodes and of the loaded and
+    /// prescribed ones; collective there.
     pub fn full_velocity(&self, body: &Body, state: &mut State) -> Coords {
-        self.whole("the full-step velocity");
-        law::update_forces(body, state);
+        if self
+            .piece_fields(body, state, &mut law::FrameScratch::default())
+            .is_none()
+        {
+            law::update_forces(body, state);
+        }
         self.velocity_from_forces(body, state)
+    }
+
+    /// On a piece: a frame's fields ([`law::frame_fields_piece`]), with `state.pool` (own
+    /// nodes and ghosts) and `state.f` (own nodes, and the loaded and prescribed ones from
+    /// their owners) refreshed from them. `None` off a piece. Collective.
+    fn piece_fields(
+        &self,
+        body: &Body,
+        state: &mut State,
+        scratch: &mut law::FrameScratch,
+    ) -> Option<law::FrameFields> {
+        let t = self.team.as_ref()?;
+        let pc = t.piece.as_ref()?;
+        let fields = law::frame_fields_piece(
+            body,
+            &state.u,
+            state.springs(body),
+            &state.norm,
+            scratch,
+            law::PieceFrame {
+                team: &*t.team,
+                piece: &pc.piece,
+                share: &t.share,
+            },
+        );
+        state.pool.copy_from_slice(&fields.pool);
+        state.f.clone_from(&fields.force);
+        t.special_forces(state, &mut Vec::new());
+        Some(fields)
     }
 
     /// What an output frame needs, from one evaluation ([`law::frame_fields`]): the full-step
@@ -1770,7 +1826,24 @@ impl Integrator {
         state: &mut State,
         whole: bool,
     ) -> (Coords, EnergyBalance, law::FrameFields) {
-        self.whole("an output frame");
+        if self.piece().is_some() {
+            // A piece's frame is its own nodes' (a VTK piece); whole frames are written from
+            // a whole state.
+            assert!(
+                !whole,
+                "a whole frame reads the whole state, which a rank stepping its piece does not hold"
+            );
+            let mut scratch = std::mem::take(&mut self.frame_scratch);
+            let fields = self
+                .piece_fields(body, state, &mut scratch)
+                .expect("a piece");
+            if scratch.bytes() <= crate::memory::KEPT_BLOCK {
+                self.frame_scratch = scratch;
+            }
+            let v = self.velocity_from_forces(body, state);
+            let b = self.balance(body, state, &v, fields.strain);
+            return (v, b, fields);
+        }
         let part = self.team.as_ref().map(|t| law::FramePart {
             team: &*t.team,
             share: &t.share,
@@ -1842,13 +1915,44 @@ impl Integrator {
     /// Power of the external loads, body force, damping and support reactions at this instant
     /// (W), from the full-step velocity `v` and current `state.f`.
     fn power(&self, body: &Body, state: &State, v: &Coords) -> Real {
+        let [_, nodes] = self.node_sums(body, v);
+        self.power_with(body, state, v, nodes)
+    }
+
+    /// `(1/2 sum m |v|^2, sum m (g.v - c |v|^2))`: the kinetic energy and the body force's and
+    /// damping's power, each summed per chunk of [`crate::kernel::CHUNK`] nodes and the
+    /// chunks added in order, so that a team's ranks, each summing its own chunks (on a
+    /// piece: the only ones it holds), find one process's bits. Collective on pieces.
+    fn node_sums(&self, body: &Body, v: &Coords) -> [Real; 2] {
+        let (g, c) = (self.loading.body_acceleration, self.damping);
+        let Some((t, pc)) = self
+            .team
+            .as_ref()
+            .and_then(|t| t.piece.as_ref().map(|p| (t, p)))
+        else {
+            return chunk_node_sums(body, v, g, c, 0..body.nodes())
+                .into_iter()
+                .fold([0.0; 2], |s, x| [s[0] + x[0], s[1] + x[1]]);
+        };
+        let piece = &pc.piece;
+        let mut sums = vec![0.0; 2 * piece.total.div_ceil(crate::kernel::CHUNK)];
+        let at = 2 * (piece.first / crate::kernel::CHUNK);
+        for (k, x) in chunk_node_sums(body, v, g, c, piece.own.clone())
+            .into_iter()
+            .enumerate()
+        {
+            sums[at + 2 * k..at + 2 * k + 2].copy_from_slice(&x);
+        }
+        t.team.gather(&mut sums, &t.share.chunk_parts(2));
+        sums.chunks_exact(2)
+            .fold([0.0; 2], |s, x| [s[0] + x[0], s[1] + x[1]])
+    }
+
+    /// [`Integrator::power`] with the body force's and damping's share `nodes` already summed.
+    fn power_with(&self, body: &Body, state: &State, v: &Coords, nodes: Real) -> Real {
         let t = state.time;
         let g = self.loading.body_acceleration;
-        let mut p = 0.0;
-        for i in 0..body.nodes() {
-            let vi = v.get(i);
-            p += body.mass[i] * (g.dot(&vi) - self.damping * vi.norm_squared());
-        }
+        let mut p = nodes;
         for &(i, li) in &self.loaded {
             let l = &self.loading.loads[li];
             p += (l.force * l.scale.value(t)).dot(&v.get(i));
@@ -1878,8 +1982,10 @@ impl Integrator {
     /// loads. `state.f` must hold the internal forces at `state.u` and `v` the full-step
     /// velocity, as after [`Integrator::full_velocity`]. Summed over a boundary region it is the
     /// force that region exerts on the body (a load-displacement curve's load).
+    ///
+    /// On a piece, at the loaded and prescribed nodes (after [`Integrator::frame_view`] or
+    /// [`Integrator::full_velocity`], which take their forces from their owners).
     pub fn boundary_forces(&self, body: &Body, state: &State, v: &Coords) -> Coords {
-        self.whole("a reaction record");
         self.boundary_forces_from(body, state, |i, c| state.f.comp(c)[i], |i, c| v.comp(c)[i])
     }
 
@@ -1887,13 +1993,54 @@ impl Integrator {
     /// [`Integrator::full_velocity`], the same bits, from the forces of the prescribed nodes
     /// alone ([`law::forces_at`]): a reaction record between frames costs a few rows, not two
     /// passes over the body. Leaves the state as it is.
+    ///
+    /// On a piece each owner computes its prescribed nodes' forces, from its own nodes'
+    /// pools and its ghosts' traded (a halo trade and an all-gather: collective).
     pub fn boundary_forces_now(&self, body: &Body, state: &State) -> Coords {
-        self.whole("a reaction record");
         // Each node once, though a grip prescribes its two or three axes.
         let mut nodes: Vec<usize> = self.dofs.iter().map(|d| d.node).collect();
         nodes.sort_unstable();
         nodes.dedup();
-        let forces = law::forces_at(body, state, &nodes);
+        let forces = match self.team.as_ref().filter(|t| t.piece.is_some()) {
+            None => law::forces_at(body, state, &nodes),
+            Some(t) => {
+                let piece = &t.piece.as_ref().expect("a piece").piece;
+                let mut pool = state.pool.clone();
+                let sp = state.springs(body);
+                law::pools_in(
+                    body,
+                    &state.u,
+                    sp,
+                    &state.norm,
+                    piece.own.clone(),
+                    &mut pool,
+                );
+                let size = t.team.size();
+                let (mut out, mut inp) = (vec![Vec::new(); size], vec![Vec::new(); size]);
+                crate::team::trade_halo(
+                    &*t.team,
+                    &piece.halo,
+                    &mut out,
+                    &mut inp,
+                    &mut [&mut pool[..]],
+                );
+                let mut f = vec![0.0; 3 * t.special.len()];
+                let mine = t.parts3[t.share.rank].clone();
+                for k in mine.start / 3..mine.end / 3 {
+                    let i = t.special[k] as usize;
+                    let fi = law::node_force(body, body.q, &state.u, sp, &pool, i);
+                    f[3 * k..3 * k + 3].copy_from_slice(&fi);
+                }
+                t.team.gather(&mut f, &t.parts3);
+                nodes
+                    .iter()
+                    .map(|&i| {
+                        let k = t.special.partition_point(|&s| (s as usize) < i);
+                        [f[3 * k], f[3 * k + 1], f[3 * k + 2]]
+                    })
+                    .collect()
+            }
+        };
         let force =
             |i: usize, c: usize| forces[nodes.binary_search(&i).expect("a prescribed node")][c];
         // A prescribed DOF's full-step velocity is its prescribed one, the last DOF's where
@@ -1951,8 +2098,13 @@ impl Integrator {
     /// matches leapfrog), so its sum runs from `t0 - dt/2` to `t - dt/2`; the half steps at both
     /// ends are added as `(P(t) - P(t0)) dt/2`, P the power of the non-conservative forces.
     /// Without it the balance would carry an O(dt) error that grows with the load.
+    ///
+    /// On a piece, collective: every rank finds one process's balance.
     pub fn energy(&self, body: &Body, state: &mut State) -> EnergyBalance {
-        self.whole("the energy balance");
+        if let Some(f) = self.piece_fields(body, state, &mut law::FrameScratch::default()) {
+            let v = self.velocity_from_forces(body, state);
+            return self.balance(body, state, &v, f.strain);
+        }
         // A pristine box from its grid: the same pools, forces and energy, without building its
         // rows and stiffnesses at the end of a run that never needed them.
         if let Some(f) = law::frame_fields_grid(body, state) {
@@ -1974,9 +2126,9 @@ impl Integrator {
         v: &Coords,
         strain: law::Energy,
     ) -> EnergyBalance {
-        let kinetic = kinetic(body, v);
+        let [kinetic, nodes] = self.node_sums(body, v);
         let l = self.ledger;
-        let ends = 0.5 * self.dt * (self.power(body, state, v) - self.initial_power);
+        let ends = 0.5 * self.dt * (self.power_with(body, state, v, nodes) - self.initial_power);
         let expected = self.initial + l.external_work + l.boundary_work + l.body_work
             - l.dissipated
             - l.released
@@ -2009,11 +2161,40 @@ impl Integrator {
     }
 }
 
-/// Kinetic energy `1/2 sum m |v|^2` (J).
+/// Kinetic energy `1/2 sum m |v|^2` (J), summed per chunk of [`crate::kernel::CHUNK`] nodes,
+/// the chunks in order (the bits a team's ranks find, each summing its own chunks).
 pub fn kinetic(body: &Body, v: &Coords) -> Real {
-    (0..body.nodes())
-        .map(|i| 0.5 * body.mass[i] * v.get(i).norm_squared())
-        .sum()
+    chunk_node_sums(body, v, Vector::zeros(), 0.0, 0..body.nodes())
+        .into_iter()
+        .fold(0.0, |s, x| s + x[0])
+}
+
+/// Per chunk of [`crate::kernel::CHUNK`] nodes of `nodes` (which starts on a chunk), in
+/// order: `1/2 sum m |v|^2` and `sum m (g.v - c |v|^2)`, each node's terms added in node
+/// order. Parallel over the chunks, the same bits for any thread count.
+fn chunk_node_sums(
+    body: &Body,
+    v: &Coords,
+    g: Vector,
+    damping: Real,
+    nodes: std::ops::Range<usize>,
+) -> Vec<[Real; 2]> {
+    let chunk = crate::kernel::CHUNK;
+    let chunks = nodes.len().div_ceil(chunk);
+    (0..chunks)
+        .into_par_iter()
+        .map(|k| {
+            let from = nodes.start + k * chunk;
+            let mut s = [0.0; 2];
+            for i in from..(from + chunk).min(nodes.end) {
+                let (vi, m) = (v.get(i), body.mass[i]);
+                let v2 = vi.norm_squared();
+                s[0] += 0.5 * m * v2;
+                s[1] += m * (g.dot(&vi) - damping * v2);
+            }
+            s
+        })
+        .collect()
 }
 
 /// Total linear momentum `sum m v` (kg m/s).

@@ -170,6 +170,27 @@ fn fill_pools(q: Real, norm: &[Real], pool: &mut [Real], pi: impl Fn(usize) -> R
         .for_each(|(n, p)| *p = pool_ratio(q, norm[n], || pi(n)));
 }
 
+/// The pool ratios of the nodes `nodes` alone into `pool` (the others' left as they are),
+/// each the bits the whole pre-pass gives it: a rank's own nodes, whose rows it holds whole.
+pub fn pools_in(
+    body: &Body,
+    u: &Coords,
+    sp: Springs<'_>,
+    norm: &[Real],
+    nodes: std::ops::Range<usize>,
+    pool: &mut [Real],
+) {
+    let (q, from) = (body.q, nodes.start);
+    pool[nodes]
+        .par_iter_mut()
+        .with_min_len(MIN_NODES_PER_TASK)
+        .enumerate()
+        .for_each(|(k, p)| {
+            let n = from + k;
+            *p = pool_ratio(q, norm[n], || node_pool(body, u, sp, n));
+        });
+}
+
 /// The pool ratio `p_n = Pi_n / S_n` of a node with normaliser `s` and pool `pi()`: 0 for the
 /// plain law (`q = 0`, `pi` not evaluated) and where `S_n` is 0.
 #[inline]

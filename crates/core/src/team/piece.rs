@@ -411,7 +411,7 @@ mod integrator_tests {
     use std::sync::Arc;
 
     use super::*;
-    use crate::dynamics::{Integrator, IntegratorOptions, Ledger};
+    use crate::dynamics::{EnergyBalance, Integrator, IntegratorOptions, Ledger};
     use crate::loading::{Load, Loading, Motion, Prescribed, TimeFunction};
     use crate::team::tests::{block, strained};
     use crate::team::{Team, Threads};
@@ -581,42 +581,90 @@ mod integrator_tests {
         }
     }
 
-    /// What reads the whole state says so on a piece rather than reading a piece as a body:
-    /// a checkpoint, a frame, the energy balance, the full-step velocity, a reaction record.
+    /// A piece gives one process's frame bits where it owns them and one process's sums
+    /// everywhere: the energy balance (of a frame and alone), the full-step velocities of its
+    /// own nodes and of the loaded and prescribed ones, the reactions at a frame and between
+    /// frames, and the checkpoint's integrator; teams of 2, 3 and 7.
     #[test]
-    fn a_piece_refuses_what_reads_the_whole_state() {
-        use std::panic::{catch_unwind, AssertUnwindSafe};
+    fn a_piece_gives_one_process_frames_energies_and_reactions() {
         let body = block([30.0, 24.0, 22.0]);
-        let start = strained(&body, 23);
-        std::thread::scope(|scope| {
-            for team in Threads::team(2) {
-                let (body, start) = (&body, &start);
-                scope.spawn(move || {
-                    let opts = IntegratorOptions::default();
-                    let (mut it, pb, mut ps) = pieced(team, body, start, loading(body), &opts);
-                    it.step(&pb, &mut ps);
-                    let said = |r: std::thread::Result<()>| {
-                        let e = r.expect_err("refused");
-                        let m = e.downcast_ref::<String>().cloned().unwrap_or_default();
-                        assert!(m.contains("does not hold"), "{m}");
-                    };
-                    said(catch_unwind(AssertUnwindSafe(|| {
-                        it.checkpoint();
-                    })));
-                    said(catch_unwind(AssertUnwindSafe(|| {
-                        it.energy(&pb, &mut ps.clone());
-                    })));
-                    said(catch_unwind(AssertUnwindSafe(|| {
-                        it.full_velocity(&pb, &mut ps.clone());
-                    })));
-                    said(catch_unwind(AssertUnwindSafe(|| {
-                        it.boundary_forces_now(&pb, &ps);
-                    })));
-                    // A second cut is an error, not a panic.
-                    assert!(it.cut(&pb, &ps).is_err());
-                });
-            }
-        });
+        let start = strained(&body, 29);
+        let opts = IntegratorOptions {
+            damping: 0.3,
+            ..Default::default()
+        };
+        let steps = 9;
+        let mut alone = start.clone();
+        let mut it = Integrator::new(&body, &mut alone, loading(&body), &opts).unwrap();
+        for _ in 0..steps {
+            it.step(&body, &mut alone);
+        }
+        let now = it.boundary_forces_now(&body, &alone);
+        let energy = it.energy(&body, &mut alone.clone());
+        let (v, b, _) = it.frame_view(&body, &mut alone, false);
+        let at_frame = it.boundary_forces(&body, &alone, &v);
+        let ck = it.checkpoint();
+        let bits = |b: &EnergyBalance| {
+            [
+                b.kinetic,
+                b.strain.direct,
+                b.strain.dispersive,
+                b.error,
+                b.relative_error,
+            ]
+            .map(Real::to_bits)
+        };
+        let special = crate::dynamics::special_nodes(&loading(&body));
+        for size in [2, 3, 7] {
+            std::thread::scope(|scope| {
+                for team in Threads::team(size) {
+                    let (body, start, opts) = (&body, &start, &opts);
+                    let (now, energy, v, b, at_frame, ck) = (&now, &energy, &v, &b, &at_frame, &ck);
+                    let special = &special;
+                    scope.spawn(move || {
+                        let at = format!("{size} ranks, rank {}", team.rank());
+                        let (mut it, pb, mut ps) = pieced(team, body, start, loading(body), opts);
+                        for _ in 0..steps {
+                            it.step(&pb, &mut ps);
+                        }
+                        let piece = it.piece().unwrap().clone();
+                        let local = |g: usize| piece.local(g).unwrap();
+                        let now_p = it.boundary_forces_now(&pb, &ps);
+                        let energy_p = it.energy(&pb, &mut ps.clone());
+                        let (vp, bp, _) = it.frame_view(&pb, &mut ps, false);
+                        let at_frame_p = it.boundary_forces(&pb, &ps, &vp);
+                        assert_eq!(bits(&energy_p), bits(energy), "energy, {at}");
+                        assert_eq!(bits(&bp), bits(b), "frame's balance, {at}");
+                        assert_eq!(it.checkpoint(), *ck, "{at}");
+                        let own = piece.own.clone().map(|i| piece.global[i] as usize);
+                        for g in own.chain(special.iter().copied()) {
+                            let i = local(g);
+                            for c in 0..3 {
+                                assert_eq!(vp.comp(c)[i].to_bits(), v.comp(c)[g].to_bits());
+                            }
+                        }
+                        for &g in special {
+                            let i = local(g);
+                            for c in 0..3 {
+                                let what = format!("reaction of node {g}, {at}");
+                                assert_eq!(
+                                    now_p.comp(c)[i].to_bits(),
+                                    now.comp(c)[g].to_bits(),
+                                    "{what}"
+                                );
+                                assert_eq!(
+                                    at_frame_p.comp(c)[i].to_bits(),
+                                    at_frame.comp(c)[g].to_bits(),
+                                    "{what}"
+                                );
+                            }
+                        }
+                        // A second cut is an error, not a panic.
+                        assert!(it.cut(&pb, &ps).is_err());
+                    });
+                }
+            });
+        }
     }
 }
 
