@@ -16,6 +16,7 @@ struct Ended {
     state: State,
     broken: usize,
     out: PathBuf,
+    held: Option<hooke_sim::Held>,
 }
 
 fn scratch(tag: &str) -> PathBuf {
@@ -27,6 +28,18 @@ fn scratch(tag: &str) -> PathBuf {
 /// Run `case` (shipped, at `scale`, with `set` overrides) into `out`, as member `team` of a
 /// team or alone.
 fn run(case: &str, scale: f64, set: &[&str], out: &Path, team: Option<Arc<dyn Team>>) -> Ended {
+    run_with(case, scale, set, out, team, false)
+}
+
+/// [`run`], each member holding only its piece of the body if `pieces`.
+fn run_with(
+    case: &str,
+    scale: f64,
+    set: &[&str],
+    out: &Path,
+    team: Option<Arc<dyn Team>>,
+    pieces: bool,
+) -> Ended {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../cases")
         .join(case);
@@ -37,11 +50,13 @@ fn run(case: &str, scale: f64, set: &[&str], out: &Path, team: Option<Arc<dyn Te
     opts.out = out.to_path_buf();
     opts.name = "run".into();
     opts.team = team;
+    opts.pieces = pieces;
     let (_, sim) = hooke_sim::run_keeping(sim, opts, &mut hooke_sim::Silent).unwrap();
     Ended {
         broken: sim.broken().0,
         state: sim.state,
         out: out.to_path_buf(),
+        held: sim.held,
     }
 }
 
@@ -172,6 +187,134 @@ fn check(case: &str, scale: f64, set: &[&str], sizes: &[usize]) {
         let _ = std::fs::remove_dir_all(&out);
     }
     let _ = std::fs::remove_dir_all(&alone.out);
+}
+
+/// Teams of `sizes` whose members each hold only their piece of the body (`RunOptions::
+/// pieces`) end with the lone run's state at their own nodes and its broken springs, write
+/// its histories byte for byte, and the frames' pieces of members that hold the whole body,
+/// byte for byte; each member writes its own checkpoint.
+fn check_pieces(case: &str, scale: f64, set: &[&str], sizes: &[usize]) {
+    let tag = format!("pieces_{}", case.trim_end_matches(".toml"));
+    let alone = run(case, scale, set, &scratch(&format!("{tag}_1")), None);
+    let reference = physics_files(&alone.out);
+    let n = alone.state.u.len();
+    eprintln!(
+        "{case} on pieces: {n} nodes, {} springs broken",
+        alone.broken
+    );
+    assert!(alone.broken > 0, "{case}: nothing breaks");
+    for &size in sizes {
+        let team_run = |pieces: bool| -> (PathBuf, Vec<Ended>) {
+            let out = scratch(&format!("{tag}_{size}_{pieces}"));
+            let members = std::thread::scope(|s| {
+                let handles: Vec<_> = Threads::team(size)
+                    .into_iter()
+                    .map(|t| {
+                        let out = out.clone();
+                        s.spawn(move || run_with(case, scale, set, &out, Some(Arc::new(t)), pieces))
+                    })
+                    .collect();
+                handles
+                    .into_iter()
+                    .map(|h| h.join().unwrap())
+                    .collect::<Vec<_>>()
+            });
+            (out, members)
+        };
+        let (whole_out, _) = team_run(false);
+        let (out, members) = team_run(true);
+        let mut seen = 0;
+        for (r, m) in members.iter().enumerate() {
+            let at = format!("{case}: member {r} of {size} on pieces");
+            let held = m.held.as_ref().expect("a piece");
+            assert!(
+                m.state.u.len() < n,
+                "{at}: holds {} of {n} nodes",
+                m.state.u.len()
+            );
+            assert_eq!(m.broken, alone.broken, "{at}: broken springs");
+            assert_eq!(m.state.step, alone.state.step, "{at}");
+            for (k, i) in held.own.clone().enumerate() {
+                let g = held.first + k;
+                for c in 0..3 {
+                    let (a, b) = (&alone.state, &m.state);
+                    assert_eq!(
+                        b.u.comp(c)[i].to_bits(),
+                        a.u.comp(c)[g].to_bits(),
+                        "{at}: u {g}"
+                    );
+                    assert_eq!(
+                        b.v.comp(c)[i].to_bits(),
+                        a.v.comp(c)[g].to_bits(),
+                        "{at}: v {g}"
+                    );
+                }
+            }
+            seen += held.own.len();
+            let ckpt = out.join(format!("run.{r}of{size}.ckpt"));
+            assert!(ckpt.exists(), "{at}: {}", ckpt.display());
+        }
+        assert_eq!(seen, n, "{case}: the members' own nodes cover the body");
+        let written = physics_files(&out);
+        let whole = physics_files(&whole_out);
+        // Everything but the checkpoints as the members holding the whole body wrote it.
+        let frames_of = |f: &[(String, Vec<u8>)]| {
+            f.iter()
+                .filter(|x| !x.0.ends_with(".ckpt"))
+                .cloned()
+                .collect::<Vec<_>>()
+        };
+        let (a, b) = (frames_of(&whole), frames_of(&written));
+        let names = |f: &[(String, Vec<u8>)]| f.iter().map(|x| x.0.clone()).collect::<Vec<_>>();
+        assert_eq!(names(&a), names(&b), "{case}, {size} members");
+        for ((name, x), (_, y)) in a.iter().zip(&b) {
+            assert!(x == y, "{case}: {name} differs on pieces, {size} members");
+        }
+        // The histories as the lone run wrote them.
+        for name in ["run_energy.csv", "run_reactions.csv"] {
+            let lone = reference.iter().find(|x| x.0 == name);
+            let mine = written.iter().find(|x| x.0 == name);
+            assert_eq!(lone.is_some(), mine.is_some(), "{case}: {name}");
+            if let (Some(x), Some(y)) = (lone, mine) {
+                assert!(x.1 == y.1, "{case}: {name} differs from the lone run's");
+            }
+        }
+        let _ = std::fs::remove_dir_all(&out);
+        let _ = std::fs::remove_dir_all(&whole_out);
+    }
+    let _ = std::fs::remove_dir_all(&alone.out);
+}
+
+/// Members holding only their pieces of a random plate with a pre-crack, breaking springs
+/// through the stretch screen inside the step (the row or CSR kernel), of the anisotropic
+/// random plate (levers, a direction-dependent stretch), and of the plate with softening
+/// springs (damage weights; the kernel handed to the general one at the first damage).
+#[test]
+fn pieces_run_with_the_bits_of_one_process() {
+    check_pieces(
+        "mode1_plate.toml",
+        1.5,
+        &["solver.end_time=50e-6", "output.every=25e-6"],
+        &[2, 3],
+    );
+    check_pieces(
+        "fibre_notch_plate.toml",
+        1.0,
+        &["solver.end_time=90e-6", "output.every=30e-6"],
+        &[3],
+    );
+    check_pieces(
+        "mode1_plate.toml",
+        1.5,
+        &[
+            "solver.end_time=50e-6",
+            "output.every=25e-6",
+            "material.criterion=\"softening\"",
+            "material.softening=\"bilinear\"",
+            "material.tensile_strength=5e6",
+        ],
+        &[2],
+    );
 }
 
 /// A random plate with a pre-crack, loaded until springs break (CSR kernel, screened criterion).

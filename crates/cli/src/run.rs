@@ -41,6 +41,12 @@ pub struct RunArgs {
     /// seconds (0: never).
     #[arg(long, default_value_t = 30.0, value_name = "SECONDS")]
     pub progress_every: f64,
+    /// Under `mpirun -np N` (N > 1): after set-up each process keeps only its piece of the
+    /// body (its own nodes and their neighbours) and drops the rest, so that memory per
+    /// process falls with N; the same results, bit for bit. Random lattices; each process
+    /// writes its own checkpoint (NAME.RofN.ckpt) and a resume needs the same N (docs/mpi.md).
+    #[arg(long)]
+    pub pieces: bool,
 }
 
 #[derive(Debug, Args)]
@@ -425,6 +431,12 @@ fn run_in(args: RunArgs, team: Option<Arc<dyn hooke_core::team::Team>>) -> Resul
     if team.as_ref().is_some_and(|t| t.rank() != 0) {
         crate::set_quiet();
     }
+    if args.pieces && team.is_none() {
+        return Err(InputError(
+            "--pieces cuts the body between MPI ranks: run under `mpirun -np N` with N > 1, with a hooke built with --features mpi (tools/install-mpi.sh)".into(),
+        )
+        .into());
+    }
     let (sim, base) = load(&args.case, args.scale, &args.set)?;
     let name = stem(&args.case);
     let out = args.out.clone().unwrap_or_else(|| {
@@ -448,6 +460,7 @@ fn run_in(args: RunArgs, team: Option<Arc<dyn hooke_core::team::Team>>) -> Resul
         resume: args.resume.clone(),
         command: std::env::args().collect(),
         team,
+        pieces: args.pieces,
         ..base
     };
     let stop = Arc::new(AtomicBool::new(false));

@@ -264,6 +264,9 @@ struct Shared {
     v_partial: bool,
     /// Set once the rank holds only its piece of the body ([`Integrator::cut`]).
     piece: Option<Box<Pieced>>,
+    /// On pieces: a breaker's gathered decisions changed springs somewhere
+    /// ([`Integrator::gather_decisions`]), so the repaired pools are traded.
+    broke: bool,
 }
 
 /// What an integrator that steps a rank's piece keeps (see [`Integrator::cut`]). Its `Shared`
@@ -705,6 +708,23 @@ impl Integrator {
         Ok(it)
     }
 
+    /// Continue from a checkpoint an integrator built for the same body, loading and options
+    /// (a rank's, already cut to its piece, which reads its own piece's checkpoint: the
+    /// steps, time step and ledger become the checkpoint's, and the kernel follows `state`'s
+    /// springs). The continued run is bit-identical to an uninterrupted one.
+    pub fn restore(&mut self, body: &Body, state: &State, ck: &IntegratorCheckpoint) {
+        self.dt = ck.dt;
+        self.stable = ck.stable;
+        self.ledger = ck.ledger;
+        self.initial = ck.initial;
+        self.initial_power = ck.initial_power;
+        self.plane &= Self::flat(state);
+        // Rebuilt for the checkpoint's springs, whatever the counter says.
+        self.synced = state.breaks().wrapping_add(1);
+        self.sync(body, state);
+        self.synced = state.breaks();
+    }
+
     /// Position and velocity of a prescribed DOF at time `t`, given its current displacement
     /// (for `Fixed`: stays where it is).
     fn prescribed_at(&self, d: &PrescribedDof, current: Real, t: Real) -> (Real, Real) {
@@ -758,8 +778,10 @@ impl Integrator {
 
     /// Break spring `b`: the state (its intact flags and both nodes' normalisers) and the
     /// kernel's spring masks change together. Returns false if it was already broken.
+    ///
+    /// On a piece ([`Integrator::cut`]) `b` is the piece's spring, and the normaliser of an
+    /// end that is a ghost comes from the ghost's partial row: nothing reads a ghost's.
     pub fn break_spring(&mut self, body: &Body, state: &mut State, b: usize) -> bool {
-        self.whole("breaking a spring");
         let in_sync = state.breaks() == self.synced;
         if !state.kill_bond(body, b) {
             return false;
@@ -778,7 +800,6 @@ impl Integrator {
     /// damage). `w = 0` breaks it ([`Integrator::break_spring`]). Returns false if nothing
     /// changed (the weight was not lower).
     pub fn soften_spring(&mut self, body: &Body, state: &mut State, b: usize, w: Real) -> bool {
-        self.whole("softening a spring");
         if w <= 0.0 {
             return self.break_spring(body, state, b);
         }
@@ -808,7 +829,8 @@ impl Integrator {
             let simd = self.kernel.simd();
             // Softened springs: the stencil cannot hold their stiffnesses, and `for_body` gives
             // the CSR kernel.
-            self.kernel = Kernel::for_body(body, state);
+            self.kernel =
+                Kernel::for_body_in(body, state, self.team.as_ref().map(|t| t.sweeps().mine()));
             self.kernel.set_simd(simd);
             if let Some(t) = &self.team {
                 self.kernel.keep_rows(t.sweeps().mine());
@@ -869,6 +891,7 @@ impl Integrator {
                 stale_pool: false,
                 v_partial: false,
                 piece: None,
+                broke: false,
             }
         });
         // From here on this rank sweeps its own nodes only.
@@ -1041,7 +1064,9 @@ impl Integrator {
     /// integrator's steps keep current only what its next step reads: see [`crate::team`]).
     /// Whatever reads the state as a whole calls it first: output, checkpoints, checks,
     /// breaking. Collective: every member calls it at the same point. Alone, or when current,
-    /// it does nothing.
+    /// it does nothing, as on a piece ([`Integrator::cut`]), which holds its own nodes and
+    /// ghosts only: their displacements and pools are current after a step, and the
+    /// velocities of its own nodes and of the loaded and prescribed ones.
     pub fn gather_state(&mut self, state: &mut State) {
         self.current(state, true, true, true);
     }
@@ -1058,10 +1083,11 @@ impl Integrator {
     /// owners. A plate's z components are exact zeros on every rank and are not gathered.
     fn current(&mut self, state: &mut State, u: bool, pool: bool, v: bool) {
         let dims = if self.plane { 2 } else { 3 };
-        let Some(t) = self.team.as_mut() else {
+        // A piece holds no other ranks' nodes but its ghosts, whose displacements and pools
+        // each step keeps current: there is nothing to gather.
+        let Some(t) = self.team.as_mut().filter(|t| t.piece.is_none()) else {
             return;
         };
-        t.whole("gathering the whole state");
         if u && t.stale_u {
             for c in state.u.xyz_mut().into_iter().take(dims) {
                 t.team.gather(c, &t.share.nodes);
@@ -1141,6 +1167,58 @@ impl Integrator {
                         .map(|p| (p[0] as u32, p[1])),
                 );
             }
+        }
+    }
+
+    /// On a piece: all-gather a breaker's decisions, `(spring, new weight, [lower end, upper
+    /// end])` with the body's indices, each rank's for the springs whose lower end it owns,
+    /// ascending. On return every rank holds every rank's, in rank order, which is ascending
+    /// spring order: one process's decisions in its order. Two all-gathers (the counts, then
+    /// the entries; indices are exact as reals). Collective; off a piece it does nothing.
+    pub fn gather_decisions(&mut self, list: &mut Vec<(u32, Real, [u32; 2])>) {
+        let Some(t) = self.team.as_mut().filter(|t| t.piece.is_some()) else {
+            return;
+        };
+        let size = t.team.size();
+        let rank = t.share.rank;
+        let mut counts = vec![0.0; size];
+        counts[rank] = list.len() as Real;
+        let ones: Vec<_> = (0..size).map(|r| r..r + 1).collect();
+        t.team.gather(&mut counts, &ones);
+        let mut parts = Vec::with_capacity(size);
+        let mut at = 0;
+        for &c in &counts {
+            parts.push(4 * at..4 * (at + c as usize));
+            at += c as usize;
+        }
+        t.broke = at > 0;
+        if at == 0 {
+            return;
+        }
+        let flat = &mut t.listed;
+        flat.clear();
+        flat.resize(4 * at, 0.0);
+        let mine = parts[rank].start;
+        for (k, &(b, w, [i, j])) in list.iter().enumerate() {
+            flat[mine + 4 * k..mine + 4 * k + 4]
+                .copy_from_slice(&[b as Real, w, i as Real, j as Real]);
+        }
+        t.team.gather(flat, &parts);
+        list.clear();
+        list.extend(
+            flat.chunks_exact(4)
+                .map(|e| (e[0] as u32, e[1], [e[2] as u32, e[3] as u32])),
+        );
+    }
+
+    /// On a piece: the ghosts' velocities from their owners, through the halo (what the
+    /// released energy of breaks reads at a touched node's neighbours). Collective; off a
+    /// piece it does nothing.
+    pub fn trade_velocities(&mut self, state: &mut State) {
+        let dims = if self.plane { 2 } else { 3 };
+        if let Some(t) = self.team.as_mut().filter(|t| t.piece.is_some()) {
+            let mut v = state.v.xyz_mut();
+            t.trade(&mut v[..dims]);
         }
     }
 
@@ -1253,7 +1331,10 @@ impl Integrator {
                     .pools_shared(body, state, screen, Some(t.sweeps()));
                 t.trade(&mut [&mut state.pool[..]]);
                 t.stale_pool = true;
-                if screen.is_finite() {
+                // A piece's flags are its own blocks' (each rank decides the springs of its
+                // own nodes: a breaker gathers the decisions, see `Integrator::cut`); a whole
+                // body's are the body's blocks, or-ed so that every rank looks at them all.
+                if screen.is_finite() && t.piece.is_none() {
                     t.team.any(&mut state.hot);
                 }
             }
@@ -1376,7 +1457,6 @@ impl Integrator {
     /// start). The breaker must decide idempotently: deciding again at the same state breaks
     /// nothing more, so settling never changes a run.
     pub fn settle(&mut self, body: &Body, state: &mut State, breaker: &mut dyn Breaker) {
-        self.whole("breaking");
         self.sync(body, state);
         self.killed.clear();
         self.break_at_start(body, state, breaker);
@@ -1393,7 +1473,8 @@ impl Integrator {
             s
         };
         self.pools_everywhere(body, state, screen);
-        if self.team.is_some() && state.hot.iter().any(|&h| h) {
+        let pieced = self.piece().is_some();
+        if self.team.is_some() && !pieced && state.hot.iter().any(|&h| h) {
             // The breaker reads both ends of every flagged spring, wherever it is.
             let t = self.team.as_mut().expect("shared");
             let mut springs = std::mem::take(&mut t.springs);
@@ -1409,7 +1490,14 @@ impl Integrator {
         let killed = std::mem::take(&mut self.killed);
         self.kernel
             .repair_shared(body, state, &killed, self.team.as_ref().map(Shared::sweeps));
-        if !killed.is_empty() {
+        if pieced {
+            // On pieces the owners' repaired pools reach the ghosts through the halo, on
+            // every rank alike when any rank's springs changed.
+            let t = self.team.as_mut().expect("shared");
+            if std::mem::take(&mut t.broke) {
+                t.trade(&mut [&mut state.pool[..]]);
+            }
+        } else if !killed.is_empty() {
             // Only a broken spring's ends change their pools, and only their owners hold
             // what those pools read: every rank takes them from the owners (the rest of its
             // pools, its ghosts' from this step's trade, stand).
@@ -1426,9 +1514,6 @@ impl Integrator {
         mut interaction: Option<&mut dyn Interaction>,
         breaker: Option<&mut dyn Breaker>,
     ) {
-        if breaker.is_some() {
-            self.whole("breaking");
-        }
         self.sync(body, state);
         self.killed.clear();
         // Sweep 1 done (and consistent with every break) before the contact forces.

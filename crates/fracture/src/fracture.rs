@@ -42,6 +42,9 @@ pub struct Fracture {
     hot: Vec<u32>,
     /// What the last screened decision broke.
     last: BreakReport,
+    /// On a rank's piece: its decisions, `(spring, new weight, ends)` in the body's indices,
+    /// then every rank's ([`Integrator::gather_decisions`]).
+    decided: Vec<(u32, Real, [u32; 2])>,
     /// Total springs broken by checks (pre-cracks not counted).
     pub broken_total: usize,
     /// Total softening events (a spring's weight lowered without breaking it).
@@ -65,6 +68,7 @@ impl Fracture {
             reads: Vec::new(),
             hot: Vec::new(),
             last: BreakReport::default(),
+            decided: Vec::new(),
             broken_total: 0,
             softened_total: 0,
             released_total: 0.0,
@@ -74,6 +78,27 @@ impl Fracture {
     /// The criterion in use.
     pub fn criterion(&self) -> &dyn Criterion {
         self.criterion.as_ref()
+    }
+
+    /// Follow a shared integrator onto its rank's piece ([`Integrator::cut`]; `piece_body` the
+    /// body it returned): the per-node flags and counts in the piece's numbering. From here on
+    /// the rank decides the springs whose lower end it owns, the ranks gather their decisions,
+    /// and each commits those of its piece's springs; the released energy's terms are each
+    /// computed by an owner and summed on every rank in one process's order.
+    pub fn cut(&mut self, piece: &hooke_core::team::Piece, piece_body: &Body) {
+        use hooke_core::team::PAD;
+        self.no_fail = piece
+            .global
+            .iter()
+            .map(|&g| g != PAD && self.no_fail[g as usize])
+            .collect();
+        // A piece holds its own nodes' rows whole (the ghosts' partly: their damage is their
+        // owners' to write).
+        let bonds = &*piece_body.lattice.bonds;
+        self.initial = (0..piece_body.nodes())
+            .map(|n| bonds.row(n).len() as u32)
+            .collect();
+        self.found = vec![Vec::new(); piece_body.nodes().div_ceil(CHUNK)];
     }
 
     /// Springs with an end in `nodes` never break.
@@ -154,6 +179,23 @@ impl Fracture {
         state: &mut State,
         integrator: &mut Integrator,
     ) -> BreakReport {
+        if let Some(own) = integrator.piece().map(|p| p.own.clone()) {
+            // After a step a piece's own nodes and ghosts hold the new displacements and the
+            // step's pools: its own nodes' springs are decided as one process decides them.
+            self.decide_at(body, state, own);
+            let piece = integrator.piece().expect("a piece");
+            let bonds = &*body.lattice.bonds;
+            self.decided.clear();
+            for list in &mut self.found {
+                for (b, w) in list.drain(..) {
+                    let ends = bonds.ends[b as usize].map(|n| piece.global[n as usize]);
+                    self.decided.push((piece.springs[b as usize], w, ends));
+                }
+            }
+            let report = self.commit_piece(body, state, integrator);
+            integrator.add_released(report.released);
+            return report;
+        }
         match integrator.share().map(|s| s.mine()) {
             // A shared run: after a step, this rank's nodes and its ghosts hold the new
             // displacements and the step's pools, which is all that deciding its own nodes'
@@ -301,6 +343,127 @@ impl Fracture {
         }
     }
 
+    /// [`Fracture::commit`] on a rank's piece: the ranks' decisions (`self.decided`, this
+    /// rank's) gathered, and each rank's piece's springs among them changed. The released
+    /// energy has one process's terms and order: a spring's direct energy is computed by the
+    /// owner of its lower end, a touched node's dispersive energy by its owner (both read the
+    /// velocities of the node's neighbours, traded first), the terms are all-gathered and
+    /// every rank adds them as [`Fracture::commit`] does. Collective.
+    fn commit_piece(&mut self, body: &Body, state: &mut State, it: &mut Integrator) -> BreakReport {
+        let mut decided = std::mem::take(&mut self.decided);
+        it.gather_decisions(&mut decided);
+        if decided.is_empty() {
+            self.decided = decided;
+            return BreakReport::default();
+        }
+        it.trade_velocities(state);
+        let dt = it.dt;
+        let share = it.share().expect("shared").nodes.clone();
+        let piece = it.piece().expect("a piece");
+        let own = piece.first..piece.first + piece.own.len();
+        let mut touched: Vec<u32> = decided.iter().flat_map(|d| d.2).collect();
+        touched.sort_unstable();
+        touched.dedup();
+        // Each rank's entries and touched nodes are runs of the lists (both ascending by the
+        // lower end, or the node, in the body): its slots are laid out in rank order.
+        let runs = |r: &std::ops::Range<usize>| {
+            let e = decided.partition_point(|d| (d.2[0] as usize) < r.start)
+                ..decided.partition_point(|d| (d.2[0] as usize) < r.end);
+            let n = touched.partition_point(|&n| (n as usize) < r.start)
+                ..touched.partition_point(|&n| (n as usize) < r.end);
+            (e, n)
+        };
+        let mut parts = Vec::with_capacity(share.len());
+        let mut at = 0;
+        for r in &share {
+            let (e, n) = runs(r);
+            parts.push(4 * at..4 * (at + e.len() + n.len()));
+            at += e.len() + n.len();
+        }
+        let (mine_e, mine_n) = runs(&own);
+        let springs: Vec<usize> = decided[mine_e.clone()]
+            .iter()
+            .map(|d| piece.springs.binary_search(&d.0).expect("an owned spring"))
+            .collect();
+        let nodes: Vec<usize> = touched[mine_n.clone()]
+            .iter()
+            .map(|&n| piece.local(n as usize).expect("an owned node"))
+            .collect();
+        // Every rank changes the decided springs its piece holds.
+        let changes: Vec<(usize, Real)> = decided
+            .iter()
+            .filter_map(|d| piece.springs.binary_search(&d.0).ok().map(|b| (b, d.1)))
+            .collect();
+        let slot = parts[share
+            .iter()
+            .position(|r| r.start == own.start && r.end == own.end)
+            .unwrap_or(0)]
+        .start;
+        let bonds = &*body.lattice.bonds;
+        let terms = |state: &State, out: &mut [Real], after: bool| {
+            let k = state.springs(body).k;
+            let at = if after { 2 } else { 0 };
+            for (s, h) in [0.0, dt].into_iter().enumerate() {
+                for (x, &b) in springs.iter().enumerate() {
+                    out[4 * x + at + s] = if state.alive()[b] {
+                        let [i, j] = bonds.ends[b].map(|v| v as usize);
+                        let dl = shifted_extension(body, state, h, i, j, body.lattice.rest(b));
+                        0.5 * k[b] * dl * dl
+                    } else {
+                        0.0
+                    };
+                }
+                for (x, &n) in nodes.iter().enumerate() {
+                    out[4 * (springs.len() + x) + at + s] =
+                        shifted_dispersive_energy(body, state, h, n);
+                }
+            }
+        };
+        let mut values = vec![0.0; 4 * at];
+        let mine = slot..slot + 4 * (springs.len() + nodes.len());
+        terms(state, &mut values[mine.clone()], false);
+        for &(b, w) in &changes {
+            it.soften_spring(body, state, b, w);
+        }
+        terms(state, &mut values[mine], true);
+        it.team().expect("shared").gather(&mut values, &parts);
+        // The sums of `commit`: the springs' terms in spring order, then the nodes' in node
+        // order, rank after rank being both orders.
+        let mut released = 0.0;
+        for s in 0..2 {
+            let sum = |at: usize| {
+                let mut e = 0.0;
+                for (r, p) in share.iter().zip(&parts) {
+                    let k = runs(r).0.len();
+                    for x in 0..k {
+                        e += values[p.start + 4 * x + at + s];
+                    }
+                }
+                e + share
+                    .iter()
+                    .zip(&parts)
+                    .flat_map(|(r, p)| {
+                        let (e, n) = runs(r);
+                        (0..n.len()).map(move |x| p.start + 4 * (e.len() + x))
+                    })
+                    .map(|i| values[i + at + s])
+                    .sum::<Real>()
+            };
+            released += (sum(0) - sum(2)) / 2.0;
+        }
+        let broken = decided.iter().filter(|d| d.1 <= 0.0).count();
+        let softened = decided.len() - broken;
+        self.broken_total += broken;
+        self.softened_total += softened;
+        self.released_total += released;
+        self.decided = decided;
+        BreakReport {
+            broken,
+            softened,
+            released,
+        }
+    }
+
     /// Damage of every node: the fraction of the springs it had at set-up that are broken
     /// (pre-cracks included), a softened spring counting by its lost weight `1 - w`.
     pub fn damage(&self, body: &Body, state: &State) -> Vec<Real> {
@@ -370,6 +533,30 @@ impl Breaker for Fracture {
     fn break_in_step(&mut self, body: &Body, state: &mut State, it: &mut Integrator) {
         let mut hot = std::mem::take(&mut self.hot);
         it.hot_springs(body, state, &mut hot);
+        if let Some(piece) = it.piece() {
+            // The springs of the rank's own rows that the screen flagged, those whose lower
+            // end it owns decided here (every spring past the screen is flagged in its lower
+            // end's row).
+            let bonds = &*body.lattice.bonds;
+            let (crit, no_fail) = (&*self.criterion, &self.no_fail);
+            self.decided.clear();
+            for &b in &hot {
+                let b = b as usize;
+                let [i, j] = bonds.ends[b].map(|v| v as usize);
+                if !piece.own.contains(&i) || !state.alive()[b] || no_fail[i] || no_fail[j] {
+                    continue;
+                }
+                if let Some(w) = new_weight(crit, body, state, b, i, j) {
+                    let ends = [i, j].map(|n| piece.global[n]);
+                    self.decided.push((piece.springs[b], w, ends));
+                }
+            }
+            self.hot = hot;
+            let report = self.commit_piece(body, state, it);
+            it.add_released(report.released);
+            self.last = report;
+            return;
+        }
         for l in &mut self.found {
             l.clear();
         }

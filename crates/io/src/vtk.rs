@@ -80,6 +80,9 @@ struct Pieces {
     nodes: Vec<std::ops::Range<usize>>,
     /// The point arrays of the last piece (name, VTK type, components), for the `.pvtu`.
     arrays: Vec<(String, &'static str, usize)>,
+    /// Where this process's nodes are in the states it is given, when it holds a piece of
+    /// the body ([`VtkSeries::set_piece_nodes`]); `None`: they are `nodes[rank]`.
+    held: Option<std::ops::Range<usize>>,
     /// The last frame's piece files and time, until it is published.
     step: u64,
     time: Real,
@@ -178,11 +181,22 @@ impl VtkSeries {
         self.pieces = Some(Pieces {
             rank,
             nodes,
+            held: None,
             arrays: Vec::new(),
             step: 0,
             time: 0.0,
         });
         self.background = false;
+    }
+
+    /// In a series written in pieces (after [`VtkSeries::set_pieces`]), the states this process
+    /// is given are its piece of the body ([`hooke_core::team::Piece`]): its own nodes are
+    /// `own` there, the body's `nodes[rank]` (their `node_id`). The piece files are the bytes a
+    /// process holding the whole state writes.
+    pub fn set_piece_nodes(&mut self, own: std::ops::Range<usize>) {
+        if let Some(p) = self.pieces.as_mut() {
+            p.held = Some(own);
+        }
     }
 
     /// Process 0 of a series in pieces: the last frame's `.pvtu`, then the `.pvd` listing it
@@ -261,7 +275,9 @@ impl VtkSeries {
         };
         if let Some(p) = self.pieces.as_mut() {
             let path = self.dir.join(piece_name(&self.stem, state.step, p.rank));
-            let vtk = frame_vtk_nodes(body, state, extras, self.springs, p.nodes[p.rank].clone());
+            let nodes = p.held.clone().unwrap_or_else(|| p.nodes[p.rank].clone());
+            let first_id = p.nodes[p.rank].start;
+            let vtk = frame_vtk_piece(body, state, extras, self.springs, nodes, first_id);
             p.arrays = point_arrays(&vtk);
             (p.step, p.time) = (state.step, state.time);
             if !p.nodes[p.rank].is_empty() {
@@ -508,6 +524,20 @@ pub fn frame_vtk_nodes(
     springs: bool,
     nodes: std::ops::Range<usize>,
 ) -> Vtk {
+    let first = nodes.start;
+    frame_vtk_piece(body, state, extras, springs, nodes, first)
+}
+
+/// [`frame_vtk_nodes`] with the nodes' `node_id` counted from `first_id` (a piece of a body
+/// renumbered: [`VtkSeries::set_piece_nodes`]).
+fn frame_vtk_piece(
+    body: &Body,
+    state: &State,
+    extras: FrameExtras,
+    springs: bool,
+    nodes: std::ops::Range<usize>,
+    first_id: usize,
+) -> Vtk {
     let n = nodes.len();
     let first = nodes.start;
     // `X + u`, the bits of `State::positions`, without its whole copy of the positions.
@@ -580,7 +610,7 @@ pub fn frame_vtk_nodes(
             num_comp: 1,
             lookup_table: None,
         },
-        data: (nodes.start as u64..nodes.end as u64)
+        data: (first_id as u64..(first_id + n) as u64)
             .collect::<Vec<u64>>()
             .into(),
     }));

@@ -414,6 +414,7 @@ impl Builder {
             random_design,
             cell_weighted: weighted,
             plane: self.plane,
+            held: None,
         })
     }
 

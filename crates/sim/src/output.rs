@@ -79,6 +79,8 @@ pub struct Frame<'a> {
     pub energy: EnergyRow,
     pub reactions: &'a [RegionReaction],
     pub contact: Option<&'a Contact>,
+    /// The own nodes of a piece ([`crate::Held`]) when `body` and `state` are one.
+    pub piece: Option<std::ops::Range<usize>>,
 }
 
 impl<'a> Frame<'a> {
@@ -161,6 +163,9 @@ pub struct VtkSink(pub VtkSeries);
 
 impl Sink for VtkSink {
     fn frame(&mut self, f: &Frame) -> Result<()> {
+        if let Some(own) = &f.piece {
+            self.0.set_piece_nodes(own.clone());
+        }
         self.0.write(f.body, f.state, f.extras())?;
         Ok(())
     }

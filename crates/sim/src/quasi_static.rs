@@ -325,6 +325,7 @@ fn write(
         energy,
         reactions: &reactions,
         contact: None,
+        piece: None,
     };
     for s in sinks.iter_mut() {
         s.frame(&frame)?;

@@ -39,6 +39,13 @@ pub struct RunOptions {
     /// simulation and runs it with this option; the sweeps are split, rank 0 alone writes, and
     /// the results are the bits of one process. `None`: this process alone.
     pub team: Option<std::sync::Arc<dyn Team>>,
+    /// With a team: after set-up each process keeps only its piece of the body and state
+    /// (its own nodes and ghosts, [`hooke_core::team::Piece`]) and drops the rest, so that a
+    /// body too large for one machine's memory runs on several (`hooke run --pieces`). The
+    /// results are the same bits; each process writes its own checkpoint
+    /// ([`RunOptions::piece_checkpoint_path`]). Random lattices; contact and HDF5 output are
+    /// refused with the reason until they run on pieces.
+    pub pieces: bool,
 }
 
 impl RunOptions {
@@ -53,6 +60,25 @@ impl RunOptions {
     /// The checkpoint the run writes.
     pub fn checkpoint_path(&self) -> PathBuf {
         self.out.join(format!("{}.ckpt", self.name))
+    }
+
+    /// The checkpoint process `rank` of `size` writes in a run on pieces
+    /// ([`RunOptions::pieces`]) for the checkpoint `path` of a run: `NAME.ckpt` becomes
+    /// `NAME.RANKofSIZE.ckpt`, e.g. `run.1of4.ckpt`; a resume names `NAME.ckpt` and each
+    /// process reads its own.
+    pub fn piece_checkpoint_path(path: &Path, rank: usize, size: usize) -> PathBuf {
+        let mut name = path
+            .file_stem()
+            .map_or_else(Default::default, |s| s.to_os_string());
+        name.push(format!(".{rank}of{size}.ckpt"));
+        path.with_file_name(name)
+    }
+
+    /// This process's rank and the team's size when processes hold pieces: a team of several
+    /// with [`RunOptions::pieces`].
+    fn on_pieces(&self) -> Option<(usize, usize)> {
+        let t = self.team.as_ref().filter(|t| self.pieces && t.size() > 1)?;
+        Some((t.rank(), t.size()))
     }
 
     /// Whether this process writes the outputs: rank 0 of a team, or a process alone.
@@ -281,6 +307,118 @@ pub(crate) fn region_reactions(sim: &Simulation, forces: &Coords) -> Vec<RegionR
         .collect()
 }
 
+/// What a run on pieces refuses, and why.
+fn pieces_refuse(what: &str) -> Error {
+    Error::Input(format!(
+        "--pieces: {what} reads the whole state, which a process holding its piece does not have; run without --pieces (each process then holds the whole body) or without it"
+    ))
+}
+
+/// Cut this process's piece out of the simulation ([`RunOptions::pieces`]): the integrator
+/// steps the piece from now on, the body, state, node regions and fracture are the piece's,
+/// and the whole ones are dropped. `resume`: this process's checkpoint of a run on pieces.
+fn cut_to_piece(
+    sim: &mut Simulation,
+    it: &mut Integrator,
+    opts: &RunOptions,
+    resume: Option<&Path>,
+) -> Result<()> {
+    if sim.contact.is_some() {
+        return Err(pieces_refuse("contact ([[rigid]], [contact])"));
+    }
+    if sim.hdf5 {
+        return Err(pieces_refuse(
+            "HDF5 output (output.format = \"hdf5\"), whose frames are written whole,",
+        ));
+    }
+    let (body, mut state) = it
+        .cut(&sim.body, &sim.state)
+        .map_err(|e| Error::Input(format!("--pieces: {e}")))?;
+    if let Some(path) = resume {
+        let ck = Checkpoint::load(path, &body, opts.digest).map_err(|e| {
+            Error::Input(format!(
+                "{e} (a run on pieces resumes on as many processes as wrote it, each from its own checkpoint)"
+            ))
+        })?;
+        state = ck.state;
+        it.restore(&body, &state, &ck.integrator);
+        if let Some(fr) = sim.fracture.as_mut() {
+            fr.broken_total = ck.broken as usize;
+            fr.released_total = ck.released;
+        }
+    }
+    let piece = it.piece().expect("cut");
+    if let Some(fr) = sim.fracture.as_mut() {
+        fr.cut(piece, &body);
+    }
+    let pad = hooke_core::team::PAD;
+    sim.regions = piece
+        .global
+        .iter()
+        .map(|&g| if g == pad { 0 } else { sim.regions[g as usize] })
+        .collect();
+    sim.held = Some(crate::Held {
+        own: piece.own.clone(),
+        first: piece.first,
+    });
+    sim.body = body;
+    sim.state = state;
+    Ok(())
+}
+
+/// [`region_reactions`] on a piece: each boundary's nodes' forces and displacements from their
+/// owners (an all-gather per boundary), summed in the boundary's order as one process sums
+/// them. `forces` must hold the boundary forces at the process's own nodes.
+fn region_reactions_piece(
+    sim: &Simulation,
+    it: &Integrator,
+    forces: &Coords,
+) -> Vec<RegionReaction> {
+    let (Some(held), Some(team), Some(share)) = (&sim.held, it.team(), it.share()) else {
+        return region_reactions(sim, forces);
+    };
+    let u = &sim.state.u;
+    let mine = held.first..held.first + held.own.len();
+    sim.boundaries
+        .iter()
+        .map(|b| {
+            // Laid out in node order, so that each owner's nodes are one run.
+            let mut order: Vec<usize> = (0..b.nodes.len()).collect();
+            order.sort_by_key(|&k| b.nodes[k]);
+            let sorted: Vec<usize> = order.iter().map(|&k| b.nodes[k] as usize).collect();
+            let at = |end: usize| 6 * sorted.partition_point(|&g| g < end);
+            let parts: Vec<_> = share.nodes.iter().map(|r| at(r.start)..at(r.end)).collect();
+            let mut values = vec![0.0; 6 * sorted.len()];
+            for (k, &g) in sorted.iter().enumerate().filter(|(_, g)| mine.contains(g)) {
+                let i = held.own.start + (g - held.first);
+                for c in 0..3 {
+                    values[6 * k + c] = forces.comp(c)[i];
+                    values[6 * k + 3 + c] = u.comp(c)[i];
+                }
+            }
+            team.gather(&mut values, &parts);
+            let mut slot = vec![0; b.nodes.len()];
+            for (k, &o) in order.iter().enumerate() {
+                slot[o] = k;
+            }
+            let mut force = [0.0; 3];
+            let mut displacement = [0.0; 3];
+            for &k in &slot {
+                for c in 0..3 {
+                    force[c] += values[6 * k + c];
+                    displacement[c] += values[6 * k + 3 + c];
+                }
+            }
+            let n = b.nodes.len().max(1) as Real;
+            RegionReaction {
+                name: b.name.clone(),
+                force,
+                displacement: displacement.map(|d| d / n),
+            }
+        })
+        .collect()
+}
+
 /// A run of an explicit simulation, stepped by the caller or to its end.
 ///
 /// ```no_run
@@ -355,9 +493,24 @@ impl Run {
             checked?;
             return Err(elsewhere(true));
         }
+        // A run on pieces resumes from its processes' own checkpoints, read once each has cut
+        // its piece (the integrator is built as for a fresh run, then restored).
+        let piece_resume = match (&opts.resume, opts.on_pieces()) {
+            (Some(path), Some((rank, size))) => {
+                let own = RunOptions::piece_checkpoint_path(path, rank, size);
+                // A whole checkpoint (of a run that did not hold pieces) is resumed whole and
+                // then cut.
+                (own.exists() || !path.exists()).then_some(own)
+            }
+            _ => None,
+        };
+        if piece_resume.is_some() && sim.contact.is_some() {
+            return Err(pieces_refuse("contact ([[rigid]], [contact])"));
+        }
         // A fresh integrator shares its stable-step estimate with the team and comes back
         // distributed; a resumed one takes its step from the checkpoint.
-        let it = match &opts.resume {
+        let resume_whole = opts.resume.as_ref().filter(|_| piece_resume.is_none());
+        let it = match resume_whole {
             None => Integrator::new_shared(
                 &sim.body,
                 &mut sim.state,
@@ -451,6 +604,15 @@ impl Run {
             return Err(elsewhere(true));
         }
         let (sinks, contact_history, provenance) = opened?;
+        // A run on pieces drops the whole body and state here, every process alike.
+        if opts.on_pieces().is_some() {
+            let cut = cut_to_piece(&mut sim, &mut it, &opts, piece_resume.as_deref());
+            if opts.anyone(cut.is_err()) {
+                cut?;
+                return Err(elsewhere(true));
+            }
+            hooke_core::memory::release_free_memory();
+        }
         // The next output times after t. A frame is taken at the first step within half a step
         // of its time, so one due just after t may already have been taken just before it (a
         // resumed run): count t + dt/2 as passed.
@@ -551,7 +713,7 @@ impl Run {
     pub fn reactions(&mut self) -> Vec<RegionReaction> {
         self.settle();
         let f = self.it.boundary_forces_now(&self.sim.body, &self.sim.state);
-        region_reactions(&self.sim, &f)
+        region_reactions_piece(&self.sim, &self.it, &f)
     }
 
     /// One step: forces, contact, breaking, then whatever the schedule wants written.
@@ -625,7 +787,11 @@ impl Run {
         }
         if time >= self.next_frame - half || done {
             self.it.gather_state(&mut self.sim.state);
-            self.it.check(&self.sim.body, &self.sim.state)?;
+            if self.sim.held.is_some() {
+                self.it.check_shared(&self.sim.body, &mut self.sim.state)?;
+            } else {
+                self.it.check(&self.sim.body, &self.sim.state)?;
+            }
             self.next_frame += self.sim.output_every;
             self.write_frame()?;
         } else if reactions_due {
@@ -808,7 +974,7 @@ impl Run {
         let whole = self.sim.hdf5;
         let (v, b, fields) = self.it.frame_view(body, &mut self.sim.state, whole);
         let forces = self.it.boundary_forces(body, &self.sim.state, &v);
-        let reactions = region_reactions(&self.sim, &forces);
+        let reactions = region_reactions_piece(&self.sim, &self.it, &forces);
         self.last_frame = Some((self.sim.state.step, b, reactions.clone()));
         let sim = &self.sim;
         let damage = sim.fracture.as_ref().map(|f| f.damage(body, &sim.state));
@@ -822,6 +988,7 @@ impl Run {
             energy: EnergyRow::from_balance(sim.state.time, &b),
             reactions: &reactions,
             contact: sim.contact.as_ref(),
+            piece: sim.held.as_ref().map(|h| h.own.clone()),
         };
         let written: Result<()> = self.sinks.iter_mut().try_for_each(|s| s.frame(&frame));
         if self.it.share().is_some() {
@@ -846,9 +1013,14 @@ impl Run {
 
     fn save(&mut self) -> Result<()> {
         self.settle();
-        if !self.opts.writes() {
-            return Ok(());
-        }
+        let path = match self.opts.on_pieces() {
+            // Each process its piece's.
+            Some((rank, size)) => {
+                RunOptions::piece_checkpoint_path(&self.opts.checkpoint_path(), rank, size)
+            }
+            None if !self.opts.writes() => return Ok(()),
+            None => self.opts.checkpoint_path(),
+        };
         let (broken, released) = self.sim.broken();
         Checkpoint {
             digest: self.opts.digest,
@@ -862,7 +1034,7 @@ impl Run {
                 .as_ref()
                 .map_or(Vec::new(), |c| c.snapshot()),
         }
-        .save(&self.opts.checkpoint_path())?;
+        .save(&path)?;
         Ok(())
     }
 }
@@ -920,6 +1092,7 @@ pub fn write_probe(
         energy: EnergyRow::default(),
         reactions: &reactions,
         contact: sim.contact.as_ref(),
+        piece: None,
     };
     for s in &mut sinks {
         s.frame(&frame)?;

@@ -88,6 +88,19 @@ pub struct Simulation {
     pub cell_weighted: bool,
     /// How a 2D body stands for its 3D material ([`crate::Builder::plane`]; ignored in 3D).
     pub plane: hooke_core::material::PlaneModel,
+    /// Set when this process holds only its piece of the body ([`crate::RunOptions::pieces`]):
+    /// `body`, `state` and `regions` are then the piece's, in its numbering.
+    pub held: Option<Held>,
+}
+
+/// Where a process's own nodes are when it holds a piece of the body
+/// ([`hooke_core::team::Piece`]; the other nodes of the piece are its ghosts and padding).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Held {
+    /// The own nodes, in the piece's numbering.
+    pub own: std::ops::Range<usize>,
+    /// The body's index of the first of them (the rest follow in order).
+    pub first: usize,
 }
 
 impl Simulation {
