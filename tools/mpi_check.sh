@@ -5,6 +5,8 @@
 #     histories and a checkpoint identical bit for bit to the build without MPI, with breaking,
 #     rigid-body contact and fragment contact;
 #   - a run checkpointed with one N resumes with another and still gives those bits;
+#   - `run --pieces` (each rank holding only its piece of a random body) gives those bits too,
+#     with a checkpoint per rank that resumes; contact is refused on pieces with the reason;
 #   - `bench --pieces` (each rank holding only its piece of a random block) steps with the bits
 #     of the build without MPI, and a rank's arrays shrink with N;
 #   - bad input stops every rank with one message and exit code 2.
@@ -60,6 +62,48 @@ $mpirun -np 3 "$work/hooke-mpi" run cases/kalthoff_winkler.toml --scale 0.3 --se
 python3 tools/compare_runs.py "$work/kalthoff_winkler.alone" "$work/resumed" | tail -1
 cmp "$work/kalthoff_winkler.alone/kalthoff_winkler.ckpt" "$work/resumed/kalthoff_winkler.ckpt"
 echo "kalthoff_winkler: checkpointed with -np 2, resumed with -np 3: bit-identical"
+
+# Distributed memory: with `run --pieces` each rank keeps only its piece of the body after the
+# set-up (random lattices, breaking; contact is refused). Frames, histories and the final state
+# must be the bits of the build without MPI, each rank writes its own checkpoint, and a run on
+# pieces resumes from them (on the same N), or from a whole checkpoint.
+check_pieces() { # name case scale end_time sizes... (the run alone is `check`'s, above)
+  local name=$1 case=$2 scale=$3 end=$4
+  shift 4
+  for np in "$@"; do
+    $mpirun -np "$np" "$work/hooke-mpi" run "$case" --scale "$scale" --set solver.end_time="$end" \
+      --pieces --out "$work/$name.pieces$np" > "$work/$name.pieces$np.log"
+    python3 tools/compare_runs.py "$work/$name.alone" "$work/$name.pieces$np" | tail -1
+    python3 tools/check_pieces.py "$work/$name.alone" "$work/$name.pieces$np" | tail -1
+    for ((r = 0; r < np; r++)); do
+      test -s "$work/$name.pieces$np/$name.${r}of$np.ckpt" || { echo "$name --pieces -np $np: no checkpoint of rank $r"; exit 1; }
+    done
+    echo "$name: -np $np --pieces bit-identical to the build without MPI (frames, histories), a checkpoint per rank"
+  done
+}
+check_pieces mode1_plate cases/mode1_plate.toml 1.0 60e-6 2 4
+check_pieces glass_branching_random cases/glass_branching_random.toml 0.6 46e-6 3
+# Checkpointed on 3 ranks' pieces, resumed on them.
+$mpirun -np 3 "$work/hooke-mpi" run cases/glass_branching_random.toml --scale 0.6 --set solver.end_time=20e-6 \
+  --pieces --out "$work/resumed_pieces" > /dev/null
+$mpirun -np 3 "$work/hooke-mpi" run cases/glass_branching_random.toml --scale 0.6 --set solver.end_time=46e-6 \
+  --pieces --out "$work/resumed_pieces" --resume "$work/resumed_pieces/glass_branching_random.ckpt" > /dev/null
+python3 tools/compare_runs.py "$work/glass_branching_random.alone" "$work/resumed_pieces" | tail -1
+for r in 0 1 2; do
+  cmp "$work/glass_branching_random.pieces3/glass_branching_random.${r}of3.ckpt" \
+    "$work/resumed_pieces/glass_branching_random.${r}of3.ckpt"
+done
+echo "glass_branching_random: checkpointed on 3 ranks' pieces and resumed: bit-identical"
+# Contact is refused on pieces with the reason (exit 2, one message).
+set +e
+$mpirun -np 2 "$work/hooke-mpi" run cases/kalthoff_winkler.toml --scale 0.3 --pieces --out "$work/kw_pieces" \
+  > /dev/null 2> "$work/kw_pieces.err"
+rc=$?
+set -e
+if [ "$rc" -ne 2 ] || ! grep -q "contact" "$work/kw_pieces.err"; then
+  echo "contact on pieces not refused (exit $rc)"; cat "$work/kw_pieces.err"; exit 1
+fi
+echo "contact with --pieces: refused (exit $rc): $(grep '^error:' "$work/kw_pieces.err")"
 
 # Distributed memory, first part: with `bench --pieces` each rank keeps only its piece of the
 # block (its own nodes and ghosts) and drops the whole body and state after the set-up. The steps

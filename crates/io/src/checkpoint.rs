@@ -118,6 +118,16 @@ impl Checkpoint {
         write_atomic(path, |w| w.write_all(&b).map_err(io(path)))
     }
 
+    /// The simulated time a checkpoint was written at, from its header alone (what a process
+    /// of a run on pieces needs before it has the piece that [`Checkpoint::load`] checks the
+    /// file against); `None` if it is not a readable checkpoint.
+    pub fn time_of(path: &Path) -> Option<Real> {
+        use std::io::Read;
+        let mut head = [0u8; 8 + 4 + 32 + 8];
+        std::fs::File::open(path).ok()?.read_exact(&mut head).ok()?;
+        (&head[..8] == MAGIC).then(|| Real::from_le_bytes(head[44..52].try_into().unwrap()))
+    }
+
     /// Load from `path` for `body`; refuses a checkpoint of another case (`digest`) or body.
     pub fn load(path: &Path, body: &Body, digest: u64) -> Result<Self, IoError> {
         let bytes = std::fs::read(path).map_err(io(path))?;

@@ -16,7 +16,7 @@ use crate::output::{
     Sink, VtkSink,
 };
 use crate::provenance::Provenance;
-use crate::Simulation;
+use crate::{Boundary, Simulation};
 
 /// Where and how a run writes.
 #[derive(Clone, Debug, Default)]
@@ -288,29 +288,39 @@ pub(crate) fn region_reactions(sim: &Simulation, forces: &Coords) -> Vec<RegionR
     sim.boundaries
         .iter()
         .map(|b| {
-            let mut force = [0.0; 3];
-            let mut displacement = [0.0; 3];
-            for &i in &b.nodes {
-                let i = i as usize;
-                for c in 0..3 {
-                    force[c] += forces.comp(c)[i];
-                    displacement[c] += u.comp(c)[i];
-                }
-            }
-            let n = b.nodes.len().max(1) as Real;
-            RegionReaction {
-                name: b.name.clone(),
-                force,
-                displacement: displacement.map(|d| d / n),
-            }
+            region_sum(
+                b,
+                b.nodes.iter().map(|&i| {
+                    let i = i as usize;
+                    (forces.get(i).into(), u.get(i).into())
+                }),
+            )
         })
         .collect()
+}
+
+/// Boundary `b`'s reaction from its nodes' (force, displacement), in its nodes' order.
+fn region_sum(b: &Boundary, nodes: impl Iterator<Item = ([Real; 3], [Real; 3])>) -> RegionReaction {
+    let mut force = [0.0; 3];
+    let mut displacement = [0.0; 3];
+    for (f, u) in nodes {
+        for c in 0..3 {
+            force[c] += f[c];
+            displacement[c] += u[c];
+        }
+    }
+    let n = b.nodes.len().max(1) as Real;
+    RegionReaction {
+        name: b.name.clone(),
+        force,
+        displacement: displacement.map(|d| d / n),
+    }
 }
 
 /// What a run on pieces refuses, and why.
 fn pieces_refuse(what: &str) -> Error {
     Error::Input(format!(
-        "--pieces: {what} reads the whole state, which a process holding its piece does not have; run without --pieces (each process then holds the whole body) or without it"
+        "--pieces: {what} reads the whole state, which a process holding its piece does not have; run without --pieces (each process then holds the whole body)"
     ))
 }
 
@@ -331,9 +341,15 @@ fn cut_to_piece(
             "HDF5 output (output.format = \"hdf5\"), whose frames are written whole,",
         ));
     }
-    let (body, mut state) = it
-        .cut(&sim.body, &sim.state)
-        .map_err(|e| Error::Input(format!("--pieces: {e}")))?;
+    let (body, mut state) = it.cut(&sim.body, &sim.state).map_err(|e| {
+        let why = match e {
+            hooke_core::Error::InvalidInput { why, .. } => why,
+            e => e.to_string(),
+        };
+        Error::Input(format!(
+            "--pieces: {why}; run without --pieces (each process then holds the whole body)"
+        ))
+    })?;
     if let Some(path) = resume {
         let ck = Checkpoint::load(path, &body, opts.digest).map_err(|e| {
             Error::Input(format!(
@@ -401,20 +417,13 @@ fn region_reactions_piece(
             for (k, &o) in order.iter().enumerate() {
                 slot[o] = k;
             }
-            let mut force = [0.0; 3];
-            let mut displacement = [0.0; 3];
-            for &k in &slot {
-                for c in 0..3 {
-                    force[c] += values[6 * k + c];
-                    displacement[c] += values[6 * k + 3 + c];
-                }
-            }
-            let n = b.nodes.len().max(1) as Real;
-            RegionReaction {
-                name: b.name.clone(),
-                force,
-                displacement: displacement.map(|d| d / n),
-            }
+            region_sum(
+                b,
+                slot.iter().map(|&k| {
+                    let v = &values[6 * k..6 * k + 6];
+                    ([v[0], v[1], v[2]], [v[3], v[4], v[5]])
+                }),
+            )
         })
         .collect()
 }
@@ -568,7 +577,11 @@ impl Run {
         // The set-up's temporaries are gone: give their memory back for the run.
         hooke_core::memory::release_free_memory();
         let resuming = opts.resume.is_some();
-        let until = sim.state.time;
+        // A process of a run on pieces has not read its checkpoint yet (it needs the piece).
+        let until = piece_resume
+            .as_deref()
+            .and_then(Checkpoint::time_of)
+            .unwrap_or(sim.state.time);
         // VTK frames in pieces, one per process, when shared.
         let pieces = it.share().map(|s| (s.rank, s.nodes.clone()));
         // Only the writer opens files (and the other processes their frames' pieces); a
@@ -911,7 +924,13 @@ impl Run {
         if let Some(h) = &self.contact_history {
             outputs.push(("contact history".into(), h.path.clone()));
         }
-        outputs.push(("checkpoint".into(), self.opts.checkpoint_path()));
+        outputs.push(match self.opts.on_pieces() {
+            Some((_, size)) => (
+                format!("checkpoints, one per process (.RofN: rank R of {size})"),
+                RunOptions::piece_checkpoint_path(&self.opts.checkpoint_path(), 0, size),
+            ),
+            None => ("checkpoint".into(), self.opts.checkpoint_path()),
+        });
         let energy = EnergyRow::from_balance(sim.state.time, &b);
         let reactions = match at_frame {
             Some((_, _, r)) => r,
