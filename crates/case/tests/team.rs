@@ -298,6 +298,16 @@ fn pieces_run_with_the_bits_of_one_process() {
         &[2, 3],
     );
     check_pieces(
+        "kalthoff_winkler.toml",
+        0.3,
+        &[
+            "solver.end_time=20e-6",
+            "output.every=10e-6",
+            "contact.fragments=false",
+        ],
+        &[2, 3],
+    );
+    check_pieces(
         "fibre_notch_plate.toml",
         1.0,
         &["solver.end_time=90e-6", "output.every=30e-6"],

@@ -139,10 +139,16 @@ pub struct Contact {
     /// Every process's nodes, as [`Interaction::reads`] was last told (empty: not known): a
     /// rebuild then passes over this process's nodes only and gathers the lists.
     node_parts: Vec<std::ops::Range<usize>>,
+    /// On a rank's piece ([`Contact::cut`]): its own nodes, in the piece's numbering. The
+    /// candidate lists then hold its own candidates only, in that numbering.
+    own: Option<std::ops::Range<usize>>,
+    /// On a piece, per body: every rank's count of candidates (all-gathered at each rebuild).
+    counts: Vec<Real>,
 }
 
-/// Reals per candidate in `Contact::hits`.
-const HIT: usize = 5;
+/// Reals per candidate in `Contact::hits`: the force, the potential energy, the penetration
+/// and the torque of the reaction about the body's centre.
+const HIT: usize = 8;
 
 /// Each of `lists` (this process's part on entry) becomes every process's part of it,
 /// concatenated in rank order: two all-gathers, the lengths and then the values, whatever the
@@ -194,6 +200,28 @@ impl Contact {
         self.moves = vec![0.0; team.size()];
         self.one_each = (0..team.size()).map(|r| r..r + 1).collect();
         self.team = (team.size() > 1).then_some(team);
+    }
+
+    /// Follow a shared integrator onto its rank's piece (`Integrator::cut`): `own` its own
+    /// nodes and `nodes` all of them, in the piece's numbering. From here on each rank
+    /// evaluates the rigid bodies' candidates among its own nodes, and the forces, energies
+    /// and the bodies' reactions and torques are gathered in candidate order and summed on
+    /// every rank as one process sums them. Fragment contact, whose pairs reach beyond a
+    /// piece's ghosts, is refused with the reason.
+    pub fn cut(&mut self, own: std::ops::Range<usize>, nodes: usize) -> Result<(), String> {
+        if self.opts.fragment_distance.is_some() {
+            return Err("fragment contact (on by default; contact.fragments = false turns it off) pairs nodes across cracks, beyond a piece's ghosts".into());
+        }
+        let team = self.team.as_ref().ok_or("the contact is not shared")?;
+        self.counts = vec![0.0; team.size() * self.bodies.len()];
+        self.u_build = Coords::zeros(nodes);
+        self.acc = vec![[0.0; 3]; nodes];
+        self.mark = vec![false; nodes];
+        self.frag_offsets = vec![0; nodes + 1];
+        self.touched.clear();
+        self.built = false;
+        self.own = Some(own);
+        Ok(())
     }
 
     pub fn new(body: &Body, bodies: Vec<RigidBody>, opts: ContactOptions) -> Self {
@@ -248,6 +276,8 @@ impl Contact {
             team: None,
             read_nodes: Vec::new(),
             node_parts: Vec::new(),
+            own: None,
+            counts: Vec::new(),
             checked: None,
             hits: Vec::new(),
             parts: Vec::new(),
@@ -399,7 +429,7 @@ impl Contact {
             None => largest(0..n),
             Some(t) => {
                 // The nodes the last rebuild kept the displacements of (see `rebuild_lists`).
-                let own = own.or_else(|| {
+                let own = self.own.clone().or(own).or_else(|| {
                     (self.node_parts.len() == size).then(|| self.node_parts[rank].clone())
                 });
                 let mine = largest(own.unwrap_or(n * rank / size..n * (rank + 1) / size));
@@ -457,10 +487,12 @@ impl Contact {
         let team = self
             .team
             .clone()
-            .filter(|t| self.node_parts.len() == t.size());
-        let mine = team
-            .as_ref()
-            .map_or(0..n, |t| self.node_parts[t.rank()].clone());
+            .filter(|t| self.own.is_some() || self.node_parts.len() == t.size());
+        let mine = match (&self.own, &team) {
+            (Some(own), _) => own.clone(),
+            (None, Some(t)) => self.node_parts[t.rank()].clone(),
+            (None, None) => 0..n,
+        };
         let ids = |r: &std::ops::Range<usize>| r.start as u32..r.end as u32;
         // The largest move since the rebuild is taken over each process's own nodes (the
         // maxima gathered), so each keeps only their displacements.
@@ -481,7 +513,16 @@ impl Contact {
                 (0..dim).all(|c| x[c] >= lo[c] - reach && x[c] <= hi[c] + reach)
             }));
         }
-        if let Some(t) = &team {
+        if let (Some(t), Some(_)) = (&team, &self.own) {
+            // On a piece each rank keeps its own candidates; the counts give every rank's part.
+            let nb = self.candidates.len();
+            self.counts.iter_mut().for_each(|c| *c = 0.0);
+            for (k, c) in self.candidates.iter().enumerate() {
+                self.counts[t.rank() * nb + k] = c.len() as Real;
+            }
+            let each: Vec<_> = (0..t.size()).map(|r| r * nb..(r + 1) * nb).collect();
+            t.gather(&mut self.counts, &each);
+        } else if let Some(t) = &team {
             let mut lists: Vec<Vec<Real>> = self
                 .candidates
                 .iter()
@@ -711,6 +752,14 @@ impl Interaction for Contact {
     fn reads(&mut self, body: &Body, state: &State, nodes: &[std::ops::Range<usize>]) -> Reads<'_> {
         // Each process checks the nodes it owns, whose displacements it holds current.
         let own = self.team.as_ref().map(|t| nodes[t.rank()].clone());
+        if self.own.is_some() {
+            // A piece: the lists hold its own nodes, which are current.
+            if !self.lists_valid(body, &state.u, None) {
+                self.rebuild(body, state);
+            }
+            self.checked = Some(true);
+            return Reads::Nodes(&[]);
+        }
         if own.is_some() && self.node_parts.as_slice() != nodes {
             self.node_parts = nodes.to_vec();
         }
@@ -758,18 +807,40 @@ impl Interaction for Contact {
             // What each candidate feels (the costly part: a distance query per node), shared
             // between the processes of a run; then the sums in candidate order, alike on every
             // process and as in one.
-            let nc = self.candidates[k].len();
             let size = self.team.as_ref().map_or(1, |t| t.size());
             let rank = self.team.as_ref().map_or(0, |t| t.rank());
             self.parts.clear();
-            self.parts
-                .extend((0..size).map(|r| HIT * (nc * r / size)..HIT * (nc * (r + 1) / size)));
+            let nc = if self.own.is_some() {
+                // On a piece, each rank its own candidates, in rank order: node order.
+                let nb = self.bodies.len();
+                let mut at = 0;
+                for r in 0..size {
+                    let c = self.counts[r * nb + k] as usize;
+                    self.parts.push(HIT * at..HIT * (at + c));
+                    at += c;
+                }
+                at
+            } else {
+                let nc = self.candidates[k].len();
+                self.parts
+                    .extend((0..size).map(|r| HIT * (nc * r / size)..HIT * (nc * (r + 1) / size)));
+                nc
+            };
             if self.hits.len() < HIT * nc {
                 self.hits.resize(HIT * nc, 0.0);
             }
             let mine = self.parts[rank].start / HIT..self.parts[rank].end / HIT;
-            for idx in mine {
-                let i = self.candidates[k][idx] as usize;
+            // The node of candidate `idx`: on a piece, only this rank's own are held.
+            let pieced = self.own.is_some();
+            let node = |c: &[u32], idx: usize| -> Option<usize> {
+                if pieced {
+                    mine.contains(&idx).then(|| c[idx - mine.start] as usize)
+                } else {
+                    Some(c[idx] as usize)
+                }
+            };
+            for idx in mine.clone() {
+                let i = node(&self.candidates[k], idx).expect("own");
                 self.hits[HIT * idx + 4] = Real::NAN;
                 let x = Self::position(body, &state.u, i);
                 let Some((d, nrm)) = self.bodies[k].signed_distance(x) else {
@@ -805,6 +876,11 @@ impl Interaction for Contact {
                 hit[..3].copy_from_slice(&f);
                 hit[3] = 0.5 * kc * gap * gap;
                 hit[4] = -gap;
+                if rotates {
+                    // The reaction acts where the node is, on the force's own line.
+                    let arm = [0, 1, 2].map(|c| x[c] - xc[c]);
+                    hit[5..8].copy_from_slice(&crate::rigid::cross(arm, f));
+                }
             }
             if let Some(t) = &self.team {
                 t.gather(&mut self.hits[..HIT * nc], &self.parts);
@@ -814,24 +890,22 @@ impl Interaction for Contact {
                 if hit[4].is_nan() {
                     continue;
                 }
-                let i = self.candidates[k][idx] as usize;
+                let i = node(&self.candidates[k], idx);
                 let f = [hit[0], hit[1], hit[2]];
                 self.max_penetration = self.max_penetration.max(hit[4]);
                 potential += hit[3];
                 for c in 0..dim {
-                    self.acc[i][c] += f[c];
+                    if let Some(i) = i {
+                        self.acc[i][c] += f[c];
+                    }
                     reaction[c] -= f[c];
                 }
                 if rotates {
-                    // The reaction acts where the node is, on the force's own line.
-                    let x = Self::position(body, &state.u, i);
-                    let arm = [0, 1, 2].map(|c| x[c] - xc[c]);
-                    let t = crate::rigid::cross(arm, f);
                     for c in 0..3 {
-                        torque[c] -= t[c];
+                        torque[c] -= hit[5 + c];
                     }
                 }
-                if !self.mark[i] {
+                if let Some(i) = i.filter(|&i| !self.mark[i]) {
                     self.mark[i] = true;
                     self.touched.push(i as u32);
                 }

@@ -205,6 +205,8 @@ pub struct Integrator {
     /// Scratch for interaction forces and the velocities of their nodes before the sweep.
     contact: Vec<(u32, [Real; 3])>,
     v_contact: Vec<[Real; 3]>,
+    /// On a piece: this rank's contact pushes' work terms, three per push and axis.
+    contact_terms: Vec<Real>,
     /// `State::breaks` when the kernel's spring masks last matched the state.
     synced: u64,
     /// Springs broken through [`Integrator::break_spring`] since the step began.
@@ -278,6 +280,13 @@ struct Pieced {
     sweeps: Share,
     /// The partial sums of every chunk of the body, for their all-gather.
     partials: Vec<crate::kernel::SweepSums>,
+}
+
+/// Book one contact push's work on one axis: `[external, body force, damping]`.
+fn book_contact(l: &mut Ledger, [external, body, dissipated]: [Real; 3]) {
+    l.external_work += external;
+    l.body_work += body;
+    l.dissipated += dissipated;
 }
 
 /// Where a step's new displacements are: the integrator's second buffer, or `state.u` for a
@@ -386,6 +395,7 @@ impl Integrator {
                     + bytes(&self.partials)
                     + bytes(&self.contact)
                     + bytes(&self.v_contact)
+                    + bytes(&self.contact_terms)
                     + bytes(&self.killed),
             ),
         ];
@@ -641,6 +651,7 @@ impl Integrator {
             plane,
             contact: Vec::new(),
             v_contact: Vec::new(),
+            contact_terms: Vec::new(),
             synced: 0,
             killed: Vec::new(),
         }
@@ -1527,8 +1538,8 @@ impl Integrator {
         self.v_contact.clear();
         if let (Some(it), Some(t)) = (interaction.as_mut(), self.team.as_ref()) {
             // Contact reads the displacements and velocities of whichever nodes come near: of
-            // those its lists hold, or of all when it rebuilds them.
-            t.whole("contact");
+            // those its lists hold, or of all when it rebuilds them (on a piece, its own nodes,
+            // which are current: it asks for none).
             match it.reads(body, state, &t.share.nodes) {
                 Reads::All => self.current(state, true, false, true),
                 Reads::Nodes(list) => {
@@ -1611,7 +1622,10 @@ impl Integrator {
             let mut nodes = std::mem::take(&mut t.ends);
             nodes.clear();
             nodes.extend_from_slice(&t.special);
-            nodes.extend(self.contact.iter().map(|c| c.0));
+            // On a piece contact pushes its own nodes only, whose velocities are current.
+            if t.piece.is_none() {
+                nodes.extend(self.contact.iter().map(|c| c.0));
+            }
             nodes.sort_unstable();
             nodes.dedup();
             self.current_at(state, &nodes, false, Pools::No, true);
@@ -1658,6 +1672,11 @@ impl Integrator {
         // velocities before and after the whole step. Damping and body-force work were booked by
         // the sweep with its own velocity; the contact kick changes that velocity, so rebook
         // their share as for the loads.
+        // On a piece each rank pushes its own nodes: their work terms are gathered and every
+        // rank books them in node order, as one process does.
+        let pieced = self.team.as_ref().is_some_and(|t| t.piece.is_some());
+        let mut terms = std::mem::take(&mut self.contact_terms);
+        terms.clear();
         for (k, &(i, f)) in self.contact.iter().enumerate() {
             let i = i as usize;
             let m = body.mass[i];
@@ -1668,13 +1687,28 @@ impl Integrator {
                 new_displacements(&mut self.u_next, &mut state.u, in_place).comp_mut(c)[i] +=
                     dt * dv;
                 let (v0, v1) = (self.v_contact[k][c], state.v.comp(c)[i]);
-                self.ledger.external_work += f[c] * 0.5 * (v0 + v1) * dt;
                 let (mid_kernel, mid) = (0.5 * (v0 + v_sweep[c]), 0.5 * (v0 + v1));
-                self.ledger.body_work += m * g[c] * (mid - mid_kernel) * dt;
-                self.ledger.dissipated +=
-                    self.damping * m * (mid * mid - mid_kernel * mid_kernel) * dt;
+                let term = [
+                    f[c] * 0.5 * (v0 + v1) * dt,
+                    m * g[c] * (mid - mid_kernel) * dt,
+                    self.damping * m * (mid * mid - mid_kernel * mid_kernel) * dt,
+                ];
+                if pieced {
+                    terms.extend(term);
+                } else {
+                    book_contact(&mut self.ledger, term);
+                }
             }
         }
+        if let Some(t) = self.team.as_mut().filter(|_| pieced) {
+            let mut all = std::mem::take(&mut t.listed);
+            crate::team::gather_runs(&*t.team, &terms, &mut all, &mut t.listed_parts);
+            for term in all.chunks_exact(3) {
+                book_contact(&mut self.ledger, [term[0], term[1], term[2]]);
+            }
+            self.team.as_mut().expect("shared").listed = all;
+        }
+        self.contact_terms = terms;
         // Prescribed motion overrides its DOFs; the reaction's work is booked.
         let nl = self.loaded.len();
         for (k, d) in self.dofs.iter().enumerate() {

@@ -211,6 +211,34 @@ impl Share {
     }
 }
 
+/// Every rank's run of a list (this rank's is `values`), concatenated in rank order into
+/// `all`: two all-gathers (the lengths, then the values; `parts` their scratch, kept by the
+/// caller so that a step allocates nothing once they have grown). Collective.
+pub fn gather_runs(
+    team: &dyn Team,
+    values: &[Real],
+    all: &mut Vec<Real>,
+    parts: &mut Vec<Range<usize>>,
+) {
+    let (size, rank) = (team.size(), team.rank());
+    parts.clear();
+    parts.extend((0..size).map(|r| r..r + 1));
+    all.clear();
+    all.resize(size, 0.0);
+    all[rank] = values.len() as Real;
+    team.gather(all, parts);
+    let mut at = 0;
+    for (r, p) in parts.iter_mut().enumerate() {
+        let l = all[r] as usize;
+        *p = at..at + l;
+        at += l;
+    }
+    all.clear();
+    all.resize(at, 0.0);
+    all[parts[rank].clone()].copy_from_slice(values);
+    team.gather(all, parts);
+}
+
 /// Send this rank's values of `fields` at the nodes its peers read (`halo.send`) and take
 /// theirs at its ghosts (`halo.recv`): one message per peer, a node's fields side by side.
 /// `out` and `inp` (one per rank) are the messages' buffers, kept by the caller so that a
