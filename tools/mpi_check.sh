@@ -6,7 +6,8 @@
 #     rigid-body contact and fragment contact;
 #   - a run checkpointed with one N resumes with another and still gives those bits;
 #   - `run --pieces` (each rank holding only its piece of a random body) gives those bits too,
-#     with a checkpoint per rank that resumes; contact is refused on pieces with the reason;
+#     with breaking, rigid-body and fragment contact, a checkpoint per rank that resumes; a
+#     regular lattice's box is refused on pieces with the reason;
 #   - `bench --pieces` (each rank holding only its piece of a random block) steps with the bits
 #     of the build without MPI, and a rank's arrays shrink with N;
 #   - bad input stops every rank with one message and exit code 2.
@@ -64,12 +65,15 @@ cmp "$work/kalthoff_winkler.alone/kalthoff_winkler.ckpt" "$work/resumed/kalthoff
 echo "kalthoff_winkler: checkpointed with -np 2, resumed with -np 3: bit-identical"
 
 # Distributed memory: with `run --pieces` each rank keeps only its piece of the body after the
-# set-up (random lattices, breaking; contact is refused). Frames, histories and the final state
+# set-up (random lattices, breaking, contact). Frames, histories and the final state
 # must be the bits of the build without MPI, each rank writes its own checkpoint, and a run on
 # pieces resumes from them (on the same N), or from a whole checkpoint.
-check_pieces() { # name case scale end_time sizes... (the run alone is `check`'s, above)
+check_pieces() { # name case scale end_time sizes... (the run alone is `check`'s, or made here)
   local name=$1 case=$2 scale=$3 end=$4
   shift 4
+  if [ ! -d "$work/$name.alone" ]; then
+    "$work/hooke" run "$case" --scale "$scale" --set solver.end_time="$end" --out "$work/$name.alone" > /dev/null
+  fi
   for np in "$@"; do
     $mpirun -np "$np" "$work/hooke-mpi" run "$case" --scale "$scale" --set solver.end_time="$end" \
       --pieces --out "$work/$name.pieces$np" > "$work/$name.pieces$np.log"
@@ -94,16 +98,20 @@ for r in 0 1 2; do
     "$work/resumed_pieces/glass_branching_random.${r}of3.ckpt"
 done
 echo "glass_branching_random: checkpointed on 3 ranks' pieces and resumed: bit-identical"
-# Contact is refused on pieces with the reason (exit 2, one message).
+# Kalthoff-Winkler on pieces, long enough for fragment contact across the cracks (pairs whose
+# nodes are on different ranks), and the L-panel (3D, an STL body, a rigid load).
+check_pieces kalthoff_winkler_60us cases/kalthoff_winkler.toml 0.3 60e-6 2 3 4
+check_pieces l_panel cases/l_panel.toml 0.5 12e-3 2 3
+# A regular lattice's box is refused on pieces with the reason (exit 2, one message).
 set +e
-$mpirun -np 2 "$work/hooke-mpi" run cases/kalthoff_winkler.toml --scale 0.3 --pieces --out "$work/kw_pieces" \
-  > /dev/null 2> "$work/kw_pieces.err"
+$mpirun -np 2 "$work/hooke-mpi" run cases/glass_branching.toml --scale 0.3 --pieces --out "$work/hex_pieces" \
+  > /dev/null 2> "$work/hex_pieces.err"
 rc=$?
 set -e
-if [ "$rc" -ne 2 ] || ! grep -q "contact" "$work/kw_pieces.err"; then
-  echo "contact on pieces not refused (exit $rc)"; cat "$work/kw_pieces.err"; exit 1
+if [ "$rc" -ne 2 ] || [ "$(grep -c '^error:' "$work/hex_pieces.err")" -ne 1 ]; then
+  echo "a hexagonal box on pieces not refused (exit $rc)"; cat "$work/hex_pieces.err"; exit 1
 fi
-echo "contact with --pieces: refused (exit $rc): $(grep '^error:' "$work/kw_pieces.err")"
+echo "a hexagonal box with --pieces: refused (exit $rc): $(grep '^error:' "$work/hex_pieces.err")"
 
 # Distributed memory, first part: with `bench --pieces` each rank keeps only its piece of the
 # block (its own nodes and ghosts) and drops the whole body and state after the set-up. The steps

@@ -36,7 +36,7 @@
 //! count.
 
 use hooke_core::dynamics::{Interaction, Reads};
-use hooke_core::team::Team;
+use hooke_core::team::{Team, PAD};
 use hooke_core::{Body, Coords, Real, State};
 use rayon::prelude::*;
 
@@ -139,11 +139,83 @@ pub struct Contact {
     /// Every process's nodes, as [`Interaction::reads`] was last told (empty: not known): a
     /// rebuild then passes over this process's nodes only and gathers the lists.
     node_parts: Vec<std::ops::Range<usize>>,
-    /// On a rank's piece ([`Contact::cut`]): its own nodes, in the piece's numbering. The
-    /// candidate lists then hold its own candidates only, in that numbering.
-    own: Option<std::ops::Range<usize>>,
+    /// On a rank's piece ([`Contact::cut`]): where its nodes are in the body. The candidate
+    /// and fragment lists then hold its own nodes only, in the piece's numbering.
+    piece: Option<PieceNodes>,
+    /// On a piece: the other ends of its fragment pairs, every rank's, each once, by their
+    /// index in the body (ascending: each owner's are a run), their reference positions and
+    /// masses, and their displacements, gathered from their owners each step (`frag_nbr`
+    /// indexes these).
+    wanted: Vec<u32>,
+    wanted_ref: Vec<[Real; 3]>,
+    wanted_mass: Vec<Real>,
+    wanted_u: Vec<Real>,
+    /// Each fragment node's contact energy at the last evaluation.
+    frag_energy: Vec<Real>,
+    /// Scratch of the gathers of a piece's fragment contact.
+    scratch: Vec<Real>,
+    scratch_parts: Vec<std::ops::Range<usize>>,
     /// On a piece, per body: every rank's count of candidates (all-gathered at each rebuild).
     counts: Vec<Real>,
+}
+
+/// Where a rank's piece's nodes are in the body (see [`Contact::cut`]).
+#[derive(Debug)]
+struct PieceNodes {
+    /// Its own nodes, in its numbering, and the body's index of the first.
+    own: std::ops::Range<usize>,
+    first: usize,
+    /// The body's index of each of its nodes (`hooke_core::team::PAD` for its padding).
+    global: Vec<u32>,
+}
+
+/// A node as a fragment-contact rebuild lists it: its index in the body, position, reference
+/// position and mass.
+#[derive(Clone, Copy, Debug)]
+struct Near {
+    id: u32,
+    x: [Real; 3],
+    x0: [Real; 3],
+    mass: Real,
+}
+
+impl Near {
+    /// The distance between two nodes in the reference configuration (m).
+    fn rest(&self, o: &Near) -> Real {
+        ((self.x0[0] - o.x0[0]).powi(2)
+            + (self.x0[1] - o.x0[1]).powi(2)
+            + (self.x0[2] - o.x0[2]).powi(2))
+        .sqrt()
+    }
+
+    /// Every process's `mine`, concatenated in rank order (indices exact as reals).
+    fn gather(team: &dyn Team, mine: &[Near]) -> Vec<Near> {
+        let mut lists = vec![mine
+            .iter()
+            .flat_map(|e| {
+                [
+                    e.id as Real,
+                    e.x[0],
+                    e.x[1],
+                    e.x[2],
+                    e.x0[0],
+                    e.x0[1],
+                    e.x0[2],
+                    e.mass,
+                ]
+            })
+            .collect()];
+        gather_lists(team, &mut lists);
+        lists[0]
+            .chunks_exact(8)
+            .map(|e| Near {
+                id: e[0] as u32,
+                x: [e[1], e[2], e[3]],
+                x0: [e[4], e[5], e[6]],
+                mass: e[7],
+            })
+            .collect()
+    }
 }
 
 /// Reals per candidate in `Contact::hits`: the force, the potential energy, the penetration
@@ -202,17 +274,17 @@ impl Contact {
         self.team = (team.size() > 1).then_some(team);
     }
 
-    /// Follow a shared integrator onto its rank's piece (`Integrator::cut`): `own` its own
-    /// nodes and `nodes` all of them, in the piece's numbering. From here on each rank
-    /// evaluates the rigid bodies' candidates among its own nodes, and the forces, energies
-    /// and the bodies' reactions and torques are gathered in candidate order and summed on
-    /// every rank as one process sums them. Fragment contact, whose pairs reach beyond a
-    /// piece's ghosts, is refused with the reason.
-    pub fn cut(&mut self, own: std::ops::Range<usize>, nodes: usize) -> Result<(), String> {
-        if self.opts.fragment_distance.is_some() {
-            return Err("fragment contact (on by default; contact.fragments = false turns it off) pairs nodes across cracks, beyond a piece's ghosts".into());
-        }
+    /// Follow a shared integrator onto its rank's piece (`Integrator::cut`). From here on each
+    /// rank evaluates the rigid bodies' candidates among its own nodes, and the forces,
+    /// energies and the bodies' reactions and torques are gathered in candidate order and
+    /// summed on every rank as one process sums them. Fragment contact pairs the rank's own
+    /// damaged nodes (and own nodes near damage) with nodes anywhere: a rebuild finds the
+    /// pairs from the listed nodes every rank sends (the lists one process makes), each rank
+    /// keeps those with an own first node, and the displacements of their other ends, every
+    /// rank's list of them, are all-gathered each step.
+    pub fn cut(&mut self, piece: &hooke_core::team::Piece) -> Result<(), String> {
         let team = self.team.as_ref().ok_or("the contact is not shared")?;
+        let nodes = piece.len();
         self.counts = vec![0.0; team.size() * self.bodies.len()];
         self.u_build = Coords::zeros(nodes);
         self.acc = vec![[0.0; 3]; nodes];
@@ -220,7 +292,11 @@ impl Contact {
         self.frag_offsets = vec![0; nodes + 1];
         self.touched.clear();
         self.built = false;
-        self.own = Some(own);
+        self.piece = Some(PieceNodes {
+            own: piece.own.clone(),
+            first: piece.first,
+            global: piece.global.clone(),
+        });
         Ok(())
     }
 
@@ -276,7 +352,14 @@ impl Contact {
             team: None,
             read_nodes: Vec::new(),
             node_parts: Vec::new(),
-            own: None,
+            piece: None,
+            wanted: Vec::new(),
+            wanted_ref: Vec::new(),
+            wanted_mass: Vec::new(),
+            wanted_u: Vec::new(),
+            frag_energy: Vec::new(),
+            scratch: Vec::new(),
+            scratch_parts: Vec::new(),
             counts: Vec::new(),
             checked: None,
             hits: Vec::new(),
@@ -429,9 +512,14 @@ impl Contact {
             None => largest(0..n),
             Some(t) => {
                 // The nodes the last rebuild kept the displacements of (see `rebuild_lists`).
-                let own = self.own.clone().or(own).or_else(|| {
-                    (self.node_parts.len() == size).then(|| self.node_parts[rank].clone())
-                });
+                let own = self
+                    .piece
+                    .as_ref()
+                    .map(|p| p.own.clone())
+                    .or(own)
+                    .or_else(|| {
+                        (self.node_parts.len() == size).then(|| self.node_parts[rank].clone())
+                    });
                 let mine = largest(own.unwrap_or(n * rank / size..n * (rank + 1) / size));
                 self.moves[rank] = mine;
                 t.gather(&mut self.moves, &self.one_each);
@@ -461,8 +549,10 @@ impl Contact {
         for c in &self.candidates {
             r.extend_from_slice(c);
         }
-        r.extend_from_slice(&self.frag_nodes);
-        r.extend_from_slice(&self.frag_nbr);
+        if self.piece.is_none() {
+            r.extend_from_slice(&self.frag_nodes);
+            r.extend_from_slice(&self.frag_nbr);
+        }
         r.sort_unstable();
         r.dedup();
         self.read_nodes = r;
@@ -487,9 +577,9 @@ impl Contact {
         let team = self
             .team
             .clone()
-            .filter(|t| self.own.is_some() || self.node_parts.len() == t.size());
-        let mine = match (&self.own, &team) {
-            (Some(own), _) => own.clone(),
+            .filter(|t| self.piece.is_some() || self.node_parts.len() == t.size());
+        let mine = match (&self.piece, &team) {
+            (Some(p), _) => p.own.clone(),
             (None, Some(t)) => self.node_parts[t.rank()].clone(),
             (None, None) => 0..n,
         };
@@ -513,7 +603,7 @@ impl Contact {
                 (0..dim).all(|c| x[c] >= lo[c] - reach && x[c] <= hi[c] + reach)
             }));
         }
-        if let (Some(t), Some(_)) = (&team, &self.own) {
+        if let (Some(t), Some(_)) = (&team, &self.piece) {
             // On a piece each rank keeps its own candidates; the counts give every rank's part.
             let nb = self.candidates.len();
             self.counts.iter_mut().for_each(|c| *c = 0.0);
@@ -545,36 +635,40 @@ impl Contact {
         let bonds = &*body.lattice.bonds;
         // From the broken springs' ends (a contiguous scan of the flags, then the few broken
         // ones) rather than from every node's row (an indirect read per row entry): the same
-        // list, in node order.
+        // list, in node order. (A piece's ghosts hold partial rows: only its own nodes' flags
+        // are read.)
         let mut flags = vec![false; n];
         for (b, _) in state.alive().iter().enumerate().filter(|(_, &a)| !a) {
             let [i, j] = bonds.ends[b];
             flags[i as usize] = true;
             flags[j as usize] = true;
         }
-        let x = |i: usize| Self::position(body, &state.u, i);
-        // Each damaged node with its position, which its owner computes: a process holds
-        // current displacements at its own nodes only, and gathering every node's for a
-        // rebuild cost a whole-state all-gather each time.
-        let mut damaged: Vec<(u32, [Real; 3])> = ids(&mine)
+        let pos = &body.lattice.pos;
+        // Nodes travel with their index in the body, position, reference position and mass
+        // (what a pair's force reads of its other end, which on a piece may be another
+        // rank's), computed by their owners: a process holds current displacements at its own
+        // nodes only, and gathering every node's for a rebuild cost a whole-state all-gather
+        // each time.
+        let offset = self.piece.as_ref().map_or(0, |p| p.first - p.own.start);
+        let node = |i: usize| Near {
+            id: (i + offset) as u32,
+            x: Self::position(body, &state.u, i),
+            x0: [pos.x()[i], pos.y()[i], pos.z()[i]],
+            mass: body.mass[i],
+        };
+        let mut damaged: Vec<Near> = mine
+            .clone()
             .into_par_iter()
             .with_min_len(4096)
-            .filter(|&i| flags[i as usize])
-            .map(|i| (i, x(i as usize)))
+            .filter(|&i| flags[i])
+            .map(node)
             .collect();
         if let Some(t) = &team {
-            let mut lists = vec![damaged
-                .iter()
-                .flat_map(|&(i, p)| [i as Real, p[0], p[1], p[2]])
-                .collect()];
-            gather_lists(t.as_ref(), &mut lists);
-            damaged = lists[0]
-                .chunks(4)
-                .map(|e| (e[0] as u32, [e[1], e[2], e[3]]))
-                .collect();
+            damaged = Near::gather(t.as_ref(), &damaged);
         }
         if damaged.is_empty() {
             self.frag_force.clear();
+            self.wanted.clear();
             return;
         }
         // (Minima and maxima are exact in any grouping.)
@@ -583,7 +677,7 @@ impl Contact {
             .into_par_iter()
             .with_min_len(4096)
             .map(|i| {
-                let p = x(i);
+                let p = Self::position(body, &state.u, i);
                 (p, p)
             })
             .reduce(
@@ -619,8 +713,8 @@ impl Contact {
         let index = |k: [i64; 3]| ((k[0] * dims[1] + k[1]) * dims[2] + k[2]) as usize;
         let near = cells.filter(|&t| t <= 1 << 28).map(|t| {
             let mut bits = vec![0u64; (t as usize).div_ceil(64)];
-            for (_, p) in &damaged {
-                let ci = cell(p);
+            for d in &damaged {
+                let ci = cell(&d.x);
                 for dx in -1..=1i64 {
                     for dy in -1..=1i64 {
                         for dz in -1..=1i64 {
@@ -635,91 +729,87 @@ impl Contact {
             }
             bits
         });
-        // Each listed node with its cell and its position (from its owner, as above).
-        let mut order: Vec<([i64; 3], u32, [Real; 3])> = mine
+        // Each listed node with its cell.
+        let listed: Vec<Near> = mine
             .clone()
             .into_par_iter()
             .with_min_len(4096)
             .filter_map(|i| {
-                let p = x(i);
-                let k = cell(&p);
+                let p = Self::position(body, &state.u, i);
                 let listed = near.as_ref().is_none_or(|bits| {
-                    let at = index(k);
+                    let at = index(cell(&p));
                     bits[at >> 6] & (1 << (at & 63)) != 0
                 });
-                listed.then_some((k, i as u32, p))
+                listed.then(|| node(i))
             })
             .collect();
-        if let Some(t) = &team {
-            // Cell indices and node numbers travel as reals: exact below 2^53.
-            let mut lists = vec![order
-                .iter()
-                .flat_map(|(k, i, p)| {
-                    [
-                        k[0] as Real,
-                        k[1] as Real,
-                        k[2] as Real,
-                        *i as Real,
-                        p[0],
-                        p[1],
-                        p[2],
-                    ]
-                })
-                .collect()];
-            gather_lists(t.as_ref(), &mut lists);
-            order = lists[0]
-                .chunks(7)
-                .map(|e| {
-                    (
-                        [e[0] as i64, e[1] as i64, e[2] as i64],
-                        e[3] as u32,
-                        [e[4], e[5], e[6]],
-                    )
-                })
-                .collect();
-        }
-        // (Cell and node: unique keys.)
-        order.par_sort_unstable_by_key(|e| (e.0, e.1));
-        let bonded = |i: usize, j: u32| -> bool {
-            bonds
-                .entry(i, j as usize)
-                .is_some_and(|e| state.alive()[bonds.bond[e] as usize])
+        let listed = match &team {
+            Some(t) => Near::gather(t.as_ref(), &listed),
+            None => listed,
         };
-        let pos = &body.lattice.pos;
+        let mut order: Vec<([i64; 3], &Near)> = listed.iter().map(|e| (cell(&e.x), e)).collect();
+        // (Cell and node: unique keys.)
+        order.par_sort_unstable_by_key(|e| (e.0, e.1.id));
+        // Whether the intact spring joins body nodes `i` and `j`: read from the row of an end
+        // this process holds whole (on a piece, an own node; its neighbours are all in the
+        // piece, so an end outside it is no neighbour). `None`: neither end is held.
+        let piece = self.piece.as_ref();
+        let local = |g: u32| -> Option<usize> {
+            match piece {
+                None => Some(g as usize),
+                Some(p) => {
+                    let at = p.global.partition_point(|&x| x == PAD || x < g);
+                    (p.global.get(at) == Some(&g)).then_some(at)
+                }
+            }
+        };
+        let own = |g: u32| -> bool {
+            piece.is_none_or(|p| (g as usize).wrapping_sub(p.first) < p.own.len())
+        };
+        let bonded = |i: u32, j: u32| -> Option<bool> {
+            let (a, b) = if own(i) {
+                (i, j)
+            } else if own(j) {
+                (j, i)
+            } else {
+                return None;
+            };
+            let a = local(a).expect("an own node");
+            Some(local(b).is_some_and(|b| {
+                bonds
+                    .entry(a, b)
+                    .is_some_and(|e| state.alive()[bonds.bond[e] as usize])
+            }))
+        };
         // Pairs (i, j) from every damaged i, then both directions, sorted: a CSR by node.
         let mut pairs: Vec<(u32, u32)> = damaged
             .par_iter()
             .with_min_len(64)
-            .flat_map_iter(|&(i, xi)| {
+            .flat_map_iter(|di| {
                 let mut pairs = Vec::new();
-                let i = i as usize;
-                let ci = cell(&xi);
+                let ci = cell(&di.x);
                 for dz in -1..=1i64 {
                     for dy in -1..=1i64 {
                         for dx in -1..=1i64 {
                             let key = [ci[0] + dx, ci[1] + dy, ci[2] + dz];
                             let start = order.partition_point(|e| e.0 < key);
-                            for &(k, j, xj) in &order[start..] {
+                            for &(k, dj) in &order[start..] {
                                 if k != key {
                                     break;
                                 }
-                                let jj = j as usize;
-                                if jj == i {
+                                if dj.id == di.id {
                                     continue;
                                 }
-                                let d2: Real = (0..3).map(|c| (xi[c] - xj[c]).powi(2)).sum();
+                                let d2: Real = (0..3).map(|c| (di.x[c] - dj.x[c]).powi(2)).sum();
                                 if d2 >= h * h {
                                     continue;
                                 }
-                                let r0 = ((pos.x()[i] - pos.x()[jj]).powi(2)
-                                    + (pos.y()[i] - pos.y()[jj]).powi(2)
-                                    + (pos.z()[i] - pos.z()[jj]).powi(2))
-                                .sqrt();
-                                if r0 < 1e-12 * h || bonded(i, j) {
+                                if di.rest(dj) < 1e-12 * h || bonded(di.id, dj.id).is_none_or(|b| b)
+                                {
                                     continue;
                                 }
-                                pairs.push((i as u32, j));
-                                pairs.push((j, i as u32));
+                                pairs.push((di.id, dj.id));
+                                pairs.push((dj.id, di.id));
                             }
                         }
                     }
@@ -727,20 +817,57 @@ impl Contact {
                 pairs
             })
             .collect();
+        // On a piece only the pairs with an own first node are this rank's.
+        pairs.retain(|p| own(p.0));
         pairs.par_sort_unstable();
         pairs.dedup();
-        for &(i, _) in &pairs {
+        // Their first nodes, in this process's numbering.
+        let firsts: Vec<u32> = pairs
+            .iter()
+            .map(|p| local(p.0).expect("own") as u32)
+            .collect();
+        for &i in &firsts {
             self.frag_offsets[i as usize + 1] += 1;
         }
         for i in 0..n {
             self.frag_offsets[i + 1] += self.frag_offsets[i];
         }
-        self.frag_nbr.extend(pairs.iter().map(|p| p.1));
         self.frag_nodes.extend(
             (0..n as u32)
                 .filter(|&i| self.frag_offsets[i as usize + 1] > self.frag_offsets[i as usize]),
         );
         self.frag_force.resize(self.frag_nodes.len(), [0.0; 3]);
+        match (&team, piece) {
+            (Some(t), Some(_)) => {
+                // The other ends, wherever they are: every rank's list of them, each once, in
+                // node order (so each owner's run is contiguous), with what the forces read
+                // of them; their displacements are gathered each step.
+                let mut wanted: Vec<Real> = pairs.iter().map(|p| p.1 as Real).collect();
+                wanted.sort_unstable_by(Real::total_cmp);
+                wanted.dedup();
+                let mut all = Vec::new();
+                let mut parts = Vec::new();
+                hooke_core::team::gather_runs(t.as_ref(), &wanted, &mut all, &mut parts);
+                let mut ids: Vec<u32> = all.iter().map(|&x| x as u32).collect();
+                ids.sort_unstable();
+                ids.dedup();
+                let by_id = |g: u32| {
+                    listed
+                        .binary_search_by_key(&g, |e| e.id)
+                        .map(|k| &listed[k])
+                        .expect("every pair's end is listed")
+                };
+                self.wanted_ref = ids.iter().map(|&g| by_id(g).x0).collect();
+                self.wanted_mass = ids.iter().map(|&g| by_id(g).mass).collect();
+                self.frag_nbr.extend(
+                    pairs
+                        .iter()
+                        .map(|p| ids.binary_search(&p.1).expect("wanted") as u32),
+                );
+                self.wanted = ids;
+            }
+            _ => self.frag_nbr.extend(pairs.iter().map(|p| p.1)),
+        }
     }
 
     fn stiffness(&self, m: Real, dt: Real) -> Real {
@@ -752,8 +879,12 @@ impl Interaction for Contact {
     fn reads(&mut self, body: &Body, state: &State, nodes: &[std::ops::Range<usize>]) -> Reads<'_> {
         // Each process checks the nodes it owns, whose displacements it holds current.
         let own = self.team.as_ref().map(|t| nodes[t.rank()].clone());
-        if self.own.is_some() {
-            // A piece: the lists hold its own nodes, which are current.
+        if self.piece.is_some() {
+            // A piece: the lists hold its own nodes, which are current (the fragment pairs'
+            // other ends are gathered by the forces).
+            if self.node_parts.as_slice() != nodes {
+                self.node_parts = nodes.to_vec();
+            }
             if !self.lists_valid(body, &state.u, None) {
                 self.rebuild(body, state);
             }
@@ -810,7 +941,7 @@ impl Interaction for Contact {
             let size = self.team.as_ref().map_or(1, |t| t.size());
             let rank = self.team.as_ref().map_or(0, |t| t.rank());
             self.parts.clear();
-            let nc = if self.own.is_some() {
+            let nc = if self.piece.is_some() {
                 // On a piece, each rank its own candidates, in rank order: node order.
                 let nb = self.bodies.len();
                 let mut at = 0;
@@ -831,7 +962,7 @@ impl Interaction for Contact {
             }
             let mine = self.parts[rank].start / HIT..self.parts[rank].end / HIT;
             // The node of candidate `idx`: on a piece, only this rank's own are held.
-            let pieced = self.own.is_some();
+            let pieced = self.piece.is_some();
             let node = |c: &[u32], idx: usize| -> Option<usize> {
                 if pieced {
                     mine.contains(&idx).then(|| c[idx - mine.start] as usize)
@@ -930,19 +1061,65 @@ impl Interaction for Contact {
             }
         }
         // Fragments: gathered per node (each pair seen from both ends, forces exactly opposite).
-        if !self.frag_nodes.is_empty() {
+        // On a piece the other ends' displacements come from their owners first (every rank
+        // calls this gather while any rank has pairs).
+        if let (Some(p), Some(t)) = (&self.piece, &self.team) {
+            if !self.wanted.is_empty() {
+                let own = p.first..p.first + p.own.len();
+                let (lo, hi) = (
+                    self.wanted.partition_point(|&g| (g as usize) < own.start),
+                    self.wanted.partition_point(|&g| (g as usize) < own.end),
+                );
+                let u = &state.u;
+                let mut mine = std::mem::take(&mut self.wanted_u);
+                mine.clear();
+                for &g in &self.wanted[lo..hi] {
+                    let i = p.own.start + (g as usize - p.first);
+                    mine.extend([u.x()[i], u.y()[i], u.z()[i]]);
+                }
+                hooke_core::team::gather_runs(
+                    t.as_ref(),
+                    &mine,
+                    &mut self.scratch,
+                    &mut self.scratch_parts,
+                );
+                std::mem::swap(&mut mine, &mut self.scratch);
+                self.wanted_u = mine;
+            }
+        }
+        if !self.frag_nodes.is_empty() || !self.wanted.is_empty() {
             let c_pen = self.opts.stiffness_factor;
             let df = self.opts.fragment_distance.unwrap_or(0.0);
             let (offs, nbr, nodes) = (&self.frag_offsets, &self.frag_nbr, &self.frag_nodes);
             let pos = &body.lattice.pos;
             let u = &state.u;
             let mass = &body.mass;
-            let energy: Real = self
-                .frag_force
+            // The other end `j` of a pair: its reference position, displacement and mass.
+            let (pieced, wref, wu, wm) = (
+                self.piece.is_some(),
+                &self.wanted_ref,
+                &self.wanted_u,
+                &self.wanted_mass,
+            );
+            let other = |j: usize| -> ([Real; 3], [Real; 3], Real) {
+                if pieced {
+                    (wref[j], [wu[3 * j], wu[3 * j + 1], wu[3 * j + 2]], wm[j])
+                } else {
+                    (
+                        [pos.x()[j], pos.y()[j], pos.z()[j]],
+                        [u.x()[j], u.y()[j], u.z()[j]],
+                        mass[j],
+                    )
+                }
+            };
+            let mut energies = std::mem::take(&mut self.frag_energy);
+            energies.resize(nodes.len(), 0.0);
+            self.frag_force
                 .par_iter_mut()
+                .zip(energies.par_iter_mut())
                 .zip(nodes.par_iter())
                 .with_min_len(256)
-                .map(|(f, &i)| {
+                .for_each(|((f, e), &i)| {
                     let i = i as usize;
                     let xi = [
                         pos.x()[i] + u.x()[i],
@@ -950,36 +1127,42 @@ impl Interaction for Contact {
                         pos.z()[i] + u.z()[i],
                     ];
                     *f = [0.0; 3];
-                    let mut e = 0.0;
+                    *e = 0.0;
                     for &j in &nbr[offs[i] as usize..offs[i + 1] as usize] {
-                        let j = j as usize;
-                        let xj = [
-                            pos.x()[j] + u.x()[j],
-                            pos.y()[j] + u.y()[j],
-                            pos.z()[j] + u.z()[j],
-                        ];
+                        let (x0j, uj, mj) = other(j as usize);
+                        let xj = [x0j[0] + uj[0], x0j[1] + uj[1], x0j[2] + uj[2]];
                         let d = [xi[0] - xj[0], xi[1] - xj[1], xi[2] - xj[2]];
                         let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                        let r0 = ((pos.x()[i] - pos.x()[j]).powi(2)
-                            + (pos.y()[i] - pos.y()[j]).powi(2)
-                            + (pos.z()[i] - pos.z()[j]).powi(2))
+                        let r0 = ((pos.x()[i] - x0j[0]).powi(2)
+                            + (pos.y()[i] - x0j[1]).powi(2)
+                            + (pos.z()[i] - x0j[2]).powi(2))
                         .sqrt();
                         let dij = df.min(r0);
                         if r >= dij || r == 0.0 {
                             continue;
                         }
-                        let (mi, mj) = (mass[i], mass[j]);
+                        let mi = mass[i];
                         let k = c_pen * 2.0 * mi * mj / ((mi + mj) * dt * dt);
                         let s = k * (dij - r) / r;
                         for c in 0..3 {
                             f[c] += s * d[c];
                         }
-                        e += 0.25 * k * (dij - r) * (dij - r); // half of each pair's energy
+                        *e += 0.25 * k * (dij - r) * (dij - r); // half of each pair's energy
                     }
-                    e
-                })
-                .sum();
-            potential += energy;
+                });
+            // Summed in node order (every rank's, on a piece), whatever the threads.
+            if let (Some(_), Some(t)) = (&self.piece, &self.team) {
+                hooke_core::team::gather_runs(
+                    t.as_ref(),
+                    &energies,
+                    &mut self.scratch,
+                    &mut self.scratch_parts,
+                );
+                potential += self.scratch.iter().sum::<Real>();
+            } else {
+                potential += energies.iter().sum::<Real>();
+            }
+            self.frag_energy = energies;
             for (idx, &i) in self.frag_nodes.iter().enumerate() {
                 let i = i as usize;
                 let f = self.frag_force[idx];

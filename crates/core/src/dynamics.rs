@@ -1706,7 +1706,16 @@ impl Integrator {
             for term in all.chunks_exact(3) {
                 book_contact(&mut self.ledger, [term[0], term[1], term[2]]);
             }
-            self.team.as_mut().expect("shared").listed = all;
+            let pushed = !all.is_empty();
+            let t = self.team.as_mut().expect("shared");
+            t.listed = all;
+            if pushed {
+                // The pushes moved own nodes after the sweep's trade: their ghosts elsewhere
+                // take the new displacements (a second trade, on steps with contact forces).
+                let dims = params.dims(body.lattice.dim());
+                let mut u = new_displacements(&mut self.u_next, &mut state.u, in_place).xyz_mut();
+                t.trade(&mut u[..dims]);
+            }
         }
         self.contact_terms = terms;
         // Prescribed motion overrides its DOFs; the reaction's work is booked.

@@ -333,13 +333,6 @@ fn cut_to_piece(
     opts: &RunOptions,
     resume: Option<&Path>,
 ) -> Result<()> {
-    if sim
-        .contact
-        .as_ref()
-        .is_some_and(|c| c.opts.fragment_distance.is_some())
-    {
-        return Err(Error::Input("--pieces: fragment contact (on by default with rigid bodies) pairs nodes across cracks, beyond a piece's ghosts, and does not run on pieces yet; set contact.fragments = false (--set contact.fragments=false) or run without --pieces (each process then holds the whole body)".into()));
-    }
     if sim.hdf5 {
         return Err(pieces_refuse(
             "HDF5 output (output.format = \"hdf5\"), whose frames are written whole,",
@@ -376,7 +369,7 @@ fn cut_to_piece(
         fr.cut(piece, &body);
     }
     if let Some(c) = sim.contact.as_mut() {
-        c.cut(piece.own.clone(), body.nodes())
+        c.cut(piece)
             .map_err(|e| Error::Input(format!("--pieces: {e}")))?;
     }
     let pad = hooke_core::team::PAD;
