@@ -292,10 +292,15 @@ fn check_pieces(case: &str, scale: f64, set: &[&str], sizes: &[usize]) {
 /// weights; the kernel handed to the general one at the first damage).
 #[test]
 fn pieces_run_with_the_bits_of_one_process() {
+    // Reactions between frames too (the prescribed nodes' forces from their owners).
     check_pieces(
         "mode1_plate.toml",
         1.5,
-        &["solver.end_time=50e-6", "output.every=25e-6"],
+        &[
+            "solver.end_time=50e-6",
+            "output.every=25e-6",
+            "output.reactions_every=5e-6",
+        ],
         &[2, 3],
     );
     // Long enough for crack faces to meet: fragment contact pairs nodes of different ranks.

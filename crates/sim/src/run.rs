@@ -43,8 +43,8 @@ pub struct RunOptions {
     /// (its own nodes and ghosts, [`hooke_core::team::Piece`]) and drops the rest, so that a
     /// body too large for one machine's memory runs on several (`hooke run --pieces`). The
     /// results are the same bits; each process writes its own checkpoint
-    /// ([`RunOptions::piece_checkpoint_path`]). Random lattices; contact and HDF5 output are
-    /// refused with the reason until they run on pieces.
+    /// ([`RunOptions::piece_checkpoint_path`]). Random lattices (bodies swept by rows); HDF5
+    /// output is refused with the reason until it runs on pieces.
     pub pieces: bool,
 }
 
