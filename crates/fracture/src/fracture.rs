@@ -394,11 +394,7 @@ impl Fracture {
             .iter()
             .filter_map(|d| piece.springs.binary_search(&d.0).ok().map(|b| (b, d.1)))
             .collect();
-        let slot = parts[share
-            .iter()
-            .position(|r| r.start == own.start && r.end == own.end)
-            .unwrap_or(0)]
-        .start;
+        let slot = parts[it.team().expect("shared").rank()].start;
         let bonds = &*body.lattice.bonds;
         let terms = |state: &State, out: &mut [Real], after: bool| {
             let k = state.springs(body).k;
