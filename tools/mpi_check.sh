@@ -80,7 +80,8 @@ check_pieces() { # name case scale end_time sizes... (the run alone is `check`'s
     python3 tools/compare_runs.py "$work/$name.alone" "$work/$name.pieces$np" | tail -1
     python3 tools/check_pieces.py "$work/$name.alone" "$work/$name.pieces$np" | tail -1
     for ((r = 0; r < np; r++)); do
-      test -s "$work/$name.pieces$np/$name.${r}of$np.ckpt" || { echo "$name --pieces -np $np: no checkpoint of rank $r"; exit 1; }
+      local ckpt="$work/$name.pieces$np/$(basename "$case" .toml).${r}of$np.ckpt"
+      test -s "$ckpt" || { echo "$name --pieces -np $np: no checkpoint of rank $r ($ckpt)"; exit 1; }
     done
     echo "$name: -np $np --pieces bit-identical to the build without MPI (frames, histories), a checkpoint per rank"
   done
