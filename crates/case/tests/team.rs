@@ -94,6 +94,27 @@ fn physics_files(dir: &Path) -> Vec<(String, Vec<u8>)> {
     files
 }
 
+/// The members of a team of `size` (threads standing in for ranks), each running `go`.
+fn members<T: Send>(size: usize, go: impl Fn(Arc<dyn Team>) -> T + Sync) -> Vec<T> {
+    std::thread::scope(|s| {
+        let go = &go;
+        let handles: Vec<_> = Threads::team(size)
+            .into_iter()
+            .map(|t| s.spawn(move || go(Arc::new(t))))
+            .collect();
+        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    })
+}
+
+/// `a` and `b` are the same files (names and bytes).
+fn assert_same_files(a: &[(String, Vec<u8>)], b: &[(String, Vec<u8>)], what: &str) {
+    let names = |f: &[(String, Vec<u8>)]| f.iter().map(|x| x.0.clone()).collect::<Vec<_>>();
+    assert_eq!(names(a), names(b), "{what}");
+    for ((name, x), (_, y)) in a.iter().zip(b) {
+        assert!(x == y, "{what}: {name} differs");
+    }
+}
+
 fn check(case: &str, scale: f64, set: &[&str], sizes: &[usize]) {
     // The folders are named by the case and its overrides: two tests of one case run side by
     // side (the softening test is the mode-I plate too) and must not share a folder.
@@ -122,16 +143,7 @@ fn check(case: &str, scale: f64, set: &[&str], sizes: &[usize]) {
     assert!(reference.iter().any(|(n, _)| n.ends_with(".ckpt")));
     for &size in sizes {
         let out = scratch(&format!("{tag}_{size}"));
-        let members: Vec<Ended> = std::thread::scope(|s| {
-            let handles: Vec<_> = Threads::team(size)
-                .into_iter()
-                .map(|t| {
-                    let out = out.clone();
-                    s.spawn(move || run(case, scale, set, &out, Some(Arc::new(t))))
-                })
-                .collect();
-            handles.into_iter().map(|h| h.join().unwrap()).collect()
-        });
+        let members = members(size, |t| run(case, scale, set, &out, Some(t)));
         for (r, m) in members.iter().enumerate() {
             assert!(
                 same_state(&alone.state, &m.state),
@@ -178,12 +190,11 @@ fn check(case: &str, scale: f64, set: &[&str], sizes: &[usize]) {
                 .cloned()
                 .collect::<Vec<_>>()
         };
-        let (a, b) = (rest(&reference), rest(&written));
-        let names = |f: &[(String, Vec<u8>)]| f.iter().map(|x| x.0.clone()).collect::<Vec<_>>();
-        assert_eq!(names(&a), names(&b), "{case}, {size} members");
-        for ((name, x), (_, y)) in a.iter().zip(&b) {
-            assert!(x == y, "{case}: {name} differs with {size} members");
-        }
+        assert_same_files(
+            &rest(&reference),
+            &rest(&written),
+            &format!("{case}, {size} members"),
+        );
         let _ = std::fs::remove_dir_all(&out);
     }
     let _ = std::fs::remove_dir_all(&alone.out);
@@ -206,19 +217,7 @@ fn check_pieces(case: &str, scale: f64, set: &[&str], sizes: &[usize]) {
     for &size in sizes {
         let team_run = |pieces: bool| -> (PathBuf, Vec<Ended>) {
             let out = scratch(&format!("{tag}_{size}_{pieces}"));
-            let members = std::thread::scope(|s| {
-                let handles: Vec<_> = Threads::team(size)
-                    .into_iter()
-                    .map(|t| {
-                        let out = out.clone();
-                        s.spawn(move || run_with(case, scale, set, &out, Some(Arc::new(t)), pieces))
-                    })
-                    .collect();
-                handles
-                    .into_iter()
-                    .map(|h| h.join().unwrap())
-                    .collect::<Vec<_>>()
-            });
+            let members = members(size, |t| run_with(case, scale, set, &out, Some(t), pieces));
             (out, members)
         };
         let (whole_out, _) = team_run(false);
@@ -264,12 +263,11 @@ fn check_pieces(case: &str, scale: f64, set: &[&str], sizes: &[usize]) {
                 .cloned()
                 .collect::<Vec<_>>()
         };
-        let (a, b) = (frames_of(&whole), frames_of(&written));
-        let names = |f: &[(String, Vec<u8>)]| f.iter().map(|x| x.0.clone()).collect::<Vec<_>>();
-        assert_eq!(names(&a), names(&b), "{case}, {size} members");
-        for ((name, x), (_, y)) in a.iter().zip(&b) {
-            assert!(x == y, "{case}: {name} differs on pieces, {size} members");
-        }
+        assert_same_files(
+            &frames_of(&whole),
+            &frames_of(&written),
+            &format!("{case} on pieces, {size} members"),
+        );
         // The histories as the lone run wrote them.
         for name in ["run_energy.csv", "run_reactions.csv"] {
             let lone = reference.iter().find(|x| x.0 == name);

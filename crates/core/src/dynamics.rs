@@ -267,8 +267,10 @@ struct Shared {
     /// Set once the rank holds only its piece of the body ([`Integrator::cut`]).
     piece: Option<Box<Pieced>>,
     /// On pieces: a breaker's gathered decisions changed springs somewhere
-    /// ([`Integrator::gather_decisions`]), so the repaired pools are traded.
+    /// ([`Integrator::gather_decisions`]), so the repaired pools are traded; and this rank's
+    /// decisions as they travel.
     broke: bool,
+    springs_flat: Vec<Real>,
 }
 
 /// What an integrator that steps a rank's piece keeps (see [`Integrator::cut`]). Its `Shared`
@@ -342,19 +344,24 @@ impl Shared {
         }
     }
 
-    /// Take the loaded and prescribed nodes' forces in `state.f` from their owners (each
-    /// rank's own are current): one all-gather, `buf` its scratch.
-    fn special_forces(&self, state: &mut State, buf: &mut Vec<Real>) {
+    /// Three values at each loaded or prescribed node into `buf` (three per node, in
+    /// `special`'s order), each from the node's owner, which gives it as `value(node)`: one
+    /// all-gather.
+    fn gather_special(&self, buf: &mut Vec<Real>, value: impl Fn(usize) -> [Real; 3]) {
         buf.clear();
         buf.resize(3 * self.special.len(), 0.0);
         let mine = self.parts3[self.share.rank].clone();
         for k in mine.start / 3..mine.end / 3 {
-            let i = self.special[k] as usize;
-            for c in 0..3 {
-                buf[3 * k + c] = state.f.comp(c)[i];
-            }
+            buf[3 * k..3 * k + 3].copy_from_slice(&value(self.special[k] as usize));
         }
         self.team.gather(buf, &self.parts3);
+    }
+
+    /// Take the loaded and prescribed nodes' forces in `state.f` from their owners (each
+    /// rank's own are current): one all-gather, `buf` its scratch.
+    fn special_forces(&self, state: &mut State, buf: &mut Vec<Real>) {
+        let f = &state.f;
+        self.gather_special(buf, |i| [f.x()[i], f.y()[i], f.z()[i]]);
         for (k, &i) in self.special.iter().enumerate() {
             for c in 0..3 {
                 state.f.comp_mut(c)[i as usize] = buf[3 * k + c];
@@ -733,7 +740,6 @@ impl Integrator {
         // Rebuilt for the checkpoint's springs, whatever the counter says.
         self.synced = state.breaks().wrapping_add(1);
         self.sync(body, state);
-        self.synced = state.breaks();
     }
 
     /// Position and velocity of a prescribed DOF at time `t`, given its current displacement
@@ -903,6 +909,7 @@ impl Integrator {
                 v_partial: false,
                 piece: None,
                 broke: false,
+                springs_flat: Vec::new(),
             }
         });
         // From here on this rank sweeps its own nodes only.
@@ -1190,34 +1197,19 @@ impl Integrator {
         let Some(t) = self.team.as_mut().filter(|t| t.piece.is_some()) else {
             return;
         };
-        let size = t.team.size();
-        let rank = t.share.rank;
-        let mut counts = vec![0.0; size];
-        counts[rank] = list.len() as Real;
-        let ones: Vec<_> = (0..size).map(|r| r..r + 1).collect();
-        t.team.gather(&mut counts, &ones);
-        let mut parts = Vec::with_capacity(size);
-        let mut at = 0;
-        for &c in &counts {
-            parts.push(4 * at..4 * (at + c as usize));
-            at += c as usize;
-        }
-        t.broke = at > 0;
-        if at == 0 {
-            return;
-        }
-        let flat = &mut t.listed;
-        flat.clear();
-        flat.resize(4 * at, 0.0);
-        let mine = parts[rank].start;
-        for (k, &(b, w, [i, j])) in list.iter().enumerate() {
-            flat[mine + 4 * k..mine + 4 * k + 4]
-                .copy_from_slice(&[b as Real, w, i as Real, j as Real]);
-        }
-        t.team.gather(flat, &parts);
+        let mut mine = std::mem::take(&mut t.springs_flat);
+        mine.clear();
+        mine.extend(
+            list.iter()
+                .flat_map(|&(b, w, [i, j])| [b as Real, w, i as Real, j as Real]),
+        );
+        crate::team::gather_runs(&*t.team, &mine, &mut t.listed, &mut t.listed_parts);
+        t.springs_flat = mine;
+        t.broke = !t.listed.is_empty();
         list.clear();
         list.extend(
-            flat.chunks_exact(4)
+            t.listed
+                .chunks_exact(4)
                 .map(|e| (e[0] as u32, e[1], [e[2] as u32, e[3] as u32])),
         );
     }
@@ -1597,11 +1589,9 @@ impl Integrator {
             Some(t) if !self.dofs.is_empty() => {
                 // Each rank has current neighbours for its own nodes only: owners compute the
                 // forces, everyone gathers them.
-                let mine = t.parts3[t.share.rank].clone();
-                for k in mine.start / 3..mine.end / 3 {
-                    t.forces[3 * k..3 * k + 3].copy_from_slice(&force(t.special[k] as usize));
-                }
-                t.team.gather(&mut t.forces, &t.parts3);
+                let mut forces = std::mem::take(&mut t.forces);
+                t.gather_special(&mut forces, force);
+                t.forces = forces;
                 for &k in &t.dof_slot {
                     let f = &t.forces[3 * k..3 * k + 3];
                     self.f_before.push([f[0], f[1], f[2]]);
@@ -2152,14 +2142,10 @@ impl Integrator {
                     &mut inp,
                     &mut [&mut pool[..]],
                 );
-                let mut f = vec![0.0; 3 * t.special.len()];
-                let mine = t.parts3[t.share.rank].clone();
-                for k in mine.start / 3..mine.end / 3 {
-                    let i = t.special[k] as usize;
-                    let fi = law::node_force(body, body.q, &state.u, sp, &pool, i);
-                    f[3 * k..3 * k + 3].copy_from_slice(&fi);
-                }
-                t.team.gather(&mut f, &t.parts3);
+                let mut f = Vec::new();
+                t.gather_special(&mut f, |i| {
+                    law::node_force(body, body.q, &state.u, sp, &pool, i)
+                });
                 nodes
                     .iter()
                     .map(|&i| {

@@ -373,10 +373,15 @@ impl Fracture {
                 ..touched.partition_point(|&n| (n as usize) < r.end);
             (e, n)
         };
+        // Where each entry's and each touched node's terms are (four each: before and after
+        // the change, at the two positions of the step), in list order.
         let mut parts = Vec::with_capacity(share.len());
+        let (mut spring_at, mut node_at) = (Vec::new(), Vec::new());
         let mut at = 0;
         for r in &share {
             let (e, n) = runs(r);
+            spring_at.extend((0..e.len()).map(|x| 4 * (at + x)));
+            node_at.extend((0..n.len()).map(|x| 4 * (at + e.len() + x)));
             parts.push(4 * at..4 * (at + e.len() + n.len()));
             at += e.len() + n.len();
         }
@@ -429,21 +434,10 @@ impl Fracture {
         for s in 0..2 {
             let sum = |at: usize| {
                 let mut e = 0.0;
-                for (r, p) in share.iter().zip(&parts) {
-                    let k = runs(r).0.len();
-                    for x in 0..k {
-                        e += values[p.start + 4 * x + at + s];
-                    }
+                for &i in &spring_at {
+                    e += values[i + at + s];
                 }
-                e + share
-                    .iter()
-                    .zip(&parts)
-                    .flat_map(|(r, p)| {
-                        let (e, n) = runs(r);
-                        (0..n.len()).map(move |x| p.start + 4 * (e.len() + x))
-                    })
-                    .map(|i| values[i + at + s])
-                    .sum::<Real>()
+                e + node_at.iter().map(|&i| values[i + at + s]).sum::<Real>()
             };
             released += (sum(0) - sum(2)) / 2.0;
         }
