@@ -206,6 +206,40 @@ impl Open {
 /// Triangulate `points` (z = 0 for `N = 3`). Fails only on duplicate points, non-finite
 /// coordinates or fewer points than a simplex needs.
 pub fn triangulate<const N: usize>(points: &[[f64; 3]]) -> Result<Mesh<N>> {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in points {
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    triangulate_in(points, lo, hi)
+}
+
+/// [`triangulate`] with the super-simplex placed around the box `[lo, hi]` (which should hold
+/// the points) rather than around the points' own bounds. Two point sets triangulated in one
+/// box share their super-simplex, so a part of a body triangulated alone keeps exactly the
+/// simplices the whole body has around its inner nodes, hull ones included (see
+/// `random::part`).
+pub fn triangulate_in<const N: usize>(
+    points: &[[f64; 3]],
+    lo: [f64; 3],
+    hi: [f64; 3],
+) -> Result<Mesh<N>> {
+    triangulate_checked(points, lo, hi, |_, _| Ok(()))
+}
+
+/// [`triangulate_in`] that shows `check` every simplex of the finished triangulation, those
+/// with a vertex of the super-simplex included (their vertices index the slice `check` is
+/// given: the points, then the super-simplex's), before they are dropped; an error from
+/// `check` is returned.
+pub(crate) fn triangulate_checked<const N: usize>(
+    points: &[[f64; 3]],
+    lo: [f64; 3],
+    hi: [f64; 3],
+    check: impl Fn(&[[f64; 3]], &[u32; N]) -> Result<()>,
+) -> Result<Mesh<N>> {
     let n = points.len();
     if n < N {
         return Err(Error::InvalidInput {
@@ -220,14 +254,6 @@ pub fn triangulate<const N: usize>(points: &[[f64; 3]]) -> Result<Mesh<N>> {
             what: "random lattice",
             why: "a node coordinate is not finite".into(),
         });
-    }
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in points {
-        for c in 0..3 {
-            lo[c] = lo[c].min(p[c]);
-            hi[c] = hi[c].max(p[c]);
-        }
     }
     let centre = [
         0.5 * (lo[0] + hi[0]),
@@ -300,6 +326,11 @@ pub fn triangulate<const N: usize>(points: &[[f64; 3]]) -> Result<Mesh<N>> {
     let mut created: Vec<u32> = Vec::new();
     for &(_, i) in &order {
         last = b.insert(i, last, &mut cavity, &mut boundary, &mut created)?;
+    }
+    for x in &b.simplex {
+        if x.v.iter().all(|&v| v != NONE) {
+            check(&b.pts, &x.v)?;
+        }
     }
     // Keep the simplices without a super vertex (a dead one has a vertex NONE); neighbours
     // outside that set become hull facets.
@@ -531,6 +562,12 @@ pub fn measure<const N: usize>(p: &[[f64; 3]], v: &[u32; N]) -> f64 {
 
 /// Circumradius of a simplex (the radius of its circumscribed circle or sphere).
 pub fn circumradius<const N: usize>(p: &[[f64; 3]], v: &[u32; N]) -> f64 {
+    circumsphere(p, v).1
+}
+
+/// Centre and radius of a simplex's circumscribed circle (z = the vertices' z) or sphere; an
+/// infinite radius for a degenerate simplex.
+pub fn circumsphere<const N: usize>(p: &[[f64; 3]], v: &[u32; N]) -> ([f64; 3], f64) {
     // Solve 2 (x_k - x_0) . c = |x_k - x_0|^2 for the centre offset c.
     let x0 = p[v[0] as usize];
     let d = N - 1;
@@ -551,7 +588,7 @@ pub fn circumradius<const N: usize>(p: &[[f64; 3]], v: &[u32; N]) -> f64 {
         m.swap(col, piv);
         let pv = m[col][col];
         if pv == 0.0 {
-            return f64::INFINITY;
+            return (x0, f64::INFINITY);
         }
         for r in 0..d {
             if r != col {
@@ -562,10 +599,14 @@ pub fn circumradius<const N: usize>(p: &[[f64; 3]], v: &[u32; N]) -> f64 {
             }
         }
     }
-    (0..d)
-        .map(|c| (m[c][3] / m[c][c]).powi(2))
-        .sum::<f64>()
-        .sqrt()
+    let mut centre = x0;
+    let mut r2 = 0.0;
+    for c in 0..d {
+        let off = m[c][3] / m[c][c];
+        centre[c] += off;
+        r2 += off * off;
+    }
+    (centre, r2.sqrt())
 }
 
 #[cfg(test)]

@@ -58,6 +58,7 @@
 pub mod anisotropic;
 pub mod calibration;
 pub mod delaunay;
+pub mod part;
 pub mod rng;
 pub mod sample;
 
@@ -114,33 +115,7 @@ impl Lattice {
         inside: &(dyn Fn([Real; 3]) -> bool + Sync),
         curved: &[sample::Curved],
     ) -> Result<Lattice> {
-        if !(a.is_finite() && a > 0.0) {
-            return Err(Error::InvalidInput {
-                what: "lattice spacing",
-                why: format!("a = {a} m; give a positive spacing"),
-            });
-        }
-        for c in 0..dim {
-            if !(lo[c].is_finite() && hi[c].is_finite() && hi[c] - lo[c] >= a) {
-                return Err(Error::InvalidInput {
-                    what: "random lattice",
-                    why: format!(
-                        "the box spans {} m along axis {c}, less than the spacing {a} m: make it \
-                         larger or the spacing smaller",
-                        hi[c] - lo[c]
-                    ),
-                });
-            }
-        }
-        if let Sampler::Jitter { amplitude } = spec.sampler {
-            if !(0.0..=1.0).contains(&amplitude) {
-                return Err(Error::OutOfRange {
-                    what: "jitter amplitude",
-                    value: amplitude,
-                    why: "give a fraction of the spacing in [0, 1]; 1 lets neighbours meet".into(),
-                });
-            }
-        }
+        check_box(dim, lo, hi, a, spec)?;
         let (lo, hi) = if dim == 2 {
             ([lo[0], lo[1], 0.0], [hi[0], hi[1], 0.0])
         } else {
@@ -168,13 +143,15 @@ impl Lattice {
         } else {
             (LatticeKind::Random3d, 1.0)
         };
-        let (verts, measures, surface) = if dim == 2 {
-            simplices::<3>(&pts, a, inside, &chord)?
+        let kept = if dim == 2 {
+            let mesh = delaunay::triangulate_in::<3>(&pts, lo, hi)?;
+            simplices::<3>(&pts, &mesh, a, inside, &chord)?
         } else {
-            simplices::<4>(&pts, a, inside, &chord)?
+            let mesh = delaunay::triangulate_in::<4>(&pts, lo, hi)?;
+            simplices::<4>(&pts, &mesh, a, inside, &chord)?
         };
-        let nodes_per = dim + 1;
-        let (node_vol, merged) = shares(pts.len(), &verts, nodes_per, &measures, thickness);
+        let (node_vol, merged, surface) = shares(&pts, &kept, thickness);
+        drop(kept);
         // Drop nodes without springs and renumber.
         let mut new_index = vec![u32::MAX; pts.len()];
         let (mut x, mut y, mut z) = (Vec::new(), Vec::new(), Vec::new());
@@ -229,21 +206,79 @@ impl Lattice {
     }
 }
 
+/// Refuse a spacing, box or jitter amplitude a random lattice cannot be built with.
+fn check_box(dim: usize, lo: [Real; 3], hi: [Real; 3], a: Real, spec: RandomSpec) -> Result<()> {
+    if !(a.is_finite() && a > 0.0) {
+        return Err(Error::InvalidInput {
+            what: "lattice spacing",
+            why: format!("a = {a} m; give a positive spacing"),
+        });
+    }
+    for c in 0..dim {
+        if !(lo[c].is_finite() && hi[c].is_finite() && hi[c] - lo[c] >= a) {
+            return Err(Error::InvalidInput {
+                what: "random lattice",
+                why: format!(
+                    "the box spans {} m along axis {c}, less than the spacing {a} m: make it \
+                     larger or the spacing smaller",
+                    hi[c] - lo[c]
+                ),
+            });
+        }
+    }
+    if let Sampler::Jitter { amplitude } = spec.sampler {
+        if !(0.0..=1.0).contains(&amplitude) {
+            return Err(Error::OutOfRange {
+                what: "jitter amplitude",
+                value: amplitude,
+                why: "give a fraction of the spacing in [0, 1]; 1 lets neighbours meet".into(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The simplices a random lattice keeps, in a canonical form: each simplex's vertices ascending
+/// (the nodes' Morton order), each measure computed from the vertices in that order, and which
+/// facets lie on the body's boundary. Everything derived from them is
+/// then summed in an order that depends only on the nodes, not on how the triangulation was
+/// built: a part of a body triangulated alone gives its nodes the bits the whole body gives
+/// them (`random::part`).
+pub(crate) struct Kept {
+    /// Vertices per simplex (3 or 4).
+    pub nodes_per: usize,
+    /// `nodes_per` vertices per simplex, ascending within each ([`shares`] visits a node's
+    /// simplices in the ascending order of their vertex lists).
+    pub verts: Vec<u32>,
+    pub measures: Vec<Real>,
+    /// Bit `k` set: the facet opposite the simplex's `k`-th vertex is on the boundary.
+    pub facets: Vec<u8>,
+}
+
 /// Node and edge shares of each simplex's measure (times `thickness`): a node gets
 /// `1/nodes_per` of every simplex around it, an edge `1/edges_per` of every simplex along it.
-/// Returns the nodes' volumes and the edges `(i < j)` sorted by their ends with their volumes.
+/// Returns the nodes' volumes, the edges `(i < j)` sorted by their ends with their volumes, and
+/// each node's share of the boundary: the sum over the boundary facets around it of
+/// `area / d` times the outward unit normal (the facet's length in 2D, to be multiplied by the
+/// thickness).
 ///
 /// Node by node through the simplices around it (ascending, so every sum is formed in one fixed
 /// order) rather than by sorting the list of every simplex's edges: that list has six entries
 /// per tetrahedron, about 40 per node, and sorting it was a tenth of a random body's set-up
 /// and most of its peak memory.
+#[allow(clippy::type_complexity)]
 fn shares(
-    n: usize,
-    verts: &[u32],
-    nodes_per: usize,
-    measures: &[Real],
+    pts: &[[Real; 3]],
+    kept: &Kept,
     thickness: Real,
-) -> (Vec<Real>, Vec<([u32; 2], Real)>) {
+) -> (Vec<Real>, Vec<([u32; 2], Real)>, Vec<[Real; 3]>) {
+    let n = pts.len();
+    let Kept {
+        nodes_per,
+        ref verts,
+        ref measures,
+        ref facets,
+    } = *kept;
     let edges_per = nodes_per * (nodes_per - 1) / 2;
     let mut offsets = vec![0usize; n + 1];
     for &v in verts {
@@ -265,14 +300,16 @@ fn shares(
     // nodes whose results are joined in node order, so the same bits for any thread count.
     const BLOCK: usize = 4096;
     const AHEAD: usize = 4;
-    type Shares = (Vec<Real>, Vec<([u32; 2], Real)>);
+    type Shares = (Vec<Real>, Vec<([u32; 2], Real)>, Vec<[Real; 3]>);
     let blocks: Vec<Shares> = (0..n.div_ceil(BLOCK))
         .into_par_iter()
         .map(|b| {
             let nodes = b * BLOCK..((b + 1) * BLOCK).min(n);
             let mut node_vol = vec![0.0; nodes.len()];
+            let mut surface = vec![[0.0; 3]; nodes.len()];
             let mut edges = Vec::new();
             let mut row: Vec<(u32, Real)> = Vec::new();
+            let mut mine: Vec<u32> = Vec::new();
             for i in nodes.clone() {
                 // The simplices around a node are scattered through the list: load those of a
                 // node a few ahead while this one's are summed.
@@ -283,8 +320,15 @@ fn shares(
                     }
                 }
                 row.clear();
+                // The node's simplices in the order of their vertex lists, which does not
+                // depend on the order the triangulation made them in.
+                mine.clear();
+                mine.extend_from_slice(&around[offsets[i]..offsets[i + 1]]);
+                let of = |s: u32| &verts[s as usize * nodes_per..(s as usize + 1) * nodes_per];
+                mine.sort_unstable_by(|&s, &t| of(s).cmp(of(t)));
                 let vi = &mut node_vol[i - nodes.start];
-                for &s in &around[offsets[i]..offsets[i + 1]] {
+                let si = &mut surface[i - nodes.start];
+                for &s in &mine {
                     let vol = measures[s as usize] * thickness;
                     *vi += vol / nodes_per as Real;
                     let v = &verts[s as usize * nodes_per..(s as usize + 1) * nodes_per];
@@ -294,20 +338,63 @@ fn shares(
                             None => row.push((j, vol / edges_per as Real)),
                         }
                     }
+                    let mask = facets[s as usize];
+                    for k in (0..nodes_per).filter(|&k| mask >> k & 1 == 1 && v[k] != i as u32) {
+                        let n = facet_normal(pts, v, k);
+                        let share = 1.0 / (nodes_per - 1) as Real;
+                        for c in 0..3 {
+                            si[c] += share * n[c];
+                        }
+                    }
                 }
                 row.sort_unstable_by_key(|e| e.0);
                 edges.extend(row.iter().map(|&(j, v)| ([i as u32, j], v)));
             }
-            (node_vol, edges)
+            (node_vol, edges, surface)
         })
         .collect();
     let mut node_vol = Vec::with_capacity(n);
+    let mut surface = Vec::with_capacity(n);
     let mut edges: Vec<([u32; 2], Real)> = Vec::with_capacity(verts.len() * (nodes_per - 1) / 2);
-    for (v, e) in blocks {
+    for (v, e, f) in blocks {
         node_vol.extend(v);
         edges.extend(e);
+        surface.extend(f);
     }
-    (node_vol, edges)
+    (node_vol, edges, surface)
+}
+
+/// The area vector of a simplex's facet opposite its `k`-th vertex, pointing away from that
+/// vertex: half the cross product in 3D, the edge turned by a right angle in 2D (a length, to
+/// be multiplied by the thickness). From the facet's vertices in the simplex's (ascending)
+/// order, so the same bits from every simplex and every part that holds the facet.
+fn facet_normal(pts: &[[Real; 3]], v: &[u32], k: usize) -> [Real; 3] {
+    let at = |i: u32| pts[i as usize];
+    let mut f = [[0.0; 3]; 3];
+    let mut m = 0;
+    for (x, &i) in v.iter().enumerate() {
+        if x != k {
+            f[m] = at(i);
+            m += 1;
+        }
+    }
+    let sub = |p: [Real; 3], q: [Real; 3]| [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
+    let mut n = if v.len() == 3 {
+        let e = sub(f[1], f[0]);
+        [e[1], -e[0], 0.0]
+    } else {
+        let (e1, e2) = (sub(f[1], f[0]), sub(f[2], f[0]));
+        [
+            0.5 * (e1[1] * e2[2] - e1[2] * e2[1]),
+            0.5 * (e1[2] * e2[0] - e1[0] * e2[2]),
+            0.5 * (e1[0] * e2[1] - e1[1] * e2[0]),
+        ]
+    };
+    let to_k = sub(at(v[k]), f[0]);
+    if n[0] * to_k[0] + n[1] * to_k[1] + n[2] * to_k[2] > 0.0 {
+        n = [-n[0], -n[1], -n[2]];
+    }
+    n
 }
 
 /// Sort points, and a flag with each, by the Morton (Z-order) key of their coordinates
@@ -325,28 +412,28 @@ fn morton_sort(pts: &mut [[Real; 3]], flag: &mut [bool], lo: [Real; 3], hi: [Rea
     }
 }
 
-/// Triangulate and drop simplices outside the shape. Returns the kept simplices' vertices
-/// (flattened, `N` per simplex), their measures, and each point's share of the boundary: the sum
-/// over the boundary facets around it of `area / d` times the outward unit normal (the facet's
-/// length in 2D, to be multiplied by the thickness).
-#[allow(clippy::type_complexity)]
+/// Drop the simplices of `mesh` outside the shape and put the rest in canonical form
+/// ([`Kept`]). Degenerate simplices (measure below `1e-12 a^d`) are dropped too.
 fn simplices<const N: usize>(
     pts: &[[Real; 3]],
+    mesh: &delaunay::Mesh<N>,
     a: Real,
     inside: &(dyn Fn([Real; 3]) -> bool + Sync),
     chord: &(dyn Fn(u32, u32) -> bool + Sync),
-) -> Result<(Vec<u32>, Vec<Real>, Vec<[Real; 3]>)> {
-    let mesh = delaunay::triangulate::<N>(pts)?;
+) -> Result<Kept> {
     let tiny = 1e-12 * a.powi(N as i32 - 1);
     let at = |i: u32| pts[i as usize];
     // Each simplex's measure, or NaN for one the shape drops: a simplex is judged on its own,
-    // so in parallel.
+    // so in parallel. Judged from its vertices in ascending order, so that it is judged alike
+    // wherever it was built.
     let kept: Vec<Real> = mesh
         .simplices
         .par_iter()
         .with_min_len(1 << 14)
         .map(|v| {
-            let m = delaunay::measure(pts, v);
+            let (v, even) = ascending(*v);
+            let m = delaunay::measure(pts, &v);
+            let m = if even { m } else { -m };
             if m <= 0.0 {
                 // Exact orientation: the triangulation gives none of these (delaunay.rs).
                 return Real::NEG_INFINITY;
@@ -355,7 +442,7 @@ fn simplices<const N: usize>(
                 return Real::NAN;
             }
             let mut c = [0.0; 3];
-            for &i in v {
+            for &i in &v {
                 for k in 0..3 {
                     c[k] += at(i)[k] / N as Real;
                 }
@@ -393,47 +480,47 @@ fn simplices<const N: usize>(
         });
     }
     let keep = |s: usize| !kept[s].is_nan();
-    let mut verts = Vec::new();
-    let mut measures = Vec::new();
-    let mut surface = vec![[0.0; 3]; pts.len()];
+    let count = kept.iter().filter(|m| !m.is_nan()).count();
+    let mut out = Kept {
+        nodes_per: N,
+        verts: Vec::with_capacity(count * N),
+        measures: Vec::with_capacity(count),
+        facets: Vec::with_capacity(count),
+    };
     for (s, v) in mesh.simplices.iter().enumerate() {
         if !keep(s) {
             continue;
         }
-        verts.extend_from_slice(v);
-        measures.push(kept[s]);
+        // The facet opposite v[k] is the one opposite the same vertex in ascending order.
+        let (sorted, _) = ascending(*v);
+        let mut mask = 0u8;
         for k in 0..N {
             let t = mesh.nbr[s][k];
-            if t != u32::MAX && keep(t as usize) {
-                continue;
-            }
-            // Boundary facet opposite vertex k: area vector pointing away from v[k].
-            let f: Vec<[Real; 3]> = (0..N).filter(|&m| m != k).map(|m| at(v[m])).collect();
-            let sub = |p: [Real; 3], q: [Real; 3]| [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
-            let mut n = if N == 3 {
-                let e = sub(f[1], f[0]);
-                [e[1], -e[0], 0.0]
-            } else {
-                let (e1, e2) = (sub(f[1], f[0]), sub(f[2], f[0]));
-                [
-                    0.5 * (e1[1] * e2[2] - e1[2] * e2[1]),
-                    0.5 * (e1[2] * e2[0] - e1[0] * e2[2]),
-                    0.5 * (e1[0] * e2[1] - e1[1] * e2[0]),
-                ]
-            };
-            let to_k = sub(at(v[k]), f[0]);
-            if n[0] * to_k[0] + n[1] * to_k[1] + n[2] * to_k[2] > 0.0 {
-                n = [-n[0], -n[1], -n[2]];
-            }
-            let share = 1.0 / (N - 1) as Real;
-            for m in (0..N).filter(|&m| m != k) {
-                for c in 0..3 {
-                    surface[v[m] as usize][c] += share * n[c];
-                }
+            if t == u32::MAX || !keep(t as usize) {
+                let at = sorted.iter().position(|&x| x == v[k]).expect("a vertex");
+                mask |= 1 << at;
             }
         }
+        out.verts.extend_from_slice(&sorted);
+        out.measures.push(kept[s]);
+        out.facets.push(mask);
     }
-    Ok((verts, measures, surface))
+    Ok(out)
+}
+
+/// A simplex's vertices in ascending order, and whether that order is an even permutation of
+/// the given one (the measure keeps its sign).
+pub(crate) fn ascending<const N: usize>(mut v: [u32; N]) -> ([u32; N], bool) {
+    let mut even = true;
+    for i in 1..N {
+        let mut j = i;
+        while j > 0 && v[j - 1] > v[j] {
+            v.swap(j - 1, j);
+            even = !even;
+            j -= 1;
+        }
+    }
+    (v, even)
 }
 
 #[cfg(test)]
@@ -443,9 +530,8 @@ mod tests {
     #[test]
     fn shares_are_those_of_the_sorted_edge_list() {
         // The node-by-node shares against the plain way: every simplex's edges listed, sorted
-        // and merged. Same edges, same node volumes to the bit (the same terms in the same
-        // order), the same edge volumes to round-off (the terms of an edge's sum in another
-        // order).
+        // and merged. Same edges, the same node and edge volumes to round-off (the terms of a
+        // sum in another order).
         let pts = sample::sample_box(
             3,
             [0.0; 3],
@@ -456,13 +542,17 @@ mod tests {
             &|_| true,
         );
         let mesh = delaunay::triangulate::<4>(&pts).unwrap();
-        let verts: Vec<u32> = mesh.simplices.iter().flatten().copied().collect();
-        let measures: Vec<Real> = mesh
-            .simplices
-            .iter()
-            .map(|v| delaunay::measure(&pts, v))
-            .collect();
-        let (node, edges) = shares(pts.len(), &verts, 4, &measures, 1.0);
+        let kept = simplices::<4>(&pts, &mesh, 1.0, &|_| true, &|_, _| false).unwrap();
+        let measures = kept.measures.clone();
+        let (node, edges, _) = shares(&pts, &kept, 1.0);
+        let mesh = delaunay::Mesh::<4> {
+            simplices: kept
+                .verts
+                .chunks(4)
+                .map(|v| [v[0], v[1], v[2], v[3]])
+                .collect(),
+            nbr: Vec::new(),
+        };
         let mut node_ref = vec![0.0; pts.len()];
         let mut list = Vec::new();
         for (s, v) in mesh.simplices.iter().enumerate() {
@@ -481,7 +571,9 @@ mod tests {
                 _ => merged.push((e, v)),
             }
         }
-        assert_eq!(node, node_ref);
+        for (a, b) in node.iter().zip(&node_ref) {
+            assert!((a - b).abs() <= 1e-14 * b, "{a} against {b}");
+        }
         assert_eq!(edges.len(), merged.len());
         for (a, b) in edges.iter().zip(&merged) {
             assert_eq!(a.0, b.0);

@@ -228,7 +228,7 @@ pub fn sample_conforming(
     let mut rng = Rng::new(seed);
     match sampler {
         Sampler::Jitter { amplitude } => {
-            let pts = jittered(dim, lo, hi, a, amplitude, &mut rng);
+            let pts = jittered(dim, lo, hi, a, amplitude, seed);
             (pts.into_iter().filter(|&p| inside(p)).collect(), 0)
         }
         Sampler::Poisson => {
@@ -313,35 +313,79 @@ fn grow_on(
     }
 }
 
-fn jittered(
-    dim: usize,
-    lo: [f64; 3],
-    hi: [f64; 3],
-    a: f64,
-    amp: f64,
-    rng: &mut Rng,
-) -> Vec<[f64; 3]> {
-    let mut n = [0usize; 3];
-    let mut h = [0.0; 3];
-    for c in 0..dim {
-        n[c] = ((hi[c] - lo[c]) / a).round().max(1.0) as usize;
-        h[c] = (hi[c] - lo[c]) / n[c] as f64;
+/// The jittered grid's shape: `n[c]` intervals of `h[c]` along each sampled axis, so
+/// `n[c] + 1` nodes, boundary nodes included.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct JitterGrid {
+    pub dim: usize,
+    pub lo: [f64; 3],
+    pub n: [usize; 3],
+    pub h: [f64; 3],
+    pub amp: f64,
+    pub seed: u64,
+}
+
+impl JitterGrid {
+    pub fn new(dim: usize, lo: [f64; 3], hi: [f64; 3], a: f64, amp: f64, seed: u64) -> Self {
+        let mut n = [0usize; 3];
+        let mut h = [0.0; 3];
+        for c in 0..dim {
+            n[c] = ((hi[c] - lo[c]) / a).round().max(1.0) as usize;
+            h[c] = (hi[c] - lo[c]) / n[c] as f64;
+        }
+        JitterGrid {
+            dim,
+            lo,
+            n,
+            h,
+            amp,
+            seed,
+        }
     }
-    let mut out = Vec::with_capacity((0..dim).map(|c| n[c] + 1).product());
-    let nz = if dim == 3 { n[2] + 1 } else { 1 };
-    for k in 0..nz {
-        for j in 0..=n[1] {
-            for i in 0..=n[0] {
-                let idx = [i, j, k];
-                let mut p = [0.0; 3];
-                for c in 0..dim {
-                    p[c] = lo[c] + idx[c] as f64 * h[c];
-                    // Boundary nodes stay on their face: only their tangential coordinates move.
-                    if idx[c] > 0 && idx[c] < n[c] {
-                        p[c] += amp * h[c] * (rng.uniform() - 0.5);
-                    }
-                }
-                out.push(p);
+
+    /// Nodes along each axis (1 on a plate's z).
+    pub fn count(&self) -> [usize; 3] {
+        [0, 1, 2].map(|c| if c < self.dim { self.n[c] + 1 } else { 1 })
+    }
+
+    /// The node of grid index `idx`, from a stream of its own: seeded by the lattice's seed and
+    /// the node's place in the grid, not by how many nodes were drawn before it, so any part of
+    /// the grid can be sampled alone and gives the nodes the whole grid has there (a process
+    /// building its own part of a body needs exactly that).
+    pub fn node(&self, idx: [usize; 3]) -> [f64; 3] {
+        let [ni, nj, _] = self.count();
+        let linear = (idx[0] + ni * (idx[1] + nj * idx[2])) as u64;
+        let mut rng = Rng::new(mix(mix(self.seed) ^ linear));
+        let mut p = [0.0; 3];
+        for c in 0..self.dim {
+            p[c] = self.lo[c] + idx[c] as f64 * self.h[c];
+            // Boundary nodes stay on their face: only their tangential coordinates move.
+            let u = rng.uniform();
+            if idx[c] > 0 && idx[c] < self.n[c] {
+                p[c] += self.amp * self.h[c] * (u - 0.5);
+            }
+        }
+        p
+    }
+}
+
+/// SplitMix64's finaliser: neighbouring inputs give unrelated outputs, so that neighbouring
+/// nodes' streams are unrelated.
+fn mix(x: u64) -> u64 {
+    let mut x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    x ^ (x >> 31)
+}
+
+fn jittered(dim: usize, lo: [f64; 3], hi: [f64; 3], a: f64, amp: f64, seed: u64) -> Vec<[f64; 3]> {
+    let g = JitterGrid::new(dim, lo, hi, a, amp, seed);
+    let [ni, nj, nk] = g.count();
+    let mut out = Vec::with_capacity(ni * nj * nk);
+    for k in 0..nk {
+        for j in 0..nj {
+            for i in 0..ni {
+                out.push(g.node([i, j, k]));
             }
         }
     }
