@@ -876,6 +876,18 @@ impl Integrator {
             let special = special_nodes(&self.loading);
             let share =
                 share.unwrap_or_else(|| Share::new(body, team.size(), team.rank(), &special));
+            self.shared(team, share, special)
+        });
+        // From here on this rank sweeps its own nodes only.
+        if let Some(t) = &self.team {
+            self.kernel.keep_rows(t.share.mine());
+        }
+    }
+
+    /// The team's state of a shared run over `share`, whose loaded and prescribed nodes are
+    /// `special` (in the body's numbering).
+    fn shared(&self, team: std::sync::Arc<dyn Team>, share: Share, special: Vec<usize>) -> Shared {
+        {
             let parts3 = share
                 .nodes
                 .iter()
@@ -911,10 +923,6 @@ impl Integrator {
                 broke: false,
                 springs_flat: Vec::new(),
             }
-        });
-        // From here on this rank sweeps its own nodes only.
-        if let Some(t) = &self.team {
-            self.kernel.keep_rows(t.share.mine());
         }
     }
 
@@ -977,32 +985,144 @@ impl Integrator {
         t.special
             .iter_mut()
             .for_each(|i| *i = local(*i as usize) as u32);
+        self.attach(piece, &piece_body, &mut piece_state);
+        Ok((piece_body, piece_state))
+    }
+
+    /// An integrator for rank `team.rank()`'s piece of a body that no rank holds whole, as
+    /// [`crate::team::parts::assemble`] sets it up (`share` its nodes per rank, in the body's
+    /// numbering): the steps of [`Integrator::new`] followed by [`Integrator::cut`], bit for
+    /// bit, on a body without loads or prescribed motion that starts at rest, with the given
+    /// step `dt`. `state` is the piece's.
+    ///
+    /// The stable step is not estimated: the Lanczos iteration runs over the whole body. What
+    /// the integrator reports as its stable step is the bound that needs no iteration (its
+    /// maximum over the ranks, exact in any order; [`stability::damage_bound`]), which `dt`
+    /// must not exceed unless `opts.time_step` is `Fixed` with `force`.
+    pub fn on_piece(
+        body: &Body,
+        state: &mut State,
+        piece: Piece,
+        share: Share,
+        team: std::sync::Arc<dyn Team>,
+        opts: &IntegratorOptions,
+        dt: Real,
+    ) -> Result<Self> {
+        body.validate()?;
+        if !(opts.damping.is_finite() && opts.damping >= 0.0) {
+            return Err(Error::OutOfRange {
+                what: "damping coefficient c (1/s)",
+                value: opts.damping,
+                why: "it must be zero or positive".into(),
+            });
+        }
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(Error::OutOfRange {
+                what: "time step dt (s)",
+                value: dt,
+                why: "it must be positive".into(),
+            });
+        }
+        let own = piece.own.clone();
+        let moving = (0..3).any(|c| {
+            state.u.comp(c)[own.clone()].iter().any(|&x| x != 0.0)
+                || state.v.comp(c)[own.clone()].iter().any(|&x| x != 0.0)
+        });
+        let mut moving = [moving];
+        team.any(&mut moving);
+        if moving[0] {
+            return Err(Error::InvalidInput {
+                what: "a piece set up from parts",
+                why: "it must start at rest (displacements and velocities zero); set the \
+                      velocities after the set-up"
+                    .into(),
+            });
+        }
+        let mut kernel = if opts.force_csr {
+            Kernel::Csr { plain: false }
+        } else {
+            Kernel::for_body_in(body, state, Some(own.clone()))
+        };
+        if opts.portable {
+            kernel.set_simd(false);
+        }
+        // Ghosts' rows are partial and dummies have none, so their ratios are no larger than
+        // their owners': the ranks' maxima's maximum is the body's.
+        let size = team.size();
+        let mut all = vec![0.0; size];
+        all[team.rank()] = stability::damage_bound(body);
+        let singles: Vec<_> = (0..size).map(|r| r..r + 1).collect();
+        team.gather(&mut all, &singles);
+        let bound = all.into_iter().fold(0.0, Real::max);
+        let critical = 2.0 / bound.sqrt();
+        let force = matches!(opts.time_step, TimeStep::Fixed { force: true, .. });
+        if dt > critical && !force {
+            return Err(Error::TimeStepTooLarge {
+                dt,
+                limit: critical,
+                critical,
+                safety: 1.0,
+            });
+        }
+        let stable = StableStep {
+            lambda_max: bound,
+            dt_critical: critical,
+            lambda_bound: bound,
+        };
+        let u_next = stability::drift_scratch(body, &kernel);
+        let inv_mass = body.mass.iter().map(|&m| 1.0 / m).collect();
+        let mut it = Self::assemble(
+            body,
+            Loading::default(),
+            opts,
+            kernel,
+            dt,
+            stable,
+            (u_next, inv_mass),
+        );
+        it.synced = state.breaks();
+        it.plane &= Self::flat(state);
+        // At rest every extension is zero: pools, forces and strain energy are zero exactly.
+        state.f.fill_zero();
+        state.pool.fill(0.0);
+        it.initial = 0.0;
+        let shared = it.shared(team, share, Vec::new());
+        it.team = Some(shared);
+        it.attach(piece, body, state);
+        let v0 = state.v.clone();
+        it.initial_power = it.power(body, state, &v0);
+        Ok(it)
+    }
+
+    /// Step `piece` from here on (the end of [`Integrator::cut`] and
+    /// [`Integrator::on_piece`]): the piece's masses, kernel, scratch and partial sums.
+    fn attach(&mut self, piece: Piece, piece_body: &Body, piece_state: &mut State) {
         self.inv_mass = piece_body.mass.iter().map(|&m| 1.0 / m).collect();
         if !self.u_next.is_empty() {
             self.u_next = Coords::zeros(piece_body.nodes());
         }
-        let sweeps = piece.share(&piece_body);
+        let sweeps = piece.share(piece_body);
         let simd = self.kernel.simd();
         self.kernel = match self.kernel {
             Kernel::Csr { plain } => Kernel::Csr { plain },
-            _ => Kernel::for_body_in(&piece_body, &piece_state, Some(sweeps.mine())),
+            _ => Kernel::for_body_in(piece_body, piece_state, Some(sweeps.mine())),
         };
         self.kernel.set_simd(simd);
         // Size the kernel's scratch now, so that no step allocates; the pools it computes at
         // the ghosts come from their partial rows, so the state's are kept.
         let pools = piece_state.pool.clone();
         self.kernel
-            .pools_shared(&piece_body, &mut piece_state, Real::INFINITY, Some(&sweeps));
+            .pools_shared(piece_body, piece_state, Real::INFINITY, Some(&sweeps));
         piece_state.pool = pools;
         self.partials = vec![Default::default(); piece_body.nodes().div_ceil(crate::kernel::CHUNK)];
         self.synced = piece_state.breaks();
         let chunks = piece.total.div_ceil(crate::kernel::CHUNK);
+        let t = self.team.as_mut().expect("a shared integrator");
         t.piece = Some(Box::new(Pieced {
             piece,
             sweeps,
             partials: vec![Default::default(); chunks],
         }));
-        Ok((piece_body, piece_state))
     }
 
     /// A digest of every node's displacement and velocity, in the body's node order: the same

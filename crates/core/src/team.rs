@@ -37,6 +37,7 @@ use crate::body::Body;
 use crate::kernel::CHUNK;
 use crate::math::Real;
 
+pub mod parts;
 mod piece;
 pub use piece::{Piece, PAD};
 

@@ -185,7 +185,12 @@ impl Lattice {
         let spring: Vec<Real> = merged.iter().map(|m| m.1).collect();
         let bonds = Bonds::from_pairs(pos.len(), pairs, &pos, [0.0; 3])?;
         debug_assert_eq!(bonds.len(), spring.len());
-        let total: Real = node.iter().sum();
+        // Per chunk of nodes, chunks in order: the sum that ranks holding parts of the body
+        // form alike (`team::parts`).
+        let total: Real = node
+            .chunks(crate::kernel::CHUNK)
+            .map(|c| c.iter().sum::<Real>())
+            .sum();
         let n = pos.len();
         Ok(Lattice {
             kind,

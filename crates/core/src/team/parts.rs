@@ -1,0 +1,498 @@
+//! A rank's piece of a random body set up from its part alone ([`crate::random::part`]): no
+//! rank builds, or holds, the whole body.
+//!
+//! [`assemble`] gives each rank the [`Piece`] and the piece's lattice that [`Piece::cut`]
+//! would cut out of the whole body for a share that owns the same nodes, by four collective
+//! steps:
+//!
+//! 1. **Counts.** Each rank builds the part of an even split of the Morton keys and counts its
+//!    own nodes; the counts, all-gathered, number the body's nodes (the body's order is the
+//!    keys' order).
+//! 2. **Whole chunks.** A piece owns whole chunks of [`CHUNK`] nodes, as a share does (its
+//!    kernels' windows and per-chunk partial sums then fall as they fall in the body). The
+//!    boundaries are moved to the nearest multiple of [`CHUNK`], the keys found there are
+//!    all-gathered, and each rank builds the part of its new key range.
+//! 3. **Ghosts.** Each rank asks the owners of its ghosts (by key range) for their index in
+//!    the body, volume and boundary share, naming them by grid index; the questions are its
+//!    halo's receives, the answers' order its peers' sends.
+//! 4. **Springs.** A spring's index in the body is its place among the springs ordered by
+//!    their ends: the springs whose lower end a rank owns are numbered from the all-gathered
+//!    counts, and those whose lower end is a ghost are asked of its owner.
+//!
+//! The body's cell volume (its volume over its nodes) is summed per chunk, chunks in order,
+//! as [`crate::Lattice::random`] sums it. Memory: a rank holds its part twice at most (step 2
+//! builds the part again), never the body.
+
+use std::ops::Range;
+
+use super::{Halo, Piece, Share, Team, PAD};
+use crate::error::{Error, Result};
+use crate::kernel::CHUNK;
+use crate::lattice::{Bonds, Cells, Lattice, LatticeKind, Topology};
+use crate::math::{Coords, Real};
+use crate::random::part::{Part, KEY_END};
+use crate::random::Sampler;
+
+/// What the piece's lattice takes from the body's description.
+#[derive(Clone, Copy, Debug)]
+pub struct Template {
+    pub kind: LatticeKind,
+    pub spacing: Real,
+    pub thickness: Real,
+    pub sampler: Sampler,
+}
+
+/// Rank `team.rank()`'s piece of a random body, built from the parts `build` gives for key
+/// ranges (every rank passes the same body; see the module docs), with its lattice, and every
+/// rank's nodes in the body's numbering (a share's `nodes`). Collective: a failure on any rank
+/// stops every rank, with that rank's reason on it and a pointer to it on the others.
+pub fn assemble(
+    team: &dyn Team,
+    template: Template,
+    build: &dyn Fn(Range<u64>) -> Result<Part>,
+) -> Result<(Piece, Lattice, Share)> {
+    let (rank, size) = (team.rank(), team.size());
+    let even = |r: usize| ((KEY_END as u128 * r as u128) / size as u128) as u64;
+    let trial = all_ok(team, build(even(rank)..even(rank + 1)))?;
+    // 1. Counts and the body's numbering.
+    let mut counts = vec![0.0; size];
+    counts[rank] = trial.own.len() as Real;
+    team.gather(&mut counts, &singles(size));
+    let counts: Vec<usize> = counts.iter().map(|&c| c as usize).collect();
+    let offsets: Vec<usize> = prefix(&counts);
+    let total = offsets[size];
+    if total > u32::MAX as usize {
+        return Err(Error::InvalidInput {
+            what: "random lattice",
+            why: format!("{total} nodes: more than a u32 index holds"),
+        });
+    }
+    // 2. Boundaries on whole chunks, and their keys.
+    let mut split = vec![0usize; size + 1];
+    split[size] = total;
+    for r in 1..size {
+        let at = (offsets[r] + CHUNK / 2) / CHUNK * CHUNK;
+        split[r] = at.min(total).max(split[r - 1]);
+    }
+    let mut keys = vec![0.0; size + 1];
+    keys[size] = Real::from_bits(KEY_END);
+    // The boundary keys rank q finds: those of the boundaries inside its trial range.
+    let finder = |s: usize| (0..size).find(|&q| offsets[q] <= s && s < offsets[q + 1]);
+    let mut parts = vec![0..0; size];
+    for r in 1..size {
+        match finder(split[r]) {
+            Some(q) => {
+                if parts[q].is_empty() {
+                    parts[q] = r..r + 1;
+                } else {
+                    parts[q].end = r + 1;
+                }
+            }
+            None => keys[r] = Real::from_bits(KEY_END),
+        }
+    }
+    for r in parts[rank].clone() {
+        keys[r] = Real::from_bits(trial.key[trial.own.start + split[r] - offsets[rank]]);
+    }
+    fill_gaps(&mut parts);
+    team.gather(&mut keys, &parts);
+    let keys: Vec<u64> = keys.iter().map(|k| k.to_bits()).collect();
+    let mine = keys[rank]..keys[rank + 1];
+    let part = if mine == (even(rank)..even(rank + 1)) {
+        trial
+    } else {
+        drop(trial);
+        all_ok(team, build(mine))?
+    };
+    let want = split[rank + 1] - split[rank];
+    let mut wrong = [part.own.len() != want];
+    team.any(&mut wrong);
+    if wrong[0] {
+        return Err(Error::InvalidInput {
+            what: "random lattice",
+            why: "two nodes share a Morton key where the body is split between processes; \
+                  change the seed or the spacing slightly"
+                .into(),
+        });
+    }
+    // 3. Ghosts: asked of their owners by grid index.
+    let owner = |k: u64| keys[1..size].partition_point(|&s| s <= k);
+    let ghosts: Vec<usize> = (0..part.pos.len())
+        .filter(|i| !part.own.contains(i))
+        .collect();
+    let mut asks = vec![Vec::new(); size];
+    for &i in &ghosts {
+        let q = owner(part.key[i]);
+        asks[q].push(Real::from_bits(part.key[i]));
+        asks[q].push(Real::from_bits(part.grid[i]));
+    }
+    let own_ids: Vec<(u64, u64)> = part
+        .own
+        .clone()
+        .map(|i| (part.key[i], part.grid[i]))
+        .collect();
+    let mut sends = vec![Vec::new(); size];
+    let answers = ask(team, &asks, 2, 5, &mut |from, q| {
+        let id = (q[0].to_bits(), q[1].to_bits());
+        let at = own_ids.binary_search(&id).ok()?;
+        sends[from].push(at);
+        let s = part.surface[at];
+        Some(vec![
+            (split[rank] + at) as Real,
+            part.volume[at],
+            s[0],
+            s[1],
+            s[2],
+        ])
+    })?;
+    // The ghosts' answers, in the part's order (owners ascend with the keys).
+    let mut ghost_info = Vec::with_capacity(ghosts.len());
+    for a in &answers {
+        ghost_info.extend(
+            a.chunks(5)
+                .map(|x| (x[0] as usize, x[1], [x[2], x[3], x[4]])),
+        );
+    }
+    // 4. Springs: numbered by the owners of their lower ends.
+    let global = |i: usize| -> usize {
+        if part.own.contains(&i) {
+            split[rank] + i - part.own.start
+        } else {
+            let g = ghosts.binary_search(&i).expect("a ghost");
+            ghost_info[g].0
+        }
+    };
+    let lower_own: Vec<(usize, usize)> = part
+        .springs
+        .iter()
+        .filter(|(e, _)| part.own.contains(&(e[0] as usize)))
+        .map(|(e, _)| (global(e[0] as usize), global(e[1] as usize)))
+        .collect();
+    let mut spring_counts = vec![0.0; size];
+    spring_counts[rank] = lower_own.len() as Real;
+    team.gather(&mut spring_counts, &singles(size));
+    let spring_first = prefix(
+        &spring_counts
+            .iter()
+            .map(|&c| c as usize)
+            .collect::<Vec<_>>(),
+    );
+    let mut asks = vec![Vec::new(); size];
+    for (e, _) in &part.springs {
+        let lo = e[0] as usize;
+        if !part.own.contains(&lo) {
+            let q = owner(part.key[lo]);
+            asks[q].push(global(lo) as Real);
+            asks[q].push(global(e[1] as usize) as Real);
+        }
+    }
+    let answers = ask(team, &asks, 2, 1, &mut |_, q| {
+        let at = lower_own
+            .binary_search(&(q[0] as usize, q[1] as usize))
+            .ok()?;
+        Some(vec![(spring_first[rank] + at) as Real])
+    })?;
+    let mut foreign = answers.iter().flatten().map(|&x| x as u32);
+    let mut next_own = spring_first[rank] as u32;
+    let springs: Vec<u32> = part
+        .springs
+        .iter()
+        .map(|(e, _)| {
+            if part.own.contains(&(e[0] as usize)) {
+                next_own += 1;
+                next_own - 1
+            } else {
+                foreign.next().expect("an answer per foreign spring")
+            }
+        })
+        .collect();
+    // The piece: dummies, ghosts below, own nodes, ghosts above (the part's order).
+    let below = part.own.start;
+    let pad = below.next_multiple_of(CHUNK) - below;
+    let n = pad + part.pos.len();
+    let mut global_ids = vec![PAD; pad];
+    global_ids.extend((0..part.pos.len()).map(|i| global(i) as u32));
+    let own = pad + part.own.start..pad + part.own.end;
+    let ghost_local: Vec<usize> = ghosts.iter().map(|&i| pad + i).collect();
+    let mut recv = vec![Vec::new(); size];
+    for (k, &i) in ghosts.iter().enumerate() {
+        recv[owner(part.key[i])].push(ghost_local[k] as u32);
+    }
+    let send = sends
+        .into_iter()
+        .map(|s| s.into_iter().map(|at| (own.start + at) as u32).collect())
+        .collect();
+    let pick = |c: usize| -> Vec<Real> {
+        let mut v = vec![0.0; pad];
+        v.extend(part.pos.iter().map(|p| p[c]));
+        v
+    };
+    let pos = Coords::from_components(&pick(0), &pick(1), &pick(2));
+    let pairs: Vec<[u32; 2]> = part
+        .springs
+        .iter()
+        .map(|(e, _)| e.map(|i| (pad + i as usize) as u32))
+        .collect();
+    let bonds = Bonds::from_pairs(n, pairs, &pos, [0.0; 3])?;
+    let mut node = vec![0.0; n];
+    let mut surface = vec![[0.0; 3]; n];
+    for (k, &i) in ghosts.iter().enumerate() {
+        node[pad + i] = ghost_info[k].1;
+        surface[pad + i] = ghost_info[k].2;
+    }
+    node[own.clone()].copy_from_slice(&part.volume);
+    surface[own.clone()].copy_from_slice(&part.surface);
+    // The body's volume per node: per-chunk sums of the own chunks, in chunk order.
+    let chunks = total.div_ceil(CHUNK);
+    let mut partial = vec![0.0; chunks];
+    for (k, c) in part.volume.chunks(CHUNK).enumerate() {
+        partial[split[rank] / CHUNK + k] = c.iter().sum();
+    }
+    let nodes: Vec<Range<usize>> = (0..size).map(|r| split[r]..split[r + 1]).collect();
+    let chunk_parts: Vec<Range<usize>> = nodes
+        .iter()
+        .map(|r| r.start / CHUNK..r.end.div_ceil(CHUNK))
+        .collect();
+    team.gather(&mut partial, &chunk_parts);
+    let volume: Real = partial.iter().sum();
+    let lattice = Lattice {
+        kind: template.kind,
+        spacing: template.spacing,
+        pos,
+        cell_volume: volume / total as Real,
+        thickness: template.thickness,
+        period: [0.0; 3],
+        grid: None,
+        bonds: Topology::from(bonds),
+        cells: Some(Cells {
+            node,
+            spring: part.springs.iter().map(|(_, v)| *v).collect(),
+            surface,
+            sampler: template.sampler,
+        }),
+    };
+    let piece = Piece {
+        global: global_ids,
+        own,
+        first: split[rank],
+        total,
+        springs,
+        halo: Halo { send, recv },
+    };
+    let share = Share {
+        nodes,
+        rank,
+        springs: spring_first[rank]..spring_first[rank + 1],
+        foreign: Vec::new(),
+        halo: Halo::default(),
+    };
+    Ok((piece, lattice, share))
+}
+
+/// `result` on this rank if every rank's is `Ok`; otherwise an error on every rank.
+fn all_ok<T>(team: &dyn Team, result: Result<T>) -> Result<T> {
+    let mut failed = [result.is_err()];
+    team.any(&mut failed);
+    match result {
+        Err(e) => Err(e),
+        Ok(_) if failed[0] => Err(Error::InvalidInput {
+            what: "random lattice",
+            why: "another process failed to build its part of the body (its message says why)"
+                .into(),
+        }),
+        ok => ok,
+    }
+}
+
+/// One slot per rank.
+fn singles(size: usize) -> Vec<Range<usize>> {
+    (0..size).map(|r| r..r + 1).collect()
+}
+
+/// Running sums: `out[r]` the sum of `x[..r]`, `out[len]` the total.
+fn prefix(x: &[usize]) -> Vec<usize> {
+    let mut out = vec![0; x.len() + 1];
+    for (r, &c) in x.iter().enumerate() {
+        out[r + 1] = out[r] + c;
+    }
+    out
+}
+
+/// Make empty ranges sit where the ranges around them meet (a gather's parts ascend).
+fn fill_gaps(parts: &mut [Range<usize>]) {
+    let mut at = 1;
+    for p in parts.iter_mut() {
+        if p.start >= p.end {
+            *p = at..at;
+        } else {
+            at = p.end;
+        }
+    }
+}
+
+/// Answers a question (reals) from a rank, or `None` when it cannot.
+type Answer<'a> = dyn FnMut(usize, &[Real]) -> Option<Vec<Real>> + 'a;
+
+/// Ask each rank `q` the questions `asks[q]` (`width` reals each) and return its answers
+/// (`reply` reals per question), in order. `answer(from, question)` answers a question from
+/// rank `from`, `None` for one this rank cannot answer (an error on every rank). Two
+/// all-gathers and two trades; collective.
+fn ask(
+    team: &dyn Team,
+    asks: &[Vec<Real>],
+    width: usize,
+    reply: usize,
+    answer: &mut Answer,
+) -> Result<Vec<Vec<Real>>> {
+    let (rank, size) = (team.rank(), team.size());
+    // How many questions each rank asks each other rank.
+    let mut matrix = vec![0.0; size * size];
+    for q in 0..size {
+        matrix[rank * size + q] = (asks[q].len() / width) as Real;
+    }
+    let rows: Vec<Range<usize>> = (0..size).map(|r| r * size..(r + 1) * size).collect();
+    team.gather(&mut matrix, &rows);
+    let asked = |from: usize, to: usize| matrix[from * size + to] as usize;
+    let mut inp: Vec<Vec<Real>> = (0..size)
+        .map(|r| vec![0.0; if r == rank { 0 } else { width * asked(r, rank) }])
+        .collect();
+    let mut out = asks.to_vec();
+    out[rank].clear();
+    team.trade(&out, &mut inp);
+    let mut failed = [false];
+    let mut replies: Vec<Vec<Real>> = vec![Vec::new(); size];
+    for (from, questions) in inp.iter().enumerate() {
+        for q in questions.chunks(width) {
+            match answer(from, q) {
+                Some(a) => replies[from].extend(a),
+                None => {
+                    failed[0] = true;
+                    replies[from].extend(std::iter::repeat_n(0.0, reply));
+                }
+            }
+        }
+    }
+    team.any(&mut failed);
+    if failed[0] {
+        return Err(Error::InvalidInput {
+            what: "random lattice",
+            why: "the processes' parts of the body disagree on a node or spring they share \
+                  (please report the case)"
+                .into(),
+        });
+    }
+    let mut got: Vec<Vec<Real>> = (0..size)
+        .map(|q| vec![0.0; if q == rank { 0 } else { reply * asked(rank, q) }])
+        .collect();
+    team.trade(&replies, &mut got);
+    Ok(got)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::body::Body;
+    use crate::dynamics::{Integrator, IntegratorOptions, TimeStep};
+    use crate::loading::Loading;
+    use crate::random::{part::part, RandomSpec};
+    use crate::state::State;
+    use crate::team::Threads;
+
+    /// A smooth velocity field, so that the springs do real work.
+    fn swing(state: &mut State, pos: &Coords, skip: &dyn Fn(usize) -> bool) {
+        for i in 0..pos.len() {
+            if skip(i) {
+                continue;
+            }
+            let p = pos.get(i);
+            state.v.x_mut()[i] = 1e-2 * (0.3 * p.y).sin();
+            state.v.y_mut()[i] = 1e-2 * (0.23 * p.z + 0.17 * p.x).cos();
+            state.v.z_mut()[i] = -1e-2 * (0.11 * p.x).sin();
+        }
+    }
+
+    /// Teams of 2 and 3 set up a notched random block from their parts alone and step it with
+    /// one process's bits: every own node's displacement and velocity after the steps, the
+    /// state's digest, and the body's cell volume.
+    #[test]
+    fn pieces_set_up_from_parts_step_with_the_bits_of_one_process() {
+        let (hi, a) = ([24.0, 23.0, 21.0], 1.0);
+        let spec = RandomSpec {
+            sampler: Sampler::Jitter { amplitude: 0.6 },
+            seed: 3,
+        };
+        let notch = |p: [Real; 3]| !(p[0] < 9.0 && (p[1] - 11.5).abs() < 0.7);
+        let lattice = Lattice::random(3, [0.0; 3], hi, a, 1.0, spec, &notch).unwrap();
+        let cell_volume = lattice.cell_volume;
+        let body = Body::from_cells(lattice, 1.0, 0.3, 1.0);
+        assert!(body.nodes() > 3 * CHUNK, "{} nodes", body.nodes());
+        let dt = 0.1;
+        let opts = IntegratorOptions {
+            time_step: TimeStep::Fixed { dt, force: true },
+            ..Default::default()
+        };
+        let steps = 25;
+        let mut alone = State::new(&body);
+        let mut it = Integrator::new(&body, &mut alone, Loading::default(), &opts).unwrap();
+        swing(&mut alone, &body.lattice.pos, &|_| false);
+        for _ in 0..steps {
+            it.step(&body, &mut alone);
+        }
+        let digest = it.state_digest(&alone);
+        let template = Template {
+            kind: LatticeKind::Random3d,
+            spacing: a,
+            thickness: 1.0,
+            sampler: spec.sampler,
+        };
+        for size in [2, 3] {
+            std::thread::scope(|scope| {
+                for team in Threads::team(size) {
+                    let (alone, notch, opts) = (&alone, &notch, &opts);
+                    scope.spawn(move || {
+                        let team: std::sync::Arc<dyn Team> = std::sync::Arc::new(team);
+                        let at = format!("{size} ranks, rank {}", team.rank());
+                        let build = |keys: Range<u64>| {
+                            part(3, [0.0; 3], hi, a, 1.0, spec, notch, keys, 4.0 * a)
+                        };
+                        let (piece, lat, share) = assemble(&*team, template, &build).unwrap();
+                        assert!(piece.halo.ghosts() > 0 && !piece.own.is_empty(), "{at}");
+                        assert_eq!(lat.cell_volume.to_bits(), cell_volume.to_bits(), "{at}");
+                        let mut pb = Body::from_cells(lat, 1.0, 0.3, 1.0);
+                        for (m, &g) in pb.mass.iter_mut().zip(&piece.global) {
+                            if g == PAD {
+                                *m = 1.0;
+                            }
+                        }
+                        let mut ps = State::new(&pb);
+                        let global = piece.global.clone();
+                        let own = piece.own.clone();
+                        let mut it =
+                            Integrator::on_piece(&pb, &mut ps, piece, share, team, opts, dt)
+                                .unwrap();
+                        swing(&mut ps, &pb.lattice.pos, &|i| global[i] == PAD);
+                        for _ in 0..steps {
+                            it.step(&pb, &mut ps);
+                        }
+                        for i in own {
+                            let g = global[i] as usize;
+                            for c in 0..3 {
+                                assert_eq!(
+                                    ps.u.comp(c)[i].to_bits(),
+                                    alone.u.comp(c)[g].to_bits(),
+                                    "u of node {g}, {at}"
+                                );
+                                assert_eq!(
+                                    ps.v.comp(c)[i].to_bits(),
+                                    alone.v.comp(c)[g].to_bits(),
+                                    "v of node {g}, {at}"
+                                );
+                            }
+                        }
+                        assert_eq!(it.state_digest(&ps), digest, "{at}");
+                    });
+                }
+            });
+        }
+    }
+}
