@@ -8,6 +8,8 @@
 #   - `run --pieces` (each rank holding only its piece of a random body) gives those bits too,
 #     with breaking, rigid-body and fragment contact, a checkpoint per rank that resumes; a
 #     regular lattice's box is refused on pieces with the reason;
+#   - `bench --parts` (each rank setting up only its part of a random block) steps with the bits
+#     of one process;
 #   - `bench --pieces` (each rank holding only its piece of a random block) steps with the bits
 #     of the build without MPI, and a rank's arrays shrink with N;
 #   - bad input stops every rank with one message and exit code 2.
@@ -131,6 +133,23 @@ for lat in random3d random2d; do
     python3 -c "import sys; b, a, n = $bytes, $alone, $np; sys.exit(0 if b <= a * (1 / n + 0.25) else 1)" || {
       echo "bench --pieces $lat -np $np: rank 0 holds $bytes bytes per node, one process $alone"; exit 1; }
     echo "bench --pieces $lat -np $np: bit-identical (digest $got), rank 0 holds $bytes bytes per node of the block (one process $alone)"
+  done
+done
+
+# Distributed set-up: with `bench --parts` each rank samples, triangulates and numbers only its
+# part of a jittered random block and its surroundings; no rank ever holds the whole block. The
+# steps must give the bits of the build without MPI set up the same way (one part), and rank 0's
+# piece must hold fewer nodes than the block.
+parts() { python3 -c 'import json,sys; d=json.load(sys.stdin); print(d["state_digest"], d["nodes"], d["piece_nodes"])'; }
+for lat in random3d random2d; do
+  read -r want nodes _ < <("$work/hooke" bench --lattice $lat --parts --nodes 60000 --steps 20 --threads 1 --json | parts)
+  for np in 2 3 4; do
+    read -r got n held < <($mpirun -np $np "$work/hooke-mpi" bench --lattice $lat --parts --nodes 60000 \
+      --steps 20 --threads 1 --json | parts)
+    if [ "$got" != "$want" ] || [ "$n" != "$nodes" ] || [ "$held" -ge "$nodes" ]; then
+      echo "bench --parts $lat -np $np: digest $got of $n nodes (rank 0 holds $held), alone $want of $nodes"; exit 1
+    fi
+    echo "bench --parts $lat -np $np: bit-identical (digest $got), rank 0 set up and holds $held of the $n nodes"
   done
 done
 

@@ -109,6 +109,14 @@ pub struct BenchArgs {
     /// lattices only (the regular boxes' stencil kernels sweep the whole box).
     #[arg(long)]
     pub pieces: bool,
+    /// Set the block up from parts (random lattices; under `mpirun -np N`, or alone as the
+    /// one-process reference): each rank samples, triangulates and numbers only its part of
+    /// the block and its surroundings (`hooke_core::random::part`, `hooke_core::team::parts`),
+    /// so no rank ever holds the whole block. The nodes are a jittered grid (amplitude 0.6),
+    /// whose nodes any part can draw alone, and the step is 0.8 of the stable-step bound that
+    /// needs no iteration; `state_digest` is the same for any number of ranks.
+    #[arg(long, conflicts_with = "pieces")]
+    pub parts: bool,
 }
 
 #[derive(Debug, serde::Serialize)]
@@ -187,10 +195,26 @@ pub fn run(args: BenchArgs) -> Result<()> {
         )
         .into());
     }
-    if args.pieces && matches!(args.lattice, LatticeArg::Cubic | LatticeArg::Hex) {
+    if args.parts
+        && (args.static_solve
+            || args.compare
+            || args.fracture
+            || args.frame
+            || args.contact
+            || args.export_lammps.is_some()
+            || args.kernel == KernelArg::Csr)
+    {
         return Err(InputError(
-            "--pieces cuts random lattices (--lattice random3d or random2d): a regular box's \
-             stencil kernel sweeps the whole box"
+            "--parts times the steps alone: it takes none of --static-solve, --compare, \
+             --fracture, --frame, --contact, --export-lammps and --kernel csr"
+                .into(),
+        )
+        .into());
+    }
+    if (args.pieces || args.parts) && matches!(args.lattice, LatticeArg::Cubic | LatticeArg::Hex) {
+        return Err(InputError(
+            "--pieces and --parts split random lattices (--lattice random3d or random2d): a \
+             regular box's stencil kernel sweeps the whole box"
                 .into(),
         )
         .into());
@@ -234,34 +258,39 @@ pub fn run(args: BenchArgs) -> Result<()> {
         .into());
     }
     let setup = Instant::now();
-    let lattice = bench_lattice(&args)?;
-    let lattice_seconds = setup.elapsed().as_secs_f64();
-    let kind = lattice.kind;
-    let nu = match (args.law, kind) {
-        (LawArg::Plain, _) => hooke_core::material::nu_from_q(kind, 0.0),
-        (LawArg::Dispersive, LatticeKind::Cubic | LatticeKind::Random3d) => 0.3,
-        (LawArg::Dispersive, LatticeKind::Hex | LatticeKind::Random2d) => 0.45,
-    };
-    let (body, state, mut it, [body_seconds, integrator_seconds]) =
-        bench_run_timed(&args, lattice, q_from_nu(kind, nu)?, team.clone())?;
-    let setup_parts = [
-        ("lattice", lattice_seconds),
-        ("body", body_seconds),
-        ("integrator", integrator_seconds),
-    ]
-    .into_iter()
-    .collect();
-    if let Some(path) = &args.export_lammps {
-        write_lammps(path, &body, &state, it.dt)
-            .with_context(|| format!("writing the LAMMPS data file {}", path.display()))?;
-    }
-    let (nodes, springs) = (body.nodes(), body.springs());
-    let (body, mut state) = if args.pieces {
-        let piece = it.cut(&body, &state)?;
-        drop((body, state));
-        piece
+    let (body, mut state, mut it, nodes, springs, setup_parts) = if args.parts {
+        bench_from_parts(&args, team.clone())?
     } else {
-        (body, state)
+        let lattice = bench_lattice(&args)?;
+        let lattice_seconds = setup.elapsed().as_secs_f64();
+        let kind = lattice.kind;
+        let nu = match (args.law, kind) {
+            (LawArg::Plain, _) => hooke_core::material::nu_from_q(kind, 0.0),
+            (LawArg::Dispersive, LatticeKind::Cubic | LatticeKind::Random3d) => 0.3,
+            (LawArg::Dispersive, LatticeKind::Hex | LatticeKind::Random2d) => 0.45,
+        };
+        let (body, state, mut it, [body_seconds, integrator_seconds]) =
+            bench_run_timed(&args, lattice, q_from_nu(kind, nu)?, team.clone())?;
+        let setup_parts = [
+            ("lattice", lattice_seconds),
+            ("body", body_seconds),
+            ("integrator", integrator_seconds),
+        ]
+        .into_iter()
+        .collect();
+        if let Some(path) = &args.export_lammps {
+            write_lammps(path, &body, &state, it.dt)
+                .with_context(|| format!("writing the LAMMPS data file {}", path.display()))?;
+        }
+        let (nodes, springs) = (body.nodes(), body.springs());
+        let (body, state) = if args.pieces {
+            let piece = it.cut(&body, &state)?;
+            drop((body, state));
+            piece
+        } else {
+            (body, state)
+        };
+        (body, state, it, nodes, springs, setup_parts)
     };
     let setup_seconds = setup.elapsed().as_secs_f64();
     // As `hooke run` does after its set-up (hooke_sim::Run::start).
@@ -321,7 +350,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
             LawArg::Plain => "plain",
             LawArg::Dispersive => "dispersive",
         },
-        lattice: kind.name(),
+        lattice: body.lattice.kind.name(),
         kernel: it.kernel.name().to_string(),
         nodes,
         springs,
@@ -432,6 +461,93 @@ fn bench_lattice(args: &BenchArgs) -> Result<Lattice> {
             Lattice::random(2, [0.0; 3], [side, side, 0.0], 1.0, 1.0, spec, &|_| true)?
         }
     })
+}
+
+/// The set-up of `--parts`: the block of `--lattice random3d` or `random2d` as a jittered grid
+/// (amplitude 0.6, seed 1) whose parts each rank samples, triangulates and numbers alone, the
+/// body in lattice units on the piece, at rest, its integrator (a step of 0.8 times the bound
+/// that needs no iteration), then moving as `bench_run_timed` sets it. Alone, the team is one
+/// process. Returns what `run` times, with the block's node and spring counts and the
+/// set-up's seconds by part.
+#[allow(clippy::type_complexity)]
+fn bench_from_parts(
+    args: &BenchArgs,
+    team: Option<std::sync::Arc<dyn hooke_core::team::Team>>,
+) -> Result<(
+    Body,
+    State,
+    Integrator,
+    usize,
+    usize,
+    std::collections::BTreeMap<&'static str, f64>,
+)> {
+    use hooke_core::random::{part::part, RandomSpec, Sampler};
+    use hooke_core::team::parts::{assemble, Template};
+    let team: std::sync::Arc<dyn hooke_core::team::Team> =
+        team.unwrap_or_else(|| std::sync::Arc::new(hooke_core::team::Alone));
+    let (dim, kind) = match args.lattice {
+        LatticeArg::Random2d => (2, LatticeKind::Random2d),
+        _ => (3, LatticeKind::Random3d),
+    };
+    let hi = if dim == 3 {
+        [(args.nodes as f64).cbrt().round().max(3.0) - 1.0; 3]
+    } else {
+        let side = (args.nodes as f64).sqrt().round().max(3.0) - 1.0;
+        [side, side, 0.0]
+    };
+    let spec = RandomSpec {
+        sampler: Sampler::Jitter { amplitude: 0.6 },
+        seed: 1,
+    };
+    let start = Instant::now();
+    let build = |keys| part(dim, [0.0; 3], hi, 1.0, 1.0, spec, &|_| true, keys, 4.0);
+    let template = Template {
+        kind,
+        spacing: 1.0,
+        thickness: 1.0,
+        sampler: spec.sampler,
+    };
+    let (piece, lattice, share) = assemble(&*team, template, &build)?;
+    let lattice_seconds = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    let nu = match (args.law, dim) {
+        (LawArg::Plain, _) => hooke_core::material::nu_from_q(kind, 0.0),
+        (LawArg::Dispersive, 3) => 0.3,
+        (LawArg::Dispersive, _) => 0.45,
+    };
+    let mut body = Body::uniform(lattice, 1.0, q_from_nu(kind, nu)?, 1.0);
+    body.lattice.shed_setup();
+    let mut state = State::new(&body);
+    let body_seconds = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    let size = team.size();
+    let mut counts = vec![0.0; size];
+    counts[team.rank()] = share.springs.len() as Real;
+    let singles: Vec<_> = (0..size).map(|r| r..r + 1).collect();
+    team.gather(&mut counts, &singles);
+    let springs = counts.iter().sum::<Real>() as usize;
+    let nodes = piece.total;
+    let dummy: Vec<bool> = piece
+        .global
+        .iter()
+        .map(|&g| g == hooke_core::team::PAD)
+        .collect();
+    let it = Integrator::on_piece(&body, &mut state, piece, share, team, &bench_opts(args))
+        .context("setting up the integrator on the piece")?;
+    for (i, _) in dummy.iter().enumerate().filter(|(_, &d)| !d) {
+        let p = body.lattice.pos.get(i);
+        state.v.x_mut()[i] = 1e-3 * (0.1 * p.y).sin();
+        state.v.y_mut()[i] = 1e-3 * (0.13 * p.z + 0.07 * p.x).cos();
+    }
+    let integrator_seconds = start.elapsed().as_secs_f64();
+    let parts = [
+        ("lattice", lattice_seconds),
+        ("body", body_seconds),
+        ("integrator", integrator_seconds),
+    ]
+    .into_iter()
+    .collect();
+    Ok((body, state, it, nodes, springs, parts))
 }
 
 /// A body on `lattice` in lattice units with ratio `q`, moving with a smooth velocity field (so

@@ -271,20 +271,27 @@ pub fn assemble(
             sampler: template.sampler,
         }),
     };
+    // The share's halo in the body's numbering (the piece trades its own, in its numbering):
+    // what the figures of a share's traffic count.
+    let to_global = |list: &Vec<u32>| list.iter().map(|&i| global_ids[i as usize]).collect();
+    let halo = Halo { send, recv };
+    let share = Share {
+        nodes,
+        rank,
+        springs: spring_first[rank]..spring_first[rank + 1],
+        foreign: Vec::new(),
+        halo: Halo {
+            send: halo.send.iter().map(to_global).collect(),
+            recv: halo.recv.iter().map(to_global).collect(),
+        },
+    };
     let piece = Piece {
         global: global_ids,
         own,
         first: split[rank],
         total,
         springs,
-        halo: Halo { send, recv },
-    };
-    let share = Share {
-        nodes,
-        rank,
-        springs: spring_first[rank]..spring_first[rank + 1],
-        foreign: Vec::new(),
-        halo: Halo::default(),
+        halo,
     };
     Ok((piece, lattice, share))
 }
@@ -468,8 +475,7 @@ mod tests {
                         let global = piece.global.clone();
                         let own = piece.own.clone();
                         let mut it =
-                            Integrator::on_piece(&pb, &mut ps, piece, share, team, opts, dt)
-                                .unwrap();
+                            Integrator::on_piece(&pb, &mut ps, piece, share, team, opts).unwrap();
                         swing(&mut ps, &pb.lattice.pos, &|i| global[i] == PAD);
                         for _ in 0..steps {
                             it.step(&pb, &mut ps);
