@@ -113,8 +113,8 @@ pub struct BenchArgs {
     /// one-process reference): each rank samples, triangulates and numbers only its part of
     /// the block and its surroundings (`hooke_core::random::part`, `hooke_core::team::parts`),
     /// so no rank ever holds the whole block. The nodes are a jittered grid (amplitude 0.6),
-    /// whose nodes any part can draw alone, and the step is 0.8 of the stable-step bound that
-    /// needs no iteration; `state_digest` is the same for any number of ranks.
+    /// whose nodes any part can draw alone; the stable step is estimated on the pieces as one
+    /// process estimates it, and `state_digest` is the same for any number of ranks.
     #[arg(long, conflicts_with = "pieces")]
     pub parts: bool,
 }
@@ -465,8 +465,8 @@ fn bench_lattice(args: &BenchArgs) -> Result<Lattice> {
 
 /// The set-up of `--parts`: the block of `--lattice random3d` or `random2d` as a jittered grid
 /// (amplitude 0.6, seed 1) whose parts each rank samples, triangulates and numbers alone, the
-/// body in lattice units on the piece, at rest, its integrator (a step of 0.8 times the bound
-/// that needs no iteration), then moving as `bench_run_timed` sets it. Alone, the team is one
+/// body in lattice units on the piece, at rest, its integrator (the stable step estimated on
+/// the pieces as one process estimates it), then moving as `bench_run_timed` sets it. Alone, the team is one
 /// process. Returns what `run` times, with the block's node and spring counts and the
 /// set-up's seconds by part.
 #[allow(clippy::type_complexity)]

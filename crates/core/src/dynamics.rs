@@ -992,14 +992,12 @@ impl Integrator {
     /// An integrator for rank `team.rank()`'s piece of a body that no rank holds whole, as
     /// [`crate::team::parts::assemble`] sets it up (`share` its nodes per rank, in the body's
     /// numbering): the steps of [`Integrator::new`] followed by [`Integrator::cut`], bit for
-    /// bit when both are given the same fixed step, on a body without loads or prescribed
-    /// motion that starts at rest. `state` is the piece's.
+    /// bit, on a body without loads or prescribed motion that starts at rest. `state` is the
+    /// piece's.
     ///
-    /// The stable step is not estimated: the Lanczos iteration runs over the whole body. The
-    /// integrator's stable step is the bound that needs no iteration (its maximum over the
-    /// ranks, exact in any order; [`stability::damage_bound`]): `TimeStep::Auto` takes its
-    /// safety factor times that step, about 0.6 of the estimate's on a random lattice, and a
-    /// fixed step above it is refused unless forced.
+    /// The stable step is estimated on the pieces as one process estimates it on the body
+    /// ([`stability::Split::for_piece`]: the same Lanczos iteration, bit for bit), so
+    /// `TimeStep::Auto` gives one process's step.
     pub fn on_piece(
         body: &Body,
         state: &mut State,
@@ -1047,7 +1045,58 @@ impl Integrator {
         let singles: Vec<_> = (0..size).map(|r| r..r + 1).collect();
         team.gather(&mut all, &singles);
         let bound = all.into_iter().fold(0.0, Real::max);
-        let critical = 2.0 / bound.sqrt();
+        // The estimate on the piece, as `new_shared` makes it on the body: the piece's own
+        // sweeps, its halo traded, the partial sums gathered in the body's chunks.
+        let mut sweeps = piece.share(body);
+        sweeps.halo = piece.halo.clone();
+        let mut u_next = stability::drift_scratch(body, &kernel);
+        let mut ones = Vec::new();
+        let stable = {
+            let mut split = stability::Split::for_piece(
+                &*team,
+                &sweeps,
+                &share,
+                &piece.global,
+                piece.first,
+                piece.total,
+            );
+            if opts.damage_proof {
+                let plain = stability::estimate_using(
+                    body,
+                    state,
+                    &kernel.plain(),
+                    40,
+                    1e-3,
+                    &mut u_next,
+                    &mut ones,
+                    Some(&mut split),
+                );
+                let lambda = (1.0 + 2.0 * body.q.max(0.0)) * plain.lambda_max;
+                StableStep {
+                    lambda_max: lambda,
+                    dt_critical: 2.0 / lambda.sqrt(),
+                    lambda_bound: bound,
+                }
+            } else {
+                let s = stability::estimate_using(
+                    body,
+                    state,
+                    &kernel,
+                    40,
+                    1e-3,
+                    &mut u_next,
+                    &mut ones,
+                    Some(&mut split),
+                );
+                StableStep {
+                    lambda_bound: bound,
+                    ..s
+                }
+            }
+        };
+        drop((sweeps, ones));
+        u_next.fill_zero();
+        let critical = stable.dt_critical;
         let dt = match opts.time_step {
             TimeStep::Auto { safety } if safety > 0.0 && safety <= 1.0 => safety * critical,
             TimeStep::Auto { safety } => {
@@ -1076,12 +1125,6 @@ impl Integrator {
                 dt
             }
         };
-        let stable = StableStep {
-            lambda_max: bound,
-            dt_critical: critical,
-            lambda_bound: bound,
-        };
-        let u_next = stability::drift_scratch(body, &kernel);
         let inv_mass = body.mass.iter().map(|&m| 1.0 / m).collect();
         let mut it = Self::assemble(
             body,

@@ -116,6 +116,23 @@ pub struct Split<'a> {
     share: &'a Share,
     out: Vec<Vec<Real>>,
     inp: Vec<Vec<Real>>,
+    /// On a piece ([`Split::for_piece`]): where its chunks and nodes sit in the body.
+    piece: Option<PieceMap<'a>>,
+}
+
+/// Where a piece's chunks and nodes sit in the body, for an estimate on the piece.
+struct PieceMap<'a> {
+    /// Every rank's chunks of the body (the all-gather's parts).
+    parts: Vec<std::ops::Range<usize>>,
+    /// The piece's first own chunk and the body's chunk it is.
+    local: usize,
+    global: usize,
+    /// The body's index of each of the piece's nodes (`team::PAD` for its dummies).
+    nodes: &'a [u32],
+    /// Nodes of the body.
+    total: usize,
+    /// Every chunk's partial sum, in the body's chunks.
+    sums: Vec<Real>,
 }
 
 impl<'a> Split<'a> {
@@ -127,7 +144,33 @@ impl<'a> Split<'a> {
             share,
             out: vec![Vec::new(); size],
             inp: vec![Vec::new(); size],
+            piece: None,
         }
+    }
+
+    /// Rank `team.rank()`'s part of an estimate on its piece ([`crate::team::Piece`]):
+    /// `sweeps` is the piece's own share (its own nodes as one rank's, in the piece's
+    /// numbering) carrying the piece's halo, `body_share` the ranks' nodes in the body, and
+    /// `global` the body's index of each of the piece's nodes. The same estimate, bit for bit,
+    /// as one process finds.
+    pub fn for_piece(
+        team: &'a dyn Team,
+        sweeps: &'a Share,
+        body_share: &Share,
+        global: &'a [u32],
+        first: usize,
+        total: usize,
+    ) -> Self {
+        let mut split = Split::new(team, sweeps);
+        split.piece = Some(PieceMap {
+            parts: body_share.chunk_parts(1),
+            local: sweeps.mine().start / CHUNK,
+            global: first / CHUNK,
+            nodes: global,
+            total,
+            sums: vec![0.0; total.div_ceil(CHUNK)],
+        });
+        split
     }
 
     fn trade(&mut self, fields: &mut [&mut [Real]]) {
@@ -142,7 +185,15 @@ impl<'a> Split<'a> {
 
     /// Every rank's per-chunk partials (`partial`, one per chunk, valid on this rank's chunks)
     /// gathered, then added in chunk order.
-    fn sum(&self, partial: &mut [Real]) -> Real {
+    fn sum(&mut self, partial: &mut [Real]) -> Real {
+        if let Some(p) = &mut self.piece {
+            // The piece's own chunks are the body's chunks from `p.global` on.
+            for c in self.share.chunks() {
+                p.sums[c - p.local + p.global] = partial[c];
+            }
+            self.team.gather(&mut p.sums, &p.parts);
+            return in_order(&p.sums);
+        }
         self.team.gather(partial, &self.share.chunk_parts(1));
         in_order(partial)
     }
@@ -151,7 +202,7 @@ impl<'a> Split<'a> {
     fn max(&self, x: Real) -> Real {
         let size = self.team.size();
         let mut all = vec![0.0; size];
-        all[self.share.rank] = x;
+        all[self.team.rank()] = x;
         let parts: Vec<_> = (0..size).map(|r| r..r + 1).collect();
         self.team.gather(&mut all, &parts);
         all.into_iter().fold(0.0, Real::max)
@@ -209,7 +260,13 @@ pub(crate) fn estimate_using(
         .collect();
     let dims = body.lattice.dim();
     let mut op = KernelJacobian::new(body, state, u_next, ones);
-    // A deterministic, non-special start vector (a hash of the index), so dt is reproducible.
+    // A deterministic, non-special start vector (a hash of the body's node index), so dt is
+    // reproducible.
+    let start = |i: usize, c: usize| {
+        let h = (i as u64 * 3 + c as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 11;
+        (h as Real / (1u64 << 53) as Real) - 0.5
+    };
+    let on_piece = split.as_deref().and_then(|s| s.piece.as_ref());
     let mut q = Coords::zeros(n);
     for c in 0..dims {
         q.comp_mut(c)
@@ -217,11 +274,30 @@ pub(crate) fn estimate_using(
             .with_min_len(BLOCK)
             .enumerate()
             .for_each(|(i, x)| {
-                let h = (i as u64 * 3 + c as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 11;
-                *x = (h as Real / (1u64 << 53) as Real) - 0.5;
+                *x = match on_piece {
+                    Some(p) if p.nodes[i] == crate::team::PAD => 0.0,
+                    Some(p) => start(p.nodes[i] as usize, c),
+                    None => start(i, c),
+                };
             });
     }
-    let qn = q.norm();
+    let qn = match on_piece {
+        // The norm of the whole body's start vector, from its formula, in `Coords::dot`'s
+        // order: three hashes per node of the body, and no array.
+        Some(p) => {
+            let mut s = 0.0;
+            for c in 0..3 {
+                s += (0..p.total)
+                    .map(|i| {
+                        let x = if c < dims { start(i, c) } else { 0.0 };
+                        x * x
+                    })
+                    .sum::<Real>();
+            }
+            s.sqrt()
+        }
+        None => q.norm(),
+    };
     scale(&mut q, 1.0 / qn);
     // The previous Lanczos vector; none is read in the first iteration (its beta is 0), so the
     // buffer is found after it: the state's force array when the estimate does not need it.
@@ -231,15 +307,24 @@ pub(crate) fn estimate_using(
     // max |M^-1/2 q|, for the difference step; later ones come with each new q. The maximum
     // is exact in any order.
     let mut vmax = 0.0;
+    // Over every node, or on a piece over its own (the others' are their owners'), and then
+    // over the ranks.
+    let first = if on_piece.is_some() {
+        nodes.clone()
+    } else {
+        0..n
+    };
     for c in 0..3 {
-        let top = q
-            .comp(c)
+        let top = q.comp(c)[first.clone()]
             .par_iter()
             .with_min_len(BLOCK)
-            .zip(&inv_sqrt_m)
+            .zip(&inv_sqrt_m[first.clone()])
             .map(|(x, s)| (x * s).abs())
             .reduce(|| 0.0, Real::max);
         vmax = Real::max(vmax, top);
+    }
+    if on_piece.is_some() {
+        vmax = split.as_deref().expect("a piece").max(vmax);
     }
     let mut partial = vec![0.0; n.div_ceil(CHUNK)];
     let mut alpha = Vec::new();
@@ -289,7 +374,7 @@ pub(crate) fn estimate_using(
                     }
                     *out = part;
                 });
-            b2 += match split.as_deref() {
+            b2 += match split.as_deref_mut() {
                 Some(sp) => sp.sum(&mut partial),
                 None => in_order(&partial),
             };
@@ -578,7 +663,7 @@ impl<'a> KernelJacobian<'a> {
                     }
                     *out = part;
                 });
-            a += match split.as_deref() {
+            a += match split.as_deref_mut() {
                 Some(sp) => sp.sum(&mut self.partial),
                 None => in_order(&self.partial),
             };

@@ -7,7 +7,7 @@
 //! # Why a part can be built alone
 //!
 //! *The nodes.* The jittered grid draws each node from a stream of its own, seeded by the
-//! lattice's seed and the node's grid index ([`super::sample::JitterGrid::node`]), so sampling
+//! lattice's seed and the node's grid index (`sample::JitterGrid::node`), so sampling
 //! a window of the grid gives the whole grid's nodes there. (Poisson-disk sampling places each
 //! node against those placed before it: a part of it cannot be drawn alone, and is refused.)
 //!
@@ -27,7 +27,7 @@
 //!
 //! *The sums.* A simplex is judged, measured and its facets' normals formed from its vertices
 //! in ascending order, and a node's sums run over its simplices in the ascending order of their
-//! vertex lists ([`super::shares`]). The part numbers its nodes in the body's order (Morton key,
+//! vertex lists (`random::shares`). The part numbers its nodes in the body's order (Morton key,
 //! then grid index), so every sum has the body's terms in the body's order: the same bits.
 
 use super::delaunay::{self, morton_key};

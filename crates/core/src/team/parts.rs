@@ -419,8 +419,9 @@ mod tests {
     }
 
     /// Teams of 2 and 3 set up a notched random block from their parts alone and step it with
-    /// one process's bits: every own node's displacement and velocity after the steps, the
-    /// state's digest, and the body's cell volume.
+    /// one process's bits: the time step (estimated, damage-proof or given), every own node's
+    /// displacement and velocity after the steps, the state's digest, and the body's cell
+    /// volume.
     #[test]
     fn pieces_set_up_from_parts_step_with_the_bits_of_one_process() {
         let (hi, a) = ([24.0, 23.0, 21.0], 1.0);
@@ -433,17 +434,42 @@ mod tests {
         let cell_volume = lattice.cell_volume;
         let body = Body::from_cells(lattice, 1.0, 0.3, 1.0);
         assert!(body.nodes() > 3 * CHUNK, "{} nodes", body.nodes());
-        let dt = 0.1;
-        let opts = IntegratorOptions {
-            time_step: TimeStep::Fixed { dt, force: true },
-            ..Default::default()
-        };
+        // The step estimated (by pieces as by one process), the damage-proof step, and a
+        // given one.
+        for opts in [
+            IntegratorOptions::default(),
+            IntegratorOptions {
+                damage_proof: true,
+                ..Default::default()
+            },
+            IntegratorOptions {
+                time_step: TimeStep::Fixed {
+                    dt: 0.1,
+                    force: true,
+                },
+                ..Default::default()
+            },
+        ] {
+            parts_step_as_one_process(&body, cell_volume, spec, hi, a, &notch, &opts);
+        }
+    }
+
+    fn parts_step_as_one_process(
+        body: &Body,
+        cell_volume: Real,
+        spec: RandomSpec,
+        hi: [Real; 3],
+        a: Real,
+        notch: &(dyn Fn([Real; 3]) -> bool + Sync),
+        opts: &IntegratorOptions,
+    ) {
         let steps = 25;
-        let mut alone = State::new(&body);
-        let mut it = Integrator::new(&body, &mut alone, Loading::default(), &opts).unwrap();
+        let mut alone = State::new(body);
+        let mut it = Integrator::new(body, &mut alone, Loading::default(), opts).unwrap();
+        let dt = it.dt;
         swing(&mut alone, &body.lattice.pos, &|_| false);
         for _ in 0..steps {
-            it.step(&body, &mut alone);
+            it.step(body, &mut alone);
         }
         let digest = it.state_digest(&alone);
         let template = Template {
@@ -455,7 +481,7 @@ mod tests {
         for size in [2, 3] {
             std::thread::scope(|scope| {
                 for team in Threads::team(size) {
-                    let (alone, notch, opts) = (&alone, &notch, &opts);
+                    let alone = &alone;
                     scope.spawn(move || {
                         let team: std::sync::Arc<dyn Team> = std::sync::Arc::new(team);
                         let at = format!("{size} ranks, rank {}", team.rank());
@@ -476,6 +502,7 @@ mod tests {
                         let own = piece.own.clone();
                         let mut it =
                             Integrator::on_piece(&pb, &mut ps, piece, share, team, opts).unwrap();
+                        assert_eq!(it.dt.to_bits(), dt.to_bits(), "dt, {at}");
                         swing(&mut ps, &pb.lattice.pos, &|i| global[i] == PAD);
                         for _ in 0..steps {
                             it.step(&pb, &mut ps);
@@ -500,5 +527,49 @@ mod tests {
                 }
             });
         }
+    }
+
+    /// A part that cannot be built on one rank stops every rank: that rank with its reason,
+    /// the others pointing to it.
+    #[test]
+    fn a_part_that_fails_on_one_rank_stops_every_rank() {
+        let spec = RandomSpec {
+            sampler: Sampler::Jitter { amplitude: 0.6 },
+            seed: 3,
+        };
+        let template = Template {
+            kind: LatticeKind::Random3d,
+            spacing: 1.0,
+            thickness: 1.0,
+            sampler: spec.sampler,
+        };
+        std::thread::scope(|scope| {
+            for team in Threads::team(3) {
+                scope.spawn(move || {
+                    let rank = team.rank();
+                    // Rank 1 samples too narrow a margin.
+                    let margin = if rank == 1 { 0.05 } else { 4.0 };
+                    let build = |keys: Range<u64>| {
+                        part(
+                            3,
+                            [0.0; 3],
+                            [12.0; 3],
+                            1.0,
+                            1.0,
+                            spec,
+                            &|_| true,
+                            keys,
+                            margin,
+                        )
+                    };
+                    let e = assemble(&team, template, &build).unwrap_err().to_string();
+                    if rank == 1 {
+                        assert!(e.contains("too narrow"), "{e}");
+                    } else {
+                        assert!(e.contains("another process failed"), "rank {rank}: {e}");
+                    }
+                });
+            }
+        });
     }
 }
