@@ -306,6 +306,34 @@ fn new_displacements<'a>(
     }
 }
 
+/// The stable step of the integrator's options: the estimate with `kernel`, or with its plain
+/// copy times `1 + 2 max(q, 0)` for the damage-proof step (that bounds the dispersive law's
+/// lambda for the intact body as for any pattern of broken springs, stability.rs, so estimating
+/// the dispersive one too would only cost a second Lanczos run). `scratch` is the estimate's
+/// drift scratch and unit masses ([`stability::estimate_using`]).
+fn estimate(
+    body: &Body,
+    state: &mut State,
+    kernel: &Kernel,
+    opts: &IntegratorOptions,
+    scratch: (&mut Coords, &mut Vec<Real>),
+    split: Option<&mut stability::Split>,
+) -> StableStep {
+    let (u_next, ones) = scratch;
+    if opts.damage_proof {
+        let plain =
+            stability::estimate_using(body, state, &kernel.plain(), 40, 1e-3, u_next, ones, split);
+        let lambda = (1.0 + 2.0 * body.q.max(0.0)) * plain.lambda_max;
+        StableStep {
+            lambda_max: lambda,
+            dt_critical: 2.0 / lambda.sqrt(),
+            ..plain
+        }
+    } else {
+        stability::estimate_using(body, state, kernel, 40, 1e-3, u_next, ones, split)
+    }
+}
+
 /// The loaded and prescribed nodes of `loading`, ascending, each once: a shared run's
 /// bookkeeping reads them on every rank.
 pub(crate) fn special_nodes(loading: &Loading) -> Vec<usize> {
@@ -471,35 +499,14 @@ impl Integrator {
             .as_ref()
             .zip(share.as_ref())
             .map(|(t, s)| stability::Split::new(&**t, s));
-        let stable = if opts.damage_proof {
-            let plain = stability::estimate_using(
-                body,
-                state,
-                &kernel.plain(),
-                40,
-                1e-3,
-                &mut u_next,
-                &mut inv_mass,
-                split.as_mut(),
-            );
-            let lambda = (1.0 + 2.0 * body.q.max(0.0)) * plain.lambda_max;
-            StableStep {
-                lambda_max: lambda,
-                dt_critical: 2.0 / lambda.sqrt(),
-                ..plain
-            }
-        } else {
-            stability::estimate_using(
-                body,
-                state,
-                &kernel,
-                40,
-                1e-3,
-                &mut u_next,
-                &mut inv_mass,
-                split.as_mut(),
-            )
-        };
+        let stable = estimate(
+            body,
+            state,
+            &kernel,
+            opts,
+            (&mut u_next, &mut inv_mass),
+            split.as_mut(),
+        );
         drop(split);
         // The steps of a kernel that drifts in place write the new displacements over the old
         // (the estimate's drifts did too): it has no scratch.
@@ -1060,38 +1067,17 @@ impl Integrator {
                 piece.first,
                 piece.total,
             );
-            if opts.damage_proof {
-                let plain = stability::estimate_using(
-                    body,
-                    state,
-                    &kernel.plain(),
-                    40,
-                    1e-3,
-                    &mut u_next,
-                    &mut ones,
-                    Some(&mut split),
-                );
-                let lambda = (1.0 + 2.0 * body.q.max(0.0)) * plain.lambda_max;
-                StableStep {
-                    lambda_max: lambda,
-                    dt_critical: 2.0 / lambda.sqrt(),
-                    lambda_bound: bound,
-                }
-            } else {
-                let s = stability::estimate_using(
-                    body,
-                    state,
-                    &kernel,
-                    40,
-                    1e-3,
-                    &mut u_next,
-                    &mut ones,
-                    Some(&mut split),
-                );
-                StableStep {
-                    lambda_bound: bound,
-                    ..s
-                }
+            let s = estimate(
+                body,
+                state,
+                &kernel,
+                opts,
+                (&mut u_next, &mut ones),
+                Some(&mut split),
+            );
+            StableStep {
+                lambda_bound: bound,
+                ..s
             }
         };
         drop((sweeps, ones));

@@ -428,11 +428,17 @@ mod tests {
     fn parts_built_alone_have_the_bits_of_the_whole_body() {
         // A notched block (3D) and a notched plate (2D), cut into four key ranges at the
         // quartiles of the body's nodes and into uneven ranges; each part built alone.
-        let spec = RandomSpec {
-            sampler: Sampler::Jitter { amplitude: 0.6 },
-            seed: 5,
-        };
-        for (dim, hi) in [(3, [6.0, 5.0, 4.0]), (2, [20.0, 12.0, 0.0])] {
+        // The calibrated amplitude, and the largest (neighbours may meet).
+        for (dim, hi, amplitude) in [
+            (3, [6.0, 5.0, 4.0], 0.6),
+            (2, [20.0, 12.0, 0.0], 0.6),
+            (3, [6.0, 5.0, 4.0], 1.0),
+            (2, [20.0, 12.0, 0.0], 1.0),
+        ] {
+            let spec = RandomSpec {
+                sampler: Sampler::Jitter { amplitude },
+                seed: 5,
+            };
             let a = 0.5;
             let notch = move |p: [Real; 3]| !(p[0] < 2.5 && (p[1] - 2.4).abs() < 0.3);
             let (pos, node, surface, springs) = whole(dim, hi, a, spec, &notch);
