@@ -894,42 +894,40 @@ impl Integrator {
     /// The team's state of a shared run over `share`, whose loaded and prescribed nodes are
     /// `special` (in the body's numbering).
     fn shared(&self, team: std::sync::Arc<dyn Team>, share: Share, special: Vec<usize>) -> Shared {
-        {
-            let parts3 = share
-                .nodes
-                .iter()
-                .map(|r| {
-                    3 * special.partition_point(|&i| i < r.start)
-                        ..3 * special.partition_point(|&i| i < r.end)
-                })
-                .collect();
-            let dof_slot = self
-                .dofs
-                .iter()
-                .map(|d| special.partition_point(|&i| i < d.node))
-                .collect();
-            let special: Vec<u32> = special.into_iter().map(|i| i as u32).collect();
-            let size = team.size();
-            Shared {
-                team,
-                share,
-                forces: vec![0.0; 3 * special.len()],
-                special,
-                parts3,
-                dof_slot,
-                out: vec![Vec::new(); size],
-                inp: vec![Vec::new(); size],
-                listed: Vec::new(),
-                listed_parts: Vec::new(),
-                ends: Vec::new(),
-                springs: Vec::new(),
-                stale_u: false,
-                stale_pool: false,
-                v_partial: false,
-                piece: None,
-                broke: false,
-                springs_flat: Vec::new(),
-            }
+        let parts3 = share
+            .nodes
+            .iter()
+            .map(|r| {
+                3 * special.partition_point(|&i| i < r.start)
+                    ..3 * special.partition_point(|&i| i < r.end)
+            })
+            .collect();
+        let dof_slot = self
+            .dofs
+            .iter()
+            .map(|d| special.partition_point(|&i| i < d.node))
+            .collect();
+        let special: Vec<u32> = special.into_iter().map(|i| i as u32).collect();
+        let size = team.size();
+        Shared {
+            team,
+            share,
+            forces: vec![0.0; 3 * special.len()],
+            special,
+            parts3,
+            dof_slot,
+            out: vec![Vec::new(); size],
+            inp: vec![Vec::new(); size],
+            listed: Vec::new(),
+            listed_parts: Vec::new(),
+            ends: Vec::new(),
+            springs: Vec::new(),
+            stale_u: false,
+            stale_pool: false,
+            v_partial: false,
+            piece: None,
+            broke: false,
+            springs_flat: Vec::new(),
         }
     }
 
@@ -999,8 +997,9 @@ impl Integrator {
     /// An integrator for rank `team.rank()`'s piece of a body that no rank holds whole, as
     /// [`crate::team::parts::assemble`] sets it up (`share` its nodes per rank, in the body's
     /// numbering): the steps of [`Integrator::new`] followed by [`Integrator::cut`], bit for
-    /// bit, on a body without loads or prescribed motion that starts at rest. `state` is the
-    /// piece's.
+    /// bit, on a body without loads or prescribed motion that starts at rest. `body` and
+    /// `state` are the piece's (its dummies need a positive mass, as every node does: a body
+    /// from the lattice's cells gives them the body's mean node volume's).
     ///
     /// The stable step is estimated on the pieces as one process estimates it on the body
     /// ([`stability::Split::for_piece`]: the same Lanczos iteration, bit for bit), so

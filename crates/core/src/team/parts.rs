@@ -255,11 +255,15 @@ pub fn assemble(
         .collect();
     team.gather(&mut partial, &chunk_parts);
     let volume: Real = partial.iter().sum();
+    let cell_volume = volume / total as Real;
+    // A dummy stands for no material, but a body built from the cells gives every node its
+    // volume's mass, and a node needs a positive one: the mean.
+    node[..pad].fill(cell_volume);
     let lattice = Lattice {
         kind: template.kind,
         spacing: template.spacing,
         pos,
-        cell_volume: volume / total as Real,
+        cell_volume,
         thickness: template.thickness,
         period: [0.0; 3],
         grid: None,
@@ -491,12 +495,7 @@ mod tests {
                         let (piece, lat, share) = assemble(&*team, template, &build).unwrap();
                         assert!(piece.halo.ghosts() > 0 && !piece.own.is_empty(), "{at}");
                         assert_eq!(lat.cell_volume.to_bits(), cell_volume.to_bits(), "{at}");
-                        let mut pb = Body::from_cells(lat, 1.0, 0.3, 1.0);
-                        for (m, &g) in pb.mass.iter_mut().zip(&piece.global) {
-                            if g == PAD {
-                                *m = 1.0;
-                            }
-                        }
+                        let pb = Body::from_cells(lat, 1.0, 0.3, 1.0);
                         let mut ps = State::new(&pb);
                         let global = piece.global.clone();
                         let own = piece.own.clone();
