@@ -334,6 +334,41 @@ fn estimate(
     }
 }
 
+/// The step the options ask for, given the stable step: the safety factor times the critical
+/// step, or the fixed step, refused above the critical one unless forced.
+fn step_size(opts: &IntegratorOptions, stable: &StableStep) -> Result<Real> {
+    match opts.time_step {
+        TimeStep::Auto { safety } => {
+            if !(safety > 0.0 && safety <= 1.0) {
+                return Err(Error::OutOfRange {
+                    what: "time-step safety factor",
+                    value: safety,
+                    why: "give 0 < safety <= 1 (default 0.8)".into(),
+                });
+            }
+            Ok(safety * stable.dt_critical)
+        }
+        TimeStep::Fixed { dt, force } => {
+            if !(dt.is_finite() && dt > 0.0) {
+                return Err(Error::OutOfRange {
+                    what: "time step dt (s)",
+                    value: dt,
+                    why: "it must be positive".into(),
+                });
+            }
+            if dt > stable.dt_critical && !force {
+                return Err(Error::TimeStepTooLarge {
+                    dt,
+                    limit: stable.dt_critical,
+                    critical: stable.dt_critical,
+                    safety: 1.0,
+                });
+            }
+            Ok(dt)
+        }
+    }
+}
+
 /// The loaded and prescribed nodes of `loading`, ascending, each once: a shared run's
 /// bookkeeping reads them on every rank.
 pub(crate) fn special_nodes(loading: &Loading) -> Vec<usize> {
@@ -516,36 +551,7 @@ impl Integrator {
             .with_min_len(1 << 14)
             .zip(&body.mass)
             .for_each(|(x, &m)| *x = 1.0 / m);
-        let dt = match opts.time_step {
-            TimeStep::Auto { safety } => {
-                if !(safety > 0.0 && safety <= 1.0) {
-                    return Err(Error::OutOfRange {
-                        what: "time-step safety factor",
-                        value: safety,
-                        why: "give 0 < safety <= 1 (default 0.8)".into(),
-                    });
-                }
-                safety * stable.dt_critical
-            }
-            TimeStep::Fixed { dt, force } => {
-                if !(dt.is_finite() && dt > 0.0) {
-                    return Err(Error::OutOfRange {
-                        what: "time step dt (s)",
-                        value: dt,
-                        why: "it must be positive".into(),
-                    });
-                }
-                if dt > stable.dt_critical && !force {
-                    return Err(Error::TimeStepTooLarge {
-                        dt,
-                        limit: stable.dt_critical,
-                        critical: stable.dt_critical,
-                        safety: 1.0,
-                    });
-                }
-                dt
-            }
-        };
+        let dt = step_size(opts, &stable)?;
         let mut it = Self::assemble(body, loading, opts, kernel, dt, stable, (u_next, inv_mass));
         it.synced = state.breaks();
         it.plane &= Self::flat(state);
@@ -990,7 +996,8 @@ impl Integrator {
         t.special
             .iter_mut()
             .for_each(|i| *i = local(*i as usize) as u32);
-        self.attach(piece, &piece_body, &mut piece_state);
+        let sweeps = piece.share(&piece_body);
+        self.attach(piece, &piece_body, &mut piece_state, sweeps, false);
         Ok((piece_body, piece_state))
     }
 
@@ -1079,38 +1086,16 @@ impl Integrator {
                 ..s
             }
         };
-        drop((sweeps, ones));
+        // The estimate's unit masses become the inverse masses, as in `new_shared`; the
+        // sweeps trade the piece's halo, not the share's.
+        ones.par_iter_mut()
+            .with_min_len(1 << 14)
+            .zip(&body.mass)
+            .for_each(|(x, &m)| *x = 1.0 / m);
+        let inv_mass = ones;
+        sweeps.halo = crate::team::Halo::default();
         u_next.fill_zero();
-        let critical = stable.dt_critical;
-        let dt = match opts.time_step {
-            TimeStep::Auto { safety } if safety > 0.0 && safety <= 1.0 => safety * critical,
-            TimeStep::Auto { safety } => {
-                return Err(Error::OutOfRange {
-                    what: "time-step safety factor",
-                    value: safety,
-                    why: "give 0 < safety <= 1 (default 0.8)".into(),
-                })
-            }
-            TimeStep::Fixed { dt, .. } if !(dt.is_finite() && dt > 0.0) => {
-                return Err(Error::OutOfRange {
-                    what: "time step dt (s)",
-                    value: dt,
-                    why: "it must be positive".into(),
-                })
-            }
-            TimeStep::Fixed { dt, force } => {
-                if dt > critical && !force {
-                    return Err(Error::TimeStepTooLarge {
-                        dt,
-                        limit: critical,
-                        critical,
-                        safety: 1.0,
-                    });
-                }
-                dt
-            }
-        };
-        let inv_mass = body.mass.iter().map(|&m| 1.0 / m).collect();
+        let dt = step_size(opts, &stable)?;
         let mut it = Self::assemble(
             body,
             Loading::default(),
@@ -1128,7 +1113,7 @@ impl Integrator {
         it.initial = 0.0;
         let shared = it.shared(team, share, Vec::new());
         it.team = Some(shared);
-        it.attach(piece, body, state);
+        it.attach(piece, body, state, sweeps, true);
         let v0 = state.v.clone();
         it.initial_power = it.power(body, state, &v0);
         Ok(it)
@@ -1136,18 +1121,30 @@ impl Integrator {
 
     /// Step `piece` from here on (the end of [`Integrator::cut`] and
     /// [`Integrator::on_piece`]): the piece's masses, kernel, scratch and partial sums.
-    fn attach(&mut self, piece: Piece, piece_body: &Body, piece_state: &mut State) {
-        self.inv_mass = piece_body.mass.iter().map(|&m| 1.0 / m).collect();
-        if !self.u_next.is_empty() {
-            self.u_next = Coords::zeros(piece_body.nodes());
+    ///
+    /// `sweeps` is the piece's own share ([`Piece::share`]); `built` says that the kernel, the
+    /// masses and the drift scratch were made for the piece already (an integrator set up on
+    /// it), not for the whole body.
+    fn attach(
+        &mut self,
+        piece: Piece,
+        piece_body: &Body,
+        piece_state: &mut State,
+        sweeps: Share,
+        built: bool,
+    ) {
+        if !built {
+            self.inv_mass = piece_body.mass.iter().map(|&m| 1.0 / m).collect();
+            if !self.u_next.is_empty() {
+                self.u_next = Coords::zeros(piece_body.nodes());
+            }
+            let simd = self.kernel.simd();
+            self.kernel = match self.kernel {
+                Kernel::Csr { plain } => Kernel::Csr { plain },
+                _ => Kernel::for_body_in(piece_body, piece_state, Some(sweeps.mine())),
+            };
+            self.kernel.set_simd(simd);
         }
-        let sweeps = piece.share(piece_body);
-        let simd = self.kernel.simd();
-        self.kernel = match self.kernel {
-            Kernel::Csr { plain } => Kernel::Csr { plain },
-            _ => Kernel::for_body_in(piece_body, piece_state, Some(sweeps.mine())),
-        };
-        self.kernel.set_simd(simd);
         // Size the kernel's scratch now, so that no step allocates; the pools it computes at
         // the ghosts come from their partial rows, so the state's are kept.
         let pools = piece_state.pool.clone();

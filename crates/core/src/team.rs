@@ -473,6 +473,32 @@ pub(crate) mod tests {
         body
     }
 
+    /// Every own node's displacement and velocity on a piece (`global`: the body's index of
+    /// each of the piece's nodes) against one process's, bit for bit.
+    pub(crate) fn assert_own_state(
+        global: &[u32],
+        own: Range<usize>,
+        piece: &crate::State,
+        alone: &crate::State,
+        at: &str,
+    ) {
+        for i in own {
+            let g = global[i] as usize;
+            for c in 0..3 {
+                assert_eq!(
+                    piece.u.comp(c)[i].to_bits(),
+                    alone.u.comp(c)[g].to_bits(),
+                    "u of node {g}, {at}"
+                );
+                assert_eq!(
+                    piece.v.comp(c)[i].to_bits(),
+                    alone.v.comp(c)[g].to_bits(),
+                    "v of node {g}, {at}"
+                );
+            }
+        }
+    }
+
     /// `body` strained by a smooth displacement field, with every `every`-th spring broken.
     pub(crate) fn strained(body: &Body, every: usize) -> crate::State {
         let mut state = crate::State::new(body);

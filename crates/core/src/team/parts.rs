@@ -407,6 +407,7 @@ mod tests {
     use crate::loading::Loading;
     use crate::random::{part::part, RandomSpec};
     use crate::state::State;
+    use crate::team::tests::assert_own_state;
     use crate::team::Threads;
 
     /// A smooth velocity field, so that the springs do real work.
@@ -506,21 +507,7 @@ mod tests {
                         for _ in 0..steps {
                             it.step(&pb, &mut ps);
                         }
-                        for i in own {
-                            let g = global[i] as usize;
-                            for c in 0..3 {
-                                assert_eq!(
-                                    ps.u.comp(c)[i].to_bits(),
-                                    alone.u.comp(c)[g].to_bits(),
-                                    "u of node {g}, {at}"
-                                );
-                                assert_eq!(
-                                    ps.v.comp(c)[i].to_bits(),
-                                    alone.v.comp(c)[g].to_bits(),
-                                    "v of node {g}, {at}"
-                                );
-                            }
-                        }
+                        assert_own_state(&global, own, &ps, alone, &at);
                         assert_eq!(it.state_digest(&ps), digest, "{at}");
                     });
                 }

@@ -413,7 +413,7 @@ mod integrator_tests {
     use super::*;
     use crate::dynamics::{EnergyBalance, Integrator, IntegratorOptions, Ledger};
     use crate::loading::{Load, Loading, Motion, Prescribed, TimeFunction};
-    use crate::team::tests::{block, strained};
+    use crate::team::tests::{assert_own_state, block, strained};
     use crate::team::{Team, Threads};
 
     /// Grip the block's low-x face, pull its high-x face at a constant velocity along y, load
@@ -525,21 +525,7 @@ mod integrator_tests {
                             );
                             assert_eq!(ledger_bits(it.ledger()), ledger, "ledger, {at}");
                             let piece = it.piece().unwrap();
-                            for i in piece.own.clone() {
-                                let g = piece.global[i] as usize;
-                                for c in 0..3 {
-                                    assert_eq!(
-                                        ps.u.comp(c)[i].to_bits(),
-                                        alone.u.comp(c)[g].to_bits(),
-                                        "u of node {g}, {at}"
-                                    );
-                                    assert_eq!(
-                                        ps.v.comp(c)[i].to_bits(),
-                                        alone.v.comp(c)[g].to_bits(),
-                                        "v of node {g}, {at}"
-                                    );
-                                }
-                            }
+                            assert_own_state(&piece.global, piece.own.clone(), &ps, alone, &at);
                             assert_eq!(ps.step, alone.step);
                         });
                     }
