@@ -532,8 +532,16 @@ fn bench_from_parts(
         .iter()
         .map(|&g| g == hooke_core::team::PAD)
         .collect();
-    let it = Integrator::on_piece(&body, &mut state, piece, share, team, &bench_opts(args))
-        .context("setting up the integrator on the piece")?;
+    let it = Integrator::on_piece(
+        &body,
+        &mut state,
+        Loading::default(),
+        piece,
+        share,
+        team,
+        &bench_opts(args),
+    )
+    .context("setting up the integrator on the piece")?;
     for (i, _) in dummy.iter().enumerate().filter(|(_, &d)| !d) {
         let p = body.lattice.pos.get(i);
         state.v.x_mut()[i] = 1e-3 * (0.1 * p.y).sin();

@@ -1004,9 +1004,14 @@ impl Integrator {
     /// An integrator for rank `team.rank()`'s piece of a body that no rank holds whole, as
     /// [`crate::team::parts::assemble`] sets it up (`share` its nodes per rank, in the body's
     /// numbering): the steps of [`Integrator::new`] followed by [`Integrator::cut`], bit for
-    /// bit, on a body without loads or prescribed motion that starts at rest. `body` and
-    /// `state` are the piece's (its dummies need a positive mass, as every node does: a body
-    /// from the lattice's cells gives them the body's mean node volume's).
+    /// bit. `body` and `state` are the piece's (its dummies need a positive mass, as every
+    /// node does: a body from the lattice's cells gives them the body's mean node volume's),
+    /// `loading` in the piece's numbering; its loaded and prescribed nodes must be in every
+    /// rank's piece ([`crate::team::parts::everyone`]).
+    ///
+    /// The body starts undeformed (every displacement zero, and every prescribed one at the
+    /// start time), where pools, forces and strain energy are zero exactly; it may move
+    /// (`state.v`, an initial velocity).
     ///
     /// The stable step is estimated on the pieces as one process estimates it on the body
     /// ([`stability::Split::for_piece`]: the same Lanczos iteration, bit for bit), so
@@ -1014,12 +1019,14 @@ impl Integrator {
     pub fn on_piece(
         body: &Body,
         state: &mut State,
+        loading: Loading,
         piece: Piece,
         share: Share,
         team: std::sync::Arc<dyn Team>,
         opts: &IntegratorOptions,
     ) -> Result<Self> {
         body.validate()?;
+        loading.validate(body.nodes())?;
         if !(opts.damping.is_finite() && opts.damping >= 0.0) {
             return Err(Error::OutOfRange {
                 what: "damping coefficient c (1/s)",
@@ -1027,25 +1034,21 @@ impl Integrator {
                 why: "it must be zero or positive".into(),
             });
         }
-        let own = piece.own.clone();
-        let moving = (0..3).any(|c| {
-            state.u.comp(c)[own.clone()].iter().any(|&x| x != 0.0)
-                || state.v.comp(c)[own.clone()].iter().any(|&x| x != 0.0)
-        });
-        let mut moving = [moving];
-        team.any(&mut moving);
-        if moving[0] {
+        let deformed = |state: &State| {
+            let mut d = [state.u.as_flat().iter().any(|&x| x != 0.0)];
+            team.any(&mut d);
+            d[0]
+        };
+        if deformed(state) {
             return Err(Error::InvalidInput {
                 what: "a piece set up from parts",
-                why: "it must start at rest (displacements and velocities zero); set the \
-                      velocities after the set-up"
-                    .into(),
+                why: "it must start undeformed (displacements zero)".into(),
             });
         }
         let mut kernel = if opts.force_csr {
             Kernel::Csr { plain: false }
         } else {
-            Kernel::for_body_in(body, state, Some(own.clone()))
+            Kernel::for_body_in(body, state, Some(piece.own.clone()))
         };
         if opts.portable {
             kernel.set_simd(false);
@@ -1096,26 +1099,63 @@ impl Integrator {
         sweeps.halo = crate::team::Halo::default();
         u_next.fill_zero();
         let dt = step_size(opts, &stable)?;
-        let mut it = Self::assemble(
-            body,
-            Loading::default(),
-            opts,
-            kernel,
-            dt,
-            stable,
-            (u_next, inv_mass),
-        );
+        let mut it = Self::assemble(body, loading, opts, kernel, dt, stable, (u_next, inv_mass));
         it.synced = state.breaks();
-        it.plane &= Self::flat(state);
-        // At rest every extension is zero: pools, forces and strain energy are zero exactly.
+        let mut curved = [!Self::flat(state)];
+        team.any(&mut curved);
+        it.plane &= !curved[0];
+        // Prescribed positions and velocities at the start, as `new_shared` sets them (every
+        // rank holds every prescribed node).
+        let t = state.time;
+        for d in &it.dofs {
+            let (u, v) = it.prescribed_at(d, state.u.comp(d.axis)[d.node], t);
+            state.u.comp_mut(d.axis)[d.node] = u;
+            state.v.comp_mut(d.axis)[d.node] = v;
+        }
+        if deformed(state) {
+            return Err(Error::InvalidInput {
+                what: "a piece set up from parts",
+                why: "a prescribed displacement is not zero at the start: the body must start \
+                      undeformed"
+                    .into(),
+            });
+        }
+        // Undeformed: pools, forces and strain energy are zero exactly.
         state.f.fill_zero();
         state.pool.fill(0.0);
-        it.initial = 0.0;
-        let shared = it.shared(team, share, Vec::new());
+        // The team's bookkeeping in the body's numbering, then the piece's.
+        let special: Vec<usize> = special_nodes(&it.loading)
+            .into_iter()
+            .map(|i| piece.global[i] as usize)
+            .collect();
+        for d in &mut it.dofs {
+            d.node = piece.global[d.node] as usize;
+        }
+        let mut shared = it.shared(team, share, special);
+        for d in &mut it.dofs {
+            d.node = piece.local(d.node).expect("a prescribed node of the piece");
+        }
+        for s in &mut shared.special {
+            *s = piece
+                .local(*s as usize)
+                .expect("a special node of the piece") as u32;
+        }
         it.team = Some(shared);
         it.attach(piece, body, state, sweeps, true);
+        // The energy at the start and the power there, summed as one process sums them.
         let v0 = state.v.clone();
+        it.initial = it.node_sums(body, &v0)[0];
         it.initial_power = it.power(body, state, &v0);
+        // v(t - dt/2) = v(t) - dt/2 a(t) for free DOFs (prescribed ones take their own).
+        let mut a = it.acceleration(body, state);
+        for d in &it.dofs {
+            a.comp_mut(d.axis)[d.node] = 0.0;
+        }
+        for d in &it.dofs {
+            let (_, v) = it.prescribed_at(d, state.u.comp(d.axis)[d.node], t - 0.5 * dt);
+            state.v.comp_mut(d.axis)[d.node] = v;
+        }
+        state.v.axpy(-0.5 * dt, &a);
         Ok(it)
     }
 

@@ -300,6 +300,183 @@ pub fn assemble(
     Ok((piece, lattice, share))
 }
 
+/// Add the nodes every rank reads each step to every rank's piece (the loaded and prescribed
+/// nodes: a shared run's bookkeeping gathers their velocities and forces, so each rank holds
+/// them, as [`Share::new`]'s `everyone` puts them in every rank's halo). `mine` are the
+/// body's indices of this rank's own such nodes, ascending; the pieces, lattices and shares
+/// come from [`assemble`]. The new ghosts' positions, volumes and boundary shares are asked of
+/// their owners, and each owner sends its such nodes to every other rank from then on.
+/// Collective.
+///
+/// Returns the piece, its lattice and share with those ghosts added, in the body's order, and
+/// the body's index of every such node of every rank, ascending.
+pub fn everyone(
+    team: &dyn Team,
+    piece: Piece,
+    lattice: Lattice,
+    share: Share,
+    mine: &[u32],
+) -> Result<(Piece, Lattice, Share, Vec<u32>)> {
+    let (rank, size) = (team.rank(), team.size());
+    let first = piece.first;
+    let own_g = first..first + piece.own.len();
+    if mine.windows(2).any(|w| w[0] >= w[1]) || mine.iter().any(|&g| !own_g.contains(&(g as usize)))
+    {
+        return Err(Error::InvalidInput {
+            what: "nodes every process reads",
+            why: "give this process's own nodes, ascending, each once".into(),
+        });
+    }
+    // Every rank's list, in rank order: ascending, as the ranks own ascending nodes.
+    let mut counts = vec![0.0; size];
+    counts[rank] = mine.len() as Real;
+    team.gather(&mut counts, &singles(size));
+    let offsets = prefix(&counts.iter().map(|&c| c as usize).collect::<Vec<_>>());
+    let mut all = vec![0.0; offsets[size]];
+    for (k, &g) in mine.iter().enumerate() {
+        all[offsets[rank] + k] = g as Real;
+    }
+    let parts: Vec<Range<usize>> = (0..size).map(|r| offsets[r]..offsets[r + 1]).collect();
+    team.gather(&mut all, &parts);
+    let all: Vec<u32> = all.iter().map(|&g| g as u32).collect();
+    let owner_of = |g: u32| share.nodes.partition_point(|r| r.end <= g as usize);
+    // The ones this piece lacks: not its own, not a ghost already.
+    let held = |g: u32| piece.local(g as usize).is_some();
+    let new: Vec<u32> = all.iter().copied().filter(|&g| !held(g)).collect();
+    let mut asks = vec![Vec::new(); size];
+    for &g in &new {
+        asks[owner_of(g)].push(g as Real);
+    }
+    let cells = lattice.cells.as_ref().ok_or_else(|| Error::InvalidInput {
+        what: "nodes every process reads",
+        why: "the piece's lattice has no cells (not set up from parts)".into(),
+    })?;
+    let answers = ask(team, &asks, 1, 7, &mut |_, q| {
+        let g = q[0] as usize;
+        if !own_g.contains(&g) {
+            return None;
+        }
+        let i = piece.own.start + (g - first);
+        let p = lattice.pos.get(i);
+        let s = cells.surface[i];
+        Some(vec![p.x, p.y, p.z, cells.node[i], s[0], s[1], s[2]])
+    })?;
+    // The answers in `new`'s order (owners ascend with the nodes).
+    let info: Vec<&[Real]> = answers.iter().flat_map(|a| a.chunks(7)).collect();
+    // The piece again: old and new nodes merged in the body's order, dummies recounted.
+    let real: Vec<u32> = piece.global.iter().copied().filter(|&g| g != PAD).collect();
+    let mut merged: Vec<(u32, Option<usize>)> = Vec::with_capacity(real.len() + new.len());
+    {
+        let (mut a, mut b) = (0, 0);
+        while a < real.len() || b < new.len() {
+            if b == new.len() || (a < real.len() && real[a] < new[b]) {
+                merged.push((real[a], None));
+                a += 1;
+            } else {
+                merged.push((new[b], Some(b)));
+                b += 1;
+            }
+        }
+    }
+    let below = merged.partition_point(|&(g, _)| (g as usize) < first);
+    let pad = below.next_multiple_of(CHUNK) - below;
+    let n = pad + merged.len();
+    let old_pad = piece.global.partition_point(|&g| g == PAD);
+    // Old local index -> new local index.
+    let mut to_new = vec![u32::MAX; piece.global.len()];
+    let mut global = vec![PAD; pad];
+    let mut old = old_pad;
+    for (k, &(g, fresh)) in merged.iter().enumerate() {
+        global.push(g);
+        if fresh.is_none() {
+            to_new[old] = (pad + k) as u32;
+            old += 1;
+        }
+    }
+    let own = pad + below..pad + below + piece.own.len();
+    let mut x = vec![vec![0.0; n]; 3];
+    let mut node = vec![lattice.cell_volume; n];
+    let mut surface = vec![[0.0; 3]; n];
+    for (k, &(_, fresh)) in merged.iter().enumerate() {
+        if let Some(b) = fresh {
+            let (i, a) = (pad + k, info[b]);
+            for c in 0..3 {
+                x[c][i] = a[c];
+            }
+            node[i] = a[3];
+            surface[i] = [a[4], a[5], a[6]];
+        }
+    }
+    for (o, &nw) in to_new.iter().enumerate().skip(old_pad) {
+        let nw = nw as usize;
+        let p = lattice.pos.get(o);
+        x[0][nw] = p.x;
+        x[1][nw] = p.y;
+        x[2][nw] = p.z;
+        node[nw] = cells.node[o];
+        surface[nw] = cells.surface[o];
+    }
+    let pos = Coords::from_components(&x[0], &x[1], &x[2]);
+    let bonds = &*lattice.bonds;
+    let pairs: Vec<[u32; 2]> = bonds
+        .ends
+        .iter()
+        .map(|e| e.map(|i| to_new[i as usize]))
+        .collect();
+    let new_bonds = Bonds::from_pairs(n, pairs, &pos, lattice.period)?;
+    // Each rank's such nodes go to every other rank; this rank receives the others' from
+    // their owners.
+    let remap = |l: &Vec<u32>| -> Vec<u32> { l.iter().map(|&i| to_new[i as usize]).collect() };
+    let mut send: Vec<Vec<u32>> = piece.halo.send.iter().map(remap).collect();
+    let mut recv: Vec<Vec<u32>> = piece.halo.recv.iter().map(remap).collect();
+    let local_of = |g: u32| -> u32 {
+        let at = merged.binary_search_by_key(&g, |&(x, _)| x).expect("held");
+        (pad + at) as u32
+    };
+    for (r, list) in send.iter_mut().enumerate() {
+        if r != rank {
+            list.extend(mine.iter().map(|&g| local_of(g)));
+        }
+    }
+    for &g in &all {
+        let q = owner_of(g);
+        if q != rank {
+            recv[q].push(local_of(g));
+        }
+    }
+    for l in send.iter_mut().chain(recv.iter_mut()) {
+        l.sort_unstable();
+        l.dedup();
+    }
+    let to_global = |list: &Vec<u32>| list.iter().map(|&i| global[i as usize]).collect();
+    let halo = Halo { send, recv };
+    let share = Share {
+        halo: Halo {
+            send: halo.send.iter().map(to_global).collect(),
+            recv: halo.recv.iter().map(to_global).collect(),
+        },
+        ..share
+    };
+    let lattice = Lattice {
+        pos,
+        bonds: Topology::from(new_bonds),
+        cells: Some(Cells {
+            node,
+            spring: cells.spring.clone(),
+            surface,
+            sampler: cells.sampler,
+        }),
+        ..lattice
+    };
+    let piece = Piece {
+        global,
+        own,
+        halo,
+        ..piece
+    };
+    Ok((piece, lattice, share, all))
+}
+
 /// `result` on this rank if every rank's is `Ok`; otherwise an error on every rank.
 fn all_ok<T>(team: &dyn Team, result: Result<T>) -> Result<T> {
     let mut failed = [result.is_err()];
@@ -500,8 +677,16 @@ mod tests {
                         let mut ps = State::new(&pb);
                         let global = piece.global.clone();
                         let own = piece.own.clone();
-                        let mut it =
-                            Integrator::on_piece(&pb, &mut ps, piece, share, team, opts).unwrap();
+                        let mut it = Integrator::on_piece(
+                            &pb,
+                            &mut ps,
+                            Loading::default(),
+                            piece,
+                            share,
+                            team,
+                            opts,
+                        )
+                        .unwrap();
                         assert_eq!(it.dt.to_bits(), dt.to_bits(), "dt, {at}");
                         swing(&mut ps, &pb.lattice.pos, &|i| global[i] == PAD);
                         for _ in 0..steps {
@@ -509,6 +694,142 @@ mod tests {
                         }
                         assert_own_state(&global, own, &ps, alone, &at);
                         assert_eq!(it.state_digest(&ps), digest, "{at}");
+                    });
+                }
+            });
+        }
+    }
+
+    /// A loaded block set up from parts: its grips (fixed, moved at a constant velocity)
+    /// and loaded nodes added to every rank's piece by [`everyone`], a body force, damping
+    /// and an initial velocity. Teams of 2 and 3 step it with one process's bits: the step,
+    /// every own node's displacement and velocity, the digest and the energy balance.
+    #[test]
+    fn loaded_pieces_from_parts_step_with_the_bits_of_one_process() {
+        use crate::loading::{Load, Motion, Prescribed, TimeFunction};
+        use crate::math::Vector;
+        let (hi, a) = ([22.0, 21.0, 20.0], 1.0);
+        let spec = RandomSpec {
+            sampler: Sampler::Jitter { amplitude: 0.6 },
+            seed: 5,
+        };
+        let lattice = Lattice::random(3, [0.0; 3], hi, a, 1.0, spec, &|_| true).unwrap();
+        let body = Body::from_cells(lattice, 1.0, 0.25, 1.0);
+        // The loading, from node positions: what a case's regions select.
+        let at = |p: Vector| -> [bool; 3] { [p.x == 0.0, p.x == hi[0], p.y == hi[1]] };
+        let loading_of = |pos: &Coords, keep: &dyn Fn(usize) -> bool| {
+            let mut sets = [Vec::new(), Vec::new(), Vec::new()];
+            for i in (0..pos.len()).filter(|&i| keep(i)) {
+                for (k, &b) in at(pos.get(i)).iter().enumerate() {
+                    if b {
+                        sets[k].push(i as u32);
+                    }
+                }
+            }
+            let [left, right, top] = sets;
+            assert!(!left.is_empty() || !keep(0), "no node on a face");
+            Loading {
+                prescribed: vec![
+                    Prescribed {
+                        nodes: left,
+                        axis: 0,
+                        motion: Motion::Fixed,
+                    },
+                    Prescribed {
+                        nodes: right,
+                        axis: 0,
+                        motion: Motion::Velocity(TimeFunction::Ramp {
+                            t0: 0.0,
+                            t1: 2.0,
+                            from: 0.0,
+                            to: 1e-2,
+                        }),
+                    },
+                ],
+                loads: vec![Load {
+                    nodes: top,
+                    force: Vector::new(0.0, 2e-3, 1e-3),
+                    scale: TimeFunction::Constant(1.0),
+                }],
+                body_acceleration: Vector::new(0.0, 0.0, -1e-4),
+            }
+        };
+        let opts = IntegratorOptions {
+            damping: 0.01,
+            damage_proof: true,
+            ..Default::default()
+        };
+        let kick = |state: &mut State, pos: &Coords, keep: &dyn Fn(usize) -> bool| {
+            for i in (0..pos.len()).filter(|&i| keep(i)) {
+                let p = pos.get(i);
+                state.v.y_mut()[i] = 1e-2 * (0.2 * p.x).sin();
+            }
+        };
+        let steps = 30;
+        let mut alone = State::new(&body);
+        kick(&mut alone, &body.lattice.pos, &|_| true);
+        let loading = loading_of(&body.lattice.pos, &|_| true);
+        let mut it = Integrator::new(&body, &mut alone, loading, &opts).unwrap();
+        for _ in 0..steps {
+            it.step(&body, &mut alone);
+        }
+        let digest = it.state_digest(&alone);
+        let balance = it.energy(&body, &mut alone);
+        let template = Template {
+            kind: LatticeKind::Random3d,
+            spacing: a,
+            thickness: 1.0,
+            sampler: spec.sampler,
+        };
+        for size in [2, 3] {
+            std::thread::scope(|scope| {
+                for team in Threads::team(size) {
+                    let (alone, dt, opts) = (&alone, it.dt, &opts);
+                    scope.spawn(move || {
+                        let team: std::sync::Arc<dyn Team> = std::sync::Arc::new(team);
+                        let at_rank = format!("{size} ranks, rank {}", team.rank());
+                        let build = |keys: Range<u64>| {
+                            part(3, [0.0; 3], hi, a, 1.0, spec, &|_| true, keys, 4.0 * a)
+                        };
+                        let (piece, lat, share) = assemble(&*team, template, &build).unwrap();
+                        let own = piece.own.clone();
+                        let mine: Vec<u32> = own
+                            .clone()
+                            .filter(|&i| at(lat.pos.get(i)).iter().any(|&b| b))
+                            .map(|i| piece.global[i])
+                            .collect();
+                        let (piece, lat, share, all) =
+                            everyone(&*team, piece, lat, share, &mine).unwrap();
+                        let pb = Body::from_cells(lat, 1.0, 0.25, 1.0);
+                        let global = piece.global.clone();
+                        let real = |i: usize| global[i] != PAD;
+                        let loading = loading_of(&pb.lattice.pos, &real);
+                        // Every rank holds every loaded and prescribed node.
+                        let held: Vec<u32> = crate::dynamics::special_nodes(&loading)
+                            .into_iter()
+                            .map(|i| global[i])
+                            .collect();
+                        assert_eq!(held, all, "{at_rank}");
+                        let mut ps = State::new(&pb);
+                        kick(&mut ps, &pb.lattice.pos, &real);
+                        let own = piece.own.clone();
+                        let mut it =
+                            Integrator::on_piece(&pb, &mut ps, loading, piece, share, team, opts)
+                                .unwrap();
+                        assert_eq!(it.dt.to_bits(), dt.to_bits(), "dt, {at_rank}");
+                        for _ in 0..steps {
+                            it.step(&pb, &mut ps);
+                        }
+                        assert_own_state(&global, own, &ps, alone, &at_rank);
+                        assert_eq!(it.state_digest(&ps), digest, "{at_rank}");
+                        let b = it.energy(&pb, &mut ps);
+                        assert_eq!(b.kinetic.to_bits(), balance.kinetic.to_bits(), "{at_rank}");
+                        assert_eq!(b.error.to_bits(), balance.error.to_bits(), "{at_rank}");
+                        assert_eq!(
+                            b.ledger.boundary_work.to_bits(),
+                            balance.ledger.boundary_work.to_bits(),
+                            "{at_rank}"
+                        );
                     });
                 }
             });
