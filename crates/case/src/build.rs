@@ -320,11 +320,24 @@ pub fn load_str_with(
     scale: Real,
     overrides: &[crate::Override],
 ) -> Result<Simulation, CaseError> {
+    load_parts(path, text, scale, overrides, None)
+}
+
+/// [`load_str_with`], the body set up from parts shared by `parts` if given
+/// ([`hooke_sim::Builder::parts`]: each process builds and holds only its piece). Collective
+/// then: every member of the team calls it with the same case.
+pub fn load_parts(
+    path: &Path,
+    text: &str,
+    scale: Real,
+    overrides: &[crate::Override],
+    parts: Option<std::sync::Arc<dyn hooke_core::team::Team>>,
+) -> Result<Simulation, CaseError> {
     if overrides.is_empty() {
-        return load_str(path, text, scale);
+        return load_str_in(path, text, scale, parts);
     }
     let edited = crate::overrides::apply(path, text, overrides)?;
-    load_str(path, &edited.text, scale).map_err(|e| edited.map_error(e))
+    load_str_in(path, &edited.text, scale, parts).map_err(|e| edited.map_error(e))
 }
 
 /// As [`load`], from text (`path` only names the file in messages).
@@ -333,6 +346,16 @@ pub fn load_str_with(
 /// [`Builder`] (`lattice`, `material`, `precracks`, `boundaries`, `schedule`) -> the built
 /// simulation, then the rigid bodies and contact, which need the body.
 pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, CaseError> {
+    load_str_in(path, text, scale, None)
+}
+
+/// [`load_str`], from parts if `parts` is given ([`load_parts`]).
+fn load_str_in(
+    path: &Path,
+    text: &str,
+    scale: Real,
+    parts: Option<std::sync::Arc<dyn hooke_core::team::Team>>,
+) -> Result<Simulation, CaseError> {
     let file: PathBuf = path.to_path_buf();
     let ctx = Ctx { file: &file, text };
     if !(scale.is_finite() && scale > 0.0) {
@@ -352,6 +375,10 @@ pub fn load_str(path: &Path, text: &str, scale: Real) -> Result<Simulation, Case
     let builder = boundaries(&ctx, &raw, kind.dim(), builder, &mut spans)?;
     let builder = schedule(&ctx, &raw, builder, &mut spans)?;
     let builder = contact(&ctx, &raw, kind.dim(), h, builder, &mut spans)?;
+    let builder = match parts {
+        Some(team) => builder.parts(team),
+        None => builder,
+    };
     builder.build().map_err(|e| spans.error(&ctx, e))
 }
 

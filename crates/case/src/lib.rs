@@ -15,7 +15,7 @@ pub mod schema;
 mod build;
 mod overrides;
 
-pub use build::{load, load_str, load_str_with, Simulation};
+pub use build::{load, load_parts, load_str, load_str_with, Simulation};
 pub use error::CaseError;
 pub use overrides::{parse_overrides, physics_text, Override};
 
@@ -30,7 +30,20 @@ pub fn prepare(
     scale: hooke_core::Real,
     overrides: &[Override],
 ) -> Result<(Simulation, hooke_sim::RunOptions), CaseError> {
-    let sim = load_str_with(path, text, scale, overrides)?;
+    prepare_parts(path, text, scale, overrides, None)
+}
+
+/// [`prepare`], the body set up from parts shared by `parts` if given (each process builds
+/// and holds only its piece: [`load_parts`]); the run options then name the team and hold
+/// pieces. Collective with a team.
+pub fn prepare_parts(
+    path: &std::path::Path,
+    text: &str,
+    scale: hooke_core::Real,
+    overrides: &[Override],
+    parts: Option<std::sync::Arc<dyn hooke_core::team::Team>>,
+) -> Result<(Simulation, hooke_sim::RunOptions), CaseError> {
+    let sim = load_parts(path, text, scale, overrides, parts.clone())?;
     let physics = format!(
         "{}scale = {scale:e}\n",
         physics_text(path, text, overrides)?
@@ -39,6 +52,8 @@ pub fn prepare(
         digest: hooke_io::checkpoint::digest(physics.as_bytes()),
         case_text: text.to_string(),
         physics,
+        pieces: parts.is_some(),
+        team: parts,
         ..Default::default()
     };
     Ok((sim, opts))

@@ -31,6 +31,18 @@ fn run(case: &str, scale: f64, set: &[&str], out: &Path, team: Option<Arc<dyn Te
     run_with(case, scale, set, out, team, false)
 }
 
+/// How a member of a team holds the body.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Hold {
+    /// Whole, as one process does.
+    Whole,
+    /// Its piece, cut out of the whole body after the set-up (`RunOptions::pieces`).
+    Pieces,
+    /// Its piece, set up from its part alone (`hooke_case::prepare_parts`); resumed from the
+    /// members' checkpoints in `out` if `resume`.
+    Parts { resume: bool },
+}
+
 /// [`run`], each member holding only its piece of the body if `pieces`.
 fn run_with(
     case: &str,
@@ -40,17 +52,38 @@ fn run_with(
     team: Option<Arc<dyn Team>>,
     pieces: bool,
 ) -> Ended {
+    let hold = if pieces { Hold::Pieces } else { Hold::Whole };
+    run_held(case, scale, set, out, team, hold)
+}
+
+/// [`run`], each member holding the body as `hold` says.
+fn run_held(
+    case: &str,
+    scale: f64,
+    set: &[&str],
+    out: &Path,
+    team: Option<Arc<dyn Team>>,
+    hold: Hold,
+) -> Ended {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../cases")
         .join(case);
     let text = std::fs::read_to_string(&path).unwrap();
     let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
     let overrides = hooke_case::parse_overrides(&set).unwrap();
-    let (sim, mut opts) = hooke_case::prepare(&path, &text, scale, &overrides).unwrap();
+    let (sim, mut opts) = match hold {
+        Hold::Parts { .. } => {
+            hooke_case::prepare_parts(&path, &text, scale, &overrides, team.clone()).unwrap()
+        }
+        _ => hooke_case::prepare(&path, &text, scale, &overrides).unwrap(),
+    };
     opts.out = out.to_path_buf();
     opts.name = "run".into();
     opts.team = team;
-    opts.pieces = pieces;
+    opts.pieces = hold != Hold::Whole;
+    if hold == (Hold::Parts { resume: true }) {
+        opts.resume = Some(out.join("run.ckpt"));
+    }
     let (_, sim) = hooke_sim::run_keeping(sim, opts, &mut hooke_sim::Silent).unwrap();
     Ended {
         broken: sim.broken().0,
@@ -200,6 +233,58 @@ fn check(case: &str, scale: f64, set: &[&str], sizes: &[usize]) {
     let _ = std::fs::remove_dir_all(&alone.out);
 }
 
+/// Every member of a team of `size` whose members hold pieces (`how` says how they got them)
+/// ended with the lone run's state at its own nodes and its broken springs, and wrote its own
+/// checkpoint into `out`; their own nodes cover the body.
+fn assert_members_end_alone(case: &str, how: &str, alone: &Ended, members: &[Ended], out: &Path) {
+    let (n, size) = (alone.state.u.len(), members.len());
+    let mut seen = 0;
+    for (r, m) in members.iter().enumerate() {
+        let at = format!("{case}: member {r} of {size} {how}");
+        let held = m.held.as_ref().expect("a piece");
+        assert!(
+            m.state.u.len() < n,
+            "{at}: holds {} of {n} nodes",
+            m.state.u.len()
+        );
+        assert_eq!(m.broken, alone.broken, "{at}: broken springs");
+        assert_eq!(m.state.step, alone.state.step, "{at}");
+        for (k, i) in held.own.clone().enumerate() {
+            let g = held.first + k;
+            for c in 0..3 {
+                let (a, b) = (&alone.state, &m.state);
+                assert_eq!(
+                    b.u.comp(c)[i].to_bits(),
+                    a.u.comp(c)[g].to_bits(),
+                    "{at}: u {g}"
+                );
+                assert_eq!(
+                    b.v.comp(c)[i].to_bits(),
+                    a.v.comp(c)[g].to_bits(),
+                    "{at}: v {g}"
+                );
+            }
+        }
+        seen += held.own.len();
+        let ckpt = out.join(format!("run.{r}of{size}.ckpt"));
+        assert!(ckpt.exists(), "{at}: {}", ckpt.display());
+    }
+    assert_eq!(seen, n, "{case}: the members' own nodes cover the body");
+}
+
+/// The energy and reaction histories in `written` are the lone run's (`reference`), byte for
+/// byte.
+fn assert_histories(case: &str, reference: &[(String, Vec<u8>)], written: &[(String, Vec<u8>)]) {
+    for name in ["run_energy.csv", "run_reactions.csv"] {
+        let lone = reference.iter().find(|x| x.0 == name);
+        let mine = written.iter().find(|x| x.0 == name);
+        assert_eq!(lone.is_some(), mine.is_some(), "{case}: {name}");
+        if let (Some(x), Some(y)) = (lone, mine) {
+            assert!(x.1 == y.1, "{case}: {name} differs from the lone run's");
+        }
+    }
+}
+
 /// Teams of `sizes` whose members each hold only their piece of the body (`RunOptions::
 /// pieces`) end with the lone run's state at their own nodes and its broken springs, write
 /// its histories byte for byte, and the frames' pieces of members that hold the whole body,
@@ -222,38 +307,7 @@ fn check_pieces(case: &str, scale: f64, set: &[&str], sizes: &[usize]) {
         };
         let (whole_out, _) = team_run(false);
         let (out, members) = team_run(true);
-        let mut seen = 0;
-        for (r, m) in members.iter().enumerate() {
-            let at = format!("{case}: member {r} of {size} on pieces");
-            let held = m.held.as_ref().expect("a piece");
-            assert!(
-                m.state.u.len() < n,
-                "{at}: holds {} of {n} nodes",
-                m.state.u.len()
-            );
-            assert_eq!(m.broken, alone.broken, "{at}: broken springs");
-            assert_eq!(m.state.step, alone.state.step, "{at}");
-            for (k, i) in held.own.clone().enumerate() {
-                let g = held.first + k;
-                for c in 0..3 {
-                    let (a, b) = (&alone.state, &m.state);
-                    assert_eq!(
-                        b.u.comp(c)[i].to_bits(),
-                        a.u.comp(c)[g].to_bits(),
-                        "{at}: u {g}"
-                    );
-                    assert_eq!(
-                        b.v.comp(c)[i].to_bits(),
-                        a.v.comp(c)[g].to_bits(),
-                        "{at}: v {g}"
-                    );
-                }
-            }
-            seen += held.own.len();
-            let ckpt = out.join(format!("run.{r}of{size}.ckpt"));
-            assert!(ckpt.exists(), "{at}: {}", ckpt.display());
-        }
-        assert_eq!(seen, n, "{case}: the members' own nodes cover the body");
+        assert_members_end_alone(case, "on pieces", &alone, &members, &out);
         let written = physics_files(&out);
         let whole = physics_files(&whole_out);
         // Everything but the checkpoints as the members holding the whole body wrote it.
@@ -269,18 +323,88 @@ fn check_pieces(case: &str, scale: f64, set: &[&str], sizes: &[usize]) {
             &format!("{case} on pieces, {size} members"),
         );
         // The histories as the lone run wrote them.
-        for name in ["run_energy.csv", "run_reactions.csv"] {
-            let lone = reference.iter().find(|x| x.0 == name);
-            let mine = written.iter().find(|x| x.0 == name);
-            assert_eq!(lone.is_some(), mine.is_some(), "{case}: {name}");
-            if let (Some(x), Some(y)) = (lone, mine) {
-                assert!(x.1 == y.1, "{case}: {name} differs from the lone run's");
-            }
-        }
+        assert_histories(case, &reference, &written);
         let _ = std::fs::remove_dir_all(&out);
         let _ = std::fs::remove_dir_all(&whole_out);
     }
     let _ = std::fs::remove_dir_all(&alone.out);
+}
+
+/// Teams of `sizes` whose members set the body up from their parts alone (no member builds
+/// it whole) end with the lone run's state at their own nodes and its broken springs at
+/// `end` (s), and write its histories byte for byte; each member writes its own checkpoint.
+/// Run to `end / 2` and resumed from those checkpoints, they end the same. The frames' pieces
+/// split the body elsewhere than a whole set-up's (`tools/check_pieces.py` compares them node
+/// for node in CI).
+fn check_parts(case: &str, scale: f64, set: &[&str], end: f64, sizes: &[usize]) {
+    let tag = format!("parts_{}", case.trim_end_matches(".toml"));
+    let to = |t: f64| format!("solver.end_time={t:e}");
+    let (full, half) = (to(end), to(0.5 * end));
+    fn with<'a>(set: &[&'a str], t: &'a str) -> Vec<&'a str> {
+        set.iter().copied().chain([t]).collect()
+    }
+    let alone = run(
+        case,
+        scale,
+        &with(set, &full),
+        &scratch(&format!("{tag}_1")),
+        None,
+    );
+    let reference = physics_files(&alone.out);
+    eprintln!(
+        "{case} from parts: {} nodes, {} springs broken",
+        alone.state.u.len(),
+        alone.broken
+    );
+    assert!(alone.broken > 0, "{case}: nothing breaks");
+    for &size in sizes {
+        for resumed in [false, true] {
+            let out = scratch(&format!("{tag}_{size}_{resumed}"));
+            let go = |set: &[&str], resume: bool| {
+                members(size, |t| {
+                    run_held(case, scale, set, &out, Some(t), Hold::Parts { resume })
+                })
+            };
+            if resumed {
+                go(&with(set, &half), false);
+            }
+            let members = go(&with(set, &full), resumed);
+            let how = if resumed {
+                "from parts, resumed"
+            } else {
+                "from parts"
+            };
+            assert_members_end_alone(case, how, &alone, &members, &out);
+            assert_histories(case, &reference, &physics_files(&out));
+            let _ = std::fs::remove_dir_all(&out);
+        }
+    }
+    let _ = std::fs::remove_dir_all(&alone.out);
+}
+
+/// A random plate on a jittered grid with a pre-crack, breaking springs between grips that
+/// never break, and a notched 3D bar under a traction, set up from parts on teams of 2 and 3.
+#[test]
+fn parts_run_with_the_bits_of_one_process() {
+    check_parts(
+        "mode1_plate.toml",
+        1.5,
+        &[
+            "lattice.sampler=\"jitter\"",
+            "output.every=25e-6",
+            "output.reactions_every=5e-6",
+        ],
+        50e-6,
+        &[2, 3],
+    );
+    // 3D: a traction, a face held, a polygonal pre-crack.
+    check_parts(
+        "notched_bar_3d.toml",
+        1.3,
+        &["output.every=5e-6"],
+        10e-6,
+        &[2, 3],
+    );
 }
 
 /// Members holding only their pieces of a random plate with a pre-crack, breaking springs

@@ -9,7 +9,7 @@ use hooke_core::{Body, Real, State};
 
 use crate::criterion::{Criterion, SpringState};
 use crate::error::FractureError;
-use crate::precrack::{springs_cut, Crack};
+use crate::precrack::{springs_crossing, Crack};
 
 /// What one check did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -116,9 +116,26 @@ impl Fracture {
         state: &mut State,
         cracks: &[Crack],
     ) -> Result<usize, FractureError> {
+        self.precrack_where(body, state, cracks, &|cut| !cut)
+    }
+
+    /// [`Fracture::precrack`] on a process's piece of a body: `cuts_nothing(cut)`, given
+    /// whether a crack cuts a spring of this piece, says whether it cuts none of the body's
+    /// (a collective answer, so that every process refuses it alike).
+    pub fn precrack_where(
+        &mut self,
+        body: &Body,
+        state: &mut State,
+        cracks: &[Crack],
+        cuts_nothing: &dyn Fn(bool) -> bool,
+    ) -> Result<usize, FractureError> {
         let mut n = 0;
         for (k, c) in cracks.iter().enumerate() {
-            for s in springs_cut(body, c, k)? {
+            let cut = springs_crossing(body, c, k)?;
+            if cuts_nothing(!cut.is_empty()) {
+                return Err(crate::precrack::no_spring(k));
+            }
+            for s in cut {
                 if state.kill_bond(body, s) {
                     n += 1;
                 }

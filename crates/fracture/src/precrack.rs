@@ -20,6 +20,28 @@ pub enum Crack {
 
 /// The springs of `body` that `crack` cuts (indices of undirected springs).
 pub fn springs_cut(body: &Body, crack: &Crack, index: usize) -> Result<Vec<usize>, FractureError> {
+    let out = springs_crossing(body, crack, index)?;
+    if out.is_empty() {
+        return Err(no_spring(index));
+    }
+    Ok(out)
+}
+
+/// The error of a pre-crack that cuts no spring of the body.
+pub(crate) fn no_spring(index: usize) -> FractureError {
+    FractureError::BadCrack {
+        index,
+        why: "it cuts no spring: it lies outside the body, or along a node row or plane (move it between two)".into(),
+    }
+}
+
+/// [`springs_cut`], without refusing a crack that cuts none of `body`'s springs (a process's
+/// piece of a body may hold none that a crack cuts).
+pub fn springs_crossing(
+    body: &Body,
+    crack: &Crack,
+    index: usize,
+) -> Result<Vec<usize>, FractureError> {
     let lat = &body.lattice;
     let bonds = &*lat.bonds;
     let bad = |why: String| FractureError::BadCrack { index, why };
@@ -137,9 +159,6 @@ pub fn springs_cut(body: &Body, crack: &Crack, index: usize) -> Result<Vec<usize
                 }
             }
         }
-    }
-    if out.is_empty() {
-        return Err(bad("it cuts no spring: it lies outside the body, or along a node row or plane (move it between two)".into()));
     }
     Ok(out)
 }

@@ -40,6 +40,8 @@ use crate::geometry::{fill_lattice, traction_loads, Region, Solid};
 use crate::rigid::{ContactSpec, RigidSpec};
 use crate::simulation::{Boundary, Simulation};
 
+mod parts;
+
 /// What is wrong with a simulation being built: the item (a case file's key) and the fix.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error("{key}: {message}")]
@@ -151,6 +153,17 @@ pub enum Strength {
     CharacteristicLength(Real),
 }
 
+/// How [`Builder::loading`] finds a region's nodes: in the whole body, or in a process's
+/// piece of it ([`Builder::parts`]).
+struct Selector<'a> {
+    /// The region's nodes that this process holds, ascending.
+    select: &'a dyn Fn(&Region) -> Vec<u32>,
+    /// Whether a selection is empty on every process.
+    none: &'a dyn Fn(&[u32]) -> bool,
+    /// A boundary's nodes in the body's numbering, every process's.
+    listed: &'a dyn Fn(&[u32]) -> Vec<u32>,
+}
+
 /// A simulation under construction. See the module docs.
 #[derive(Clone, Debug)]
 pub struct Builder {
@@ -180,6 +193,7 @@ pub struct Builder {
     damping: Real,
     quasi_static: Option<usize>,
     contact: Option<(ContactSpec, Vec<RigidSpec>)>,
+    parts: Option<std::sync::Arc<dyn hooke_core::team::Team>>,
 }
 
 impl Builder {
@@ -212,6 +226,7 @@ impl Builder {
             damping: 0.0,
             quasi_static: None,
             contact: None,
+            parts: None,
         }
     }
     /// Plate thickness of a 2D lattice (m).
@@ -356,6 +371,16 @@ impl Builder {
         self.quasi_static = Some(steps);
         self
     }
+    /// Set the body up from parts shared by `team`: each process builds only its part of the
+    /// body and holds only its piece ([`crate::Simulation::held`]; the run steps it, as
+    /// [`crate::RunOptions::pieces`] does, with `team` in [`crate::RunOptions::team`]). The
+    /// bits are those of the whole body's set-up. Random lattices sampled on a jittered grid
+    /// only, without contact, anisotropy, HDF5 or the quasi-static solver (each refused with
+    /// the reason). A team of one builds the whole body.
+    pub fn parts(mut self, team: std::sync::Arc<dyn hooke_core::team::Team>) -> Self {
+        self.parts = Some(team);
+        self
+    }
     /// Rigid bodies and contact (explicit runs); `None`: the lattice's default options.
     pub fn contact(mut self, spec: ContactSpec, bodies: Vec<RigidSpec>) -> Self {
         self.contact = Some((spec, bodies));
@@ -364,13 +389,19 @@ impl Builder {
 
     /// Check everything and build the simulation.
     pub fn build(self) -> Result<Simulation, BuildError> {
-        let (mut body, k, h, weighted, random_design) = self.body()?;
+        if let Some(team) = self.parts.clone().filter(|t| t.size() > 1) {
+            return self.build_parts(team);
+        }
+        let (body, k, h, weighted, random_design) = self.body()?;
         let mut state = State::new(&body);
-        let (mut fracture, precracked) = self.fracture(&body, &mut state, k, h)?;
+        let (mut fracture, precracked) = self.fracture(&body, &mut state, k, h, &|cut| !cut)?;
+        let whole = Selector {
+            select: &|r: &Region| r.select(&body),
+            none: &|nodes: &[u32]| nodes.is_empty(),
+            listed: &|nodes: &[u32]| nodes.to_vec(),
+        };
         let (loading, regions, boundaries) =
-            self.loading(&body, weighted, &mut state, &mut fracture)?;
-        let (end_time, output_every, checkpoint_every, reactions_every) = self.times()?;
-        let q = body.q;
+            self.loading(&body, weighted, &mut state, &mut fracture, &whole)?;
         let contact = match &self.contact {
             None => None,
             Some(_) if self.quasi_static.is_some() => {
@@ -378,6 +409,26 @@ impl Builder {
             }
             Some((spec, bodies)) => Some(crate::rigid::contact(&body, spec, bodies)?),
         };
+        let mut sim = self.simulation(body, state, loading, fracture, (regions, boundaries), k)?;
+        sim.precracked = precracked;
+        sim.contact = contact;
+        sim.random_design = random_design;
+        sim.cell_weighted = weighted;
+        Ok(sim)
+    }
+
+    /// The simulation of a body set up (the whole body or a process's piece): what the
+    /// builder gives of the solver and output, the loading checked, the set-up's arrays shed.
+    fn simulation(
+        &self,
+        mut body: Body,
+        state: State,
+        loading: Loading,
+        fracture: Option<Fracture>,
+        (regions, boundaries): (Vec<u32>, Vec<Boundary>),
+        k: Real,
+    ) -> Result<Simulation, BuildError> {
+        let (end_time, output_every, checkpoint_every, reactions_every) = self.times()?;
         loading
             .validate(body.nodes())
             .map_err(|e| BuildError::new("boundary", e.to_string()))?;
@@ -390,6 +441,7 @@ impl Builder {
             ..Default::default()
         };
         Ok(Simulation {
+            q: body.q,
             body,
             state,
             loading,
@@ -407,14 +459,14 @@ impl Builder {
             vtk: self.formats.0,
             hdf5: self.formats.1,
             k,
-            q,
-            precracked,
-            contact,
+            precracked: 0,
+            contact: None,
             anisotropic: self.anisotropic,
-            random_design,
-            cell_weighted: weighted,
+            random_design: None,
+            cell_weighted: false,
             plane: self.plane,
             held: None,
+            from_parts: None,
         })
     }
 
@@ -461,36 +513,7 @@ impl Builder {
     /// [`Builder::body`] before the cell weights.
     fn unweighted_body(&self) -> Result<(Body, Real, Real, Option<Calibrated>), BuildError> {
         let kind = self.kind;
-        let dim = kind.dim();
-        let a = self.spacing;
-        if !(a.is_finite() && a > 0.0) {
-            return Err(BuildError::new(
-                "lattice.spacing",
-                format!("{a}: give a positive spacing in m"),
-            ));
-        }
-        let h = match (self.thickness, dim) {
-            (Some(t), 2) if t.is_finite() && t > 0.0 => t,
-            (Some(t), 2) => {
-                return Err(BuildError::new(
-                    "lattice.thickness",
-                    format!("{t}: give a positive thickness in m"),
-                ))
-            }
-            (None, 2) => {
-                return Err(BuildError::new(
-                    "lattice.thickness",
-                    "a 2D lattice is a plate: give its thickness in m",
-                ))
-            }
-            (Some(_), _) => {
-                return Err(BuildError::new(
-                    "lattice.thickness",
-                    "only 2D lattices have a thickness; remove it",
-                ))
-            }
-            (None, _) => 1.0,
-        };
+        let (a, h) = self.spacing_thickness()?;
         // The turn of the lattice: along a fibre (lattice.rotate_to), or along an orthotropic
         // material's axes (material.axes), which need it.
         let axes = match &self.anisotropic {
@@ -603,6 +626,49 @@ impl Builder {
             // No single k: the families differ (`hooke check` prints them).
             return Ok((body, Real::NAN, h, design));
         }
+        let (body, k) = self.isotropic_body(lattice)?;
+        Ok((body, k, h, None))
+    }
+
+    /// The lattice's spacing and the plate's thickness (1 in 3D), checked.
+    fn spacing_thickness(&self) -> Result<(Real, Real), BuildError> {
+        let dim = self.kind.dim();
+        let a = self.spacing;
+        if !(a.is_finite() && a > 0.0) {
+            return Err(BuildError::new(
+                "lattice.spacing",
+                format!("{a}: give a positive spacing in m"),
+            ));
+        }
+        let h = match (self.thickness, dim) {
+            (Some(t), 2) if t.is_finite() && t > 0.0 => t,
+            (Some(t), 2) => {
+                return Err(BuildError::new(
+                    "lattice.thickness",
+                    format!("{t}: give a positive thickness in m"),
+                ))
+            }
+            (None, 2) => {
+                return Err(BuildError::new(
+                    "lattice.thickness",
+                    "a 2D lattice is a plate: give its thickness in m",
+                ))
+            }
+            (Some(_), _) => {
+                return Err(BuildError::new(
+                    "lattice.thickness",
+                    "only 2D lattices have a thickness; remove it",
+                ))
+            }
+            (None, _) => 1.0,
+        };
+        Ok((a, h))
+    }
+
+    /// The isotropic material on `lattice`: the body and its bulk stiffness constant (k, or
+    /// kappa on random lattices).
+    fn isotropic_body(&self, lattice: hooke_core::Lattice) -> Result<(Body, Real), BuildError> {
+        let kind = self.kind;
         let elastic = self.material.ok_or_else(|| {
             BuildError::new(
                 "material",
@@ -632,7 +698,7 @@ impl Builder {
             // The rule's value where the springs follow one (the list is then never filled).
             body.k.uniform_value().unwrap_or_else(|| body.k[0])
         };
-        Ok((body, k, h, None))
+        Ok((body, k))
     }
 
     /// The breaking rule and the pre-cracks: the fracture state and the springs cut.
@@ -642,6 +708,7 @@ impl Builder {
         state: &mut State,
         k: Real,
         h: Real,
+        cuts_nothing: &dyn Fn(bool) -> bool,
     ) -> Result<(Option<Fracture>, usize), BuildError> {
         let (kind, a, q) = (self.kind, self.spacing, body.q);
         let fr = |key: &'static str| {
@@ -730,7 +797,7 @@ impl Builder {
                 )
             });
             precracked += f
-                .precrack(body, state, std::slice::from_ref(c))
+                .precrack_where(body, state, std::slice::from_ref(c), cuts_nothing)
                 .map_err(|e| {
                     BuildError::new(
                         format!("precrack[{n}]"),
@@ -749,6 +816,7 @@ impl Builder {
         weighted: bool,
         state: &mut State,
         fracture: &mut Option<Fracture>,
+        pick: &Selector,
     ) -> Result<(Loading, Vec<u32>, Vec<Boundary>), BuildError> {
         let dim = self.kind.dim();
         let mut loading = Loading {
@@ -772,8 +840,8 @@ impl Builder {
         };
         for (n, bc) in self.bcs.iter().enumerate() {
             let key = format!("boundary[{n}]");
-            let nodes = bc.region.select(body);
-            if nodes.is_empty() {
+            let nodes = (pick.select)(&bc.region);
+            if (pick.none)(&nodes) {
                 return Err(BuildError::new(
                     format!("{key}.region"),
                     "the region selects no node: check it against the geometry (and --scale)",
@@ -788,7 +856,7 @@ impl Builder {
             }
             boundaries.push(Boundary {
                 name: bc.name.clone().unwrap_or_else(|| key.clone()),
-                nodes: nodes.clone(),
+                nodes: (pick.listed)(&nodes),
             });
             for &i in &nodes {
                 regions[i as usize] = n as u32 + 1;
@@ -840,8 +908,8 @@ impl Builder {
             }
         }
         for (n, (region, v)) in self.initial.iter().enumerate() {
-            let nodes = region.select(body);
-            if nodes.is_empty() {
+            let nodes = (pick.select)(region);
+            if (pick.none)(&nodes) {
                 return Err(BuildError::new(
                     format!("initial[{n}].region"),
                     "the region selects no node",

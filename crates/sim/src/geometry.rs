@@ -347,27 +347,43 @@ pub enum Region {
 impl Region {
     /// The nodes of `body` in the region, in increasing order.
     pub fn select(&self, body: &Body) -> Vec<u32> {
-        let lat = &body.lattice;
-        let (dim, a, n) = (lat.dim(), lat.spacing, body.nodes() as u32);
+        let c = |f: Face| body.lattice.pos.comp(f.axis);
+        let extreme = |f: Face| {
+            if f.high {
+                c(f).iter().cloned().fold(Real::NEG_INFINITY, Real::max)
+            } else {
+                c(f).iter().cloned().fold(Real::INFINITY, Real::min)
+            }
+        };
+        self.select_where(&body.lattice, &extreme, &Some)
+    }
+
+    /// [`Region::select`] on a piece of a body ([`hooke_core::team::Piece`]): `extreme(face)`
+    /// is the whole body's extreme coordinate on that face, and `global(i)` the body's index
+    /// of the piece's node `i` (`None` for a dummy node, which no region holds). The nodes are
+    /// the piece's, in increasing order.
+    pub fn select_where(
+        &self,
+        lat: &hooke_core::Lattice,
+        extreme: &dyn Fn(Face) -> Real,
+        global: &dyn Fn(u32) -> Option<u32>,
+    ) -> Vec<u32> {
+        let (dim, a, n) = (lat.dim(), lat.spacing, lat.len() as u32);
+        let real = (0..n).filter(|&i| global(i).is_some());
         match self {
             Region::Face(f) => {
                 let c = lat.pos.comp(f.axis);
-                let ext = if f.high {
-                    c.iter().cloned().fold(Real::NEG_INFINITY, Real::max)
-                } else {
-                    c.iter().cloned().fold(Real::INFINITY, Real::min)
-                };
+                let ext = extreme(*f);
                 // A hex lattice's odd rows are shifted by a/2: its x faces are zigzag.
                 let tol = if lat.kind == LatticeKind::Hex && f.axis == 0 {
                     0.51 * a
                 } else {
                     1e-6 * a
                 };
-                (0..n)
-                    .filter(|&i| (c[i as usize] - ext).abs() <= tol)
+                real.filter(|&i| (c[i as usize] - ext).abs() <= tol)
                     .collect()
             }
-            Region::Box { lo, hi } => (0..n)
+            Region::Box { lo, hi } => real
                 .filter(|&i| {
                     let p = lat.pos.get(i as usize);
                     (0..dim).all(|c| p[c] >= lo[c] && p[c] <= hi[c])
@@ -379,19 +395,19 @@ impl Region {
                 tolerance,
             } => {
                 let tol = tolerance.unwrap_or(0.5 * a);
-                (0..n)
-                    .filter(|&i| (lat.pos.comp(*axis)[i as usize] - at).abs() <= tol)
+                real.filter(|&i| (lat.pos.comp(*axis)[i as usize] - at).abs() <= tol)
                     .collect()
             }
-            Region::Inside(s) => (0..n)
+            Region::Inside(s) => real
                 .filter(|&i| s.contains(lat.pos.get(i as usize), 1e-9 * a, dim))
                 .collect(),
-            Region::All => (0..n).collect(),
+            Region::All => real.collect(),
             Region::Nodes(v) => {
-                let mut v: Vec<u32> = v.iter().copied().filter(|&i| i < n).collect();
+                let mut v: Vec<u32> = v.to_vec();
                 v.sort_unstable();
                 v.dedup();
-                v
+                real.filter(|&i| global(i).is_some_and(|g| v.binary_search(&g).is_ok()))
+                    .collect()
             }
         }
     }

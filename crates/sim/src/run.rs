@@ -348,21 +348,8 @@ fn cut_to_piece(
         ))
     })?;
     if let Some(path) = resume {
-        let ck = Checkpoint::load(path, &body, opts.digest).map_err(|e| {
-            Error::Input(format!(
-                "{e} (a run on pieces resumes on as many processes as wrote it, each from its own checkpoint)"
-            ))
-        })?;
-        state = ck.state;
-        it.restore(&body, &state, &ck.integrator);
-        if let Some(c) = sim.contact.as_mut() {
-            c.restore(&ck.extra)
-                .map_err(|e| Error::Input(format!("{}: {e}", path.display())))?;
-        }
-        if let Some(fr) = sim.fracture.as_mut() {
-            fr.broken_total = ck.broken as usize;
-            fr.released_total = ck.released;
-        }
+        let records = (sim.contact.as_mut(), sim.fracture.as_mut());
+        resume_piece(it, &body, &mut state, records, opts, path)?;
     }
     let piece = it.piece().expect("cut");
     if let Some(fr) = sim.fracture.as_mut() {
@@ -381,9 +368,42 @@ fn cut_to_piece(
     sim.held = Some(crate::Held {
         own: piece.own.clone(),
         first: piece.first,
+        nodes: sim.body.nodes(),
+        springs: sim.body.springs(),
     });
     sim.body = body;
     sim.state = state;
+    Ok(())
+}
+
+/// Resume this process's piece (`body`, `state`) from its own checkpoint `path` of a run on
+/// pieces: the state, the integrator's, contact's and fracture's records.
+fn resume_piece(
+    it: &mut Integrator,
+    body: &hooke_core::Body,
+    state: &mut hooke_core::State,
+    (contact, fracture): (
+        Option<&mut hooke_contact::Contact>,
+        Option<&mut hooke_fracture::Fracture>,
+    ),
+    opts: &RunOptions,
+    path: &Path,
+) -> Result<()> {
+    let ck = Checkpoint::load(path, body, opts.digest).map_err(|e| {
+        Error::Input(format!(
+            "{e} (a run on pieces resumes on as many processes as wrote it, each from its own checkpoint)"
+        ))
+    })?;
+    *state = ck.state;
+    it.restore(body, state, &ck.integrator);
+    if let Some(c) = contact {
+        c.restore(&ck.extra)
+            .map_err(|e| Error::Input(format!("{}: {e}", path.display())))?;
+    }
+    if let Some(fr) = fracture {
+        fr.broken_total = ck.broken as usize;
+        fr.released_total = ck.released;
+    }
     Ok(())
 }
 
@@ -521,8 +541,33 @@ impl Run {
         // A fresh integrator shares its stable-step estimate with the team and comes back
         // distributed; a resumed one takes its step from the checkpoint.
         let resume_whole = opts.resume.as_ref().filter(|_| piece_resume.is_none());
-        let it = match resume_whole {
-            None => Integrator::new_shared(
+        // A simulation set up from parts is on its pieces already.
+        let from_parts = sim.from_parts.take();
+        if from_parts.is_some() {
+            let why = match (opts.on_pieces(), resume_whole) {
+                (None, _) => Some("it was set up from parts: run it on the team that set it up, with pieces (RunOptions::pieces, team)"),
+                (_, Some(_)) => Some("a run set up from parts resumes from its processes' own checkpoints (NAME.rankR-of-N.ckpt), on as many processes as wrote them"),
+                _ => None,
+            };
+            if opts.anyone(why.is_some()) {
+                return Err(why.map_or_else(|| elsewhere(true), |w| Error::Input(w.into())));
+            }
+        }
+        let it = match (from_parts, resume_whole) {
+            (Some(parts), _) => {
+                let team = opts.team.clone().expect("a team");
+                Integrator::on_piece(
+                    &sim.body,
+                    &mut sim.state,
+                    sim.loading.clone(),
+                    parts.piece,
+                    parts.share,
+                    team,
+                    &sim.options,
+                )
+                .map_err(|e| Error::Input(e.to_string()))?
+            }
+            (None, None) => Integrator::new_shared(
                 &sim.body,
                 &mut sim.state,
                 sim.loading.clone(),
@@ -530,7 +575,7 @@ impl Run {
                 opts.team.clone(),
             )
             .map_err(|e| Error::Input(e.to_string()))?,
-            Some(path) => {
+            (None, Some(path)) => {
                 let ck = Checkpoint::load(path, &sim.body, opts.digest).map_err(|e| {
                     let mut msg = e.to_string();
                     if let hooke_io::IoError::DigestMismatch { .. } = e {
@@ -568,8 +613,9 @@ impl Run {
             }
         };
         let mut it = it;
+        let on_parts = sim.held.is_some();
         if let Some(team) = &opts.team {
-            if opts.resume.is_some() {
+            if opts.resume.is_some() && !on_parts {
                 it.distribute(&sim.body, team.clone());
             }
             if let Some(c) = sim.contact.as_mut() {
@@ -619,8 +665,25 @@ impl Run {
             return Err(elsewhere(true));
         }
         let (sinks, contact_history, provenance) = opened?;
-        // A run on pieces drops the whole body and state here, every process alike.
-        if opts.on_pieces().is_some() {
+        // A run on pieces drops the whole body and state here, every process alike; one set
+        // up from parts never held them, and resumes here.
+        if on_parts {
+            let resumed = match piece_resume.as_deref() {
+                Some(path) => resume_piece(
+                    &mut it,
+                    &sim.body,
+                    &mut sim.state,
+                    (sim.contact.as_mut(), sim.fracture.as_mut()),
+                    &opts,
+                    path,
+                ),
+                None => Ok(()),
+            };
+            if opts.anyone(resumed.is_err()) {
+                resumed?;
+                return Err(elsewhere(true));
+            }
+        } else if opts.on_pieces().is_some() {
             let cut = cut_to_piece(&mut sim, &mut it, &opts, piece_resume.as_deref());
             if opts.anyone(cut.is_err()) {
                 cut?;

@@ -91,6 +91,16 @@ pub struct Simulation {
     /// Set when this process holds only its piece of the body ([`crate::RunOptions::pieces`]):
     /// `body`, `state` and `regions` are then the piece's, in its numbering.
     pub held: Option<Held>,
+    /// Set when this process set its piece up from its part alone ([`crate::Builder::parts`]),
+    /// until the run starts on it: what the integrator needs of the piece.
+    pub from_parts: Option<FromParts>,
+}
+
+/// A piece set up from a part ([`hooke_core::team::parts`]), handed to the run that steps it.
+#[derive(Clone, Debug)]
+pub struct FromParts {
+    pub piece: hooke_core::team::Piece,
+    pub share: hooke_core::team::Share,
 }
 
 /// Where a process's own nodes are when it holds a piece of the body
@@ -101,13 +111,16 @@ pub struct Held {
     pub own: std::ops::Range<usize>,
     /// The body's index of the first of them (the rest follow in order).
     pub first: usize,
+    /// Nodes and springs of the whole body.
+    pub nodes: usize,
+    pub springs: usize,
 }
 
 impl Simulation {
     /// Bytes the run will write: frames (VTK base64 and/or HDF5), histories and the checkpoint
     /// (twice, while it is renamed into place).
     pub fn output_estimate(&self) -> f64 {
-        let (n, s) = (self.body.nodes() as f64, self.body.springs() as f64);
+        let (n, s) = (self.nodes() as f64, self.springs() as f64);
         let frames = (self.end_time / self.output_every).ceil() + 2.0;
         // Per node: coordinates and up to 19 values of 8 bytes (vectors, scalars, stress,
         // volume), a u32 region id, a u64 node id and a vertex cell; base64 adds a third.
@@ -135,6 +148,18 @@ impl Simulation {
         }
         frames * (per_frame + 200.0 + 160.0 * self.boundaries.len() as f64)
             + 2.0 * (48.0 * n + s + 200.0)
+    }
+
+    /// Nodes of the whole body (a piece's process holds fewer: [`Simulation::held`]).
+    pub fn nodes(&self) -> usize {
+        self.held.as_ref().map_or(self.body.nodes(), |h| h.nodes)
+    }
+
+    /// Springs of the whole body.
+    pub fn springs(&self) -> usize {
+        self.held
+            .as_ref()
+            .map_or(self.body.springs(), |h| h.springs)
     }
 
     /// The extent of the body (m): its largest side.

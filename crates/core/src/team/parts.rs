@@ -327,18 +327,7 @@ pub fn everyone(
             why: "give this process's own nodes, ascending, each once".into(),
         });
     }
-    // Every rank's list, in rank order: ascending, as the ranks own ascending nodes.
-    let mut counts = vec![0.0; size];
-    counts[rank] = mine.len() as Real;
-    team.gather(&mut counts, &singles(size));
-    let offsets = prefix(&counts.iter().map(|&c| c as usize).collect::<Vec<_>>());
-    let mut all = vec![0.0; offsets[size]];
-    for (k, &g) in mine.iter().enumerate() {
-        all[offsets[rank] + k] = g as Real;
-    }
-    let parts: Vec<Range<usize>> = (0..size).map(|r| offsets[r]..offsets[r + 1]).collect();
-    team.gather(&mut all, &parts);
-    let all: Vec<u32> = all.iter().map(|&g| g as u32).collect();
+    let all = gather_ids(team, mine);
     let owner_of = |g: u32| share.nodes.partition_point(|r| r.end <= g as usize);
     // The ones this piece lacks: not its own, not a ghost already.
     let held = |g: u32| piece.local(g as usize).is_some();
@@ -475,6 +464,32 @@ pub fn everyone(
         ..piece
     };
     Ok((piece, lattice, share, all))
+}
+
+/// Every rank's `mine` (node or spring indices), concatenated in rank order: ascending when
+/// each rank's are ascending and the ranks own ascending ranges. Collective.
+pub fn gather_ids(team: &dyn Team, mine: &[u32]) -> Vec<u32> {
+    let (rank, size) = (team.rank(), team.size());
+    let mut counts = vec![0.0; size];
+    counts[rank] = mine.len() as Real;
+    team.gather(&mut counts, &singles(size));
+    let offsets = prefix(&counts.iter().map(|&c| c as usize).collect::<Vec<_>>());
+    let mut all = vec![0.0; offsets[size]];
+    for (k, &g) in mine.iter().enumerate() {
+        all[offsets[rank] + k] = g as Real;
+    }
+    let parts: Vec<Range<usize>> = (0..size).map(|r| offsets[r]..offsets[r + 1]).collect();
+    team.gather(&mut all, &parts);
+    all.iter().map(|&g| g as u32).collect()
+}
+
+/// The sum over the ranks of a count of each (exact: counts below 2^53). Collective.
+pub fn sum_counts(team: &dyn Team, mine: usize) -> usize {
+    let size = team.size();
+    let mut counts = vec![0.0; size];
+    counts[team.rank()] = mine as Real;
+    team.gather(&mut counts, &singles(size));
+    counts.iter().map(|&c| c as usize).sum()
 }
 
 /// `result` on this rank if every rank's is `Ok`; otherwise an error on every rank.
