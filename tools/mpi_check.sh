@@ -10,6 +10,8 @@
 #     regular lattice's box is refused on pieces with the reason;
 #   - `bench --parts` (each rank setting up only its part of a random block) steps with the bits
 #     of one process;
+#   - `run --parts` (each rank building only its part of a jittered random body, none the whole)
+#     gives those bits too, fresh and resumed; a body it cannot build is refused with the reason;
 #   - `bench --pieces` (each rank holding only its piece of a random block) steps with the bits
 #     of the build without MPI, and a rank's arrays shrink with N;
 #   - bad input stops every rank with one message and exit code 2.
@@ -70,22 +72,25 @@ echo "kalthoff_winkler: checkpointed with -np 2, resumed with -np 3: bit-identic
 # set-up (random lattices, breaking, contact). Frames, histories and the final state
 # must be the bits of the build without MPI, each rank writes its own checkpoint, and a run on
 # pieces resumes from them (on the same N), or from a whole checkpoint.
+hold=--pieces # how the ranks hold the body: --pieces (cut after a whole set-up) or --parts
 check_pieces() { # name case scale end_time sizes... (the run alone is `check`'s, or made here)
   local name=$1 case=$2 scale=$3 end=$4
   shift 4
   if [ ! -d "$work/$name.alone" ]; then
-    "$work/hooke" run "$case" --scale "$scale" --set solver.end_time="$end" --out "$work/$name.alone" > /dev/null
+    "$work/hooke" run "$case" --scale "$scale" --set solver.end_time="$end" "${extra[@]}" \
+      --out "$work/$name.alone" > /dev/null
   fi
   for np in "$@"; do
+    local out="$work/$name.${hold#--}$np"
     $mpirun -np "$np" "$work/hooke-mpi" run "$case" --scale "$scale" --set solver.end_time="$end" \
-      --pieces --out "$work/$name.pieces$np" > "$work/$name.pieces$np.log"
-    python3 tools/compare_runs.py "$work/$name.alone" "$work/$name.pieces$np" | tail -1
-    python3 tools/check_pieces.py "$work/$name.alone" "$work/$name.pieces$np" | tail -1
+      "${extra[@]}" $hold --out "$out" > "$out.log"
+    python3 tools/compare_runs.py "$work/$name.alone" "$out" | tail -1
+    python3 tools/check_pieces.py "$work/$name.alone" "$out" | tail -1
     for ((r = 0; r < np; r++)); do
-      local ckpt="$work/$name.pieces$np/$(basename "$case" .toml).${r}of$np.ckpt"
-      test -s "$ckpt" || { echo "$name --pieces -np $np: no checkpoint of rank $r ($ckpt)"; exit 1; }
+      local ckpt="$out/$(basename "$case" .toml).${r}of$np.ckpt"
+      test -s "$ckpt" || { echo "$name $hold -np $np: no checkpoint of rank $r ($ckpt)"; exit 1; }
     done
-    echo "$name: -np $np --pieces bit-identical to the build without MPI (frames, histories), a checkpoint per rank"
+    echo "$name: -np $np $hold bit-identical to the build without MPI (frames, histories), a checkpoint per rank"
   done
 }
 check_pieces mode1_plate cases/mode1_plate.toml 1.0 60e-6 2 4
@@ -105,16 +110,44 @@ echo "glass_branching_random: checkpointed on 3 ranks' pieces and resumed: bit-i
 # nodes are on different ranks), and the L-panel (3D, an STL body, a rigid load).
 check_pieces kalthoff_winkler_60us cases/kalthoff_winkler.toml 0.3 60e-6 2 3 4
 check_pieces l_panel cases/l_panel.toml 0.5 12e-3 2 3
-# A regular lattice's box is refused on pieces with the reason (exit 2, one message).
-set +e
-$mpirun -np 2 "$work/hooke-mpi" run cases/glass_branching.toml --scale 0.3 --pieces --out "$work/hex_pieces" \
-  > /dev/null 2> "$work/hex_pieces.err"
-rc=$?
-set -e
-if [ "$rc" -ne 2 ] || [ "$(grep -c '^error:' "$work/hex_pieces.err")" -ne 1 ]; then
-  echo "a hexagonal box on pieces not refused (exit $rc)"; cat "$work/hex_pieces.err"; exit 1
-fi
-echo "a hexagonal box with --pieces: refused (exit $rc): $(grep '^error:' "$work/hex_pieces.err")"
+# `refused NAME WHAT ARGS...`: `mpirun -np 2 hooke run ARGS` must stop with exit 2 and one message.
+refused() {
+  local name=$1 what=$2
+  shift 2
+  set +e
+  $mpirun -np 2 "$work/hooke-mpi" run "$@" --out "$work/$name" > /dev/null 2> "$work/$name.err"
+  local rc=$?
+  set -e
+  if [ "$rc" -ne 2 ] || [ "$(grep -c '^error:' "$work/$name.err")" -ne 1 ]; then
+    echo "$what not refused (exit $rc)"; cat "$work/$name.err"; exit 1
+  fi
+  echo "$what: refused (exit $rc): $(grep '^error:' "$work/$name.err")"
+}
+# A regular lattice's box is refused on pieces with the reason.
+refused hex_pieces "a hexagonal box with --pieces" cases/glass_branching.toml --scale 0.3 --pieces
+
+# A set-up from parts: no rank builds the whole body (random lattices on a jittered grid). The
+# mode-I plate (pre-crack, grips moved, no-fail layers) and the notched 3D bar (a traction, a
+# face held, a polygonal pre-crack; at 4 ranks one owns no node), then checkpointed on 3 ranks'
+# parts and resumed on them.
+hold=--parts
+extra=(--set 'lattice.sampler="jitter"')
+check_pieces mode1_jitter cases/mode1_plate.toml 1.0 60e-6 2 3
+extra=()
+check_pieces notched_bar_3d cases/notched_bar_3d.toml 1.0 20e-6 2 3 4
+$mpirun -np 3 "$work/hooke-mpi" run cases/notched_bar_3d.toml --set solver.end_time=10e-6 \
+  --parts --out "$work/resumed_parts" > /dev/null
+$mpirun -np 3 "$work/hooke-mpi" run cases/notched_bar_3d.toml --set solver.end_time=20e-6 \
+  --parts --out "$work/resumed_parts" --resume "$work/resumed_parts/notched_bar_3d.ckpt" > /dev/null
+python3 tools/compare_runs.py "$work/notched_bar_3d.alone" "$work/resumed_parts" | tail -1
+for r in 0 1 2; do
+  cmp "$work/notched_bar_3d.parts3/notched_bar_3d.${r}of3.ckpt" "$work/resumed_parts/notched_bar_3d.${r}of3.ckpt"
+done
+echo "notched_bar_3d: checkpointed on 3 ranks' parts and resumed: bit-identical"
+hold=--pieces
+# What a set-up from parts cannot build is refused with the reason: the default Poisson-disk
+# sampling places each node against those before it.
+refused poisson_parts "a Poisson-disk body with --parts" cases/mode1_plate.toml --scale 0.3 --parts
 
 # Distributed memory, first part: with `bench --pieces` each rank keeps only its piece of the
 # block (its own nodes and ghosts) and drops the whole body and state after the set-up. The steps

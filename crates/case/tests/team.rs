@@ -56,6 +56,16 @@ fn run_with(
     run_held(case, scale, set, out, team, hold)
 }
 
+/// A shipped case's path and text, and the overrides `set`.
+fn shipped(case: &str, set: &[&str]) -> (PathBuf, String, Vec<hooke_case::Override>) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../cases")
+        .join(case);
+    let text = std::fs::read_to_string(&path).unwrap();
+    let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
+    (path, text, hooke_case::parse_overrides(&set).unwrap())
+}
+
 /// [`run`], each member holding the body as `hold` says.
 fn run_held(
     case: &str,
@@ -65,12 +75,7 @@ fn run_held(
     team: Option<Arc<dyn Team>>,
     hold: Hold,
 ) -> Ended {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../cases")
-        .join(case);
-    let text = std::fs::read_to_string(&path).unwrap();
-    let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
-    let overrides = hooke_case::parse_overrides(&set).unwrap();
+    let (path, text, overrides) = shipped(case, set);
     let (sim, mut opts) = match hold {
         Hold::Parts { .. } => {
             hooke_case::prepare_parts(&path, &text, scale, &overrides, team.clone()).unwrap()
@@ -682,4 +687,43 @@ fn fragment_contact_rebuilds_alike_in_a_team() {
         &["output.every=10e-6"],
         &[3],
     );
+}
+
+/// What a set-up from parts cannot do is refused on every member alike, naming the key and
+/// the reason, before any member builds anything.
+#[test]
+fn parts_refuse_what_they_cannot_build_with_the_reason() {
+    for (case, set, key, why) in [
+        ("mode1_plate.toml", vec![], "lattice.sampler", "jitter"),
+        (
+            "kalthoff_winkler.toml",
+            vec!["lattice.sampler=\"jitter\""],
+            "contact",
+            "contact is set up on the whole body",
+        ),
+        (
+            "glass_branching.toml",
+            vec![],
+            "lattice.kind",
+            "random lattices",
+        ),
+        (
+            "mode1_plate.toml",
+            vec!["lattice.sampler=\"jitter\"", "output.format=[\"hdf5\"]"],
+            "output.format",
+            "HDF5",
+        ),
+    ] {
+        let (path, text, overrides) = shipped(case, &set);
+        let errors = members(2, |t| {
+            hooke_case::prepare_parts(&path, &text, 0.5, &overrides, Some(t))
+                .err()
+                .map(|e| e.to_string())
+        });
+        for e in errors {
+            let e = e.unwrap_or_else(|| panic!("{case}: not refused"));
+            assert!(e.contains(key) && e.contains(why), "{case}: {e}");
+            assert!(e.contains("run without --parts"), "{case}: {e}");
+        }
+    }
 }

@@ -47,6 +47,13 @@ pub struct RunArgs {
     /// writes its own checkpoint (NAME.RofN.ckpt) and a resume needs the same N (docs/mpi.md).
     #[arg(long)]
     pub pieces: bool,
+    /// Under `mpirun -np N` (N > 1): each process builds only its part of the body, never the
+    /// whole, and keeps its piece (as --pieces, which it implies), so that the set-up's memory
+    /// falls with N too; the same results, bit for bit. Random lattices on a jittered grid
+    /// (lattice.sampler = "jitter") without contact, anisotropy, curved surfaces or HDF5
+    /// output: anything else is refused with the reason (docs/mpi.md).
+    #[arg(long)]
+    pub parts: bool,
 }
 
 #[derive(Debug, Args)]
@@ -78,6 +85,16 @@ impl std::error::Error for Interrupted {}
 
 /// The case built with its overrides, and the run options that carry its physics digest.
 fn load(case: &Path, scale: Real, set: &[String]) -> Result<(Simulation, RunOptions)> {
+    load_parts(case, scale, set, None)
+}
+
+/// [`load`], set up from parts shared by `parts` if given (`hooke run --parts`).
+fn load_parts(
+    case: &Path,
+    scale: Real,
+    set: &[String],
+    parts: Option<Arc<dyn hooke_core::team::Team>>,
+) -> Result<(Simulation, RunOptions)> {
     let text = std::fs::read_to_string(case).map_err(|e| {
         InputError(format!(
             "{}: cannot read the case file: {e}",
@@ -85,7 +102,7 @@ fn load(case: &Path, scale: Real, set: &[String]) -> Result<(Simulation, RunOpti
         ))
     })?;
     let overrides = hooke_case::parse_overrides(set).map_err(|e| InputError(e.to_string()))?;
-    hooke_case::prepare(case, &text, scale, &overrides)
+    hooke_case::prepare_parts(case, &text, scale, &overrides, parts)
         .map_err(|e| InputError(e.to_string()).into())
 }
 
@@ -437,7 +454,14 @@ fn run_in(args: RunArgs, team: Option<Arc<dyn hooke_core::team::Team>>) -> Resul
         )
         .into());
     }
-    let (sim, base) = load(&args.case, args.scale, &args.set)?;
+    if args.parts && team.is_none() {
+        return Err(InputError(
+            "--parts builds the body in parts, one per MPI rank: run under `mpirun -np N` with N > 1, with a hooke built with --features mpi (tools/install-mpi.sh)".into(),
+        )
+        .into());
+    }
+    let parts = team.clone().filter(|_| args.parts);
+    let (sim, base) = load_parts(&args.case, args.scale, &args.set, parts)?;
     let name = stem(&args.case);
     let out = args.out.clone().unwrap_or_else(|| {
         let dir = args.case.parent().unwrap_or(Path::new("."));
@@ -460,7 +484,7 @@ fn run_in(args: RunArgs, team: Option<Arc<dyn hooke_core::team::Team>>) -> Resul
         resume: args.resume.clone(),
         command: std::env::args().collect(),
         team,
-        pieces: args.pieces,
+        pieces: args.pieces || args.parts,
         ..base
     };
     let stop = Arc::new(AtomicBool::new(false));

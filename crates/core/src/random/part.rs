@@ -66,6 +66,22 @@ pub struct Part {
     pub sampled: usize,
 }
 
+impl Part {
+    /// A part without nodes, of a set-up that sampled `sampled` nodes.
+    fn empty(sampled: usize) -> Part {
+        Part {
+            pos: Vec::new(),
+            key: Vec::new(),
+            grid: Vec::new(),
+            own: 0..0,
+            volume: Vec::new(),
+            surface: Vec::new(),
+            springs: Vec::new(),
+            sampled,
+        }
+    }
+}
+
 /// The Morton key of a node at `p` in a body sampled in the box `[lo, hi]` (z ignored on a
 /// plate): the order of a random lattice's nodes.
 pub fn key(p: [Real; 3], lo: [Real; 3], hi: [Real; 3]) -> u64 {
@@ -108,6 +124,10 @@ pub fn part(
             what: "random lattice part",
             why: format!("margin = {margin} m; give a positive margin (four spacings suffice)"),
         });
+    }
+    if keys.is_empty() {
+        // A process that owns no nodes (more processes than the body has chunks).
+        return Ok(Part::empty(0));
     }
     let (lo, hi) = if dim == 2 {
         ([lo[0], lo[1], 0.0], [hi[0], hi[1], 0.0])
@@ -227,16 +247,7 @@ pub fn part(
         held[e[1] as usize] = true;
     }
     let mut new_index = vec![u32::MAX; n];
-    let mut part = Part {
-        pos: Vec::new(),
-        key: Vec::new(),
-        grid: Vec::new(),
-        own: 0..0,
-        volume: Vec::new(),
-        surface: Vec::new(),
-        springs: Vec::new(),
-        sampled: n,
-    };
+    let mut part = Part::empty(n);
     let per = thickness;
     part.own.start = held[..first].iter().filter(|&&x| x).count();
     for i in 0..n {

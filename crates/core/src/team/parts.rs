@@ -492,19 +492,45 @@ pub fn sum_counts(team: &dyn Team, mine: usize) -> usize {
     counts.iter().map(|&c| c as usize).sum()
 }
 
-/// `result` on this rank if every rank's is `Ok`; otherwise an error on every rank.
+/// `result` on this rank if every rank's is `Ok`; otherwise the same error on every rank: the
+/// first failing rank's message, naming that rank (each rank's message is all-gathered, so
+/// whichever rank prints says why).
 fn all_ok<T>(team: &dyn Team, result: Result<T>) -> Result<T> {
     let mut failed = [result.is_err()];
     team.any(&mut failed);
-    match result {
-        Err(e) => Err(e),
-        Ok(_) if failed[0] => Err(Error::InvalidInput {
-            what: "random lattice",
-            why: "another process failed to build its part of the body (its message says why)"
-                .into(),
-        }),
-        ok => ok,
+    if !failed[0] {
+        return result;
     }
+    let (rank, size) = (team.rank(), team.size());
+    let mine = result
+        .as_ref()
+        .err()
+        .map_or_else(String::new, |e| e.to_string());
+    // The messages' bytes, carried as reals.
+    let mut lengths = vec![0.0; size];
+    lengths[rank] = mine.len() as Real;
+    team.gather(&mut lengths, &singles(size));
+    let offsets = prefix(&lengths.iter().map(|&l| l as usize).collect::<Vec<_>>());
+    let mut bytes = vec![0.0; offsets[size]];
+    for (k, b) in mine.bytes().enumerate() {
+        bytes[offsets[rank] + k] = b as Real;
+    }
+    let parts: Vec<Range<usize>> = (0..size).map(|r| offsets[r]..offsets[r + 1]).collect();
+    team.gather(&mut bytes, &parts);
+    let first = (0..size)
+        .find(|&r| !parts[r].is_empty())
+        .expect("a failing rank has a message");
+    let text: Vec<u8> = bytes[parts[first].clone()]
+        .iter()
+        .map(|&b| b as u8)
+        .collect();
+    Err(Error::InvalidInput {
+        what: "random lattice",
+        why: format!(
+            "process {first} of {size} could not build its part of the body: {}",
+            String::from_utf8_lossy(&text)
+        ),
+    })
 }
 
 /// One slot per rank.
@@ -851,8 +877,8 @@ mod tests {
         }
     }
 
-    /// A part that cannot be built on one rank stops every rank: that rank with its reason,
-    /// the others pointing to it.
+    /// A part that cannot be built on one rank stops every rank, each with that rank's
+    /// reason.
     #[test]
     fn a_part_that_fails_on_one_rank_stops_every_rank() {
         let spec = RandomSpec {
@@ -884,12 +910,10 @@ mod tests {
                             margin,
                         )
                     };
+                    // Every rank gives rank 1's reason.
                     let e = assemble(&team, template, &build).unwrap_err().to_string();
-                    if rank == 1 {
-                        assert!(e.contains("too narrow"), "{e}");
-                    } else {
-                        assert!(e.contains("another process failed"), "rank {rank}: {e}");
-                    }
+                    assert!(e.contains("too narrow"), "rank {rank}: {e}");
+                    assert!(e.contains("process 1 of 3"), "rank {rank}: {e}");
                 });
             }
         });
