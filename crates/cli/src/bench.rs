@@ -481,8 +481,9 @@ fn bench_from_parts(
     usize,
     std::collections::BTreeMap<&'static str, f64>,
 )> {
-    use hooke_core::random::{part::part, RandomSpec, Sampler};
-    use hooke_core::team::parts::{assemble, Template};
+    use hooke_core::random::part::Sampling;
+    use hooke_core::random::{RandomSpec, Sampler};
+    use hooke_core::team::parts::assemble;
     let team: std::sync::Arc<dyn hooke_core::team::Team> =
         team.unwrap_or_else(|| std::sync::Arc::new(hooke_core::team::Alone));
     let (dim, kind) = match args.lattice {
@@ -500,14 +501,16 @@ fn bench_from_parts(
         seed: 1,
     };
     let start = Instant::now();
-    let build = |keys| part(dim, [0.0; 3], hi, 1.0, 1.0, spec, &|_| true, keys, 4.0);
-    let template = Template {
-        kind,
-        spacing: 1.0,
-        thickness: 1.0,
-        sampler: spec.sampler,
+    let block = Sampling {
+        dim,
+        lo: [0.0; 3],
+        hi,
+        a: 1.0,
+        h: 1.0,
+        spec,
+        inside: &|_| true,
     };
-    let (piece, lattice, share) = assemble(&*team, template, &build)?;
+    let (piece, lattice, share) = assemble(&*team, &block, 4.0)?;
     let lattice_seconds = start.elapsed().as_secs_f64();
     let start = Instant::now();
     let nu = match (args.law, dim) {

@@ -88,187 +88,244 @@ pub fn key(p: [Real; 3], lo: [Real; 3], hi: [Real; 3]) -> u64 {
     morton_key(&p, lo, hi)
 }
 
-/// Build the part of the random lattice [`crate::lattice::Lattice::random`] would build
-/// (`dim`, `lo`, `hi`, `a`, `h`, `spec`, `inside` as there) whose own nodes are those with
-/// their key in `keys`, sampling the nodes within `margin` (m) of the keys' blocks. A margin of
-/// four spacings suffices for the jittered grid; a narrower one is refused with the reason.
-#[allow(clippy::too_many_arguments)]
-pub fn part(
-    dim: usize,
-    lo: [Real; 3],
-    hi: [Real; 3],
-    a: Real,
-    h: Real,
-    spec: RandomSpec,
-    inside: &(dyn Fn([Real; 3]) -> bool + Sync),
-    keys: Range<u64>,
-    margin: Real,
-) -> Result<Part> {
-    super::check_box(dim, lo, hi, a, spec)?;
-    let amp = match spec.sampler {
-        Sampler::Jitter { amplitude } if amplitude > 0.0 => amplitude,
-        _ => {
-            return Err(Error::InvalidInput {
-                what: "random lattice part",
-                why: format!(
-                    "a part of a random lattice can be built alone only from a jittered grid \
+/// A random body to be built in parts: what [`crate::lattice::Lattice::random`] takes.
+#[derive(Clone, Copy)]
+pub struct Sampling<'a> {
+    /// 2 (a plate in the xy plane) or 3.
+    pub dim: usize,
+    /// The sampling box (m).
+    pub lo: [Real; 3],
+    pub hi: [Real; 3],
+    /// The mean spacing a (m).
+    pub a: Real,
+    /// The plate's thickness (m; ignored in 3D).
+    pub h: Real,
+    pub spec: RandomSpec,
+    /// Whether a point is in the body.
+    pub inside: &'a (dyn Fn([Real; 3]) -> bool + Sync),
+}
+
+impl Sampling<'_> {
+    /// The sampling box, flat (z = 0) on a plate.
+    fn flat_box(&self) -> ([Real; 3], [Real; 3]) {
+        let (lo, hi) = (self.lo, self.hi);
+        if self.dim == 2 {
+            ([lo[0], lo[1], 0.0], [hi[0], hi[1], 0.0])
+        } else {
+            (lo, hi)
+        }
+    }
+
+    /// The keys of the own nodes of the part [`Sampling::part`] builds for `keys`, ascending:
+    /// the nodes of the body whose key is in `keys`, sampled but not triangulated (what a
+    /// split of the body between processes needs).
+    pub fn own_keys(&self, keys: Range<u64>) -> Result<Vec<u64>> {
+        // A spacing of margin: the blocks' boxes hold their nodes, rounding aside.
+        let amp = self.amplitude(self.a)?;
+        if keys.is_empty() {
+            return Ok(Vec::new());
+        }
+        let nodes = self.window(amp, keys.clone(), self.a);
+        Ok(nodes
+            .iter()
+            .map(|e| e.0)
+            .filter(|k| keys.contains(k))
+            .collect())
+    }
+
+    /// The jitter amplitude of the sampler, once the box, the sampler and the margin are
+    /// checked.
+    fn amplitude(&self, margin: Real) -> Result<Real> {
+        let Sampling {
+            dim,
+            lo,
+            hi,
+            a,
+            spec,
+            ..
+        } = *self;
+        super::check_box(dim, lo, hi, a, spec)?;
+        let amp = match spec.sampler {
+            Sampler::Jitter { amplitude } if amplitude > 0.0 => amplitude,
+            _ => {
+                return Err(Error::InvalidInput {
+                    what: "random lattice part",
+                    why: format!(
+                        "a part of a random lattice can be built alone only from a jittered grid \
                      with a non-zero amplitude (sampler \"{}\"): each of its nodes has a \
                      stream of its own",
-                    spec.sampler.name()
-                ),
-            })
-        }
-    };
-    if !(margin.is_finite() && margin > 0.0) {
-        return Err(Error::InvalidInput {
-            what: "random lattice part",
-            why: format!("margin = {margin} m; give a positive margin (four spacings suffice)"),
-        });
-    }
-    if keys.is_empty() {
-        // A process that owns no nodes (more processes than the body has chunks).
-        return Ok(Part::empty(0));
-    }
-    let (lo, hi) = if dim == 2 {
-        ([lo[0], lo[1], 0.0], [hi[0], hi[1], 0.0])
-    } else {
-        (lo, hi)
-    };
-    let boxes = key_boxes(keys.clone(), dim, lo, hi, margin);
-    let in_window = |p: &[Real; 3]| {
-        boxes
-            .iter()
-            .any(|(l, u)| (0..dim).all(|c| p[c] >= l[c] && p[c] <= u[c]))
-    };
-    let g = JitterGrid::new(dim, lo, hi, a, amp, spec.seed);
-    let count = g.count();
-    // The grid indices whose nodes can fall in a block (a node moves by up to amp h / 2).
-    let mut lin: Vec<u64> = Vec::new();
-    for (l, u) in &boxes {
-        let mut r = [(0usize, 0usize); 3];
-        let mut empty = false;
-        for c in 0..dim {
-            let f0 = ((l[c] - lo[c]) / g.h[c] - 0.5 * amp).floor();
-            let f1 = ((u[c] - lo[c]) / g.h[c] + 0.5 * amp).ceil();
-            if f1 < 0.0 || f0 > g.n[c] as Real {
-                empty = true;
+                        spec.sampler.name()
+                    ),
+                })
             }
-            r[c] = (
-                f0.max(0.0) as usize,
-                (f1.min(g.n[c] as Real)).max(0.0) as usize,
-            );
+        };
+        if !(margin.is_finite() && margin > 0.0) {
+            return Err(Error::InvalidInput {
+                what: "random lattice part",
+                why: format!("margin = {margin} m; give a positive margin (four spacings suffice)"),
+            });
         }
-        if empty {
-            continue;
-        }
-        for k in r[2].0..=r[2].1 {
-            for j in r[1].0..=r[1].1 {
-                for i in r[0].0..=r[0].1 {
-                    lin.push((i + count[0] * (j + count[1] * k)) as u64);
+        Ok(amp)
+    }
+
+    /// The jittered grid's nodes inside the body (`inside`) within `margin` of the blocks of
+    /// `keys`: `(key, grid index, position)`, in the body's order.
+    fn window(&self, amp: Real, keys: Range<u64>, margin: Real) -> Vec<(u64, u64, [Real; 3])> {
+        let (dim, a, inside) = (self.dim, self.a, self.inside);
+        let (lo, hi) = self.flat_box();
+        let boxes = key_boxes(keys, dim, lo, hi, margin);
+        let in_window = |p: &[Real; 3]| {
+            boxes
+                .iter()
+                .any(|(l, u)| (0..dim).all(|c| p[c] >= l[c] && p[c] <= u[c]))
+        };
+        let g = JitterGrid::new(dim, lo, hi, a, amp, self.spec.seed);
+        let count = g.count();
+        // The grid indices whose nodes can fall in a block (a node moves by up to amp h / 2).
+        let mut lin: Vec<u64> = Vec::new();
+        for (l, u) in &boxes {
+            let mut r = [(0usize, 0usize); 3];
+            let mut empty = false;
+            for c in 0..dim {
+                let f0 = ((l[c] - lo[c]) / g.h[c] - 0.5 * amp).floor();
+                let f1 = ((u[c] - lo[c]) / g.h[c] + 0.5 * amp).ceil();
+                if f1 < 0.0 || f0 > g.n[c] as Real {
+                    empty = true;
+                }
+                r[c] = (
+                    f0.max(0.0) as usize,
+                    (f1.min(g.n[c] as Real)).max(0.0) as usize,
+                );
+            }
+            if empty {
+                continue;
+            }
+            for k in r[2].0..=r[2].1 {
+                for j in r[1].0..=r[1].1 {
+                    for i in r[0].0..=r[0].1 {
+                        lin.push((i + count[0] * (j + count[1] * k)) as u64);
+                    }
                 }
             }
         }
+        lin.par_sort_unstable();
+        lin.dedup();
+        let mut nodes: Vec<(u64, u64, [Real; 3])> = lin
+            .par_iter()
+            .filter_map(|&l| {
+                let l0 = l as usize;
+                let idx = [
+                    l0 % count[0],
+                    (l0 / count[0]) % count[1],
+                    l0 / (count[0] * count[1]),
+                ];
+                let p = g.node(idx);
+                (inside(p) && in_window(&p)).then(|| (morton_key(&p, lo, hi), l, p))
+            })
+            .collect();
+        drop(lin);
+        // The body's order: by key, ties by grid index (the body sorts its grid-ordered nodes by
+        // key with a stable sort).
+        nodes.par_sort_unstable_by_key(|e| (e.0, e.1));
+        nodes
     }
-    lin.par_sort_unstable();
-    lin.dedup();
-    let mut nodes: Vec<(u64, u64, [Real; 3])> = lin
-        .par_iter()
-        .filter_map(|&l| {
-            let l0 = l as usize;
-            let idx = [
-                l0 % count[0],
-                (l0 / count[0]) % count[1],
-                l0 / (count[0] * count[1]),
-            ];
-            let p = g.node(idx);
-            (inside(p) && in_window(&p)).then(|| (morton_key(&p, lo, hi), l, p))
-        })
-        .collect();
-    drop(lin);
-    // The body's order: by key, ties by grid index (the body sorts its grid-ordered nodes by
-    // key with a stable sort).
-    nodes.par_sort_unstable_by_key(|e| (e.0, e.1));
-    let pts: Vec<[Real; 3]> = nodes.iter().map(|e| e.2).collect();
-    let n = pts.len();
-    let first = nodes.partition_point(|e| e.0 < keys.start);
-    let end = nodes.partition_point(|e| e.0 < keys.end);
-    let own = |i: u32| (first..end).contains(&(i as usize));
-    let pad = 1e-9 * a;
-    let check = |all: &[[Real; 3]], v: &[u32]| -> Result<()> {
-        if !v.iter().any(|&i| own(i)) {
-            return Ok(());
+
+    /// Build the part of the random lattice [`crate::lattice::Lattice::random`] would build
+    /// whose own nodes are those with their key in `keys`, sampling the nodes within `margin`
+    /// (m) of the keys' blocks. A margin of four spacings suffices for the jittered grid; a
+    /// narrower one is refused with the reason.
+    pub fn part(&self, keys: Range<u64>, margin: Real) -> Result<Part> {
+        let amp = self.amplitude(margin)?;
+        if keys.is_empty() {
+            // A process that owns no nodes (more processes than the body has chunks).
+            return Ok(Part::empty(0));
         }
-        let (c, r) = match *v {
-            [a, b, c] => delaunay::circumsphere(all, &ascending([a, b, c]).0),
-            [a, b, c, d] => delaunay::circumsphere(all, &ascending([a, b, c, d]).0),
-            _ => unreachable!("simplices have 3 or 4 vertices"),
-        };
-        let (bl, bu) = ball_in_box(c, r, lo, hi, dim);
-        let held = boxes
-            .iter()
-            .any(|(l, u)| (0..dim).all(|k| bl[k] - pad >= l[k] && bu[k] + pad <= u[k]));
-        if held {
-            Ok(())
-        } else {
-            Err(Error::InvalidInput {
-                what: "random lattice part",
-                why: format!(
-                    "a margin of {margin} m is too narrow: a simplex around an own node has \
+        let (dim, a, h, inside) = (self.dim, self.a, self.h, self.inside);
+        let (lo, hi) = self.flat_box();
+        let nodes = self.window(amp, keys.clone(), margin);
+        let boxes = key_boxes(keys.clone(), dim, lo, hi, margin);
+        let pts: Vec<[Real; 3]> = nodes.iter().map(|e| e.2).collect();
+        let n = pts.len();
+        let first = nodes.partition_point(|e| e.0 < keys.start);
+        let end = nodes.partition_point(|e| e.0 < keys.end);
+        let own = |i: u32| (first..end).contains(&(i as usize));
+        let pad = 1e-9 * a;
+        let check = |all: &[[Real; 3]], v: &[u32]| -> Result<()> {
+            if !v.iter().any(|&i| own(i)) {
+                return Ok(());
+            }
+            let (c, r) = match *v {
+                [a, b, c] => delaunay::circumsphere(all, &ascending([a, b, c]).0),
+                [a, b, c, d] => delaunay::circumsphere(all, &ascending([a, b, c, d]).0),
+                _ => unreachable!("simplices have 3 or 4 vertices"),
+            };
+            let (bl, bu) = ball_in_box(c, r, lo, hi, dim);
+            let held = boxes
+                .iter()
+                .any(|(l, u)| (0..dim).all(|k| bl[k] - pad >= l[k] && bu[k] + pad <= u[k]));
+            if held {
+                Ok(())
+            } else {
+                Err(Error::InvalidInput {
+                    what: "random lattice part",
+                    why: format!(
+                        "a margin of {margin} m is too narrow: a simplex around an own node has \
                      its circumball (centre {c:?} m, radius {r:e} m) reach beyond it; give a \
                      wider margin"
-                ),
-            })
+                    ),
+                })
+            }
+        };
+        let never = |_: u32, _: u32| false;
+        let kept = if dim == 2 {
+            let mesh = delaunay::triangulate_checked::<3>(&pts, lo, hi, |p, v| check(p, v))?;
+            let mesh = around_own(mesh, &own);
+            simplices::<3>(&pts, &mesh, a, inside, &never)?
+        } else {
+            let mesh = delaunay::triangulate_checked::<4>(&pts, lo, hi, |p, v| check(p, v))?;
+            let mesh = around_own(mesh, &own);
+            simplices::<4>(&pts, &mesh, a, inside, &never)?
+        };
+        let thickness = if dim == 2 { h } else { 1.0 };
+        let (node_vol, edges, surface) = shares(&pts, &kept, thickness);
+        drop(kept);
+        // The own nodes the body keeps (those with a simplex), and every node an own spring reaches.
+        let mut held = vec![false; n];
+        for (i, v) in node_vol.iter().enumerate().take(end).skip(first) {
+            held[i] = *v > 0.0;
         }
-    };
-    let never = |_: u32, _: u32| false;
-    let kept = if dim == 2 {
-        let mesh = delaunay::triangulate_checked::<3>(&pts, lo, hi, |p, v| check(p, v))?;
-        let mesh = around_own(mesh, &own);
-        simplices::<3>(&pts, &mesh, a, inside, &never)?
-    } else {
-        let mesh = delaunay::triangulate_checked::<4>(&pts, lo, hi, |p, v| check(p, v))?;
-        let mesh = around_own(mesh, &own);
-        simplices::<4>(&pts, &mesh, a, inside, &never)?
-    };
-    let thickness = if dim == 2 { h } else { 1.0 };
-    let (node_vol, edges, surface) = shares(&pts, &kept, thickness);
-    drop(kept);
-    // The own nodes the body keeps (those with a simplex), and every node an own spring reaches.
-    let mut held = vec![false; n];
-    for (i, v) in node_vol.iter().enumerate().take(end).skip(first) {
-        held[i] = *v > 0.0;
-    }
-    let springs: Vec<([u32; 2], Real)> = edges
-        .into_iter()
-        .filter(|(e, _)| own(e[0]) || own(e[1]))
-        .collect();
-    for (e, _) in &springs {
-        held[e[0] as usize] = true;
-        held[e[1] as usize] = true;
-    }
-    let mut new_index = vec![u32::MAX; n];
-    let mut part = Part::empty(n);
-    let per = thickness;
-    part.own.start = held[..first].iter().filter(|&&x| x).count();
-    for i in 0..n {
-        if !held[i] {
-            continue;
+        let springs: Vec<([u32; 2], Real)> = edges
+            .into_iter()
+            .filter(|(e, _)| own(e[0]) || own(e[1]))
+            .collect();
+        for (e, _) in &springs {
+            held[e[0] as usize] = true;
+            held[e[1] as usize] = true;
         }
-        new_index[i] = part.pos.len() as u32;
-        part.pos.push(pts[i]);
-        part.key.push(nodes[i].0);
-        part.grid.push(nodes[i].1);
-        if own(i as u32) {
-            part.volume.push(node_vol[i]);
-            part.surface.push(surface[i].map(|c| c * per));
+        let mut new_index = vec![u32::MAX; n];
+        let mut part = Part::empty(n);
+        let per = thickness;
+        part.own.start = held[..first].iter().filter(|&&x| x).count();
+        for i in 0..n {
+            if !held[i] {
+                continue;
+            }
+            new_index[i] = part.pos.len() as u32;
+            part.pos.push(pts[i]);
+            part.key.push(nodes[i].0);
+            part.grid.push(nodes[i].1);
+            if own(i as u32) {
+                part.volume.push(node_vol[i]);
+                part.surface.push(surface[i].map(|c| c * per));
+            }
         }
+        part.own.end = part.own.start + part.volume.len();
+        part.springs = springs
+            .into_iter()
+            .map(|(e, v)| ([new_index[e[0] as usize], new_index[e[1] as usize]], v))
+            .collect();
+        Ok(part)
     }
-    part.own.end = part.own.start + part.volume.len();
-    part.springs = springs
-        .into_iter()
-        .map(|(e, v)| ([new_index[e[0] as usize], new_index[e[1] as usize]], v))
-        .collect();
-    Ok(part)
 }
 
 /// The mesh's simplices with an own vertex, their neighbours among them (others become
@@ -469,22 +526,23 @@ mod tests {
                 bounds.extend(cuts.iter().map(|&c| keys[c]));
                 bounds.push(KEY_END);
                 let mut covered = 0;
+                let body = Sampling {
+                    dim,
+                    lo: [0.0; 3],
+                    hi,
+                    a,
+                    h: 0.01,
+                    spec,
+                    inside: &notch,
+                };
                 for w in bounds.windows(2) {
-                    let p = part(
-                        dim,
-                        [0.0; 3],
-                        hi,
-                        a,
-                        0.01,
-                        spec,
-                        &notch,
-                        w[0]..w[1],
-                        4.0 * a,
-                    )
-                    .unwrap();
+                    let p = body.part(w[0]..w[1], 4.0 * a).unwrap();
                     let g0 = keys.partition_point(|&k| k < w[0]);
                     let g1 = keys.partition_point(|&k| k < w[1]);
                     assert_eq!(p.own.len(), g1 - g0, "dim {dim}, keys {w:?}");
+                    // Sampled without triangulating: the same own nodes' keys.
+                    let sampled = body.own_keys(w[0]..w[1]);
+                    assert_eq!(sampled.unwrap(), keys[g0..g1], "dim {dim}, keys {w:?}");
                     covered += p.own.len();
                     // Own nodes: the body's, bit for bit, with their volumes and shares.
                     for (k, i) in p.own.clone().enumerate() {
@@ -531,19 +589,16 @@ mod tests {
             seed: 5,
         };
         let keys = 1u64 << 60..3u64 << 60;
-        let e = part(
-            3,
-            [0.0; 3],
+        let mut body = Sampling {
+            dim: 3,
+            lo: [0.0; 3],
             hi,
-            0.5,
-            1.0,
-            jitter,
-            &|_| true,
-            keys.clone(),
-            0.05,
-        )
-        .unwrap_err()
-        .to_string();
+            a: 0.5,
+            h: 1.0,
+            spec: jitter,
+            inside: &|_| true,
+        };
+        let e = body.part(keys.clone(), 0.05).unwrap_err().to_string();
         assert!(
             e.contains("too narrow") && e.contains("wider margin"),
             "{e}"
@@ -552,9 +607,8 @@ mod tests {
             sampler: Sampler::Poisson,
             seed: 5,
         };
-        let e = part(3, [0.0; 3], hi, 0.5, 1.0, poisson, &|_| true, keys, 2.0)
-            .unwrap_err()
-            .to_string();
+        body.spec = poisson;
+        let e = body.part(keys, 2.0).unwrap_err().to_string();
         assert!(e.contains("jittered grid") && e.contains("poisson"), "{e}");
     }
 }

@@ -5,13 +5,13 @@
 //! would cut out of the whole body for a share that owns the same nodes, by four collective
 //! steps:
 //!
-//! 1. **Counts.** Each rank builds the part of an even split of the Morton keys and counts its
-//!    own nodes; the counts, all-gathered, number the body's nodes (the body's order is the
-//!    keys' order).
+//! 1. **Counts.** Each rank samples (without triangulating) the nodes of an even split of the
+//!    Morton keys and counts them; the counts, all-gathered, number the body's nodes (the
+//!    body's order is the keys' order).
 //! 2. **Whole chunks.** A piece owns whole chunks of [`CHUNK`] nodes, as a share does (its
 //!    kernels' windows and per-chunk partial sums then fall as they fall in the body). The
 //!    boundaries are moved to the nearest multiple of [`CHUNK`], the keys found there are
-//!    all-gathered, and each rank builds the part of its new key range.
+//!    all-gathered, and each rank builds the part of its key range, once.
 //! 3. **Ghosts.** Each rank asks the owners of its ghosts (by key range) for their index in
 //!    the body, volume and boundary share, naming them by grid index; the questions are its
 //!    halo's receives, the answers' order its peers' sends.
@@ -20,8 +20,8 @@
 //!    counts, and those whose lower end is a ghost are asked of its owner.
 //!
 //! The body's cell volume (its volume over its nodes) is summed per chunk, chunks in order,
-//! as [`crate::Lattice::random`] sums it. Memory: a rank holds its part twice at most (step 2
-//! builds the part again), never the body.
+//! as [`crate::Lattice::random`] sums it. Memory: a rank holds its part (and, in step 1, the
+//! keys of its share), never the body.
 
 use std::ops::Range;
 
@@ -30,33 +30,19 @@ use crate::error::{Error, Result};
 use crate::kernel::CHUNK;
 use crate::lattice::{Bonds, Cells, Lattice, LatticeKind, Topology};
 use crate::math::{Coords, Real};
-use crate::random::part::{Part, KEY_END};
-use crate::random::Sampler;
+use crate::random::part::{Sampling, KEY_END};
 
-/// What the piece's lattice takes from the body's description.
-#[derive(Clone, Copy, Debug)]
-pub struct Template {
-    pub kind: LatticeKind,
-    pub spacing: Real,
-    pub thickness: Real,
-    pub sampler: Sampler,
-}
-
-/// Rank `team.rank()`'s piece of a random body, built from the parts `build` gives for key
-/// ranges (every rank passes the same body; see the module docs), with its lattice, and every
-/// rank's nodes in the body's numbering (a share's `nodes`). Collective: a failure on any rank
-/// stops every rank, with that rank's reason on it and a pointer to it on the others.
-pub fn assemble(
-    team: &dyn Team,
-    template: Template,
-    build: &dyn Fn(Range<u64>) -> Result<Part>,
-) -> Result<(Piece, Lattice, Share)> {
+/// Rank `team.rank()`'s piece of the random body `body`, built from its part ([`Sampling::part`]
+/// with `margin`: four spacings suffice) (every rank passes the same body; see the module docs),
+/// with its lattice, and every rank's nodes in the body's numbering (a share's `nodes`).
+/// Collective: a failure on any rank stops every rank, each with that rank's reason.
+pub fn assemble(team: &dyn Team, body: &Sampling, margin: Real) -> Result<(Piece, Lattice, Share)> {
     let (rank, size) = (team.rank(), team.size());
     let even = |r: usize| ((KEY_END as u128 * r as u128) / size as u128) as u64;
-    let trial = all_ok(team, build(even(rank)..even(rank + 1)))?;
+    let trial = all_ok(team, body.own_keys(even(rank)..even(rank + 1)))?;
     // 1. Counts and the body's numbering.
     let mut counts = vec![0.0; size];
-    counts[rank] = trial.own.len() as Real;
+    counts[rank] = trial.len() as Real;
     team.gather(&mut counts, &singles(size));
     let counts: Vec<usize> = counts.iter().map(|&c| c as usize).collect();
     let offsets: Vec<usize> = prefix(&counts);
@@ -92,18 +78,13 @@ pub fn assemble(
         }
     }
     for r in parts[rank].clone() {
-        keys[r] = Real::from_bits(trial.key[trial.own.start + split[r] - offsets[rank]]);
+        keys[r] = Real::from_bits(trial[split[r] - offsets[rank]]);
     }
+    drop(trial);
     fill_gaps(&mut parts);
     team.gather(&mut keys, &parts);
     let keys: Vec<u64> = keys.iter().map(|k| k.to_bits()).collect();
-    let mine = keys[rank]..keys[rank + 1];
-    let part = if mine == (even(rank)..even(rank + 1)) {
-        trial
-    } else {
-        drop(trial);
-        all_ok(team, build(mine))?
-    };
+    let part = all_ok(team, body.part(keys[rank]..keys[rank + 1], margin))?;
     let want = split[rank + 1] - split[rank];
     let mut wrong = [part.own.len() != want];
     team.any(&mut wrong);
@@ -260,11 +241,15 @@ pub fn assemble(
     // volume's mass, and a node needs a positive one: the mean.
     node[..pad].fill(cell_volume);
     let lattice = Lattice {
-        kind: template.kind,
-        spacing: template.spacing,
+        kind: if body.dim == 2 {
+            LatticeKind::Random2d
+        } else {
+            LatticeKind::Random3d
+        },
+        spacing: body.a,
         pos,
         cell_volume,
-        thickness: template.thickness,
+        thickness: if body.dim == 2 { body.h } else { 1.0 },
         period: [0.0; 3],
         grid: None,
         bonds: Topology::from(bonds),
@@ -272,7 +257,7 @@ pub fn assemble(
             node,
             spring: part.springs.iter().map(|(_, v)| *v).collect(),
             surface,
-            sampler: template.sampler,
+            sampler: body.spec.sampler,
         }),
     };
     // The share's halo in the body's numbering (the piece trades its own, in its numbering):
@@ -623,10 +608,28 @@ mod tests {
     use crate::body::Body;
     use crate::dynamics::{Integrator, IntegratorOptions, TimeStep};
     use crate::loading::Loading;
-    use crate::random::{part::part, RandomSpec};
+    use crate::random::{RandomSpec, Sampler};
     use crate::state::State;
     use crate::team::tests::assert_own_state;
     use crate::team::Threads;
+
+    /// A block `[0, hi]` of spacing `a` to build in parts.
+    fn sampling<'a>(
+        hi: [Real; 3],
+        a: Real,
+        spec: RandomSpec,
+        inside: &'a (dyn Fn([Real; 3]) -> bool + Sync),
+    ) -> Sampling<'a> {
+        Sampling {
+            dim: 3,
+            lo: [0.0; 3],
+            hi,
+            a,
+            h: 1.0,
+            spec,
+            inside,
+        }
+    }
 
     /// A smooth velocity field, so that the springs do real work.
     fn swing(state: &mut State, pos: &Coords, skip: &dyn Fn(usize) -> bool) {
@@ -695,12 +698,6 @@ mod tests {
             it.step(body, &mut alone);
         }
         let digest = it.state_digest(&alone);
-        let template = Template {
-            kind: LatticeKind::Random3d,
-            spacing: a,
-            thickness: 1.0,
-            sampler: spec.sampler,
-        };
         for size in [2, 3] {
             std::thread::scope(|scope| {
                 for team in Threads::team(size) {
@@ -708,10 +705,8 @@ mod tests {
                     scope.spawn(move || {
                         let team: std::sync::Arc<dyn Team> = std::sync::Arc::new(team);
                         let at = format!("{size} ranks, rank {}", team.rank());
-                        let build = |keys: Range<u64>| {
-                            part(3, [0.0; 3], hi, a, 1.0, spec, notch, keys, 4.0 * a)
-                        };
-                        let (piece, lat, share) = assemble(&*team, template, &build).unwrap();
+                        let (piece, lat, share) =
+                            assemble(&*team, &sampling(hi, a, spec, notch), 4.0 * a).unwrap();
                         assert!(piece.halo.ghosts() > 0 && !piece.own.is_empty(), "{at}");
                         assert_eq!(lat.cell_volume.to_bits(), cell_volume.to_bits(), "{at}");
                         let pb = Body::from_cells(lat, 1.0, 0.3, 1.0);
@@ -816,12 +811,6 @@ mod tests {
         }
         let digest = it.state_digest(&alone);
         let balance = it.energy(&body, &mut alone);
-        let template = Template {
-            kind: LatticeKind::Random3d,
-            spacing: a,
-            thickness: 1.0,
-            sampler: spec.sampler,
-        };
         for size in [2, 3] {
             std::thread::scope(|scope| {
                 for team in Threads::team(size) {
@@ -829,10 +818,8 @@ mod tests {
                     scope.spawn(move || {
                         let team: std::sync::Arc<dyn Team> = std::sync::Arc::new(team);
                         let at_rank = format!("{size} ranks, rank {}", team.rank());
-                        let build = |keys: Range<u64>| {
-                            part(3, [0.0; 3], hi, a, 1.0, spec, &|_| true, keys, 4.0 * a)
-                        };
-                        let (piece, lat, share) = assemble(&*team, template, &build).unwrap();
+                        let body = sampling(hi, a, spec, &|_| true);
+                        let (piece, lat, share) = assemble(&*team, &body, 4.0 * a).unwrap();
                         let own = piece.own.clone();
                         let mine: Vec<u32> = own
                             .clone()
@@ -885,33 +872,15 @@ mod tests {
             sampler: Sampler::Jitter { amplitude: 0.6 },
             seed: 3,
         };
-        let template = Template {
-            kind: LatticeKind::Random3d,
-            spacing: 1.0,
-            thickness: 1.0,
-            sampler: spec.sampler,
-        };
         std::thread::scope(|scope| {
             for team in Threads::team(3) {
                 scope.spawn(move || {
                     let rank = team.rank();
                     // Rank 1 samples too narrow a margin.
                     let margin = if rank == 1 { 0.05 } else { 4.0 };
-                    let build = |keys: Range<u64>| {
-                        part(
-                            3,
-                            [0.0; 3],
-                            [12.0; 3],
-                            1.0,
-                            1.0,
-                            spec,
-                            &|_| true,
-                            keys,
-                            margin,
-                        )
-                    };
                     // Every rank gives rank 1's reason.
-                    let e = assemble(&team, template, &build).unwrap_err().to_string();
+                    let body = sampling([24.0; 3], 1.0, spec, &|_| true);
+                    let e = assemble(&team, &body, margin).unwrap_err().to_string();
                     assert!(e.contains("too narrow"), "rank {rank}: {e}");
                     assert!(e.contains("process 1 of 3"), "rank {rank}: {e}");
                 });

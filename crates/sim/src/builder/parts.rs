@@ -12,9 +12,9 @@
 
 use std::sync::Arc;
 
-use hooke_core::random::part::part;
+use hooke_core::random::part::Sampling;
 use hooke_core::random::Sampler;
-use hooke_core::team::parts::{assemble, everyone, gather_ids, sum_counts, Template};
+use hooke_core::team::parts::{assemble, everyone, gather_ids, sum_counts};
 use hooke_core::team::{Team, PAD};
 use hooke_core::{Lattice, Real, State, Vector};
 
@@ -89,34 +89,23 @@ impl Builder {
     /// [`Builder::build`] on `team`'s processes, each holding its piece (see the module docs).
     pub(super) fn build_parts(self, team: Arc<dyn Team>) -> Result<Simulation, BuildError> {
         self.parts_refuse()?;
-        let (kind, dim) = (self.kind, self.kind.dim());
+        let dim = self.kind.dim();
         let (a, h) = self.spacing_thickness()?;
         let (lo, hi) = self.geometry.bounds(dim)?;
         let tol = 1e-9 * a;
         let geometry = &self.geometry;
         let inside = |p: [Real; 3]| geometry.contains(Vector::new(p[0], p[1], p[2]), tol, dim);
-        let spec = self.random;
-        let build = |keys| {
-            part(
-                dim,
-                lo.into(),
-                hi.into(),
-                a,
-                h,
-                spec,
-                &inside,
-                keys,
-                MARGIN * a,
-            )
-        };
-        let template = Template {
-            kind,
-            spacing: a,
-            thickness: h,
-            sampler: spec.sampler,
+        let body = Sampling {
+            dim,
+            lo: lo.into(),
+            hi: hi.into(),
+            a,
+            h,
+            spec: self.random,
+            inside: &inside,
         };
         let geo = |e: hooke_core::Error| BuildError::new("geometry", e.to_string());
-        let (piece, lattice, share) = assemble(&*team, template, &build).map_err(geo)?;
+        let (piece, lattice, share) = assemble(&*team, &body, MARGIN * a).map_err(geo)?;
         let extremes = face_extremes(&*team, &lattice, piece.own.clone());
         let extreme = |f: Face| extremes[f.axis][usize::from(f.high)];
         // The loaded and prescribed nodes this process owns, then every process's in every
