@@ -133,6 +133,8 @@ refused hex_pieces "a hexagonal box with --pieces" cases/glass_branching.toml --
 hold=--parts
 extra=(--set 'lattice.sampler="jitter"')
 check_pieces mode1_jitter cases/mode1_plate.toml 1.0 60e-6 2 3
+# An anisotropic plate: every rank calibrates (or reads the cache) alike.
+check_pieces fibre_jitter cases/fibre_notch_plate.toml 1.0 90e-6 2
 extra=()
 check_pieces notched_bar_3d cases/notched_bar_3d.toml 1.0 20e-6 2 3 4
 $mpirun -np 3 "$work/hooke-mpi" run cases/notched_bar_3d.toml --set solver.end_time=10e-6 \

@@ -412,6 +412,23 @@ fn parts_run_with_the_bits_of_one_process() {
     );
 }
 
+/// An anisotropic random plate (a transverse material: spring stiffness and dispersion
+/// weight by direction, a direction-dependent critical stretch) set up from parts: every
+/// member calibrates the direction functions alike (here read from one disk cache).
+#[test]
+fn anisotropic_parts_run_with_the_bits_of_one_process() {
+    let cache = scratch("calibrations");
+    hooke_core::random::anisotropic::set_cache_dir(Some(cache.clone()));
+    check_parts(
+        "fibre_notch_plate.toml",
+        1.0,
+        &["lattice.sampler=\"jitter\"", "output.every=45e-6"],
+        90e-6,
+        &[2],
+    );
+    let _ = std::fs::remove_dir_all(&cache);
+}
+
 /// Members holding only their pieces of a random plate with a pre-crack, breaking springs
 /// through the stretch screen inside the step (the row or CSR kernel), of Kalthoff-Winkler
 /// (a rigid projectile, fragment contact across the crack), of the anisotropic random plate

@@ -375,7 +375,7 @@ impl Builder {
     /// body and holds only its piece ([`crate::Simulation::held`]; the run steps it, as
     /// [`crate::RunOptions::pieces`] does, with `team` in [`crate::RunOptions::team`]). The
     /// bits are those of the whole body's set-up. Random lattices sampled on a jittered grid
-    /// only, without contact, anisotropy, HDF5 or the quasi-static solver (each refused with
+    /// only, without contact, curved surfaces, HDF5 or the quasi-static solver (each refused with
     /// the reason). A team of one builds the whole body.
     pub fn parts(mut self, team: std::sync::Arc<dyn hooke_core::team::Team>) -> Self {
         self.parts = Some(team);
@@ -549,6 +549,18 @@ impl Builder {
             }
             Some(r) => crate::geometry::fill_turned_cubic(a, &r, &self.geometry)?,
         };
+        let (body, k, design) = self.material_body(lattice)?;
+        Ok((body, k, h, design))
+    }
+
+    /// The material on `lattice` (the whole body's, or a process's piece's): the body, its
+    /// bulk stiffness constant (k, or kappa on random lattices; NaN for an anisotropic
+    /// material, whose families differ) and a random lattice's anisotropic design.
+    fn material_body(
+        &self,
+        lattice: hooke_core::Lattice,
+    ) -> Result<(Body, Real, Option<Calibrated>), BuildError> {
+        let kind = self.kind;
         if let Some(t) = &self.anisotropic {
             if self.material.is_some() {
                 return Err(BuildError::new(
@@ -624,10 +636,10 @@ impl Builder {
                 ));
             }
             // No single k: the families differ (`hooke check` prints them).
-            return Ok((body, Real::NAN, h, design));
+            return Ok((body, Real::NAN, design));
         }
         let (body, k) = self.isotropic_body(lattice)?;
-        Ok((body, k, h, None))
+        Ok((body, k, None))
     }
 
     /// The lattice's spacing and the plate's thickness (1 in 3D), checked.

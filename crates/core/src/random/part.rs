@@ -41,7 +41,7 @@ use std::ops::Range;
 /// The largest Morton key plus one: key ranges of a body run within `0..KEY_END`.
 pub const KEY_END: u64 = 1 << 63;
 
-/// A part of a random lattice ([`part`]): its own nodes (a range of Morton keys) and the nodes
+/// A part of a random lattice ([`Sampling::part`]): its own nodes (a range of Morton keys) and the nodes
 /// their springs reach, numbered in the body's order.
 #[derive(Clone, Debug)]
 pub struct Part {

@@ -1,8 +1,9 @@
 //! [`Builder::parts`]: a simulation that no process builds whole. Each process of a team
 //! builds its part of a random body ([`hooke_core::random::part`]), the parts become pieces
 //! ([`hooke_core::team::parts::assemble`]), and the case is set up on each piece: the
-//! material, pre-cracks, boundary conditions, loads, no-fail regions and initial velocities,
-//! every node's values the bits that the whole body's set-up gives it.
+//! material (isotropic, or anisotropic from its calibrated direction functions, which every
+//! process calibrates alike), pre-cracks, boundary conditions, loads, no-fail regions and
+//! initial velocities, every node's values the bits that the whole body's set-up gives it.
 //!
 //! What needs the whole body is found collectively: a face's extreme coordinate (a minimum
 //! or maximum over the processes), whether a region holds a node anywhere, the list of a
@@ -57,12 +58,6 @@ impl Builder {
             return no(
                 "geometry",
                 "nodes grown on curved surfaces (spheres, cylinders) are not split into parts yet",
-            );
-        }
-        if self.anisotropic.is_some() {
-            return no(
-                "material.kind",
-                "anisotropic materials are calibrated on the whole body",
             );
         }
         if self.contact.is_some() {
@@ -138,7 +133,7 @@ impl Builder {
         };
         let (piece, lattice, share, _) = everyone(&*team, piece, lattice, share, &mine)
             .map_err(|e| BuildError::new("boundary", e.to_string()))?;
-        let (body, k) = self.isotropic_body(lattice)?;
+        let (body, k, design) = self.material_body(lattice)?;
         let mut state = State::new(&body);
         let cuts_nothing = |cut: bool| {
             let mut any = [cut];
@@ -180,6 +175,7 @@ impl Builder {
         let springs = sum_counts(&*team, share.springs.len());
         let mut sim = self.simulation(body, state, loading, fracture, (regions, boundaries), k)?;
         sim.precracked = precracked;
+        sim.random_design = design;
         sim.held = Some(Held {
             own: piece.own.clone(),
             first: piece.first,
