@@ -135,6 +135,9 @@ extra=(--set 'lattice.sampler="jitter"')
 check_pieces mode1_jitter cases/mode1_plate.toml 1.0 60e-6 2 3
 # An anisotropic plate: every rank calibrates (or reads the cache) alike.
 check_pieces fibre_jitter cases/fibre_notch_plate.toml 1.0 90e-6 2
+# A rigid projectile placed by its start gap, fragment contact across the cracks; in 2D and 3D.
+check_pieces kw_jitter cases/kalthoff_winkler.toml 0.3 60e-6 2 4
+check_pieces kw3d_jitter cases/kalthoff_winkler_3d.toml 0.3 10e-6 2 3
 extra=()
 check_pieces notched_bar_3d cases/notched_bar_3d.toml 1.0 20e-6 2 3 4
 $mpirun -np 3 "$work/hooke-mpi" run cases/notched_bar_3d.toml --set solver.end_time=10e-6 \

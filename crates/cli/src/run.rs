@@ -50,8 +50,8 @@ pub struct RunArgs {
     /// Under `mpirun -np N` (N > 1): each process builds only its part of the body, never the
     /// whole, and keeps its piece (as --pieces, which it implies), so that the set-up's memory
     /// falls with N too; the same results, bit for bit. Random lattices on a jittered grid
-    /// (lattice.sampler = "jitter"), isotropic or anisotropic, without contact, curved surfaces or HDF5
-    /// output: anything else is refused with the reason (docs/mpi.md).
+    /// (lattice.sampler = "jitter"), isotropic or anisotropic, with or without contact;
+    /// anything else (curved surfaces, HDF5 output) is refused with the reason (docs/mpi.md).
     #[arg(long)]
     pub parts: bool,
 }

@@ -57,11 +57,17 @@ impl ContactOptions {
     /// Defaults for a body: `c = 0.1`, radius `a/2`, fragment contact at 0.8 of the shortest
     /// spring.
     pub fn for_body(body: &Body) -> Self {
-        let shortest = body.lattice.shortest();
+        Self::for_lattice(body.lattice.spacing, body.lattice.shortest())
+    }
+
+    /// [`ContactOptions::for_body`] for a lattice of spacing `a` whose shortest spring is
+    /// `shortest` (m): what a process holding a piece of the body knows once the processes
+    /// have found the body's shortest spring.
+    pub fn for_lattice(a: Real, shortest: Real) -> Self {
         ContactOptions {
             stiffness_factor: 0.1,
-            radius: 0.5 * body.lattice.spacing,
-            fragment_distance: Some(0.8 * shortest.min(body.lattice.spacing)),
+            radius: 0.5 * a,
+            fragment_distance: Some(0.8 * shortest.min(a)),
         }
     }
 }
@@ -301,8 +307,19 @@ impl Contact {
     }
 
     pub fn new(body: &Body, bodies: Vec<RigidBody>, opts: ContactOptions) -> Self {
+        Self::with_shortest(body, bodies, opts, body.lattice.shortest())
+    }
+
+    /// [`Contact::new`] where the body's shortest spring is `shortest` (m): a process holding
+    /// a piece of the body passes the body's, found across the processes.
+    pub fn with_shortest(
+        body: &Body,
+        bodies: Vec<RigidBody>,
+        opts: ContactOptions,
+        shortest: Real,
+    ) -> Self {
         let n = body.nodes();
-        let shortest = body.lattice.shortest().min(body.lattice.spacing);
+        let shortest = shortest.min(body.lattice.spacing);
         let nb = bodies.len();
         // How far a body reaches from its reference point (bounded shapes).
         let reach = bodies

@@ -375,7 +375,7 @@ impl Builder {
     /// body and holds only its piece ([`crate::Simulation::held`]; the run steps it, as
     /// [`crate::RunOptions::pieces`] does, with `team` in [`crate::RunOptions::team`]). The
     /// bits are those of the whole body's set-up. Random lattices sampled on a jittered grid
-    /// only, without contact, curved surfaces, HDF5 or the quasi-static solver (each refused with
+    /// only, without curved surfaces, HDF5 or the quasi-static solver (each refused with
     /// the reason). A team of one builds the whole body.
     pub fn parts(mut self, team: std::sync::Arc<dyn hooke_core::team::Team>) -> Self {
         self.parts = Some(team);

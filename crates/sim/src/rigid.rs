@@ -52,8 +52,50 @@ fn positive(x: Real, key: &str, unit: &str) -> Result<Real, BuildError> {
 }
 
 /// The options for `body`: its defaults overridden by `spec`, checked.
+/// A node nearest to a rigid body: its index in the body, its gap to the node's contact range
+/// (m; negative: inside it) and its position (m).
+pub(crate) type Nearest = (usize, Real, [Real; 3]);
+
+/// What contact's set-up asks of the whole body. One process answers from the body
+/// ([`Across::whole`]); processes that each hold a piece of it answer together
+/// (`builder::parts`).
+pub(crate) struct Across<'a> {
+    /// The body's shortest spring (m).
+    pub shortest: Real,
+    /// Nodes of the body.
+    pub nodes: usize,
+    /// The nodes of this process's body whose nearness is asked (its own, on a piece).
+    pub scan: std::ops::Range<usize>,
+    /// The body's index of a node of `scan`.
+    pub global: &'a dyn Fn(usize) -> usize,
+    /// The nearest of every process's nearest node `(body index, gap, position)`, the lowest
+    /// index among equal gaps (as one process's scan finds it).
+    pub nearest: &'a dyn Fn(Option<Nearest>) -> Option<Nearest>,
+}
+
+impl Across<'_> {
+    /// The answers of one process that holds the whole body.
+    fn whole(body: &Body) -> Across<'static> {
+        Across {
+            shortest: body.lattice.shortest(),
+            nodes: body.nodes(),
+            scan: 0..body.nodes(),
+            global: &|i| i,
+            nearest: &|n| n,
+        }
+    }
+}
+
 pub fn contact_options(body: &Body, spec: &ContactSpec) -> Result<ContactOptions, BuildError> {
-    let mut o = ContactOptions::for_body(body);
+    contact_options_across(body, spec, &Across::whole(body))
+}
+
+fn contact_options_across(
+    body: &Body,
+    spec: &ContactSpec,
+    whole: &Across,
+) -> Result<ContactOptions, BuildError> {
+    let mut o = ContactOptions::for_lattice(body.lattice.spacing, whole.shortest);
     if let Some(x) = spec.stiffness_factor {
         if !(x > 0.0 && x <= 1.0) {
             return Err(BuildError::new(
@@ -73,7 +115,7 @@ pub fn contact_options(body: &Body, spec: &ContactSpec) -> Result<ContactOptions
     }
     if let Some(d) = spec.fragment_distance {
         let d = positive(d, "contact.fragment_distance", "m")?;
-        let shortest = body.lattice.shortest();
+        let shortest = whole.shortest;
         if d >= 0.95 * shortest {
             return Err(BuildError::new(
                 "contact.fragment_distance",
@@ -91,14 +133,20 @@ pub fn contact_options(body: &Body, spec: &ContactSpec) -> Result<ContactOptions
     Ok(o)
 }
 
-/// The node nearest to the body's surface within `limit` of its bounds, with its gap to the
-/// node's contact range (m; negative: inside it).
-fn nearest(body: &Body, rb: &RigidBody, reach: Real, limit: Real) -> Option<(usize, Real)> {
+/// The node nearest to the body's surface within `limit` of its bounds: its index in the
+/// body, its gap to the node's contact range (m; negative: inside it) and its position.
+fn nearest(
+    body: &Body,
+    rb: &RigidBody,
+    reach: Real,
+    limit: Real,
+    whole: &Across,
+) -> Option<Nearest> {
     let dim = body.lattice.dim();
     let (lo, hi) = rb.bounds();
     let pos = &body.lattice.pos;
-    let mut worst: Option<(usize, Real)> = None;
-    for i in 0..body.nodes() {
+    let mut worst: Option<Nearest> = None;
+    for i in whole.scan.clone() {
         let x = [pos.x()[i], pos.y()[i], pos.z()[i]];
         if (0..dim).any(|c| x[c] < lo[c] - limit || x[c] > hi[c] + limit) {
             continue;
@@ -106,11 +154,11 @@ fn nearest(body: &Body, rb: &RigidBody, reach: Real, limit: Real) -> Option<(usi
         if let Some((d, _)) = rb.signed_distance(x) {
             let gap = d - reach;
             if worst.is_none_or(|w| gap < w.1) {
-                worst = Some((i, gap));
+                worst = Some(((whole.global)(i), gap, x));
             }
         }
     }
-    worst
+    (whole.nearest)(worst)
 }
 
 /// Place body `k` (its `start_gap`) and check that it starts clear of every node's contact
@@ -120,6 +168,16 @@ pub fn place(
     k: usize,
     spec: &RigidSpec,
     reach: Real,
+) -> Result<RigidBody, BuildError> {
+    place_across(body, k, spec, reach, &Across::whole(body))
+}
+
+fn place_across(
+    body: &Body,
+    k: usize,
+    spec: &RigidSpec,
+    reach: Real,
+    whole: &Across,
 ) -> Result<RigidBody, BuildError> {
     let dim = body.lattice.dim();
     let mut rb = spec.body.clone();
@@ -137,9 +195,9 @@ pub fn place(
         let dir = v.map(|c| c / speed);
         // Along the velocity until the nearest gap is `want` (a few passes: exact for flat
         // faces, converging for curved ones).
-        let size = body.lattice.spacing * (body.nodes() as Real).powf(1.0 / dim as Real) * 10.0;
+        let size = body.lattice.spacing * (whole.nodes as Real).powf(1.0 / dim as Real) * 10.0;
         for _ in 0..20 {
-            let Some((_, gap)) = nearest(body, &rb, reach, size) else {
+            let Some((_, gap, _)) = nearest(body, &rb, reach, size, whole) else {
                 break;
             };
             if (gap - want).abs() <= 1e-6 * want {
@@ -150,13 +208,12 @@ pub fn place(
             }
         }
     }
-    if let Some((i, gap)) = nearest(body, &rb, reach, reach).filter(|w| w.1 < 0.0) {
-        let p = body.lattice.pos.get(i);
+    if let Some((i, gap, p)) = nearest(body, &rb, reach, reach, whole).filter(|w| w.1 < 0.0) {
         return Err(BuildError::new(
             format!("rigid[{k}].position"),
             format!(
                 "the body starts {:.3e} m inside the contact range of node {i} at [{:e}, {:e}, {:e}] m (node contact radius {:e} m): move it at least that far away",
-                -gap, p.x, p.y, p.z, reach
+                -gap, p[0], p[1], p[2], reach
             ),
         ));
     }
@@ -169,11 +226,21 @@ pub fn contact(
     spec: &ContactSpec,
     bodies: &[RigidSpec],
 ) -> Result<Contact, BuildError> {
-    let opts = contact_options(body, spec)?;
+    contact_across(body, spec, bodies, &Across::whole(body))
+}
+
+/// [`contact`], the whole body's answers from `whole`.
+pub(crate) fn contact_across(
+    body: &Body,
+    spec: &ContactSpec,
+    bodies: &[RigidSpec],
+    whole: &Across,
+) -> Result<Contact, BuildError> {
+    let opts = contact_options_across(body, spec, whole)?;
     let placed = bodies
         .iter()
         .enumerate()
-        .map(|(k, s)| place(body, k, s, opts.radius))
+        .map(|(k, s)| place_across(body, k, s, opts.radius, whole))
         .collect::<Result<Vec<_>, _>>()?;
-    Ok(Contact::new(body, placed, opts))
+    Ok(Contact::with_shortest(body, placed, opts, whole.shortest))
 }

@@ -370,6 +370,7 @@ fn cut_to_piece(
         first: piece.first,
         nodes: sim.body.nodes(),
         springs: sim.body.springs(),
+        extent: sim.extent(),
     });
     sim.body = body;
     sim.state = state;
@@ -668,6 +669,10 @@ impl Run {
         // A run on pieces drops the whole body and state here, every process alike; one set
         // up from parts never held them, and resumes here.
         if on_parts {
+            if let (Some(c), Some(piece)) = (sim.contact.as_mut(), it.piece()) {
+                c.cut(piece)
+                    .map_err(|e| Error::Input(format!("--parts: {e}")))?;
+            }
             let resumed = match piece_resume.as_deref() {
                 Some(path) => resume_piece(
                     &mut it,

@@ -105,7 +105,7 @@ pub struct FromParts {
 
 /// Where a process's own nodes are when it holds a piece of the body
 /// ([`hooke_core::team::Piece`]; the other nodes of the piece are its ghosts and padding).
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Held {
     /// The own nodes, in the piece's numbering.
     pub own: std::ops::Range<usize>,
@@ -114,6 +114,8 @@ pub struct Held {
     /// Nodes and springs of the whole body.
     pub nodes: usize,
     pub springs: usize,
+    /// The whole body's extent ([`Simulation::extent`]).
+    pub extent: Real,
 }
 
 impl Simulation {
@@ -164,6 +166,9 @@ impl Simulation {
 
     /// The extent of the body (m): its largest side.
     pub fn extent(&self) -> Real {
+        if let Some(h) = &self.held {
+            return h.extent;
+        }
         let pos = &self.body.lattice.pos;
         [pos.x(), pos.y(), pos.z()]
             .iter()

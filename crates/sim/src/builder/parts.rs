@@ -7,7 +7,8 @@
 //!
 //! What needs the whole body is found collectively: a face's extreme coordinate (a minimum
 //! or maximum over the processes), whether a region holds a node anywhere, the list of a
-//! boundary's nodes for its reaction history, the springs that pre-cracks cut. The loaded and
+//! boundary's nodes for its reaction history, the springs that pre-cracks cut, the shortest
+//! spring and a rigid body's nearest node (contact's options and start gaps). The loaded and
 //! prescribed nodes are added to every process's piece ([`hooke_core::team::parts::everyone`]):
 //! a shared run's bookkeeping reads them everywhere.
 
@@ -21,6 +22,7 @@ use hooke_core::{Lattice, Real, State, Vector};
 
 use super::{BuildError, Builder, Selector};
 use crate::geometry::{Face, Region};
+use crate::rigid::Nearest;
 use crate::simulation::{FromParts, Held, Simulation};
 
 /// The margin around a part's key range that it samples and triangulates, in spacings
@@ -58,12 +60,6 @@ impl Builder {
             return no(
                 "geometry",
                 "nodes grown on curved surfaces (spheres, cylinders) are not split into parts yet",
-            );
-        }
-        if self.contact.is_some() {
-            return no(
-                "contact",
-                "contact is set up on the whole body (rigid bodies' start gaps, fragment pairs)",
             );
         }
         if self.quasi_static.is_some() {
@@ -164,6 +160,22 @@ impl Builder {
         };
         let (loading, regions, boundaries) =
             self.loading(&body, false, &mut state, &mut fracture, &pick)?;
+        let contact = match &self.contact {
+            None => None,
+            Some((spec, bodies)) => {
+                let shortest = min_over(&*team, body.lattice.shortest());
+                let global = |i: usize| piece.global[i] as usize;
+                let nearest = |n| nearest_over(&*team, n);
+                let whole = crate::rigid::Across {
+                    shortest,
+                    nodes: piece.total,
+                    scan: own.clone(),
+                    global: &global,
+                    nearest: &nearest,
+                };
+                Some(crate::rigid::contact_across(&body, spec, bodies, &whole)?)
+            }
+        };
         // The springs pre-cracks cut, each counted by the owner of its lower end.
         let cut = state
             .alive()
@@ -176,11 +188,15 @@ impl Builder {
         let mut sim = self.simulation(body, state, loading, fracture, (regions, boundaries), k)?;
         sim.precracked = precracked;
         sim.random_design = design;
+        sim.contact = contact;
         sim.held = Some(Held {
             own: piece.own.clone(),
             first: piece.first,
             nodes: piece.total,
             springs,
+            extent: (0..3)
+                .map(|c| extremes[c][1] - extremes[c][0])
+                .fold(0.0, Real::max),
         });
         sim.from_parts = Some(FromParts { piece, share });
         Ok(sim)
@@ -212,4 +228,35 @@ fn face_extremes(
         }
     }
     out
+}
+
+/// The least of every process's `x` (exact in any order). Collective.
+fn min_over(team: &dyn Team, x: Real) -> Real {
+    let size = team.size();
+    let mut all = vec![0.0; size];
+    all[team.rank()] = x;
+    let parts: Vec<_> = (0..size).map(|r| r..r + 1).collect();
+    team.gather(&mut all, &parts);
+    all.into_iter().fold(Real::INFINITY, Real::min)
+}
+
+/// The nearest of every process's nearest node to a rigid body, `(body index, gap, position)`:
+/// the smallest gap, the first process's among equal ones (processes own ascending nodes, so
+/// this is the lowest index, as one process's scan finds it). Collective.
+fn nearest_over(team: &dyn Team, mine: Option<Nearest>) -> Option<Nearest> {
+    let size = team.size();
+    let mut all = vec![0.0; 6 * size];
+    if let Some((i, gap, p)) = mine {
+        let at = 6 * team.rank();
+        all[at..at + 6].copy_from_slice(&[1.0, gap, i as Real, p[0], p[1], p[2]]);
+    }
+    let parts: Vec<_> = (0..size).map(|r| 6 * r..6 * r + 6).collect();
+    team.gather(&mut all, &parts);
+    let mut best: Option<Nearest> = None;
+    for x in all.chunks_exact(6).filter(|x| x[0] == 1.0) {
+        if best.is_none_or(|b| x[1] < b.1) {
+            best = Some((x[2] as usize, x[1], [x[3], x[4], x[5]]));
+        }
+    }
+    best
 }
