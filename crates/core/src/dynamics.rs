@@ -1025,13 +1025,29 @@ impl Integrator {
         team: std::sync::Arc<dyn Team>,
         opts: &IntegratorOptions,
     ) -> Result<Self> {
-        body.validate()?;
-        loading.validate(body.nodes())?;
-        if !(opts.damping.is_finite() && opts.damping >= 0.0) {
-            return Err(Error::OutOfRange {
-                what: "damping coefficient c (1/s)",
-                value: opts.damping,
-                why: "it must be zero or positive".into(),
+        // Checked on every rank before the first collective, and refused on all alike (a
+        // rank returning alone would leave the others waiting).
+        let checked = body
+            .validate()
+            .and_then(|_| loading.validate(body.nodes()))
+            .and_then(|_| {
+                if opts.damping.is_finite() && opts.damping >= 0.0 {
+                    Ok(())
+                } else {
+                    Err(Error::OutOfRange {
+                        what: "damping coefficient c (1/s)",
+                        value: opts.damping,
+                        why: "it must be zero or positive".into(),
+                    })
+                }
+            });
+        let mut failed = [checked.is_err()];
+        team.any(&mut failed);
+        checked?;
+        if failed[0] {
+            return Err(Error::InvalidInput {
+                what: "a piece set up from parts",
+                why: "another process refused its piece (its message says why)".into(),
             });
         }
         let deformed = |state: &State| {

@@ -305,13 +305,21 @@ pub fn everyone(
     let (rank, size) = (team.rank(), team.size());
     let first = piece.first;
     let own_g = first..first + piece.own.len();
-    if mine.windows(2).any(|w| w[0] >= w[1]) || mine.iter().any(|&g| !own_g.contains(&(g as usize)))
-    {
-        return Err(Error::InvalidInput {
-            what: "nodes every process reads",
-            why: "give this process's own nodes, ascending, each once".into(),
-        });
-    }
+    let bad = mine.windows(2).any(|w| w[0] >= w[1])
+        || mine.iter().any(|&g| !own_g.contains(&(g as usize)));
+    // Every rank refuses alike (a rank returning alone would leave the others waiting).
+    let bad = all_ok(
+        team,
+        if bad {
+            Err(Error::InvalidInput {
+                what: "nodes every process reads",
+                why: "give this process's own nodes, ascending, each once".into(),
+            })
+        } else {
+            Ok(())
+        },
+    );
+    bad?;
     let all = gather_ids(team, mine);
     let owner_of = |g: u32| share.nodes.partition_point(|r| r.end <= g as usize);
     // The ones this piece lacks: not its own, not a ghost already.
