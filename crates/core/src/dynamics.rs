@@ -561,12 +561,7 @@ impl Integrator {
             it.kernel.pools(body, state);
         }
         // Prescribed positions and velocities at the start.
-        let t = state.time;
-        for d in &it.dofs {
-            let (u, v) = it.prescribed_at(d, state.u.comp(d.axis)[d.node], t);
-            state.u.comp_mut(d.axis)[d.node] = u;
-            state.v.comp_mut(d.axis)[d.node] = v;
-        }
+        it.prescribe_start(state);
         // At the rest configuration every extension is zero, so the pools, the forces and the
         // strain energy are zero exactly: skip the reference law's passes over a large body.
         let strain = if state.u.as_flat().iter().all(|&x| x == 0.0) {
@@ -580,20 +575,36 @@ impl Integrator {
         it.initial = kinetic(body, &state.v) + strain;
         let v0 = state.v.clone();
         it.initial_power = it.power(body, state, &v0);
-        // v(t - dt/2) = v(t) - dt/2 a(t) for free DOFs (prescribed ones take their own).
-        let mut a = it.acceleration(body, state);
-        for d in &it.dofs {
-            a.comp_mut(d.axis)[d.node] = 0.0;
-        }
-        for d in &it.dofs {
-            let (_, v) = it.prescribed_at(d, state.u.comp(d.axis)[d.node], t - 0.5 * dt);
-            state.v.comp_mut(d.axis)[d.node] = v;
-        }
-        state.v.axpy(-0.5 * dt, &a);
+        it.back_half_step(body, state);
         if let Some(t) = team {
             it.distribute_with(body, t, share);
         }
         Ok(it)
+    }
+
+    /// Set the prescribed DOFs' displacements and velocities at `state.time` (the start).
+    fn prescribe_start(&self, state: &mut State) {
+        let t = state.time;
+        for d in &self.dofs {
+            let (u, v) = self.prescribed_at(d, state.u.comp(d.axis)[d.node], t);
+            state.u.comp_mut(d.axis)[d.node] = u;
+            state.v.comp_mut(d.axis)[d.node] = v;
+        }
+    }
+
+    /// Turn the full-step velocity at `state.time` into the half-step one the leapfrog needs:
+    /// `v(t - dt/2) = v(t) - dt/2 a(t)` for free DOFs (prescribed ones take their own).
+    fn back_half_step(&self, body: &Body, state: &mut State) {
+        let (t, dt) = (state.time, self.dt);
+        let mut a = self.acceleration(body, state);
+        for d in &self.dofs {
+            a.comp_mut(d.axis)[d.node] = 0.0;
+        }
+        for d in &self.dofs {
+            let (_, v) = self.prescribed_at(d, state.u.comp(d.axis)[d.node], t - 0.5 * dt);
+            state.v.comp_mut(d.axis)[d.node] = v;
+        }
+        state.v.axpy(-0.5 * dt, &a);
     }
 
     /// The parts shared by [`Integrator::new`] and [`Integrator::resume`].
@@ -1122,12 +1133,7 @@ impl Integrator {
         it.plane &= !curved[0];
         // Prescribed positions and velocities at the start, as `new_shared` sets them (every
         // rank holds every prescribed node).
-        let t = state.time;
-        for d in &it.dofs {
-            let (u, v) = it.prescribed_at(d, state.u.comp(d.axis)[d.node], t);
-            state.u.comp_mut(d.axis)[d.node] = u;
-            state.v.comp_mut(d.axis)[d.node] = v;
-        }
+        it.prescribe_start(state);
         if deformed(state) {
             return Err(Error::InvalidInput {
                 what: "a piece set up from parts",
@@ -1162,16 +1168,7 @@ impl Integrator {
         let v0 = state.v.clone();
         it.initial = it.node_sums(body, &v0)[0];
         it.initial_power = it.power(body, state, &v0);
-        // v(t - dt/2) = v(t) - dt/2 a(t) for free DOFs (prescribed ones take their own).
-        let mut a = it.acceleration(body, state);
-        for d in &it.dofs {
-            a.comp_mut(d.axis)[d.node] = 0.0;
-        }
-        for d in &it.dofs {
-            let (_, v) = it.prescribed_at(d, state.u.comp(d.axis)[d.node], t - 0.5 * dt);
-            state.v.comp_mut(d.axis)[d.node] = v;
-        }
-        state.v.axpy(-0.5 * dt, &a);
+        it.back_half_step(body, state);
         Ok(it)
     }
 
