@@ -59,6 +59,11 @@ impl Team for MpiTeam {
     }
 
     fn gather(&self, data: &mut [Real], parts: &[Range<usize>]) {
+        assert!(
+            hooke_core::team::parts_fit(parts, self.size, data.len()),
+            "all-gather parts {parts:?} over {} values are not one per rank, ascending and disjoint",
+            data.len()
+        );
         let mut guard = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
         let s = &mut *guard;
         let k = match s.layouts.iter().position(|l| l.0 == parts) {

@@ -42,6 +42,18 @@ pub enum TimeStep {
     Fixed { dt: Real, force: bool },
 }
 
+impl IntegratorOptions {
+    /// Put `kernel` on the vector path these options ask for (portable, AVX2, or the best the
+    /// processor has).
+    fn choose_lanes(&self, kernel: &mut Kernel) {
+        if self.portable {
+            kernel.set_simd(false);
+        } else if self.avx2 {
+            kernel.use_avx2();
+        }
+    }
+}
+
 impl Default for TimeStep {
     fn default() -> Self {
         TimeStep::Auto {
@@ -60,6 +72,9 @@ pub struct IntegratorOptions {
     pub portable: bool,
     /// Use the CSR kernel even for box lattices (reference path).
     pub force_csr: bool,
+    /// Take the AVX2 path where the processor has AVX-512 too (to test and measure that path;
+    /// ignored with `portable` or without AVX2).
+    pub avx2: bool,
     /// Choose the step from a bound that holds for every pattern of broken springs,
     /// `lambda_max <= (1 + 2 max(q, 0)) lambda_max(plain law, current body)` (see
     /// [`crate::stability`]), instead of from the current body alone. Runs with fracture need it:
@@ -517,9 +532,7 @@ impl Integrator {
         } else {
             Kernel::for_body_in(body, state, share.as_ref().map(Share::mine))
         };
-        if opts.portable {
-            kernel.set_simd(false);
-        }
+        opts.choose_lanes(&mut kernel);
         // The damage-proof step needs only the plain law's estimate: (1 + 2 max(q, 0)) times
         // its lambda bounds the dispersive law's lambda for the intact body as for any pattern
         // of broken springs (stability.rs), so estimating that one too would only cost a second
@@ -724,9 +737,7 @@ impl Integrator {
         } else {
             Kernel::for_body(body, state)
         };
-        if opts.portable {
-            kernel.set_simd(false);
-        }
+        opts.choose_lanes(&mut kernel);
         let u_next = if kernel.drifts_in_place() {
             Coords::default()
         } else {
@@ -1077,9 +1088,7 @@ impl Integrator {
         } else {
             Kernel::for_body_in(body, state, Some(piece.own.clone()))
         };
-        if opts.portable {
-            kernel.set_simd(false);
-        }
+        opts.choose_lanes(&mut kernel);
         // Ghosts' rows are partial and dummies have none, so their ratios are no larger than
         // their owners': the ranks' maxima's maximum is the body's.
         let size = team.size();

@@ -182,8 +182,7 @@ impl Share {
 
     /// This rank's node chunks.
     pub fn chunks(&self) -> Range<usize> {
-        let r = self.mine();
-        r.start / CHUNK..r.end.div_ceil(CHUNK)
+        crate::kernel::chunks_of(&self.mine())
     }
 
     /// Bytes this rank receives per step of the explicit integrator without contact: its
@@ -207,7 +206,10 @@ impl Share {
     pub fn chunk_parts(&self, per: usize) -> Vec<Range<usize>> {
         self.nodes
             .iter()
-            .map(|r| per * (r.start / CHUNK)..per * r.end.div_ceil(CHUNK))
+            .map(|r| {
+                let c = crate::kernel::chunks_of(r);
+                per * c.start..per * c.end
+            })
             .collect()
     }
 }
@@ -330,6 +332,16 @@ fn halo(body: &Body, nodes: &[Range<usize>], rank: usize, everyone: &[usize]) ->
     Halo { send, recv }
 }
 
+/// Whether `parts` fit [`Team::gather`]'s contract over `len` values: one per rank of a team of
+/// `size`, ascending and disjoint, inside `0..len`. Overlapping parts are an error in MPI's
+/// all-gather (and their result depends on the order the messages land), so both transports
+/// refuse them: a split that produced them once went unseen for a long time.
+pub fn parts_fit(parts: &[Range<usize>], size: usize, len: usize) -> bool {
+    parts.len() == size
+        && parts.iter().all(|p| p.start <= p.end && p.end <= len)
+        && parts.windows(2).all(|w| w[0].end <= w[1].start)
+}
+
 /// A team of one: the default (no exchange).
 #[derive(Debug, Default)]
 pub struct Alone;
@@ -392,6 +404,12 @@ impl Team for Threads {
     }
     fn gather(&self, data: &mut [Real], parts: &[Range<usize>]) {
         let s = &self.shared;
+        assert!(
+            parts_fit(parts, s.size, data.len()),
+            "rank {}: all-gather parts {parts:?} over {} values are not one per rank, ascending and disjoint",
+            self.rank,
+            data.len()
+        );
         {
             let mut buf = s.reals.lock().unwrap();
             if buf.len() < data.len() {

@@ -40,6 +40,23 @@ pub fn partials_len(n: usize) -> usize {
     n.div_ceil(CHUNK)
 }
 
+/// The node chunks that hold the nodes `nodes`: a share of whole chunks (the body's last chunk
+/// may be short), or an empty share, which holds none wherever it starts.
+///
+/// An empty share that comes after the body's last, short chunk starts at `n`, which is no
+/// chunk boundary: `n / CHUNK..n.div_ceil(CHUNK)` would be that last chunk, so a rank owning
+/// nothing swept another rank's nodes and gave overlapping parts to the all-gathers (a row
+/// kernel holding no rows then read records below its own, issue "A failed rank never hangs a
+/// job"). Every chunk range of a share is taken here.
+pub fn chunks_of(nodes: &Range<usize>) -> Range<usize> {
+    if nodes.is_empty() {
+        let c = nodes.start.div_ceil(CHUNK);
+        c..c
+    } else {
+        nodes.start / CHUNK..nodes.end.div_ceil(CHUNK)
+    }
+}
+
 /// Constants of one step.
 #[derive(Clone, Copy, Debug)]
 pub struct StepParams {

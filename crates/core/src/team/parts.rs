@@ -230,10 +230,7 @@ pub fn assemble(team: &dyn Team, body: &Sampling, margin: Real) -> Result<(Piece
         partial[split[rank] / CHUNK + k] = c.iter().sum();
     }
     let nodes: Vec<Range<usize>> = (0..size).map(|r| split[r]..split[r + 1]).collect();
-    let chunk_parts: Vec<Range<usize>> = nodes
-        .iter()
-        .map(|r| r.start / CHUNK..r.end.div_ceil(CHUNK))
-        .collect();
+    let chunk_parts: Vec<Range<usize>> = nodes.iter().map(crate::kernel::chunks_of).collect();
     team.gather(&mut partial, &chunk_parts);
     let volume: Real = partial.iter().sum();
     let cell_volume = volume / total as Real;

@@ -391,7 +391,7 @@ mod tests {
                                 assert_eq!(own(ps.v.comp(c)), pick(whole.v.comp(c)), "v {at}");
                             }
                             assert_eq!(own(&ps.pool), pick(&whole.pool), "pools {at}");
-                            for c in piece.own.start / CHUNK..piece.own.end.div_ceil(CHUNK) {
+                            for c in crate::kernel::chunks_of(&piece.own) {
                                 assert_eq!(
                                     local[c],
                                     sums[piece.global_chunk(c)],
