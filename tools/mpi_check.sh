@@ -53,6 +53,16 @@ check compression_block cases/compression_block.toml 1.0 10e-6 3
 # the random glass plate (random lattice, branching cracks).
 check mode1_plate cases/mode1_plate.toml 1.0 60e-6 3 4
 check glass_branching_random cases/glass_branching_random.toml 0.6 46e-6 2 3
+# Every split runs: bodies so small or so sized that some ranks own no node (after the body's
+# short last chunk too), or fewer than 64 (one window of the vector paths). mode1_plate at
+# --scale 0.25 has 425 nodes (one chunk: at -np 3 and 4 ranks own nothing before and after it;
+# this once panicked and hung), at 0.5 its last chunk is short; the random glass plate at 0.27
+# has 4157 nodes (a rank owns the last 61) and at 0.38 8231 (the last 39).
+check mode1_small cases/mode1_plate.toml 0.25 60e-6 2 3 4 5
+check mode1_half cases/mode1_plate.toml 0.5 30e-6 3
+check glass_random_small cases/glass_branching_random.toml 0.25 20e-6 3
+check glass_random_61 cases/glass_branching_random.toml 0.27 20e-6 2 3
+check glass_random_39 cases/glass_branching_random.toml 0.38 20e-6 3 4
 # The spring-energy criterion has no stretch screen: each rank decides its own springs after
 # the step, and the ranks trade what they found.
 extra=(--set 'material.criterion="energy"')
@@ -94,6 +104,8 @@ check_pieces() { # name case scale end_time sizes... (the run alone is `check`'s
   done
 }
 check_pieces mode1_plate cases/mode1_plate.toml 1.0 60e-6 2 4
+check_pieces mode1_small cases/mode1_plate.toml 0.25 60e-6 2 4
+check_pieces glass_random_61 cases/glass_branching_random.toml 0.27 20e-6 2 3
 check_pieces glass_branching_random cases/glass_branching_random.toml 0.6 46e-6 3
 # Checkpointed on 3 ranks' pieces, resumed on them.
 $mpirun -np 3 "$work/hooke-mpi" run cases/glass_branching_random.toml --scale 0.6 --set solver.end_time=20e-6 \
@@ -209,3 +221,68 @@ rc=$?
 set -e
 grep -q "one process" "$work/qs.err" || { echo "quasi-static under mpirun not refused (exit $rc)"; cat "$work/qs.err"; exit 1; }
 echo "quasi-static under mpirun: refused (exit $rc): $(grep '^error:' "$work/qs.err")"
+
+# A failure anywhere ends the whole job within seconds, with that rank's message and a non-zero
+# exit (issue "A failed rank never hangs a job"). HOOKE_TEST_FAIL=KIND:RANK:STEP, read by the
+# binary for these tests alone, injects a panic in the driver or in a worker thread, an exit
+# without MPI_Finalize, or an error in one rank's set-up; `kill -9` kills a rank from outside.
+# What was written before the failure stays: the run resumes from its last checkpoint and ends
+# with the bits of the build without MPI.
+fails() { # name KIND:RANK:STEP np args...
+  local name=$1 fault=$2 np=$3
+  shift 3
+  local rank
+  rank=$(echo "$fault" | cut -d: -f2)
+  local t0=$SECONDS
+  set +e
+  HOOKE_TEST_FAIL=$fault timeout 120 $mpirun -np "$np" "$work/hooke-mpi" run "$@" --out "$work/$name" \
+    > "$work/$name.log" 2>&1
+  local rc=$?
+  set -e
+  local took=$((SECONDS - t0))
+  if [ "$rc" -eq 0 ] || [ "$rc" -eq 124 ] || [ "$took" -gt 30 ]; then
+    echo "$name ($fault on $np ranks): exit $rc after $took s (want non-zero within 30 s)"; cat "$work/$name.log"; exit 1
+  fi
+  grep -Eq "rank $rank of $np|Process name: \[\[[0-9]+,[0-9]+\],$rank\]" "$work/$name.log" || {
+    echo "$name: the message does not name rank $rank"; cat "$work/$name.log"; exit 1; }
+  echo "$name: $fault on $np ranks ended the job in $took s with exit $rc, naming rank $rank"
+}
+fails fail_panic panic:1:500 3 cases/mode1_plate.toml
+fails fail_worker worker-panic:2:500 3 cases/mode1_plate.toml --pieces
+fails fail_exit exit:1:500 3 cases/mode1_plate.toml
+fails fail_error error:2:0 3 cases/mode1_plate.toml
+fails fail_error_parts error:1:0 2 cases/notched_bar_3d.toml --parts
+# Resumed from the checkpoint the failed job wrote (at 10 and 20 us, before step 500), on the
+# same or another number of ranks: the frames and histories of the uninterrupted run, bit for bit.
+ls "$work/fail_panic/"*.ckpt > /dev/null
+$mpirun -np 3 "$work/hooke-mpi" run cases/mode1_plate.toml --out "$work/fail_panic" \
+  --resume "$work/fail_panic/mode1_plate.ckpt" > /dev/null
+python3 tools/compare_runs.py "$work/mode1_plate.alone" "$work/fail_panic" | tail -1
+cmp "$work/mode1_plate.alone/mode1_plate.ckpt" "$work/fail_panic/mode1_plate.ckpt"
+echo "fail_panic: resumed after the failure, bit-identical to the uninterrupted run"
+# kill -9 of one rank, once the run has written its first checkpoint.
+rm -rf "$work/fail_kill"
+t0=$SECONDS
+$mpirun -np 3 "$work/hooke-mpi" run cases/mode1_plate.toml --scale 2 --out "$work/fail_kill" \
+  > "$work/fail_kill.log" 2>&1 &
+job=$!
+for _ in $(seq 600); do
+  [ -e "$work/fail_kill/mode1_plate.ckpt" ] && break
+  sleep 0.1
+done
+test -e "$work/fail_kill/mode1_plate.ckpt" || { echo "fail_kill: no checkpoint written"; cat "$work/fail_kill.log"; exit 1; }
+victim=$(pgrep -x hooke-mpi | tail -1)
+killed=$SECONDS
+kill -9 "$victim"
+set +e
+timeout 60 tail --pid="$job" -f /dev/null
+wait "$job"
+rc=$?
+set -e
+took=$((SECONDS - killed))
+if [ "$rc" -eq 0 ] || [ "$took" -gt 30 ]; then
+  echo "fail_kill: kill -9 of a rank: exit $rc after $took s"; cat "$work/fail_kill.log"; exit 1
+fi
+$mpirun -np 2 "$work/hooke-mpi" run cases/mode1_plate.toml --scale 2 --out "$work/fail_kill" \
+  --resume "$work/fail_kill/mode1_plate.ckpt" --set solver.end_time=25e-6 > /dev/null
+echo "fail_kill: kill -9 of one rank ended the job in $took s (exit $rc, $((killed - t0)) s into the run); its checkpoint resumed on 2 ranks"

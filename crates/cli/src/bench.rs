@@ -241,11 +241,17 @@ pub fn run(args: BenchArgs) -> Result<()> {
     // Under `mpirun -np N` (feature `mpi`) the ranks share every step, as `hooke run` does;
     // rank 0 times and prints.
     #[cfg(feature = "mpi")]
-    let mpi = crate::mpi::start()?;
-    #[cfg(feature = "mpi")]
-    let team = mpi.team.clone();
+    return crate::mpi::run(|team| bench_steps(&args, team));
     #[cfg(not(feature = "mpi"))]
-    let team: Option<std::sync::Arc<dyn hooke_core::team::Team>> = None;
+    bench_steps(&args, None)
+}
+
+/// The step benchmark (`hooke bench` without a mode of its own), on this rank of a team or
+/// alone.
+fn bench_steps(
+    args: &BenchArgs,
+    team: Option<std::sync::Arc<dyn hooke_core::team::Team>>,
+) -> Result<()> {
     if team.as_ref().is_some_and(|t| t.rank() != 0) {
         crate::set_quiet();
     }

@@ -136,6 +136,11 @@ fn threads_note(
             "note: --threads {t} on {usable} usable core(s) of this machine's {machine} (the \
              process's CPU binding): threads take turns on them"
         )),
+        (None, Some(ranks)) if ranks > machine => Some(format!(
+            "note: {ranks} MPI ranks on this machine's {machine} core(s): the ranks take turns on \
+             the cores, one thread each, and every step waits for the slowest. Start at most \
+             {machine} rank(s) per machine for speed (more only to test a split)"
+        )),
         (None, Some(ranks)) if usable < (machine / ranks).max(1) => {
             let share = (machine / ranks).max(1);
             Some(format!(
@@ -262,6 +267,11 @@ mod tests {
         assert!(
             bound.contains("on 1 usable core(s) of this machine's 2"),
             "{bound}"
+        );
+        let over = threads_note(None, Some(3), 1, 2).expect("3 ranks on 2 cores");
+        assert!(
+            over.contains("3 MPI ranks") && over.contains("at most 2 rank(s)"),
+            "{over}"
         );
         assert_eq!(threads_note(None, Some(2), 1, 2), None);
         assert_eq!(threads_note(None, Some(2), 8, 16), None);

@@ -119,19 +119,51 @@ impl Team for MpiTeam {
     }
 }
 
-/// MPI for one `hooke run`: the universe (MPI is finalised when it is dropped) and the team,
-/// `None` for a single process.
+/// How long a rank whose run failed waits for the others to fail alike before it ends the
+/// job: ranks that fail alike (bad input, an instability, Ctrl-C) reach the end together, within
+/// a moment of each other; a rank that fails alone would otherwise leave the others waiting in
+/// their next collective for ever.
+const AGREE: std::time::Duration = std::time::Duration::from_secs(5);
+
+/// The exit code of a job ended by a panic (Rust's own for a panicking process).
+const PANIC_CODE: i32 = 101;
+
+/// MPI for one `hooke run` or `hooke bench`: the universe (MPI is finalised when it is
+/// dropped), the team (`None` for a single process), and a communicator of its own for the
+/// agreement at the end ([`Mpi::finish`]), so that it can never match a collective of the run.
 pub struct Mpi {
-    _universe: mpi::environment::Universe,
     pub team: Option<Arc<dyn Team>>,
+    agree: Option<SimpleCommunicator>,
+    rank: usize,
+    size: usize,
+    // Last: finalised after the communicators above are freed.
+    _universe: mpi::environment::Universe,
 }
 
 /// Initialise MPI. Started by `mpirun -np N`, the team has N members; started alone, none.
+///
+/// In a team, a panic on any rank (in the driver or in a worker thread) prints the rank and
+/// its message, then aborts the whole job (`MPI_Abort`): unwinding would finalise MPI, which
+/// waits for ranks that wait in a collective for this one. A rank killed by a signal is seen by
+/// `mpirun`, which ends the others.
 pub fn start() -> anyhow::Result<Mpi> {
     let (universe, _) = mpi::initialize_with_threading(mpi::Threading::Serialized)
         .ok_or_else(|| anyhow::anyhow!("MPI was already initialised in this process"))?;
     let world = universe.world();
     let (rank, size) = (world.rank() as usize, world.size() as usize);
+    let agree = (size > 1).then(|| world.duplicate());
+    if size > 1 {
+        std::panic::set_hook(Box::new(move |info| {
+            let at = info
+                .location()
+                .map_or(String::new(), |l| format!(" at {}:{}", l.file(), l.line()));
+            let what = info.payload_as_str().unwrap_or("(no message)");
+            eprintln!(
+                "error: rank {rank} of {size} panicked{at}: {what}\n  ending every rank of the job (MPI_Abort)"
+            );
+            SimpleCommunicator::world().abort(PANIC_CODE);
+        }));
+    }
     let team: Option<Arc<dyn Team>> = (size > 1).then(|| {
         Arc::new(MpiTeam {
             world,
@@ -141,7 +173,67 @@ pub fn start() -> anyhow::Result<Mpi> {
         }) as Arc<dyn Team>
     });
     Ok(Mpi {
-        _universe: universe,
         team,
+        agree,
+        rank,
+        size,
+        _universe: universe,
     })
+}
+
+impl Mpi {
+    /// Called on every rank when its run has ended, with its error if it failed. A success, or a failure
+    /// that every rank meets (they reach a barrier of their own within [`AGREE`]), ends as
+    /// usual: MPI is finalised and rank 0 reports. A failure on this rank that the others do
+    /// not share (they are still running, or waiting in a collective for this rank) is
+    /// printed with the rank and ends the whole job with the failure's exit code.
+    pub fn finish(&self, error: Option<&anyhow::Error>) {
+        let (Some(agree), Some(e)) = (&self.agree, error) else {
+            return;
+        };
+        let mut barrier = agree.immediate_barrier();
+        let deadline = std::time::Instant::now() + AGREE;
+        loop {
+            match barrier.test() {
+                Ok(_) => return,
+                Err(pending) => barrier = pending,
+            }
+            if std::time::Instant::now() >= deadline {
+                eprintln!(
+                    "error: rank {} of {}: {e:#}\n  the other ranks did not stop with it: ending every rank of the job (MPI_Abort)",
+                    self.rank, self.size
+                );
+                SimpleCommunicator::world().abort(crate::exit_code(e) as i32);
+            }
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+    }
+}
+
+impl Drop for Mpi {
+    fn drop(&mut self) {
+        // A panic after MPI is finalised must not call MPI_Abort: the default hook again.
+        if self.size > 1 {
+            let _ = std::panic::take_hook();
+        }
+    }
+}
+
+/// Run `go` on this rank of the job `mpirun` started (alone: with no team), with MPI's
+/// failure handling ([`start`], [`Mpi::finish`]).
+pub fn run<T>(go: impl FnOnce(Option<Arc<dyn Team>>) -> anyhow::Result<T>) -> anyhow::Result<T> {
+    let mpi = start()?;
+    let result = go(mpi.team.clone());
+    if let Err(e) = &result {
+        if mpi.team.is_some() && !crate::quiet() {
+            // Rank 0 says why before MPI is finalised: the other ranks wait in MPI_Finalize
+            // for it, whereas once they have exited with an error the launcher may kill rank 0
+            // before main() prints.
+            eprintln!("error: {e:#}");
+            crate::set_quiet();
+        }
+    }
+    mpi.finish(result.as_ref().err());
+    drop(mpi);
+    result
 }

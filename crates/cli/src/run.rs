@@ -424,21 +424,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     // Under `mpirun -np N` (feature `mpi`), N processes run this same function; each builds the
     // same simulation, rank 0 alone writes and prints (`docs/mpi.md`).
     #[cfg(feature = "mpi")]
-    {
-        let mpi = crate::mpi::start()?;
-        let result = run_in(args, mpi.team.clone());
-        if let Err(e) = &result {
-            if mpi.team.is_some() && !crate::quiet() {
-                // Rank 0 says why before MPI is finalised: the other ranks wait in
-                // MPI_Finalize for it, whereas once they have exited with an error the
-                // launcher may kill rank 0 before main() prints.
-                eprintln!("error: {e:#}");
-                crate::set_quiet();
-            }
-        }
-        drop(mpi);
-        result
-    }
+    return crate::mpi::run(|team| run_in(args, team));
     #[cfg(not(feature = "mpi"))]
     run_in(args, None)
 }
@@ -459,6 +445,14 @@ fn run_in(args: RunArgs, team: Option<Arc<dyn hooke_core::team::Team>>) -> Resul
             "--parts builds the body in parts, one per MPI rank: run under `mpirun -np N` with N > 1, with a hooke built with --features mpi (tools/install-mpi.sh)".into(),
         )
         .into());
+    }
+    let fault = Fault::from_env(team.as_ref().map_or(0, |t| t.rank()))?;
+    if let Some(f) = &fault {
+        if f.kind == FaultKind::Error {
+            return Err(anyhow::anyhow!(
+                "HOOKE_TEST_FAIL: an error injected on this rank alone"
+            ));
+        }
     }
     let parts = team.clone().filter(|_| args.parts);
     let (sim, base) = load_parts(&args.case, args.scale, &args.set, parts)?;
@@ -500,6 +494,7 @@ fn run_in(args: RunArgs, team: Option<Arc<dyn hooke_core::team::Team>>) -> Resul
         args.progress_every
     };
     let mut obs = CliObserver::new(stop, every, quasi);
+    obs.fault = fault;
     let summary = match hooke_sim::run(sim, opts, &mut obs) {
         Ok(s) => s,
         Err(e) => {
@@ -616,6 +611,75 @@ struct CliObserver {
     interactive: bool,
     interval: Option<Duration>,
     started: Instant,
+    /// A failure to inject (tests only), and the steps seen so far.
+    fault: Option<Fault>,
+    steps: std::cell::Cell<u64>,
+}
+
+/// A failure injected on one rank of an MPI run, for the tests of what the job does then
+/// (`tools/mpi_check.sh`): `HOOKE_TEST_FAIL=KIND:RANK:STEP`, with KIND one of `panic` (in the
+/// run's driver), `worker-panic` (in a worker thread), `exit` (the process exits without
+/// finalising MPI) after STEP steps, or `error` (the rank's set-up fails alone; STEP is
+/// ignored). Read by the binary alone: the libraries take no environment variables. (A rank
+/// killed by a signal is tested with `kill -9` itself.)
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Fault {
+    kind: FaultKind,
+    step: u64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum FaultKind {
+    Panic,
+    WorkerPanic,
+    Exit,
+    Error,
+}
+
+impl Fault {
+    /// The failure `HOOKE_TEST_FAIL` asks of rank `rank`, if any.
+    fn from_env(rank: usize) -> Result<Option<Fault>> {
+        let Ok(text) = std::env::var("HOOKE_TEST_FAIL") else {
+            return Ok(None);
+        };
+        let bad = || {
+            InputError(format!(
+                "HOOKE_TEST_FAIL={text}: give KIND:RANK:STEP, KIND one of panic, worker-panic, exit, error"
+            ))
+        };
+        let f: Vec<&str> = text.split(':').collect();
+        let [kind, r, step] = f[..] else {
+            return Err(bad().into());
+        };
+        let kind = match kind {
+            "panic" => FaultKind::Panic,
+            "worker-panic" => FaultKind::WorkerPanic,
+            "exit" => FaultKind::Exit,
+            "error" => FaultKind::Error,
+            _ => return Err(bad().into()),
+        };
+        let (Ok(r), Ok(step)) = (r.parse::<usize>(), step.parse::<u64>()) else {
+            return Err(bad().into());
+        };
+        Ok((r == rank).then_some(Fault { kind, step }))
+    }
+
+    /// Fail as asked.
+    fn strike(&self) {
+        match self.kind {
+            FaultKind::Panic => panic!("HOOKE_TEST_FAIL: a panic injected at step {}", self.step),
+            FaultKind::WorkerPanic => {
+                use rayon::prelude::*;
+                (0..64).into_par_iter().with_max_len(1).for_each(|i| {
+                    if i == 63 {
+                        panic!("HOOKE_TEST_FAIL: a panic injected in a worker thread");
+                    }
+                });
+            }
+            FaultKind::Exit => std::process::exit(3),
+            FaultKind::Error => {}
+        }
+    }
 }
 
 impl CliObserver {
@@ -634,6 +698,8 @@ impl CliObserver {
                 None
             },
             started: Instant::now(),
+            fault: None,
+            steps: std::cell::Cell::new(0),
         }
     }
 }
@@ -681,6 +747,13 @@ impl Observer for CliObserver {
     }
 
     fn interrupted(&self) -> bool {
+        // Asked once per step: the injected failure's clock.
+        if let Some(f) = &self.fault {
+            self.steps.set(self.steps.get() + 1);
+            if self.steps.get() == f.step {
+                f.strike();
+            }
+        }
         self.stop.load(Ordering::SeqCst)
     }
 }
