@@ -265,9 +265,9 @@ fn bench_steps(
     }
     let setup = Instant::now();
     let (body, mut state, mut it, nodes, springs, setup_parts) = if args.parts {
-        bench_from_parts(&args, team.clone())?
+        bench_from_parts(args, team.clone())?
     } else {
-        let lattice = bench_lattice(&args)?;
+        let lattice = bench_lattice(args)?;
         let lattice_seconds = setup.elapsed().as_secs_f64();
         let kind = lattice.kind;
         let nu = match (args.law, kind) {
@@ -276,7 +276,7 @@ fn bench_steps(
             (LawArg::Dispersive, LatticeKind::Hex | LatticeKind::Random2d) => 0.45,
         };
         let (body, state, mut it, [body_seconds, integrator_seconds]) =
-            bench_run_timed(&args, lattice, q_from_nu(kind, nu)?, team.clone())?;
+            bench_run_timed(args, lattice, q_from_nu(kind, nu)?, team.clone())?;
         let setup_parts = [
             ("lattice", lattice_seconds),
             ("body", body_seconds),

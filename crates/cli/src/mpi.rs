@@ -157,7 +157,12 @@ pub fn start() -> anyhow::Result<Mpi> {
             let at = info
                 .location()
                 .map_or(String::new(), |l| format!(" at {}:{}", l.file(), l.line()));
-            let what = info.payload_as_str().unwrap_or("(no message)");
+            let p = info.payload();
+            let what = p
+                .downcast_ref::<&str>()
+                .copied()
+                .or_else(|| p.downcast_ref::<String>().map(String::as_str))
+                .unwrap_or("(no message)");
             eprintln!(
                 "error: rank {rank} of {size} panicked{at}: {what}\n  ending every rank of the job (MPI_Abort)"
             );
