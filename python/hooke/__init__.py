@@ -195,24 +195,28 @@ def load_case(case: Union[str, os.PathLike], set: Optional[Mapping[str, Any]] = 
     return Simulation(inner)
 
 
-def _flags(lattice: str, nu: Optional[float], flags: Mapping[str, Any]) -> List[str]:
-    """Keyword arguments as the command's flags: ``size=[21, 6, 6]`` -> ``--size 21,6,6`` (the
-    commands take lists comma-separated), a True flag bare, False or None left out (``nu``
-    too)."""
-    argv: List[str] = ["--lattice", str(lattice)]
+# Options that take a list; a single number is a list of one (as ``--size 33`` on the command line).
+_LIST_OPTIONS = ("size", "transverse", "orthotropic", "axes")
+
+
+def _options(lattice: str, nu: Optional[float], flags: Mapping[str, Any]) -> str:
+    """Keyword arguments as the experiment's options (JSON): the command's flags by name
+    (``sweep_nu`` for ``--sweep-nu``), None left out (``nu`` too); ``fibre=[1, 1, 0]`` as
+    ``"1,1,0"``."""
+    opts: Dict[str, Any] = {"lattice": str(lattice)}
     if nu is not None:
-        argv += ["--nu", repr(float(nu))]
+        opts["nu"] = float(nu)
     for k, v in flags.items():
-        opt = "--" + k.replace("_", "-")
-        if v is True:
-            argv.append(opt)
-        elif v is False or v is None:
+        if v is None:
             continue
-        elif isinstance(v, (list, tuple)):
-            argv += [opt, ",".join(repr(x) if isinstance(x, float) else str(x) for x in v)]
-        else:
-            argv += [opt, str(v)]
-    return argv
+        if k in _LIST_OPTIONS and not isinstance(v, (list, tuple)):
+            v = [v]
+        elif k == "fibre" and isinstance(v, (list, tuple)):
+            v = ",".join(repr(float(x)) for x in v)
+        elif isinstance(v, tuple):
+            v = list(v)
+        opts[k] = v
+    return json.dumps(opts)
 
 
 def ramp(to: float, t1: float, t0: float = 0.0, start: float = 0.0) -> Dict[str, List[float]]:
@@ -494,14 +498,14 @@ def moduli(lattice: str = "cubic", nu: Optional[float] = 0.3, **flags: Any) -> D
         # Weighted is the default: False asks for the old equal weights, not for nothing.
         flags = {k: v for k, v in flags.items() if k != "cell_weights"}
         flags["equal_weights"] = True
-    return json.loads(_hooke.command_json("moduli", _flags(lattice, nu, flags)))
+    return json.loads(_hooke.moduli_json(_options(lattice, nu, flags)))
 
 
 def toughness(lattice: str = "hex", nu: float = 0.25, **flags: Any) -> Dict[str, Any]:
     """The fracture energy a lattice crack dissipates in a strip under fixed grips, against
     the G_c calibration, as ``hooke toughness --lattice LATTICE --nu NU ... --json`` (same keys
     and numbers). Other flags by name (``height=20``, ``window=4``, ``criterion="energy"``)."""
-    return json.loads(_hooke.command_json("toughness", _flags(lattice, nu, flags)))
+    return json.loads(_hooke.toughness_json(_options(lattice, nu, flags)))
 
 
 class Output:

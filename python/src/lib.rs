@@ -573,17 +573,27 @@ fn build(spec: &str, out: PathBuf, name: String) -> PyResult<PySimulation> {
     Ok(PySimulation::new(sim, opts))
 }
 
-/// `hooke COMMAND FLAGS --json` as JSON text, for the commands that return one object
-/// (`moduli`, `toughness`): the command's own parser and numbers.
+/// `hooke moduli ... --json`'s object as JSON text, from the experiment's options as JSON (the
+/// command's flags by name: `{"lattice": "cubic", "nu": 0.3, "size": [21, 6, 6]}`): the same
+/// library call as the command's, so the same keys and numbers.
 #[pyfunction]
-fn command_json(py: Python<'_>, command: &str, flags: Vec<String>) -> PyResult<String> {
-    let run = match command {
-        "moduli" => hooke_cli::moduli_json,
-        "toughness" => hooke_cli::toughness_json,
-        _ => return Err(CaseError::new_err(format!("{command}: not a JSON command"))),
-    };
+fn moduli_json(py: Python<'_>, options: &str) -> PyResult<String> {
+    let opts: hooke_lab::moduli::ModuliOptions = serde_json::from_str(options)
+        .map_err(|e| CaseError::new_err(format!("hooke.moduli: {e}")))?;
     let v = py
-        .detach(|| run(&flags))
+        .detach(|| hooke_lab::moduli::value(&opts))
+        .map_err(|e| CaseError::new_err(format!("{e:#}")))?;
+    Ok(v.to_string())
+}
+
+/// `hooke toughness ... --json`'s object (one `nu`) as JSON text, from the options as JSON, like
+/// [`moduli_json`].
+#[pyfunction]
+fn toughness_json(py: Python<'_>, options: &str) -> PyResult<String> {
+    let opts: hooke_lab::toughness::ToughnessOptions = serde_json::from_str(options)
+        .map_err(|e| CaseError::new_err(format!("hooke.toughness: {e}")))?;
+    let v = py
+        .detach(|| hooke_lab::toughness::value(&opts))
         .map_err(|e| CaseError::new_err(format!("{e:#}")))?;
     Ok(v.to_string())
 }
@@ -598,7 +608,8 @@ fn _hooke(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PySimulation>()?;
     m.add_function(wrap_pyfunction!(load_case, m)?)?;
     m.add_function(wrap_pyfunction!(build, m)?)?;
-    m.add_function(wrap_pyfunction!(command_json, m)?)?;
+    m.add_function(wrap_pyfunction!(moduli_json, m)?)?;
+    m.add_function(wrap_pyfunction!(toughness_json, m)?)?;
     m.add("CaseError", m.py().get_type::<CaseError>())?;
     m.add("RunError", m.py().get_type::<RunError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

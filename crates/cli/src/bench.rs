@@ -12,8 +12,8 @@ use hooke_core::moduli::{block_test, BlockTest};
 use hooke_core::team::Piece;
 use hooke_core::{Body, Lattice, LatticeKind, Real, State};
 
-use crate::moduli::LatticeArg;
 use crate::InputError;
+use hooke_lab::moduli::LatticeName;
 
 #[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
 pub enum LawArg {
@@ -39,7 +39,7 @@ pub enum KernelArg {
 pub struct BenchArgs {
     /// Lattice of the block.
     #[arg(long, value_enum, default_value = "cubic")]
-    pub lattice: LatticeArg,
+    pub lattice: LatticeName,
     /// Approximate number of nodes (a cube, or a square plate for hex).
     #[arg(long, default_value_t = 1_000_000)]
     pub nodes: usize,
@@ -211,7 +211,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
         )
         .into());
     }
-    if (args.pieces || args.parts) && matches!(args.lattice, LatticeArg::Cubic | LatticeArg::Hex) {
+    if (args.pieces || args.parts) && matches!(args.lattice, LatticeName::Cubic | LatticeName::Hex)
+    {
         return Err(InputError(
             "--pieces and --parts split random lattices (--lattice random3d or random2d): a \
              regular box's stencil kernel sweeps the whole box"
@@ -448,20 +449,20 @@ fn bench_steps(
 /// The block the benchmarks run on: about `--nodes` nodes of `--lattice` in lattice units.
 fn bench_lattice(args: &BenchArgs) -> Result<Lattice> {
     Ok(match args.lattice {
-        LatticeArg::Cubic => {
+        LatticeName::Cubic => {
             let side = (args.nodes as f64).cbrt().round().max(3.0) as usize;
             Lattice::cubic_box([side, side, side], 1.0)?
         }
-        LatticeArg::Hex => {
+        LatticeName::Hex => {
             let side = (args.nodes as f64).sqrt().round().max(3.0) as usize;
             Lattice::hex_box(side, side, 1.0, 1.0)?
         }
-        LatticeArg::Random3d => {
+        LatticeName::Random3d => {
             let side = (args.nodes as f64).cbrt().round().max(3.0) - 1.0;
             let spec = hooke_core::random::RandomSpec::default();
             Lattice::random(3, [0.0; 3], [side; 3], 1.0, 1.0, spec, &|_| true)?
         }
-        LatticeArg::Random2d => {
+        LatticeName::Random2d => {
             let side = (args.nodes as f64).sqrt().round().max(3.0) - 1.0;
             let spec = hooke_core::random::RandomSpec::default();
             Lattice::random(2, [0.0; 3], [side, side, 0.0], 1.0, 1.0, spec, &|_| true)?
@@ -493,7 +494,7 @@ fn bench_from_parts(
     let team: std::sync::Arc<dyn hooke_core::team::Team> =
         team.unwrap_or_else(|| std::sync::Arc::new(hooke_core::team::Alone));
     let (dim, kind) = match args.lattice {
-        LatticeArg::Random2d => (2, LatticeKind::Random2d),
+        LatticeName::Random2d => (2, LatticeKind::Random2d),
         _ => (3, LatticeKind::Random3d),
     };
     let hi = if dim == 3 {

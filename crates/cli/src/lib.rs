@@ -41,17 +41,9 @@ pub enum Command {
     Check(run::CheckArgs),
 }
 
-/// An error in what the user asked for (exit code 2), as opposed to a run failure (exit 1).
-#[derive(Debug)]
-pub struct InputError(pub String);
-
-impl std::fmt::Display for InputError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for InputError {}
+/// An error in what the user asked for (exit code 2), as opposed to a run failure (exit 1): the
+/// library's, so that its experiments' input errors exit with 2 too.
+pub use hooke_lab::InputError;
 
 /// Exit code for an error: 2 for bad input anywhere in the chain, 130 for Ctrl-C, 1 otherwise.
 pub fn exit_code(e: &anyhow::Error) -> u8 {
@@ -194,35 +186,6 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Check(args) => run::check(args),
         Command::Toughness(args) => toughness::run(args),
     })
-}
-
-/// `hooke moduli FLAGS --json`'s object as a value, for callers in other languages (the Python
-/// package): `flags` are the command's own, e.g. `["--lattice", "cubic", "--nu", "0.3"]`, so
-/// the keys and the numbers are the command's exactly. Bad flags are an [`InputError`] with
-/// clap's message.
-pub fn moduli_json(flags: &[String]) -> Result<serde_json::Value> {
-    match parse_command("moduli", flags)? {
-        Command::Moduli(args) => moduli::value(&args),
-        _ => unreachable!("parsed as the moduli command"),
-    }
-}
-
-/// `hooke toughness FLAGS --json`'s object (one `--nu`) as a value, like [`moduli_json`].
-pub fn toughness_json(flags: &[String]) -> Result<serde_json::Value> {
-    match parse_command("toughness", flags)? {
-        Command::Toughness(args) => toughness::value(&args),
-        _ => unreachable!("parsed as the toughness command"),
-    }
-}
-
-fn parse_command(name: &str, flags: &[String]) -> Result<Command> {
-    let argv = ["hooke", name]
-        .into_iter()
-        .map(String::from)
-        .chain(flags.iter().cloned());
-    Ok(Cli::try_parse_from(argv)
-        .map_err(|e| InputError(e.to_string()))?
-        .command)
 }
 
 #[cfg(test)]
