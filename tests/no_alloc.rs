@@ -12,12 +12,17 @@ use hooke_fracture::{CriticalStretch, Fracture};
 struct Counting;
 static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
 
+// SAFETY: every call is forwarded unchanged to the system allocator, which meets the contract.
 unsafe impl GlobalAlloc for Counting {
+    /// # Safety
+    /// The [`GlobalAlloc`] contract for this method; it is passed on to the allocator below.
     unsafe fn alloc(&self, l: Layout) -> *mut u8 {
         ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
         // SAFETY: forwarded unchanged to the system allocator.
         unsafe { System.alloc(l) }
     }
+    /// # Safety
+    /// The [`GlobalAlloc`] contract for this method; it is passed on to the allocator below.
     unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
         // SAFETY: forwarded unchanged to the system allocator.
         unsafe { System.dealloc(p, l) }

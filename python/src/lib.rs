@@ -10,7 +10,7 @@ mod spec;
 // Large arrays at staggered offsets into their pages, as in the `hooke` binary
 // (hooke_core::memory): the extension's own allocations only; Python's are its own.
 #[global_allocator]
-static ALLOC: hooke_core::memory::Staggered = hooke_core::memory::Staggered;
+static ALLOC: hooke_sys::alloc::Staggered = hooke_sys::alloc::Staggered;
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -236,8 +236,9 @@ impl PySimulation {
 /// An `n x 3` read-only numpy array over `c`'s buffer, without a copy (the components are
 /// stored one after the other, so a row steps 8 bytes and a column `8 n`), kept alive by `owner`.
 ///
-/// SAFETY (caller): `c` lives in `owner` and is neither reallocated nor freed while `owner`
-/// lives (`PySimulation::sync` checks it after every call that runs Rust code).
+/// # Safety
+/// `c` lives in `owner` and is neither reallocated nor freed while `owner` lives
+/// (`PySimulation::sync` checks it after every call that runs Rust code).
 unsafe fn coords_view<'py>(
     c: &Coords,
     owner: &Bound<'py, PySimulation>,
@@ -253,7 +254,9 @@ unsafe fn coords_view<'py>(
 
 /// A read-only numpy array over a slice owned by `owner`, without a copy.
 ///
-/// SAFETY (caller): as for [`coords_view`].
+/// # Safety
+/// As for [`coords_view`]: `v` lives in `owner` and is neither reallocated nor freed while
+/// `owner` lives.
 unsafe fn slice_view<'py, T: numpy::Element>(
     v: &[T],
     owner: &Bound<'py, PySimulation>,

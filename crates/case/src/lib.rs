@@ -4,7 +4,7 @@
 //! keys refused ([`schema`]), validation with errors that name the file, line, column and key and
 //! say how to fix it, and the builder that makes the body, state, loading, fracture and solver
 //! options ([`Simulation`]). The keys are documented in `docs/case-format.md`.
-
+#![forbid(unsafe_code)]
 // Checks are written `!(x > 0.0)` on purpose: a NaN fails them, where `x <= 0.0` would let it
 // through; clippy's suggestion (partial_cmp) would hide that.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

@@ -301,7 +301,7 @@ fn bench_steps(
     };
     let setup_seconds = setup.elapsed().as_secs_f64();
     // As `hooke run` does after its set-up (hooke_sim::Run::start).
-    hooke_core::memory::release_free_memory();
+    hooke_sys::alloc::release_free_memory();
     for _ in 0..3 {
         it.step(&body, &mut state);
     }

@@ -1,8 +1,12 @@
 //! The `hooke` command line, as a library so that tests can call [`run`] directly.
 
+// `unsafe` only where the MPI communicator is shared between threads (`mpi`).
+#![deny(unsafe_code)]
+
 mod bench;
 mod moduli;
 #[cfg(feature = "mpi")]
+#[allow(unsafe_code)]
 mod mpi;
 mod plot;
 mod run;
@@ -93,12 +97,7 @@ fn local_ranks() -> Option<usize> {
 /// and the cores of the machine.
 fn cores() -> (usize, usize) {
     let usable = std::thread::available_parallelism().map_or(1, |c| c.get());
-    #[cfg(unix)]
-    // SAFETY: sysconf reads a value of the running system; no memory is passed.
-    let online = unsafe { libc::sysconf(libc::_SC_NPROCESSORS_ONLN) };
-    #[cfg(not(unix))]
-    let online = usable as i64;
-    (usable, usize::try_from(online).unwrap_or(1).max(usable))
+    (usable, hooke_sys::online_cores(usable))
 }
 
 /// Threads of a rank under an MPI launcher, `ranks` processes on a machine of `machine` cores

@@ -1,5 +1,6 @@
 //! The `hooke` binary: parse arguments, run, map errors to exit codes
 //! (0 success, 2 bad input, 1 run failure).
+#![forbid(unsafe_code)]
 
 use std::process::ExitCode;
 
@@ -8,21 +9,17 @@ use clap::Parser;
 // Large arrays start at staggered offsets into their pages, so that the kernels' streams do
 // not alias modulo 4 KiB (hooke_core::memory).
 #[global_allocator]
-static ALLOC: hooke_core::memory::Staggered = hooke_core::memory::Staggered;
+static ALLOC: hooke_sys::alloc::Staggered = hooke_sys::alloc::Staggered;
 
 fn main() -> ExitCode {
     // `hooke check case.toml | head` closes our stdout early. Rust ignores SIGPIPE, so the next
     // println! would panic with a backtrace; the Unix convention (and what users of `head` and
     // `grep -q` expect) is to stop quietly, which the default action of SIGPIPE does. Anything a
     // run writes to its output folder is written before the summary it prints.
-    #[cfg(unix)]
-    // SAFETY: setting a signal's disposition to its default before any thread starts.
-    unsafe {
-        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
-    }
+    hooke_sys::default_sigpipe();
     // Large blocks in mappings of their own, given back when freed: a body's set-up
     // temporaries otherwise stay resident for the whole run (hooke_core::memory).
-    hooke_core::memory::map_large_blocks();
+    hooke_sys::alloc::map_large_blocks();
     // Anisotropic random-lattice materials are calibrated once per machine, not once per run.
     hooke_core::random::anisotropic::set_cache_dir(
         hooke_core::random::anisotropic::default_cache_dir(),

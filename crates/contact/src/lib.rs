@@ -13,7 +13,7 @@
 //!
 //! parry 0.26 and later speaks glam (`DVec2`, `DVec3`); the conversion from our `[f64; 3]`
 //! happens at this crate's boundary and nowhere else.
-
+#![forbid(unsafe_code)]
 // Checks are written `!(x > 0.0)` on purpose: a NaN fails them, where `x <= 0.0` would let it
 // through; clippy's suggestion (partial_cmp) would hide that.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

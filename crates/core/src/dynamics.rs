@@ -1608,11 +1608,7 @@ impl Integrator {
             Some(pc) => &mut pc.partials,
             None => &mut self.partials,
         };
-        // SAFETY: `SweepSums` is `repr(C)` with two `Real` fields and no padding, so `p` is
-        // `2 p.len()` initialised reals; the view lives only for this call.
-        let flat =
-            unsafe { std::slice::from_raw_parts_mut(p.as_mut_ptr() as *mut Real, 2 * p.len()) };
-        team.gather(flat, &parts);
+        team.gather(crate::kernel::SweepSums::as_flat_mut(p), &parts);
         let mut total = crate::kernel::SweepSums::default();
         let chunks = share
             .nodes
@@ -2174,7 +2170,7 @@ impl Integrator {
             let fields = self
                 .piece_fields(body, state, &mut scratch)
                 .expect("a piece");
-            if scratch.bytes() <= crate::memory::KEPT_BLOCK {
+            if scratch.bytes() <= hooke_sys::alloc::KEPT_BLOCK {
                 self.frame_scratch = scratch;
             }
             let v = self.velocity_from_forces(body, state);
@@ -2212,7 +2208,7 @@ impl Integrator {
         // Kept while glibc's heap would keep its blocks anyway once a set-up is done (below the
         // mapping threshold): a larger body gives them back after each frame, as before, so
         // frames never raise a large run's resident memory.
-        if self.frame_scratch.bytes() > crate::memory::KEPT_BLOCK {
+        if self.frame_scratch.bytes() > hooke_sys::alloc::KEPT_BLOCK {
             self.frame_scratch = Default::default();
         }
         state.pool.copy_from_slice(&fields.pool);

@@ -19,11 +19,14 @@
 // Checks are written `!(x > 0.0)` on purpose: a NaN fails them, where `x <= 0.0` would let it
 // through; clippy's suggestion (partial_cmp) would hide that.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
+// `unsafe` only in the SIMD kernels (`kernel`), each block with its SAFETY comment.
+#![deny(unsafe_code)]
 
 pub mod anisotropy;
 pub mod body;
 pub mod dynamics;
 pub mod error;
+#[allow(unsafe_code)]
 pub mod kernel;
 pub mod lattice;
 pub mod law;

@@ -19,7 +19,7 @@
 //! * [`precrack`]: springs crossing segments (2D) or planar polygons (3D) removed at set-up.
 //! * Damage per node: the fraction of its springs that are broken (softened springs count by
 //!   their lost weight).
-
+#![forbid(unsafe_code)]
 // Checks are written `!(x > 0.0)` on purpose: a NaN fails them, where `x <= 0.0` would let it
 // through; clippy's suggestion (partial_cmp) would hide that.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

@@ -8,6 +8,7 @@
 //! Everything is written to a temporary file and renamed into place: a run killed at any moment
 //! (even with `kill -9`) leaves every completed frame, the collection and the last checkpoint
 //! readable.
+#![forbid(unsafe_code)]
 
 pub mod checkpoint;
 pub mod error;

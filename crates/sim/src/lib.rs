@@ -11,7 +11,7 @@
 //! continue bit for bit, and reports to an [`Observer`] (progress, interruption).
 //!
 //! Simulations come from case files (`hooke_case::load`) or from code through [`Builder`].
-
+#![forbid(unsafe_code)]
 // Checks are written `!(x > 0.0)` on purpose: a NaN fails them, where `x <= 0.0` would let it
 // through; clippy's suggestion (partial_cmp) would hide that.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

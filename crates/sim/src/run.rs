@@ -133,21 +133,7 @@ pub struct Summary {
 
 /// Free bytes on the file system that holds `dir` (or its nearest existing ancestor).
 pub fn free_space(dir: &Path) -> Option<u64> {
-    let mut p = dir;
-    while !p.exists() {
-        p = p.parent()?;
-    }
-    let c = std::ffi::CString::new(p.as_os_str().as_encoded_bytes()).ok()?;
-    let mut s = std::mem::MaybeUninit::<libc::statvfs>::uninit();
-    // SAFETY: `c` is a valid NUL-terminated path and `s` points to writable memory of the right
-    // type; statvfs only writes through it and reports failure by its return value.
-    let r = unsafe { libc::statvfs(c.as_ptr(), s.as_mut_ptr()) };
-    if r != 0 {
-        return None;
-    }
-    // SAFETY: statvfs succeeded, so it filled the struct.
-    let s = unsafe { s.assume_init() };
-    Some(s.f_bavail * s.f_frsize)
+    hooke_sys::free_space(dir)
 }
 
 /// Checks before anything is written: no earlier run in the folder (unless resuming), room on
@@ -624,7 +610,7 @@ impl Run {
             }
         }
         // The set-up's temporaries are gone: give their memory back for the run.
-        hooke_core::memory::release_free_memory();
+        hooke_sys::alloc::release_free_memory();
         let resuming = opts.resume.is_some();
         // A process of a run on pieces has not read its checkpoint yet (it needs the piece).
         let until = piece_resume
@@ -694,7 +680,7 @@ impl Run {
                 cut?;
                 return Err(elsewhere(true));
             }
-            hooke_core::memory::release_free_memory();
+            hooke_sys::alloc::release_free_memory();
         }
         // The next output times after t. A frame is taken at the first step within half a step
         // of its time, so one due just after t may already have been taken just before it (a

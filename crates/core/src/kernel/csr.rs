@@ -595,12 +595,16 @@ mod tests {
                         lat, &state.u, 0.3, screen, &sp, &mut rec, &mut pis, &mut hot,
                     ),
                     #[cfg(target_arch = "x86_64")]
+                    // SAFETY: the test runs the wide path only where the processor has AVX
+                    // (checked below), on buffers sized for the whole chunk.
                     (2, true) => unsafe {
                         spring_chunk_avx::<2, false>(
                             lat, &state.u, 0.3, screen, &sp, &mut rec, &mut pis, &mut hot,
                         )
                     },
                     #[cfg(target_arch = "x86_64")]
+                    // SAFETY: the test runs the wide path only where the processor has AVX
+                    // (checked below), on buffers sized for the whole chunk.
                     (3, true) => unsafe {
                         spring_chunk_avx::<3, false>(
                             lat, &state.u, 0.3, screen, &sp, &mut rec, &mut pis, &mut hot,

@@ -430,9 +430,12 @@ impl Stencil for CubicStencil {
         self.force_scalar(u, pool, i)
     }
 
+    /// # Safety
+    /// As the trait's: only when [`Stencil::vector_block`] holds for `i` (the vector path
+    /// is on, the processor has its instructions, and the block and its neighbours are nodes).
     #[cfg(target_arch = "x86_64")]
     unsafe fn pool_block(&self, u: &Src, i: usize, out: &mut [Real], screen: Real) -> bool {
-        // SAFETY (caller): the vector path is on (so the processor has its instructions) and
+        // SAFETY: by the caller's contract, the vector path is on (so the processor has its instructions) and
         // the block and its neighbours are in bounds.
         unsafe {
             if self.simd == Some(Lanes::Avx2) {
@@ -445,6 +448,9 @@ impl Stencil for CubicStencil {
         }
     }
 
+    /// # Safety
+    /// As the trait's: only when [`Stencil::vector_block`] holds for `i` (the vector path
+    /// is on, the processor has its instructions, and the block and its neighbours are nodes).
     #[cfg(target_arch = "x86_64")]
     unsafe fn force_kick_drift_block(
         &self,
@@ -457,7 +463,7 @@ impl Stencil for CubicStencil {
         un: [&mut [Real]; 3],
         sums: &mut SweepSums,
     ) {
-        // SAFETY (caller): as for `pool_block`.
+        // SAFETY: by the caller's contract, as for `pool_block`.
         unsafe {
             if self.simd == Some(Lanes::Avx2) {
                 let [vx, vy, vz] = v;
@@ -492,6 +498,10 @@ mod avx512 {
 
     /// Current vectors of the springs in direction `d` of the block at `i`, and their squared
     /// lengths.
+    ///
+    /// # Safety
+    /// The processor has the function's target feature, and the block at `i` is inside the
+    /// body's box, so that its neighbours in direction `d` are nodes (`vector_block`).
     #[inline]
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn vector8(
@@ -504,7 +514,7 @@ mod avx512 {
         let j = (i as isize + s.off[d]) as usize;
         let dv = s.dvec[d];
         let comp = |c: &[Real], k: usize| {
-            // SAFETY (caller): j..j+8 is in bounds because the block is inside.
+            // SAFETY: by the caller's contract, j..j+8 is in bounds because the block is inside.
             unsafe {
                 _mm512_add_pd(
                     _mm512_set1_pd(dv[k]),
@@ -523,6 +533,9 @@ mod avx512 {
         )
     }
 
+    /// # Safety
+    /// The processor has the function's target feature, and the block's nodes from `i` are in
+    /// bounds of `u` and of the stencil's mask words.
     #[inline]
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn load_block(
@@ -530,7 +543,7 @@ mod avx512 {
         u: &Coords,
         i: usize,
     ) -> ([__m512d; 3], __m256i) {
-        // SAFETY (caller): i..i+8 is in bounds.
+        // SAFETY: by the caller's contract, i..i+8 is in bounds.
         unsafe {
             (
                 [
@@ -559,20 +572,24 @@ mod avx512 {
     /// The factors of direction `d` for the lanes' classes.
     #[inline]
     #[target_feature(enable = "avx512f")]
-    pub(super) unsafe fn factors(s: &CubicStencil, c: __m512i, d: usize) -> __m512d {
-        // SAFETY: a row of the table is 8 doubles.
+    pub(super) fn factors(s: &CubicStencil, c: __m512i, d: usize) -> __m512d {
+        // SAFETY: a row of the table is CLASSES = 8 doubles, the load's width.
         unsafe { _mm512_permutexvar_pd(c, _mm512_loadu_pd(s.factors.w[d].as_ptr())) }
     }
 
     /// Lanes whose spring in direction `d` is intact.
     #[inline]
     #[target_feature(enable = "avx512f")]
-    pub(super) unsafe fn lanes(mask: __m256i, d: usize) -> __mmask8 {
+    pub(super) fn lanes(mask: __m256i, d: usize) -> __mmask8 {
         let bits = _mm512_cvtepu32_epi64(mask);
         _mm512_test_epi64_mask(bits, _mm512_set1_epi64(1 << d))
     }
 
     /// `dL = l - L` of the block at `i`'s springs in direction `d`: one square root.
+    ///
+    /// # Safety
+    /// The processor has the function's target feature, and the block at `i` is inside the
+    /// body's box, so that its neighbours in direction `d` are nodes (`vector_block`).
     #[inline]
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn extension(
@@ -582,13 +599,17 @@ mod avx512 {
         d: usize,
         ui: [__m512d; 3],
     ) -> __m512d {
-        // SAFETY (caller): the block is inside.
+        // SAFETY: by the caller's contract, the block is inside.
         let (_, ss) = unsafe { vector8(s, u, i, d, ui) };
         _mm512_sub_pd(_mm512_sqrt_pd(ss), _mm512_set1_pd(s.rest[d]))
     }
 
     /// The vectors `x` of the block at `i`'s springs in direction `d` and their force factors
     /// `s = T / l`, `T = (k dL + q k L (p_i + p_j)) w` (the force on node i is `s x`).
+    ///
+    /// # Safety
+    /// The processor has the function's target feature, and the block at `i` is inside the
+    /// body's box, so that its neighbours in direction `d` are nodes (`vector_block`).
     #[inline]
     #[target_feature(enable = "avx512f")]
     #[allow(clippy::too_many_arguments)]
@@ -603,17 +624,18 @@ mod avx512 {
         cls: Option<__m512i>,
     ) -> ([__m512d; 3], __m512d) {
         let j = (i as isize + s.off[d]) as usize;
-        // SAFETY (caller): the block is inside, so j..j+8 is in bounds.
+        // SAFETY: by the caller's contract, the block is inside, so j..j+8 is in bounds.
         let (x, ss) = unsafe { vector8(s, u, i, d, ui) };
         let l = _mm512_sqrt_pd(ss);
         let dl = _mm512_sub_pd(l, _mm512_set1_pd(s.rest[d]));
+        // SAFETY: j.. is the block's neighbours in direction d: nodes, as the block is inside (this fn's contract).
         let pj = unsafe { _mm512_loadu_pd(pool.as_ptr().add(j)) };
         let mut t = _mm512_add_pd(
             _mm512_mul_pd(_mm512_set1_pd(s.k), dl),
             _mm512_mul_pd(_mm512_set1_pd(s.q * s.k * s.rest[d]), _mm512_add_pd(pi, pj)),
         );
         if let Some(c) = cls {
-            t = _mm512_mul_pd(t, unsafe { factors(s, c, d) });
+            t = _mm512_mul_pd(t, factors(s, c, d));
         }
         (x, _mm512_div_pd(t, l))
     }
@@ -631,7 +653,7 @@ mod avx512 {
     #[inline]
     #[target_feature(enable = "avx512f")]
     #[allow(clippy::too_many_arguments)]
-    pub(super) unsafe fn add_share(
+    pub(super) fn add_share(
         s: &CubicStencil,
         d: usize,
         m: __mmask8,
@@ -643,7 +665,7 @@ mod avx512 {
     ) {
         let mut share = _mm512_mul_pd(_mm512_set1_pd(s.k * s.rest[d]), dl);
         if let Some(c) = cls {
-            share = _mm512_mul_pd(share, unsafe { factors(s, c, d) });
+            share = _mm512_mul_pd(share, factors(s, c, d));
         }
         *acc = _mm512_mask_add_pd(*acc, m, *acc, share);
         *hot |= _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m, dl, _mm512_set1_pd(screen * s.rest[d]));
@@ -651,6 +673,11 @@ mod avx512 {
 
     /// Sweep 1 for the 8 nodes at `i`. The loop over the directions is unrolled (a tenth off
     /// the sweep: their constants become immediate offsets, and the loop's branches go).
+    ///
+    /// # Safety
+    /// The processor has the function's target feature; the block at the given node is inside
+    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
+    /// its entries.
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn pools8(
         s: &CubicStencil,
@@ -659,15 +686,17 @@ mod avx512 {
         out: &mut [Real],
         screen: Real,
     ) -> bool {
+        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
         let (ui, mask) = unsafe { load_block(s, u, i) };
         let cls = classes(s, mask);
         let mut acc = _mm512_setzero_pd();
         let mut hot: __mmask8 = 0;
         macro_rules! directions { ($($d:literal)*) => { $( {
-            let m = unsafe { lanes(mask, $d) };
+            let m = lanes(mask, $d);
             if m != 0 {
+                // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
                 let dl = unsafe { extension(s, u, i, $d, ui) };
-                unsafe { add_share(s, $d, m, dl, cls, screen, &mut acc, &mut hot) };
+                add_share(s, $d, m, dl, cls, screen, &mut acc, &mut hot);
             }
         } )* } }
         directions!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17);
@@ -681,6 +710,11 @@ mod avx512 {
 
     /// Sweep 2 for the 8 nodes at `i`: force, kick, drift (the directions unrolled, as in
     /// sweep 1).
+    ///
+    /// # Safety
+    /// The processor has the function's target feature; the block at the given node is inside
+    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
+    /// its entries.
     #[allow(clippy::too_many_arguments)]
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn force_kick_drift8(
@@ -694,19 +728,22 @@ mod avx512 {
         un: [&mut [Real]; 3],
         sums: &mut SweepSums,
     ) {
+        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
         let (ui, mask) = unsafe { load_block(s, u, i) };
         let cls = classes(s, mask);
+        // SAFETY: the block's nodes are in bounds of the pools (this fn's contract).
         let pi = unsafe { _mm512_loadu_pd(pool.as_ptr().add(i)) };
         let mut f = [_mm512_setzero_pd(); 3];
         macro_rules! directions { ($($d:literal)*) => { $( {
-            let m = unsafe { lanes(mask, $d) };
+            let m = lanes(mask, $d);
             if m != 0 {
+                // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
                 let (x, sc) = unsafe { factor(s, u, pool, i, $d, ui, pi, cls) };
                 add_terms(&mut f, m, sc, x);
             }
         } )* } }
         directions!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17);
-        // SAFETY (caller): the block is in bounds.
+        // SAFETY: by the caller's contract, the block is in bounds.
         unsafe {
             super::super::stencil::avx512::kick_drift8(3, f, Some(u), inv_mass, p, i, v, un, sums)
         }
@@ -724,10 +761,14 @@ mod avx2 {
     use crate::math::{Coords, Real};
 
     /// The 4 nodes' displacements and mask words (one 64-bit lane per node).
+    ///
+    /// # Safety
+    /// The processor has the function's target feature, and the block's nodes from `i` are in
+    /// bounds of `u` and of the stencil's mask words.
     #[inline]
     #[target_feature(enable = "avx2")]
     unsafe fn load_block(s: &CubicStencil, u: &Coords, i: usize) -> ([__m256d; 3], __m256i) {
-        // SAFETY (caller): i..i+4 is in bounds.
+        // SAFETY: by the caller's contract, i..i+4 is in bounds.
         unsafe {
             let m = _mm_loadu_si128(s.mask.as_ptr().add(i) as *const __m128i);
             (
@@ -743,6 +784,10 @@ mod avx2 {
 
     /// Current vectors of the springs in direction `d` of the 4 nodes at `i`, and their
     /// squared lengths.
+    ///
+    /// # Safety
+    /// The processor has the function's target feature, and the block at `i` is inside the
+    /// body's box, so that its neighbours in direction `d` are nodes (`vector_block`).
     #[inline]
     #[target_feature(enable = "avx2")]
     unsafe fn vector4(
@@ -755,7 +800,7 @@ mod avx2 {
         let j = (i as isize + s.off[d]) as usize;
         let dv = s.dvec[d];
         let comp = |c: &[Real], k: usize| {
-            // SAFETY (caller): j..j+4 is in bounds because the block is inside.
+            // SAFETY: by the caller's contract, j..j+4 is in bounds because the block is inside.
             unsafe {
                 _mm256_add_pd(
                     _mm256_set1_pd(dv[k]),
@@ -774,6 +819,11 @@ mod avx2 {
     }
 
     /// Sweep 1 for the 4 nodes at `i`.
+    ///
+    /// # Safety
+    /// The processor has the function's target feature; the block at the given node is inside
+    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
+    /// its entries.
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn pools4(
         s: &CubicStencil,
@@ -782,6 +832,7 @@ mod avx2 {
         out: &mut [Real],
         screen: Real,
     ) -> bool {
+        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
         let (ui, mask) = unsafe { load_block(s, u, i) };
         let cls = classes::<{ CLASS_SHIFT as i32 }, 18>(&s.factors, mask);
         let mut acc = _mm256_setzero_pd();
@@ -791,11 +842,13 @@ mod avx2 {
             if _mm256_movemask_pd(m) == 0 {
                 continue;
             }
+            // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
             let (_, ss) = unsafe { vector4(s, u, i, d, ui) };
             let l = _mm256_sqrt_pd(ss);
             let dl = _mm256_sub_pd(l, _mm256_set1_pd(s.rest[d]));
             let mut share = _mm256_mul_pd(_mm256_set1_pd(s.k * s.rest[d]), dl);
             if let Some(c) = cls {
+                // SAFETY: the classes come from the nodes' mask words, each below CLASSES (the stencil's set-up), so the gather stays in the row.
                 share = _mm256_mul_pd(share, unsafe { factors(&s.factors, c, d) });
             }
             acc = _mm256_blendv_pd(acc, _mm256_add_pd(acc, share), m);
@@ -811,6 +864,11 @@ mod avx2 {
     }
 
     /// Sweep 2 for the 4 nodes at `i`: force, kick, drift.
+    ///
+    /// # Safety
+    /// The processor has the function's target feature; the block at the given node is inside
+    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
+    /// its entries.
     #[allow(clippy::too_many_arguments)]
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn force_kick_drift4(
@@ -824,8 +882,10 @@ mod avx2 {
         un: [&mut [Real]; 3],
         sums: &mut SweepSums,
     ) {
+        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
         let (ui, mask) = unsafe { load_block(s, u, i) };
         let cls = classes::<{ CLASS_SHIFT as i32 }, 18>(&s.factors, mask);
+        // SAFETY: the block's nodes are in bounds of the pools (this fn's contract).
         let pi = unsafe { _mm256_loadu_pd(pool.as_ptr().add(i)) };
         let kv = _mm256_set1_pd(s.k);
         let mut f = [_mm256_setzero_pd(); 3];
@@ -835,15 +895,18 @@ mod avx2 {
                 continue;
             }
             let j = (i as isize + s.off[d]) as usize;
+            // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
             let (x, ss) = unsafe { vector4(s, u, i, d, ui) };
             let l = _mm256_sqrt_pd(ss);
             let dl = _mm256_sub_pd(l, _mm256_set1_pd(s.rest[d]));
+            // SAFETY: j.. is the block's neighbours in direction d: nodes, as the block is inside (this fn's contract).
             let pj = unsafe { _mm256_loadu_pd(pool.as_ptr().add(j)) };
             let mut t = _mm256_add_pd(
                 _mm256_mul_pd(kv, dl),
                 _mm256_mul_pd(_mm256_set1_pd(s.q * s.k * s.rest[d]), _mm256_add_pd(pi, pj)),
             );
             if let Some(c) = cls {
+                // SAFETY: the classes come from the nodes' mask words, each below CLASSES (the stencil's set-up), so the gather stays in the row.
                 t = _mm256_mul_pd(t, unsafe { factors(&s.factors, c, d) });
             }
             let sc = _mm256_div_pd(t, l);
@@ -851,7 +914,7 @@ mod avx2 {
                 f[c] = _mm256_blendv_pd(f[c], _mm256_add_pd(f[c], _mm256_mul_pd(sc, x[c])), m);
             }
         }
-        // SAFETY (caller): the block is in bounds.
+        // SAFETY: by the caller's contract, the block is in bounds.
         unsafe {
             super::super::stencil::avx2::kick_drift4(3, f, Some(u), inv_mass, p, i, v, un, sums)
         }

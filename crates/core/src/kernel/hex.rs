@@ -354,9 +354,12 @@ impl Stencil for HexStencil {
         self.force_scalar(u, pool, i)
     }
 
+    /// # Safety
+    /// As the trait's: only when [`Stencil::vector_block`] holds for `i` (the vector path
+    /// is on, the processor has its instructions, and the block and its neighbours are nodes).
     #[cfg(target_arch = "x86_64")]
     unsafe fn pool_block(&self, u: &Src, i: usize, out: &mut [Real], screen: Real) -> bool {
-        // SAFETY (caller): the vector path is on (so the processor has its instructions) and
+        // SAFETY: by the caller's contract, the vector path is on (so the processor has its instructions) and
         // the block and its neighbours are in bounds.
         unsafe {
             if self.simd == Some(Lanes::Avx2) {
@@ -369,6 +372,9 @@ impl Stencil for HexStencil {
         }
     }
 
+    /// # Safety
+    /// As the trait's: only when [`Stencil::vector_block`] holds for `i` (the vector path
+    /// is on, the processor has its instructions, and the block and its neighbours are nodes).
     #[cfg(target_arch = "x86_64")]
     unsafe fn force_kick_drift_block(
         &self,
@@ -381,7 +387,7 @@ impl Stencil for HexStencil {
         un: [&mut [Real]; 3],
         sums: &mut SweepSums,
     ) {
-        // SAFETY (caller): as for `pool_block`.
+        // SAFETY: by the caller's contract, as for `pool_block`.
         unsafe {
             if self.simd == Some(Lanes::Avx2) {
                 let [vx, vy, vz] = v;
@@ -416,10 +422,14 @@ mod avx512 {
 
     /// The block's displacements, intact-spring masks (one 64-bit lane per node) and row
     /// parity.
+    ///
+    /// # Safety
+    /// The processor has the function's target feature, and the block's nodes from `i` are in
+    /// bounds of `u` and of the stencil's mask words.
     #[inline]
     #[target_feature(enable = "avx512f")]
     unsafe fn load_block(s: &HexStencil, u: &Coords, i: usize) -> ([__m512d; 2], __m512i) {
-        // SAFETY (caller): i..i+8 is in bounds.
+        // SAFETY: by the caller's contract, i..i+8 is in bounds.
         unsafe {
             let m = _mm_loadu_si128(s.mask.as_ptr().add(i) as *const __m128i);
             (
@@ -447,13 +457,17 @@ mod avx512 {
     /// The factors of direction `d` for the lanes' classes.
     #[inline]
     #[target_feature(enable = "avx512f")]
-    unsafe fn factors(s: &HexStencil, c: __m512i, d: usize) -> __m512d {
-        // SAFETY: a row of the table is 8 doubles.
+    fn factors(s: &HexStencil, c: __m512i, d: usize) -> __m512d {
+        // SAFETY: a row of the table is CLASSES = 8 doubles, the load's width.
         unsafe { _mm512_permutexvar_pd(c, _mm512_loadu_pd(s.factors.w[d].as_ptr())) }
     }
 
     /// Spring vector, squared length and extension numerator of direction `d` for the block at
     /// `i` (the scalar path's operations, lane by lane).
+    ///
+    /// # Safety
+    /// The processor has the function's target feature, and the block at `i` is inside the
+    /// body's box, so that its neighbours in direction `d` are nodes (`vector_block`).
     #[inline]
     #[target_feature(enable = "avx512f")]
     unsafe fn spring8(
@@ -465,7 +479,7 @@ mod avx512 {
     ) -> (usize, [__m512d; 2], __m512d, __m512d) {
         let j = (i as isize + s.offset(i, d)) as usize;
         let big = s.dvec[d];
-        // SAFETY (caller): j..j+8 is in bounds because the block is inside.
+        // SAFETY: by the caller's contract, j..j+8 is in bounds because the block is inside.
         let (wx, wy) = unsafe {
             (
                 _mm512_sub_pd(_mm512_loadu_pd(u.x().as_ptr().add(j)), ui[0]),
@@ -489,6 +503,11 @@ mod avx512 {
     }
 
     /// Sweep 1 for the 8 nodes at `i`.
+    ///
+    /// # Safety
+    /// The processor has the function's target feature; the block at the given node is inside
+    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
+    /// its entries.
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn pools8(
         s: &HexStencil,
@@ -497,6 +516,7 @@ mod avx512 {
         out: &mut [Real],
         screen: Real,
     ) -> bool {
+        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
         let (ui, mask) = unsafe { load_block(s, u, i) };
         let cls = classes(s, mask);
         let kl = _mm512_set1_pd(s.k * s.rest);
@@ -509,11 +529,12 @@ mod avx512 {
             if m == 0 {
                 continue;
             }
+            // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
             let (_, _, d2, num) = unsafe { spring8(s, u, i, d, ui) };
             let dl = _mm512_div_pd(num, _mm512_add_pd(_mm512_sqrt_pd(d2), rest));
             let mut share = _mm512_mul_pd(kl, dl);
             if let Some(c) = cls {
-                share = _mm512_mul_pd(share, unsafe { factors(s, c, d) });
+                share = _mm512_mul_pd(share, factors(s, c, d));
             }
             acc = _mm512_mask_add_pd(acc, m, acc, share);
             hot |= _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m, dl, lim);
@@ -528,6 +549,11 @@ mod avx512 {
 
     /// Sweep 2 for the 8 nodes at `i`: force, kick, drift (the scalar `kick_drift`'s operations
     /// lane by lane; the sums added node by node in index order).
+    ///
+    /// # Safety
+    /// The processor has the function's target feature; the block at the given node is inside
+    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
+    /// its entries.
     #[allow(clippy::too_many_arguments)]
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn force_kick_drift8(
@@ -541,8 +567,10 @@ mod avx512 {
         un: [&mut [Real]; 3],
         sums: &mut SweepSums,
     ) {
+        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
         let (ui, mask) = unsafe { load_block(s, u, i) };
         let cls = classes(s, mask);
+        // SAFETY: the block's nodes are in bounds of the pools (this fn's contract).
         let pi = unsafe { _mm512_loadu_pd(pool.as_ptr().add(i)) };
         let (kv, qkl, rest) = (
             _mm512_set1_pd(s.k),
@@ -555,16 +583,18 @@ mod avx512 {
             if m == 0 {
                 continue;
             }
+            // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
             let (j, x, d2, num) = unsafe { spring8(s, u, i, d, ui) };
             let l = _mm512_sqrt_pd(d2);
             let dl = _mm512_div_pd(num, _mm512_add_pd(l, rest));
+            // SAFETY: j.. is the block's neighbours in direction d: nodes, as the block is inside (this fn's contract).
             let pj = unsafe { _mm512_loadu_pd(pool.as_ptr().add(j)) };
             let mut t = _mm512_add_pd(
                 _mm512_mul_pd(kv, dl),
                 _mm512_mul_pd(qkl, _mm512_add_pd(pi, pj)),
             );
             if let Some(c) = cls {
-                t = _mm512_mul_pd(t, unsafe { factors(s, c, d) });
+                t = _mm512_mul_pd(t, factors(s, c, d));
             }
             let sc = _mm512_div_pd(t, l);
             for c in 0..2 {
@@ -572,7 +602,7 @@ mod avx512 {
             }
         }
         let fz = _mm512_setzero_pd();
-        // SAFETY (caller): the block is in bounds.
+        // SAFETY: by the caller's contract, the block is in bounds.
         unsafe {
             super::super::stencil::avx512::kick_drift8(
                 p.dims(2),
@@ -601,10 +631,14 @@ mod avx2 {
     use crate::math::{Coords, Real};
 
     /// The 4 nodes' displacements and mask words (one 64-bit lane per node).
+    ///
+    /// # Safety
+    /// The processor has the function's target feature, and the block's nodes from `i` are in
+    /// bounds of `u` and of the stencil's mask words.
     #[inline]
     #[target_feature(enable = "avx2")]
     unsafe fn load_block(s: &HexStencil, u: &Coords, i: usize) -> ([__m256d; 2], __m256i) {
-        // SAFETY (caller): i..i+4 is in bounds.
+        // SAFETY: by the caller's contract, i..i+4 is in bounds.
         unsafe {
             let m = _mm_loadl_epi64(s.mask.as_ptr().add(i) as *const __m128i);
             (
@@ -619,6 +653,10 @@ mod avx2 {
 
     /// Spring vector, squared length and extension numerator of direction `d` for the 4
     /// nodes at `i` (the scalar path's operations, lane by lane).
+    ///
+    /// # Safety
+    /// The processor has the function's target feature, and the block at `i` is inside the
+    /// body's box, so that its neighbours in direction `d` are nodes (`vector_block`).
     #[inline]
     #[target_feature(enable = "avx2")]
     unsafe fn spring4(
@@ -630,7 +668,7 @@ mod avx2 {
     ) -> (usize, [__m256d; 2], __m256d, __m256d) {
         let j = (i as isize + s.offset(i, d)) as usize;
         let big = s.dvec[d];
-        // SAFETY (caller): j..j+4 is in bounds because the block is inside.
+        // SAFETY: by the caller's contract, j..j+4 is in bounds because the block is inside.
         let (wx, wy) = unsafe {
             (
                 _mm256_sub_pd(_mm256_loadu_pd(u.x().as_ptr().add(j)), ui[0]),
@@ -647,6 +685,11 @@ mod avx2 {
     }
 
     /// Sweep 1 for the 4 nodes at `i`.
+    ///
+    /// # Safety
+    /// The processor has the function's target feature; the block at the given node is inside
+    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
+    /// its entries.
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn pools4(
         s: &HexStencil,
@@ -655,6 +698,7 @@ mod avx2 {
         out: &mut [Real],
         screen: Real,
     ) -> bool {
+        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
         let (ui, mask) = unsafe { load_block(s, u, i) };
         let cls = classes::<{ CLASS_SHIFT as i32 }, DIRS>(&s.factors, mask);
         let kl = _mm256_set1_pd(s.k * s.rest);
@@ -667,10 +711,12 @@ mod avx2 {
             if _mm256_movemask_pd(m) == 0 {
                 continue;
             }
+            // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
             let (_, _, d2, num) = unsafe { spring4(s, u, i, d, ui) };
             let dl = _mm256_div_pd(num, _mm256_add_pd(_mm256_sqrt_pd(d2), rest));
             let mut share = _mm256_mul_pd(kl, dl);
             if let Some(c) = cls {
+                // SAFETY: the classes come from the nodes' mask words, each below CLASSES (the stencil's set-up), so the gather stays in the row.
                 share = _mm256_mul_pd(share, unsafe { factors(&s.factors, c, d) });
             }
             acc = _mm256_blendv_pd(acc, _mm256_add_pd(acc, share), m);
@@ -686,6 +732,11 @@ mod avx2 {
     }
 
     /// Sweep 2 for the 4 nodes at `i`: force, kick, drift.
+    ///
+    /// # Safety
+    /// The processor has the function's target feature; the block at the given node is inside
+    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
+    /// its entries.
     #[allow(clippy::too_many_arguments)]
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn force_kick_drift4(
@@ -699,8 +750,10 @@ mod avx2 {
         un: [&mut [Real]; 3],
         sums: &mut SweepSums,
     ) {
+        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
         let (ui, mask) = unsafe { load_block(s, u, i) };
         let cls = classes::<{ CLASS_SHIFT as i32 }, DIRS>(&s.factors, mask);
+        // SAFETY: the block's nodes are in bounds of the pools (this fn's contract).
         let pi = unsafe { _mm256_loadu_pd(pool.as_ptr().add(i)) };
         let (kv, qkl, rest) = (
             _mm256_set1_pd(s.k),
@@ -713,15 +766,18 @@ mod avx2 {
             if _mm256_movemask_pd(m) == 0 {
                 continue;
             }
+            // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
             let (j, x, d2, num) = unsafe { spring4(s, u, i, d, ui) };
             let l = _mm256_sqrt_pd(d2);
             let dl = _mm256_div_pd(num, _mm256_add_pd(l, rest));
+            // SAFETY: j.. is the block's neighbours in direction d: nodes, as the block is inside (this fn's contract).
             let pj = unsafe { _mm256_loadu_pd(pool.as_ptr().add(j)) };
             let mut t = _mm256_add_pd(
                 _mm256_mul_pd(kv, dl),
                 _mm256_mul_pd(qkl, _mm256_add_pd(pi, pj)),
             );
             if let Some(c) = cls {
+                // SAFETY: the classes come from the nodes' mask words, each below CLASSES (the stencil's set-up), so the gather stays in the row.
                 t = _mm256_mul_pd(t, unsafe { factors(&s.factors, c, d) });
             }
             let sc = _mm256_div_pd(t, l);
@@ -730,7 +786,7 @@ mod avx2 {
             }
         }
         let fz = _mm256_setzero_pd();
-        // SAFETY (caller): the block is in bounds.
+        // SAFETY: by the caller's contract, the block is in bounds.
         unsafe {
             super::super::stencil::avx2::kick_drift4(
                 p.dims(2),

@@ -98,6 +98,15 @@ pub struct SweepSums {
     pub body_work: Real,
 }
 
+impl SweepSums {
+    /// The sums as the flat reals the ranks exchange (two per entry, in field order).
+    pub fn as_flat_mut(sums: &mut [SweepSums]) -> &mut [Real] {
+        // SAFETY: `SweepSums` is `repr(C)` with two `Real` fields and no padding, so `sums` is
+        // `2 sums.len()` initialised reals; the view borrows `sums` mutably for its lifetime.
+        unsafe { std::slice::from_raw_parts_mut(sums.as_mut_ptr() as *mut Real, 2 * sums.len()) }
+    }
+}
+
 impl std::ops::AddAssign for SweepSums {
     fn add_assign(&mut self, o: SweepSums) {
         self.dissipated += o.dissipated;
@@ -445,6 +454,7 @@ pub(crate) struct Disjoint<T> {
 
 // SAFETY: tasks only obtain disjoint ranges through `range`, whose contract requires it.
 unsafe impl<T: Send> Send for Disjoint<T> {}
+// SAFETY: as for Send: shared between tasks, it hands each one only its own disjoint range.
 unsafe impl<T: Send> Sync for Disjoint<T> {}
 
 impl<T> Disjoint<T> {

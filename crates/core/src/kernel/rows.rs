@@ -743,9 +743,12 @@ impl Stencil for RowKernel {
         }
     }
 
+    /// # Safety
+    /// As the trait's: only when [`Stencil::vector_block`] holds for `i` (the vector path
+    /// is on, the processor has its instructions, and the block and its neighbours are nodes).
     #[cfg(target_arch = "x86_64")]
     unsafe fn pool_block(&self, u: &Src, i: usize, out: &mut [Real], screen: Real) -> bool {
-        // SAFETY (caller): `vector_block(i)`, so the path's instructions are there and
+        // SAFETY: by the caller's contract, `vector_block(i)`, so the path's instructions are there and
         // i..i+64 are nodes.
         unsafe {
             if self.simd == Some(Lanes::Avx2) {
@@ -755,6 +758,9 @@ impl Stencil for RowKernel {
         }
     }
 
+    /// # Safety
+    /// As the trait's: only when [`Stencil::vector_block`] holds for `i` (the vector path
+    /// is on, the processor has its instructions, and the block and its neighbours are nodes).
     #[cfg(target_arch = "x86_64")]
     unsafe fn force_kick_drift_block(
         &self,
@@ -773,9 +779,9 @@ impl Stencil for RowKernel {
         let [vx, vy, vz] = v;
         let [nx, ny, nz] = un;
         if self.simd == Some(Lanes::Avx2) {
-            // SAFETY (caller): as for `pool_block`.
+            // SAFETY: by the caller's contract, as for `pool_block`.
             unsafe { by_shape!(self, avx2::forces, self, u, i, &mut f) }
-            // SAFETY (caller): as for `pool_block`.
+            // SAFETY: by the caller's contract, as for `pool_block`.
             unsafe {
                 avx2::kick_drift(
                     dims,
@@ -791,7 +797,7 @@ impl Stencil for RowKernel {
             };
             return;
         }
-        // SAFETY (caller): as for `pool_block`.
+        // SAFETY: by the caller's contract, as for `pool_block`.
         unsafe { by_shape!(self, avx::forces, self, u, i, &mut f) }
         // Kick and drift 8 nodes at a time, in node order (the sums' order).
         for b in 0..WINDOW / 8 {
@@ -831,9 +837,13 @@ mod avx {
 
     /// The records of the 8 nodes `js`, transposed: component c of each lane's record in
     /// vector c (the padding component is not needed).
+    ///
+    /// # Safety
+    /// The processor has the function's target feature; `base` points to the records and every
+    /// index in `js` names one of them (a 64-byte aligned record of 8 reals).
     #[inline(always)]
     unsafe fn records(base: *const Real, js: &[u32; 8]) -> [__m512d; 7] {
-        // SAFETY (caller): every js[l] indexes a record (64-byte aligned, 8 reals).
+        // SAFETY: by the caller's contract, every js[l] indexes a record (64-byte aligned, 8 reals).
         unsafe {
             let r = js.map(|j| _mm512_load_pd(base.wrapping_add(8 * j as usize)));
             let a = [
@@ -897,7 +907,7 @@ mod avx {
         e: usize,
     ) -> Slot {
         let s = &rk.slots;
-        // SAFETY (caller): the slot's 8 entries are in bounds of every slot array.
+        // SAFETY: by the caller's contract, the slot's 8 entries are in bounds of every slot array.
         unsafe {
             let js: [u32; 8] = *(s.j.as_ptr().add(e) as *const [u32; 8]);
             let jv = _mm256_loadu_si256(s.j.as_ptr().add(e) as *const __m256i);
@@ -947,6 +957,11 @@ mod avx {
 
     /// Next group's neighbours into the cache: the records are scattered, the slot arrays
     /// stream (the hardware fetches those itself).
+    ///
+    /// # Safety
+    /// The processor has AVX-512; `base` points to the records and group `g` is one of the
+    /// kernel's (a prefetch of an address outside them would be harmless, but the index
+    /// arithmetic assumes it).
     #[inline(always)]
     pub(super) unsafe fn prefetch(rk: &RowKernel, base: *const Real, g: usize) {
         let s = &rk.slots;
@@ -966,10 +981,14 @@ mod avx {
     pub(super) struct Window(pub [[Real; WINDOW]; 3]);
 
     /// Lane `l` of `v` into `out[js[l] - i]`: a group's values into its window's node order.
+    ///
+    /// # Safety
+    /// The processor has the function's target feature, and every `js[l] - i` is below
+    /// `WINDOW` (the rows' neighbours lie in the window).
     #[inline(always)]
     unsafe fn scatter(v: __m512d, js: &[u32; 8], i: usize, out: &mut [Real; WINDOW]) {
         let mut lane = [0.0; 8];
-        // SAFETY (caller): AVX-512F.
+        // SAFETY: by the caller's contract, AVX-512F.
         unsafe { _mm512_storeu_pd(lane.as_mut_ptr(), v) };
         for l in 0..8 {
             out[js[l] as usize - i] = lane[l];
@@ -1002,7 +1021,7 @@ mod avx {
         // The sums in node order.
         let mut sums = Window([[0.0; WINDOW]; 3]);
         let mut hot: __mmask8 = 0;
-        // SAFETY (caller): in bounds as stated.
+        // SAFETY: by the caller's contract, in bounds as stated.
         unsafe {
             for g in i / 8..(i + WINDOW) / 8 {
                 prefetch(rk, base, g + 2);
@@ -1051,7 +1070,7 @@ mod avx {
         let q = _mm512_set1_pd(rk.q);
         let one = _mm512_set1_pd(1.0);
         let plain = rk.q == 0.0;
-        // SAFETY (caller): in bounds as stated.
+        // SAFETY: by the caller's contract, in bounds as stated.
         unsafe {
             for g in i / 8..(i + WINDOW) / 8 {
                 prefetch(rk, base, g + 2);

@@ -16,9 +16,12 @@ use super::{RowKernel, Src, WINDOW};
 use crate::math::{Coords, Real};
 
 /// Components 0..4 of four rows `a`, transposed: vector c holds component c of each row.
+///
+/// # Safety
+/// The processor has AVX.
 #[inline(always)]
 unsafe fn transpose(a: [__m256d; 4]) -> [__m256d; 4] {
-    // SAFETY (caller): AVX.
+    // SAFETY: by the caller's contract, AVX.
     unsafe {
         let t0 = _mm256_unpacklo_pd(a[0], a[1]);
         let t1 = _mm256_unpackhi_pd(a[0], a[1]);
@@ -34,9 +37,13 @@ unsafe fn transpose(a: [__m256d; 4]) -> [__m256d; 4] {
 }
 
 /// The records of the 4 nodes `js`, transposed (the padding component left out).
+///
+/// # Safety
+/// The processor has the function's target feature; `base` points to the records and every
+/// index in `js` names one of them (a 64-byte aligned record of 8 reals).
 #[inline(always)]
 unsafe fn records(base: *const Real, js: &[u32]) -> [__m256d; 7] {
-    // SAFETY (caller): every js[l] indexes a record (64-byte aligned, 8 reals).
+    // SAFETY: by the caller's contract, every js[l] indexes a record (64-byte aligned, 8 reals).
     unsafe {
         // Written out: a closure or `array::map` here is not inlined, and its loads become
         // calls (the helper has no target features of its own).
@@ -87,7 +94,7 @@ unsafe fn slot_at<const D: usize, const LEVER: bool, const STORED: bool>(
     e: usize,
 ) -> Slot {
     let s = &rk.slots;
-    // SAFETY (caller): as stated.
+    // SAFETY: by the caller's contract, as stated.
     unsafe {
         let js = &s.j[e..e + 4];
         let jv = _mm_loadu_si128(s.j.as_ptr().add(e) as *const __m128i);
@@ -137,10 +144,14 @@ unsafe fn slot_at<const D: usize, const LEVER: bool, const STORED: bool>(
 }
 
 /// Lane `l` of `v` into `out[js[l] - i]`.
+///
+/// # Safety
+/// The processor has the function's target feature, and every `js[l] - i` is below
+/// `WINDOW` (the rows' neighbours lie in the window).
 #[inline(always)]
 unsafe fn scatter(v: __m256d, js: &[u32], i: usize, out: &mut [Real; WINDOW]) {
     let mut lane = [0.0; 4];
-    // SAFETY (caller): AVX.
+    // SAFETY: by the caller's contract, AVX.
     unsafe { _mm256_storeu_pd(lane.as_mut_ptr(), v) };
     for l in 0..4 {
         out[js[l] as usize - i] = lane[l];
@@ -165,7 +176,7 @@ pub(super) unsafe fn pools<const D: usize, const LEVER: bool, const STORED: bool
     let sv = _mm256_set1_pd(screen);
     let mut sums = Window([[0.0; WINDOW]; 3]);
     let mut hot = _mm256_setzero_pd();
-    // SAFETY (caller): in bounds as stated.
+    // SAFETY: by the caller's contract, in bounds as stated.
     unsafe {
         for g in i / 8..(i + WINDOW) / 8 {
             prefetch(rk, base, g + 2);
@@ -216,7 +227,7 @@ pub(super) unsafe fn forces<const D: usize, const LEVER: bool, const STORED: boo
     let q = _mm256_set1_pd(rk.q);
     let one = _mm256_set1_pd(1.0);
     let plain = rk.q == 0.0;
-    // SAFETY (caller): in bounds as stated.
+    // SAFETY: by the caller's contract, in bounds as stated.
     unsafe {
         for g in i / 8..(i + WINDOW) / 8 {
             prefetch(rk, base, g + 2);
@@ -274,7 +285,7 @@ pub(super) unsafe fn kick_drift(
     let [nx, ny, nz] = un;
     for b in 0..WINDOW / 4 {
         let r = 4 * b..4 * b + 4;
-        // SAFETY (caller): in bounds as stated.
+        // SAFETY: by the caller's contract, in bounds as stated.
         unsafe {
             let fb = [
                 _mm256_load_pd(f.0[0][r.start..].as_ptr()),

@@ -469,7 +469,7 @@ pub(crate) mod avx512 {
         let grow = _mm512_set1_pd(1.0 / (1.0 + h));
         let dt = _mm512_set1_pd(p.dt);
         let half = _mm512_set1_pd(0.5);
-        // SAFETY (caller): i..i+8 is in bounds of every array read or written here.
+        // SAFETY: by the caller's contract, i..i+8 is in bounds of every array read or written here.
         let im = unsafe { _mm512_loadu_pd(inv_mass.as_ptr().add(i)) };
         let mut v2 = _mm512_setzero_pd();
         let mut gw = _mm512_setzero_pd();
@@ -483,6 +483,7 @@ pub(crate) mod avx512 {
         ];
         for (c, (vs, ns, uc)) in comps.into_iter().enumerate().take(dims) {
             let g = _mm512_set1_pd(p.accel[c]);
+            // SAFETY: by this fn's contract, the block's entries of `v`, `un` and `u` are in bounds of the loads and stores.
             unsafe {
                 let old = _mm512_loadu_pd(vs.as_ptr());
                 let acc = _mm512_add_pd(_mm512_mul_pd(f[c], im), g);
@@ -505,6 +506,7 @@ pub(crate) mod avx512 {
         let mut lane_v2 = [0.0; 8];
         let mut lane_gw = [0.0; 8];
         let mut lane_im = [0.0; 8];
+        // SAFETY: the lane arrays hold 8 doubles, the stores' width.
         unsafe {
             _mm512_storeu_pd(lane_v2.as_mut_ptr(), v2);
             _mm512_storeu_pd(lane_gw.as_mut_ptr(), gw);
@@ -561,7 +563,7 @@ pub(crate) mod avx2 {
     #[inline]
     #[target_feature(enable = "avx2")]
     pub(crate) unsafe fn factors<const D: usize>(f: &Factors<D>, c: __m256i, d: usize) -> __m256d {
-        // SAFETY (caller): the classes index the row of CLASSES doubles.
+        // SAFETY: by the caller's contract, the classes index the row of CLASSES doubles.
         unsafe { _mm256_i64gather_pd::<8>(f.w[d].as_ptr(), c) }
     }
 
@@ -590,7 +592,7 @@ pub(crate) mod avx2 {
         let grow = _mm256_set1_pd(1.0 / (1.0 + h));
         let dt = _mm256_set1_pd(p.dt);
         let half = _mm256_set1_pd(0.5);
-        // SAFETY (caller): i..i+4 is in bounds of every array read or written here.
+        // SAFETY: by the caller's contract, i..i+4 is in bounds of every array read or written here.
         let im = unsafe { _mm256_loadu_pd(inv_mass.as_ptr().add(i)) };
         let mut v2 = _mm256_setzero_pd();
         let mut gw = _mm256_setzero_pd();
@@ -604,6 +606,7 @@ pub(crate) mod avx2 {
         ];
         for (c, (vs, ns, uc)) in comps.into_iter().enumerate().take(dims) {
             let g = _mm256_set1_pd(p.accel[c]);
+            // SAFETY: by this fn's contract, the block's entries of `v`, `un` and `u` are in bounds of the loads and stores.
             unsafe {
                 let old = _mm256_loadu_pd(vs.as_ptr());
                 let acc = _mm256_add_pd(_mm256_mul_pd(f[c], im), g);
@@ -626,6 +629,7 @@ pub(crate) mod avx2 {
         let mut lane_v2 = [0.0; 4];
         let mut lane_gw = [0.0; 4];
         let mut lane_im = [0.0; 4];
+        // SAFETY: the lane arrays hold 4 doubles, the stores' width.
         unsafe {
             _mm256_storeu_pd(lane_v2.as_mut_ptr(), v2);
             _mm256_storeu_pd(lane_gw.as_mut_ptr(), gw);

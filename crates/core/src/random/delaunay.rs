@@ -396,8 +396,8 @@ impl<const N: usize> Builder<N> {
     fn prefetch_around(&self, s: u32) {
         for &t in &self.simplex[s as usize].nbr {
             if t != NONE {
-                crate::memory::prefetch(&self.simplex[t as usize]);
-                crate::memory::prefetch(&self.mark[t as usize]);
+                hooke_sys::prefetch(&self.simplex[t as usize]);
+                hooke_sys::prefetch(&self.mark[t as usize]);
             }
         }
     }

@@ -320,8 +320,8 @@ fn shares(
                 // node a few ahead while this one's are summed.
                 if let Some(ahead) = offsets.get(i + AHEAD + 1) {
                     for &s in &around[offsets[i + AHEAD]..*ahead] {
-                        crate::memory::prefetch(&verts[s as usize * nodes_per]);
-                        crate::memory::prefetch(&measures[s as usize]);
+                        hooke_sys::prefetch(&verts[s as usize * nodes_per]);
+                        hooke_sys::prefetch(&measures[s as usize]);
                     }
                 }
                 row.clear();

@@ -557,9 +557,9 @@ impl Grid {
                 let first = self.index([xs.start, j, k]);
                 let last = self.index([xs.end - 1, j, k]);
                 for at in (first..=last).step_by(64 / 3) {
-                    crate::memory::prefetch(&self.coarse[at]);
+                    hooke_sys::prefetch(&self.coarse[at]);
                 }
-                crate::memory::prefetch(&self.coarse[last]);
+                hooke_sys::prefetch(&self.coarse[last]);
             }
         }
     }

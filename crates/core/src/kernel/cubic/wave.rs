@@ -284,11 +284,15 @@ mod avx512 {
 
     /// Store a forward direction's 8 values of the block in slots `at..at + 8` of its ring
     /// row `row` (and in the mirror slots when `at` is 0).
+    ///
+    /// # Safety
+    /// The processor has AVX-512F, `row` is a ring row and `at + 8` is at most the ring's
+    /// length (a block's slot: a multiple of 8).
     #[inline]
     #[target_feature(enable = "avx512f")]
     unsafe fn keep(s: &CubicStencil, ring: &mut Ring, row: usize, at: usize, x: __m512d) {
         let r = s.ring_len;
-        // SAFETY (caller): `at + 8 <= r` (a block's slot is a multiple of 8), within the row.
+        // SAFETY: by the caller's contract, `at + 8 <= r` (a block's slot is a multiple of 8), within the row.
         unsafe {
             let base = ring.buf.as_mut_ptr().add(row * (r + 8));
             _mm512_storeu_pd(base.add(at), x);
@@ -300,6 +304,10 @@ mod avx512 {
 
     /// The 8 values of ring row `row` for the nodes `off` (< 0, at least `-reach`) from the
     /// block whose slot is `at`.
+    ///
+    /// # Safety
+    /// The processor has AVX-512F, `row` is a ring row, and `at + off` lies within the
+    /// row's reach (`-reach <= off < 0`), its 8 values kept by an earlier `keep`.
     #[inline]
     #[target_feature(enable = "avx512f")]
     unsafe fn recall(s: &CubicStencil, ring: &Ring, row: usize, at: usize, off: isize) -> __m512d {
@@ -312,17 +320,29 @@ mod avx512 {
     }
 
     /// Fill the ring with the forward springs' `dL` of the block at `m` (a lead-in block).
+    ///
+    /// # Safety
+    /// The processor has the function's target feature; the block at the given node is inside
+    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
+    /// its entries.
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn forward_lengths8(s: &CubicStencil, u: &Coords, m: usize, ring: &mut Ring) {
+        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
         let (ui, mask) = unsafe { load_block(s, u, m) };
         for d in FORWARD {
-            if unsafe { lanes(mask, d) } != 0 {
+            if lanes(mask, d) != 0 {
+                // SAFETY: the block at m is inside (this fn's contract), so its neighbours and its ring slot (m is a multiple of 8) are in bounds.
                 unsafe { keep(s, ring, ROW[d], m % s.ring_len, extension(s, u, m, d, ui)) };
             }
         }
     }
 
     /// Direction `D`'s term of sweep 1 for the block at `i` (slot `at`).
+    ///
+    /// # Safety
+    /// The processor has the function's target feature; the block at the given node is inside
+    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
+    /// its entries.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     unsafe fn pool_term<const D: usize>(
@@ -338,7 +358,7 @@ mod avx512 {
         acc: &mut __m512d,
         hot: &mut __mmask8,
     ) {
-        // SAFETY (caller): AVX-512F, the block is inside and the ring holds its lead-in.
+        // SAFETY: by the caller's contract, AVX-512F, the block is inside and the ring holds its lead-in.
         unsafe {
             let m = lanes(mask, D);
             if m == 0 {
@@ -357,6 +377,11 @@ mod avx512 {
 
     /// Sweep 1 for the 8 nodes at `i`: the gather sweep's sums, with each backward spring's
     /// `dL` recalled from the ring.
+    ///
+    /// # Safety
+    /// The processor has the function's target feature; the block at the given node is inside
+    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
+    /// its entries.
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn pools8(
         s: &CubicStencil,
@@ -366,6 +391,7 @@ mod avx512 {
         screen: Real,
         ring: &mut Ring,
     ) -> bool {
+        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
         let (ui, mask) = unsafe { load_block(s, u, i) };
         let cls = classes(s, mask);
         let at = i % s.ring_len;
@@ -373,7 +399,10 @@ mod avx512 {
         let mut hot: __mmask8 = 0;
         // Each direction's term, the loop unrolled (a tenth off the sweep: the directions'
         // constants become immediate offsets and the branches go).
-        macro_rules! directions { ($($d:literal)*) => { $( unsafe {
+        macro_rules! directions { ($($d:literal)*) => { $(
+            // SAFETY: the block is inside (this fn's contract), so its neighbours in every
+            // direction are nodes, and `at` is its ring slot.
+            unsafe {
             pool_term::<$d>(s, u, i, ui, mask, cls, screen, ring, at, &mut acc, &mut hot)
         }; )* } }
         directions!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17);
@@ -387,6 +416,11 @@ mod avx512 {
 
     /// Fill the ring with the forward springs' force factors of the block at `m` (a lead-in
     /// block).
+    ///
+    /// # Safety
+    /// The processor has the function's target feature; the block at the given node is inside
+    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
+    /// its entries.
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn forward_factors8(
         s: &CubicStencil,
@@ -395,12 +429,16 @@ mod avx512 {
         m: usize,
         ring: &mut Ring,
     ) {
+        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
         let (ui, mask) = unsafe { load_block(s, u, m) };
         let cls = classes(s, mask);
+        // SAFETY: the block's nodes are in bounds of the pools (this fn's contract).
         let pi = unsafe { _mm512_loadu_pd(pool.as_ptr().add(m)) };
         for d in FORWARD {
-            if unsafe { lanes(mask, d) } != 0 {
+            if lanes(mask, d) != 0 {
+                // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
                 let (_, sc) = unsafe { factor(s, u, pool, m, d, ui, pi, cls) };
+                // SAFETY: m is a block start, a multiple of 8, so its slot lies within the ring row.
                 unsafe { keep(s, ring, ROW[d], m % s.ring_len, sc) };
             }
         }
@@ -408,6 +446,11 @@ mod avx512 {
 
     /// Sweep 2's forces on the 8 nodes at `i`: the gather sweep's sums, with each backward
     /// spring's factor recalled from the ring.
+    ///
+    /// # Safety
+    /// The processor has the function's target feature; the block at the given node is inside
+    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
+    /// its entries.
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn forces8(
         s: &CubicStencil,
@@ -416,12 +459,17 @@ mod avx512 {
         i: usize,
         ring: &mut Ring,
     ) -> [__m512d; 3] {
+        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
         let (ui, mask) = unsafe { load_block(s, u, i) };
         let cls = classes(s, mask);
+        // SAFETY: the block's nodes are in bounds of the pools (this fn's contract).
         let pi = unsafe { _mm512_loadu_pd(pool.as_ptr().add(i)) };
         let at = i % s.ring_len;
         let mut f = [_mm512_setzero_pd(); 3];
-        macro_rules! directions { ($($d:literal)*) => { $( unsafe {
+        macro_rules! directions { ($($d:literal)*) => { $(
+            // SAFETY: the block is inside (this fn's contract), so its neighbours in every
+            // direction are nodes, and `at` is its ring slot.
+            unsafe {
             force_term::<$d>(s, u, pool, i, ui, mask, cls, pi, ring, at, &mut f)
         }; )* } }
         directions!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17);
@@ -429,6 +477,11 @@ mod avx512 {
     }
 
     /// Direction `D`'s term of the forces on the block at `i` (slot `at`).
+    ///
+    /// # Safety
+    /// The processor has the function's target feature; the block at the given node is inside
+    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
+    /// its entries.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     unsafe fn force_term<const D: usize>(
@@ -444,7 +497,7 @@ mod avx512 {
         at: usize,
         f: &mut [__m512d; 3],
     ) {
-        // SAFETY (caller): AVX-512F, the block is inside and the ring holds its lead-in.
+        // SAFETY: by the caller's contract, AVX-512F, the block is inside and the ring holds its lead-in.
         unsafe {
             let m = lanes(mask, D);
             if m == 0 {
