@@ -605,9 +605,7 @@ fn toughness_json(py: Python<'_>, options: &str) -> PyResult<String> {
 fn _hooke(m: &Bound<'_, PyModule>) -> PyResult<()> {
     // As the `hooke` binary: calibrations of anisotropic random-lattice materials are kept
     // between processes ($HOOKE_CACHE, or the user's cache directory).
-    hooke_core::random::anisotropic::set_cache_dir(
-        hooke_core::random::anisotropic::default_cache_dir(),
-    );
+    hooke_core::random::anisotropic::set_cache_dir(hooke_sys::cache_dir());
     m.add_class::<PySimulation>()?;
     m.add_function(wrap_pyfunction!(load_case, m)?)?;
     m.add_function(wrap_pyfunction!(build, m)?)?;

@@ -21,9 +21,7 @@ fn main() -> ExitCode {
     // temporaries otherwise stay resident for the whole run (hooke_core::memory).
     hooke_sys::alloc::map_large_blocks();
     // Anisotropic random-lattice materials are calibrated once per machine, not once per run.
-    hooke_core::random::anisotropic::set_cache_dir(
-        hooke_core::random::anisotropic::default_cache_dir(),
-    );
+    hooke_core::random::anisotropic::set_cache_dir(hooke_sys::cache_dir());
     let cli = match hooke_cli::Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {

@@ -381,9 +381,6 @@ pub(crate) fn estimate_using(
         }
         let b = b2.sqrt();
         let top = largest_ritz(&alpha, &beta);
-        if std::env::var_os("HOOKE_TRACE").is_some() {
-            eprintln!("lanczos {it}: {top:.9}");
-        }
         if b <= 1e-14 * a.abs() || (it > 5 && (top - last).abs() <= tolerance * top) {
             last = top;
             break;

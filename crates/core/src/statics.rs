@@ -166,12 +166,6 @@ pub fn solve(
     let mut du = Coords::zeros(n);
     for newton in 0..=opts.max_newton {
         let rn = r.norm();
-        if std::env::var_os("HOOKE_TRACE").is_some() {
-            eprintln!(
-                "newton {newton}: |r| = {rn:.3e}, scale {scale:.3e}, cg so far {}",
-                report.cg_iterations
-            );
-        }
         let rel = if scale > 0.0 {
             rn / scale
         } else if rn == 0.0 {

@@ -575,12 +575,6 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
             solve(&body, &mut state, &cons)?;
             solves += 1;
             history.push((tip, work - stored(&body, &state), eps));
-            if std::env::var_os("HOOKE_STRIP_TRACE").is_some() {
-                eprintln!(
-                    "solve {solves}: softened {}, broken {broken} (off-plane {off_plane}), tip {tip:.2}, eps {eps:.4e}",
-                    changes.len()
-                );
-            }
         }
     }
     while tip < x2 {
@@ -645,9 +639,6 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
         solve(&body, &mut state, &cons)?;
         solves += 1;
         history.push((tip, work - stored(&body, &state), eps));
-        if std::env::var_os("HOOKE_STRIP_TRACE").is_some() {
-            eprintln!("round {solves}: broke {} (off-plane so far {off_plane}), tip {tip:.2}, eps {eps:.4e}", over.len());
-        }
     }
     let first = history.iter().position(|h| h.0 >= x1).ok_or_else(|| {
         FractureError::Experiment("strip: the crack never reached the window".into())

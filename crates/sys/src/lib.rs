@@ -11,7 +11,9 @@
 //!   [`alloc::prefetch`];
 //! - [`free_space`]: free bytes on a file system (`statvfs`);
 //! - [`online_cores`]: the machine's cores (`sysconf`);
-//! - [`default_sigpipe`]: a closed pipe ends the program quietly (`signal`).
+//! - [`default_sigpipe`]: a closed pipe ends the program quietly (`signal`);
+//! - [`cache_dir`]: where programs keep calibrations between processes (the environment: the
+//!   libraries take the directory as an option, the programs read the variables here).
 
 pub mod alloc;
 
@@ -69,5 +71,22 @@ pub fn default_sigpipe() {
     // caller's part), races with nothing.
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
+/// The conventional cache directory of a program built on hooke (for
+/// `hooke_core::random::anisotropic::set_cache_dir`): `$HOOKE_CACHE` if set (empty or `off`: no
+/// cache), else `$XDG_CACHE_HOME/hooke`, else `$HOME/.cache/hooke`. For programs: libraries take
+/// the directory, they do not read the environment.
+pub fn cache_dir() -> Option<std::path::PathBuf> {
+    use std::path::PathBuf;
+    let var = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty());
+    match std::env::var_os("HOOKE_CACHE") {
+        Some(v) if v.is_empty() || v == "off" => None,
+        Some(v) => Some(PathBuf::from(v)),
+        None => var("XDG_CACHE_HOME")
+            .map(PathBuf::from)
+            .or_else(|| var("HOME").map(|h| PathBuf::from(h).join(".cache")))
+            .map(|d| d.join("hooke")),
     }
 }

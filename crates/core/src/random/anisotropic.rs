@@ -945,21 +945,6 @@ pub fn set_cache_dir(dir: Option<std::path::PathBuf>) {
     }
 }
 
-/// The conventional place for [`set_cache_dir`]: `$HOOKE_CACHE` if set (empty or `off`: no
-/// cache), else `$XDG_CACHE_HOME/hooke`, else `$HOME/.cache/hooke`.
-pub fn default_cache_dir() -> Option<std::path::PathBuf> {
-    use std::path::PathBuf;
-    let var = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty());
-    match std::env::var_os("HOOKE_CACHE") {
-        Some(v) if v.is_empty() || v == "off" => None,
-        Some(v) => Some(PathBuf::from(v)),
-        None => var("XDG_CACHE_HOME")
-            .map(PathBuf::from)
-            .or_else(|| var("HOME").map(|h| PathBuf::from(h).join(".cache")))
-            .map(|d| d.join("hooke")),
-    }
-}
-
 /// What a cached calibration must match: the code, the target, the symmetry and every option
 /// (floats by their shortest exact decimal form, which `{:?}` prints).
 fn disk_key(target: &[[Real; 6]; 6], sym: Symmetry, opts: &CalibrationOptions) -> String {
