@@ -242,7 +242,7 @@ fn strip_grips(
 /// on, 270 / 233 / 377 off). The
 /// lattice-trapping factor of 3 to 7 makes the crack start overdriven, and the six-fold lattice
 /// offers it easy paths off the line. Should a change make the hexagonal crack run straight,
-/// this test fails and the cases and the README should say so. `cargo test --release -p
+/// this test fails and the cases and docs/fracture.md should say so. `cargo test --release -p
 /// hooke-tests --test toughness -- --ignored --nocapture`.
 #[test]
 #[ignore = "slow-ish record of a lattice limitation (about 30 s)"]
@@ -257,7 +257,7 @@ fn dynamic_crack_on_the_regular_hexagonal_lattice_leaves_its_row() {
         );
         assert!(
             off > on,
-            "nu = {nu}: the crack stayed on its row ({on} on, {off} off): update the cases and the README"
+            "nu = {nu}: the crack stayed on its row ({on} on, {off} off): update the cases and docs/fracture.md"
         );
     }
 }
@@ -560,7 +560,7 @@ fn softening_springs_dissipate_g_f_on_other_strips() {
 /// at the strain at which the crack runs, see `hooke_fracture::toughness`, "Random3d") holds on
 /// node sets it was not measured with: the mean G / G_c of eight slabs (seeds 57-64, the table
 /// was fitted on 17-56) within 5 % at each nu. Single slabs scatter by about 6 % (one standard
-/// deviation), so eight pin the mean to about 2 %. Measured: see README, "Fracture"
+/// deviation), so eight pin the mean to about 2 %. Measured: see docs/fracture.md
 /// (`docs/data/random3d_toughness_release.csv` has every slab). About 10 minutes a nu (0.45:
 /// 40); run one nu with `HOOKE_R3_NU=0.25 cargo test --release -p hooke-tests --test toughness
 /// random3d -- --ignored`.

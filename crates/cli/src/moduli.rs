@@ -127,7 +127,7 @@ pub struct ModuliArgs {
     pub inner_surface: bool,
     /// With --bulk on a random lattice: also run cubes of half the side (same seeds) and
     /// extrapolate the held faces' excess away, assuming it goes like a/L: `extrapolated` in
-    /// --json. A diagnostic: it helps in 3D up to nu = 0.25, not at 0.45 nor in 2D (README).
+    /// --json. A diagnostic: it helps in 3D up to nu = 0.25, not at 0.45 nor in 2D (docs/moduli.md).
     #[arg(long, requires = "bulk")]
     pub extrapolate: bool,
     /// With --transverse or --orthotropic on a random2d lattice (block or --bulk): how the plate

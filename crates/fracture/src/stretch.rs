@@ -175,7 +175,7 @@ const RANDOM2D_TOUGHNESS: &[(Real, Real)] = &[
 /// springs are off the crack plane (1 % at nu = 0, 8 % at 0.35) and the crack runs at a lower
 /// G; between 0.35 and 0.45 the
 /// line is checked only at its ends. Node sets not in the table (seeds 57-68, 57-64 at 0.45):
-/// README, "Fracture", and `docs/data/random3d_toughness_release.csv`.
+/// `docs/fracture.md`, and `docs/data/random3d_toughness_release.csv`.
 const RANDOM3D_TOUGHNESS: &[(Real, Real)] = &[
     (0.0, 1.3761),
     (0.25, 1.4656),
