@@ -48,8 +48,19 @@ fn smooth_field(body: &Body, amp: Real) -> Coords {
 /// the motion; for a start from the rest position with velocity v, `omega^2 = v.K.v / v.M.v`.
 /// The body starts undeformed with a smooth velocity field, so no surface tractions kick the
 /// highest modes.
+/// The kernels' paths as the environment asks (`HOOKE_NO_SIMD=1`: the portable ones, how CI
+/// runs the kernel tests a second time; `HOOKE_SIMD=avx2`), as the `hooke` binary maps them.
+/// Every test that runs kernels calls it first (the setting is the process's; all set the same).
+fn simd_from_env() {
+    hooke_core::kernel::set_simd(hooke_core::kernel::Simd::from_env_values(
+        std::env::var_os("HOOKE_NO_SIMD").is_some(),
+        std::env::var("HOOKE_SIMD").ok().as_deref(),
+    ));
+}
+
 #[test]
 fn free_vibration_conserves_energy() {
+    simd_from_env();
     for nu in [-0.9, 0.25, 0.45] {
         let body = cube(10, nu);
         let mut state = State::new(&body);
@@ -175,6 +186,7 @@ fn pulse_speed(kind: LatticeKind, nu: Real, axis: usize, c_guess: Real) -> Real 
 /// bulk speeds, not the bar speed sqrt(E/rho)), 3D and 2D, nu in {-0.5, 0.25, 0.45}.
 #[test]
 fn pulses_travel_at_the_continuum_wave_speeds() {
+    simd_from_env();
     for kind in [LatticeKind::Cubic, LatticeKind::Hex] {
         for nu in [-0.5, 0.25, 0.45] {
             let q = q_from_nu(kind, nu).unwrap();
@@ -206,6 +218,7 @@ fn pulses_travel_at_the_continuum_wave_speeds() {
 /// with damaged springs, on both kernels.
 #[test]
 fn free_body_conserves_momentum() {
+    simd_from_env();
     for force_csr in [false, true] {
         let body = cube(7, 0.4);
         let mut rng = Rng::new(3);
@@ -312,6 +325,7 @@ fn run_body(
 /// exercised) is bit-identical for 1 and 2 threads, on every kernel.
 #[test]
 fn runs_are_bit_identical_for_any_thread_count() {
+    simd_from_env();
     for (csr, portable) in [(false, false), (false, true), (true, false)] {
         let one = run_with_threads(1, csr, portable);
         let two = run_with_threads(2, csr, portable);
@@ -337,6 +351,7 @@ fn runs_are_bit_identical_for_any_thread_count() {
 /// stiffness) run on the stencils too, with the same guarantees.
 #[test]
 fn stencil_paths_and_thread_counts_give_the_same_bits() {
+    simd_from_env();
     let cube24 = || cube(24, 0.45);
     let weighted_cube = || cube(24, 0.45).with_cell_weights().unwrap();
     let weighted_plate = || hex_plate().with_cell_weights().unwrap();
@@ -356,7 +371,7 @@ fn stencil_paths_and_thread_counts_give_the_same_bits() {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx512f")
             && std::arch::is_x86_feature_detected!("avx2")
-            && std::env::var_os("HOOKE_NO_SIMD").is_none()
+            && hooke_core::kernel::simd() != hooke_core::kernel::Simd::Portable
         {
             let s = run_body(body, 2, false, false, true);
             assert!(s.u == vector.u && s.v == vector.v, "AVX2: states differ");
@@ -393,6 +408,7 @@ fn stencil_paths_and_thread_counts_give_the_same_bits() {
 /// its face, edge and corner springs and nodes stand for 1/2, 1/4 and 1/8 of the bulk's.
 #[test]
 fn a_box_of_one_stiffness_runs_without_its_rows_or_stiffnesses() {
+    simd_from_env();
     let stored = |lean: &Body| {
         let mut stored = lean.clone();
         // Changed through `DerefMut`, both are stored for good.
@@ -476,6 +492,7 @@ fn a_box_of_one_stiffness_runs_without_its_rows_or_stiffnesses() {
 /// cancellation-free form, a difference of about 1e-13 of dL per step at these strains.)
 #[test]
 fn kernels_agree() {
+    simd_from_env();
     let csr = run_with_threads(2, true, false);
     let umax = csr
         .u
@@ -505,6 +522,7 @@ fn kernels_agree() {
 /// unequal masses, and the damage-proof bound lies above it.
 #[test]
 fn stable_step_estimate_matches_dense_eigenvalues() {
+    simd_from_env();
     for nu in [-0.9, 0.25, 0.49] {
         let mut body = cube(5, nu);
         let mut rng = Rng::new(17);
@@ -556,6 +574,7 @@ fn stable_step_estimate_matches_dense_eigenvalues() {
 /// and in motion.
 #[test]
 fn stable_step_estimate_gives_the_state_back() {
+    simd_from_env();
     let body = cube(6, 0.3);
     let kernel = Kernel::for_body(&body, &State::new(&body));
     let mut moving = State::new(&body);
@@ -611,6 +630,7 @@ fn stable_step_estimate_gives_the_state_back() {
 /// up and the error names the step and the node.
 #[test]
 fn unstable_time_steps_are_refused_or_reported() {
+    simd_from_env();
     let body = cube(6, 0.3);
     let mut state = State::new(&body);
     state.u = smooth_field(&body, 1e-3);
@@ -688,6 +708,7 @@ fn x_end(body: &Body, right: bool) -> Vec<u32> {
 /// energy, which does not grow; smooth ramps avoid it.
 #[test]
 fn energy_balance_holds_with_loads_supports_and_damping() {
+    simd_from_env();
     let body = Body::uniform(
         Lattice::cubic_box([20, 5, 5], 1.0).unwrap(),
         1.0,
@@ -843,6 +864,7 @@ fn energy_balance_holds_with_loads_supports_and_damping() {
 /// Adaptive dynamic relaxation reaches the same equilibrium as Newton-CG.
 #[test]
 fn dynamic_relaxation_matches_the_static_solver() {
+    simd_from_env();
     let body = Body::uniform(
         Lattice::cubic_box([12, 4, 4], 1.0).unwrap(),
         1.0,
@@ -907,6 +929,7 @@ fn dynamic_relaxation_matches_the_static_solver() {
 /// the CSR kernel (which reads the springs' flags directly) to round-off.
 #[test]
 fn springs_broken_between_steps_reach_the_kernel() {
+    simd_from_env();
     let body = cube(9, 0.3);
     let mut rng = Rng::new(11);
     let mut start = State::new(&body);
@@ -964,6 +987,7 @@ fn springs_broken_between_steps_reach_the_kernel() {
 /// factor), and must keep their stencil.
 #[test]
 fn kernel_forces_match_the_reference_law_on_every_lattice() {
+    simd_from_env();
     use hooke_core::random::RandomSpec;
     let lattices = [
         Lattice::cubic_box([7, 6, 5], 1.0).unwrap(),
@@ -1044,6 +1068,7 @@ fn kernel_forces_match_the_reference_law_on_every_lattice() {
 /// paths of the hexagonal stencil, with damping and an in-plane body force.
 #[test]
 fn plane_sweeps_skip_only_exact_zeros() {
+    simd_from_env();
     use hooke_core::kernel::{partials_len, StepParams};
     use hooke_core::random::RandomSpec;
     let random = Lattice::random(

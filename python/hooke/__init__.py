@@ -26,7 +26,7 @@ from . import _hooke
 from ._hooke import CaseError, RunError
 
 __version__ = _hooke.__version__
-__all__ = ["load_case", "Builder", "ramp", "smooth_ramp", "table", "Simulation", "moduli", "toughness", "read", "Output", "CaseError", "RunError"]
+__all__ = ["load_case", "loads", "Builder", "ramp", "smooth_ramp", "table", "Simulation", "moduli", "toughness", "read", "Output", "CaseError", "RunError"]
 
 
 def _toml_value(v: Any) -> str:
@@ -70,6 +70,21 @@ class Simulation:
         """Run to the end time and make the outputs final; returns ``hooke run --json``'s
         summary (steps, time, broken springs, energy, reactions, outputs, output_dir)."""
         return json.loads(self._inner.finish())
+
+    def check(self) -> Dict[str, Any]:
+        """What the simulation would do, before its first step: ``hooke check --json``'s
+        report from the same library call (nodes, springs, constants, dt, memory, the time it
+        would take, ``notes`` on calibrated ranges). The simulation is not stepped."""
+        return json.loads(self._inner.check())
+
+    def __enter__(self) -> "Simulation":
+        return self
+
+    def __exit__(self, kind: Any, value: Any, tb: Any) -> None:
+        """Leaving a ``with`` block finishes the run (runs it to its end time and makes the
+        outputs final) unless the block raised."""
+        if kind is None:
+            self.finish()
 
     @property
     def time(self) -> float:
@@ -164,10 +179,13 @@ class Simulation:
 
 def load_case(case: Union[str, os.PathLike], set: Optional[Mapping[str, Any]] = None,
               scale: float = 1.0, out: Optional[Union[str, os.PathLike]] = None,
-              name: Optional[str] = None) -> Simulation:
-    """Load a case from a file path or from TOML text.
+              name: Optional[str] = None,
+              overrides: Optional[Mapping[str, Any]] = None) -> Simulation:
+    """Load a case from a file path or from TOML text (for text, :func:`loads` says so
+    outright).
 
-    ``set`` changes keys as ``hooke run --set`` does (``{"material.poisson": 0.3}``); ``scale``
+    ``overrides`` (or ``set``, its older name) changes keys as ``hooke run --set`` does
+    (``{"material.poisson": 0.3}``); ``scale``
     divides the lattice spacing like ``--scale``. The output folder defaults to the command
     line's (``CASE.out`` beside the case, ``CASE.scaleS.out`` at another scale), or a new
     temporary folder for TOML text. Mistakes raise ``CaseError`` with the command line's
@@ -188,10 +206,25 @@ def load_case(case: Union[str, os.PathLike], set: Optional[Mapping[str, Any]] = 
         stem = name or path.stem
         suffix = ".out" if scale == 1.0 else f".scale{scale!r}.out" if not float(scale).is_integer() else f".scale{int(scale)}.out"
         default_out = path.parent / f"{stem}{suffix}"
-    overrides = [f"{k}={_toml_value(v)}" for k, v in (set or {}).items()]
+    if set is not None and overrides is not None:
+        raise CaseError("load_case: give overrides= or set=, not both")
+    given = overrides if overrides is not None else (set or {})
+    pairs = [f"{k}={_toml_value(v)}" for k, v in given.items()]
     target = Path(out) if out is not None else default_out
-    inner = _hooke.load_case(str(path), text, str(target), stem, overrides, float(scale),
+    inner = _hooke.load_case(str(path), text, str(target), stem, pairs, float(scale),
                              ["python", "hooke.load_case", str(case) if not text_given else "<text>"])
+    return Simulation(inner)
+
+
+def loads(text: str, overrides: Optional[Mapping[str, Any]] = None, scale: float = 1.0,
+          out: Optional[Union[str, os.PathLike]] = None, name: str = "case") -> Simulation:
+    """Load a case from TOML text (as :func:`load_case` does with a path): the output folder
+    defaults to a new temporary one."""
+    stem = name
+    target = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="hooke-"))
+    pairs = [f"{k}={_toml_value(v)}" for k, v in (overrides or {}).items()]
+    inner = _hooke.load_case("<text>.toml", text, str(target), stem, pairs, float(scale),
+                             ["python", "hooke.loads", "<text>"])
     return Simulation(inner)
 
 

@@ -321,6 +321,24 @@ impl PySimulation {
         }
     }
 
+    /// What the simulation would do, as `hooke check --json`'s object (JSON text): the
+    /// library's report (a few steps timed on a copy of the state; the simulation itself is not
+    /// stepped). Only before the first step.
+    fn check(&mut self, py: Python<'_>) -> PyResult<String> {
+        let Some((sim, _)) = self.pending.as_mut() else {
+            return Err(RunError::new_err(
+                "check(): the simulation has started; check it before the first step",
+            ));
+        };
+        let scratch = std::env::temp_dir().join(format!(
+            "hooke-check-{}-{:p}",
+            std::process::id(),
+            sim as *const _
+        ));
+        let report = py.detach(|| sim.check(&scratch)).map_err(run_error)?;
+        serde_json::to_string(&report).map_err(|e| RunError::new_err(e.to_string()))
+    }
+
     /// Run to the end time, make the outputs final (last frame, checkpoint, run.json) and
     /// return the summary as JSON text (`hooke run --json`'s keys).
     fn finish(&mut self, py: Python<'_>) -> PyResult<String> {
@@ -606,6 +624,11 @@ fn _hooke(m: &Bound<'_, PyModule>) -> PyResult<()> {
     // As the `hooke` binary: calibrations of anisotropic random-lattice materials are kept
     // between processes ($HOOKE_CACHE, or the user's cache directory).
     hooke_core::random::anisotropic::set_cache_dir(hooke_sys::cache_dir());
+    // As the binary: HOOKE_NO_SIMD and HOOKE_SIMD=avx2 choose the kernels' paths (same bits).
+    hooke_core::kernel::set_simd(hooke_core::kernel::Simd::from_env_values(
+        std::env::var_os("HOOKE_NO_SIMD").is_some(),
+        std::env::var("HOOKE_SIMD").ok().as_deref(),
+    ));
     m.add_class::<PySimulation>()?;
     m.add_function(wrap_pyfunction!(load_case, m)?)?;
     m.add_function(wrap_pyfunction!(build, m)?)?;

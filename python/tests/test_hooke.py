@@ -548,3 +548,39 @@ def test_softening_springs_from_the_builder_are_the_case_files(tmp_path):
         base().softening(fracture_energy=300).build(tmp_path / "b")
     with pytest.raises(hooke.CaseError, match="final stretch must exceed"):
         base().softening(peak_stretch=1e-3, final_stretch=5e-4).build(tmp_path / "c")
+
+
+def test_check_reports_what_the_command_line_checks(tmp_path):
+    # The report of the library call `hooke check --json` renders: the same keys, the same
+    # constants and step (timings and memory aside), notes on calibrated ranges.
+    sim = hooke.load_case(CASE, scale=0.25, out=tmp_path / "c")
+    mine = sim.check()
+    theirs = json.loads(cli("check", str(CASE), "--scale", "0.25", "--json"))
+    timing = {"seconds_per_step", "estimated_seconds", "peak_memory_bytes", "case"}
+    assert set(mine) | {"case"} == set(theirs)
+    for key in set(mine) - timing:
+        assert mine[key] == theirs[key], key
+    assert mine["valid"] and mine["nodes"] > 0 and mine["dt"] < mine["dt_critical"]
+    assert mine["state_bytes"] > 100 * mine["nodes"] and isinstance(mine["notes"], list)
+    # The check steps a copy: the simulation itself has not started.
+    assert sim.steps == 0 and not (tmp_path / "c").exists()
+    sim.step(1)
+    with pytest.raises(hooke.RunError, match="before the first step"):
+        sim.check()
+
+
+def test_loads_overrides_and_a_with_block_finish_the_run(tmp_path):
+    text = CASE.read_text()
+    with hooke.loads(text, overrides={"solver.end_time": 2e-6}, scale=0.25,
+                     out=tmp_path / "t") as sim:
+        sim.step(3)
+        dt = sim.dt
+    # Leaving the block finished the run: the end time reached, run.json complete.
+    assert abs(sim.time - 2e-6) < dt
+    done = json.loads((tmp_path / "t" / "run.json").read_text())
+    assert done["status"] == "completed"
+    same = hooke.load_case(CASE, overrides={"solver.end_time": 2e-6}, scale=0.25,
+                           out=tmp_path / "p")
+    assert same.end_time == sim.end_time
+    with pytest.raises(hooke.CaseError, match="not both"):
+        hooke.load_case(CASE, set={"solver.end_time": 1e-6}, overrides={"solver.end_time": 1e-6})

@@ -167,22 +167,7 @@ struct BenchJson {
     collectives_per_step: usize,
 }
 
-/// Peak resident memory of this process (Linux), in bytes.
-pub fn peak_memory() -> Option<u64> {
-    status_bytes("VmHWM:")
-}
-
-/// Resident memory of this process now (Linux), in bytes: after set-up, what a run keeps.
-pub fn resident_memory() -> Option<u64> {
-    status_bytes("VmRSS:")
-}
-
-fn status_bytes(key: &str) -> Option<u64> {
-    let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = s.lines().find(|l| l.starts_with(key))?;
-    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
-}
+pub use hooke_sys::{peak_memory, resident_memory};
 
 pub fn run(args: BenchArgs) -> Result<()> {
     if args.pieces

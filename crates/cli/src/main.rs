@@ -20,6 +20,12 @@ fn main() -> ExitCode {
     // Large blocks in mappings of their own, given back when freed: a body's set-up
     // temporaries otherwise stay resident for the whole run (hooke_core::memory).
     hooke_sys::alloc::map_large_blocks();
+    // HOOKE_NO_SIMD forces the kernels' portable paths, HOOKE_SIMD=avx2 AVX2 over AVX-512 (the
+    // same bits either way: to test and measure the paths against each other).
+    hooke_core::kernel::set_simd(hooke_core::kernel::Simd::from_env_values(
+        std::env::var_os("HOOKE_NO_SIMD").is_some(),
+        std::env::var("HOOKE_SIMD").ok().as_deref(),
+    ));
     // Anisotropic random-lattice materials are calibrated once per machine, not once per run.
     hooke_core::random::anisotropic::set_cache_dir(hooke_sys::cache_dir());
     let cli = match hooke_cli::Cli::try_parse() {

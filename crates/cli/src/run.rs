@@ -7,10 +7,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Args;
 use hooke_case::Simulation;
-use hooke_core::dynamics::Integrator;
 use hooke_core::Real;
 use hooke_sim::{Observer, Progress, RunOptions};
 
@@ -113,108 +112,107 @@ fn stem(case: &Path) -> String {
 
 pub fn check(args: CheckArgs) -> Result<()> {
     let (mut sim, _) = load(&args.case, args.scale, &args.set)?;
-    let it = Integrator::new(&sim.body, &mut sim.state, sim.loading.clone(), &sim.options)
-        .map_err(|e| InputError(format!("{}: {e}", args.case.display())))?;
-    let (n, s) = (sim.body.nodes(), sim.body.springs());
-    let steps = (sim.end_time / it.dt).ceil();
-    // Time a few steps on a copy, for the estimate.
-    let mut probe = sim.state.clone();
-    let mut it2 = Integrator::new(&sim.body, &mut probe, sim.loading.clone(), &sim.options)?;
-    let t0 = Instant::now();
-    let trial = 5;
-    for _ in 0..trial {
-        it2.step(&sim.body, &mut probe);
-    }
-    let per_step = t0.elapsed().as_secs_f64() / trial as f64;
-    // One output frame and a checkpoint into a scratch folder, so that the peak measured below
-    // includes what writing them costs (both are assembled in memory before they are written).
     let scratch = std::env::temp_dir().join(format!("hooke-check-{}", std::process::id()));
-    std::fs::create_dir_all(&scratch).with_context(|| format!("creating {}", scratch.display()))?;
-    let written = hooke_sim::write_probe(&sim, &probe, &it2, &scratch);
-    let _ = std::fs::remove_dir_all(&scratch);
-    written?;
-    let bytes = 168 * n + 41 * s;
-    if args.json {
-        let kind = sim.body.lattice.kind;
-        let mut v = serde_json::json!({
-            "case": args.case.display().to_string(),
-            "valid": true,
-            "lattice": kind.name(),
-            "kernel": it.kernel.name(),
-            "spacing": sim.body.lattice.spacing,
-            "nodes": n,
-            "springs": s,
-            "springs_precracked": sim.precracked,
-            "cell_weights": sim.cell_weighted,
-            "q": sim.q,
-            "nu": hooke_core::material::nu_from_q(kind, sim.q),
-            "criterion": sim.fracture.as_ref().map(|f| format!("{:?}", f.criterion())),
-            "rigid_bodies": sim.contact.as_ref().map_or(0, |c| c.bodies.len()),
-            "boundaries": sim.boundaries.iter().map(|b| serde_json::json!({"name": b.name, "nodes": b.nodes.len()})).collect::<Vec<_>>(),
-            "dt": it.dt,
-            "dt_critical": it.stable.dt_critical,
-            "steps": steps,
-            "end_time": sim.end_time,
-            "quasi_static_steps": sim.quasi_static,
-            "state_bytes": bytes,
-            "peak_memory_bytes": crate::bench::peak_memory(),
-            "seconds_per_step": per_step,
-            "estimated_seconds": per_step * steps,
-            "output_bytes": sim.output_estimate(),
-        });
-        v[if kind.is_random() { "kappa" } else { "k" }] = serde_json::json!(sim.k);
-        if let (Some(m), Some(cal)) = (&sim.anisotropic, &sim.random_design) {
-            let d = &cal.design;
-            let plate = sim.body.lattice.dim() == 2;
-            v["nu"] = serde_json::Value::Null;
-            v["anisotropic"] = serde_json::json!({
-                "material": format!("{m:?}"),
-                "kappa": d.kappa, "kappa_terms": ["xx", "yy", "zz", "yz", "xz", "xy"],
-                "alpha": d.alpha, "axes": d.axes, "sharpness": d.sharpness,
-                "calibration_residuals": cal.residuals, "calibration_held_out": cal.held_out,
-                "calibration_seconds": cal.seconds,
-                "calibration_cache_file": cal.cache.file().map(|p| p.display().to_string()),
-                "calibration_from_cache": matches!(cal.cache, hooke_core::random::anisotropic::Cached::Read(_)),
-                "stiffness": if plate { m.plane_stiffness(sim.plane)? } else { m.stiffness()? },
-            });
-            if plate {
-                v["anisotropic"]["plane"] = serde_json::json!(sim.plane.name());
-            }
-        } else if let Some(m) = &sim.anisotropic {
-            let f = m.families(sim.body.lattice.spacing)?;
-            v["nu"] = serde_json::Value::Null;
-            v["anisotropic"] = serde_json::json!({
-                "material": format!("{m:?}"),
-                "axis_stiffness": f.axis_k, "diagonal_stiffness": f.diagonal_k,
-                "axis_weights": f.axis_w, "diagonal_weights": f.diagonal_w,
-                "stiffness": m.stiffness()?,
-            });
+    let report = sim.check(&scratch).map_err(|e| match e {
+        hooke_sim::Error::Core(e) => {
+            anyhow::Error::from(InputError(format!("{}: {e}", args.case.display())))
         }
+        e => e.into(),
+    })?;
+    if args.json {
+        let mut v = serde_json::to_value(&report)?;
+        v["case"] = serde_json::json!(args.case.display().to_string());
         println!("{}", serde_json::to_string(&v)?);
         return Ok(());
     }
-    println!("{}: valid", args.case.display());
+    print_check(&args.case, &sim, &report)
+}
+
+/// `hooke check`'s text: the report, with the material and the rigid bodies described from the
+/// simulation.
+fn print_check(case: &Path, sim: &Simulation, r: &hooke_sim::CheckReport) -> Result<()> {
+    println!("{}: valid", case.display());
     println!(
         "  lattice      {} ({} kernel), spacing {:e} m",
-        sim.body.lattice.kind.name(),
-        it.kernel.name(),
-        sim.body.lattice.spacing
+        r.lattice, r.kernel, r.spacing
     );
-    println!("  nodes        {n}");
+    println!("  nodes        {}", r.nodes);
     println!(
-        "  springs      {s} ({} removed by pre-cracks)",
-        sim.precracked
+        "  springs      {} ({} removed by pre-cracks)",
+        r.springs, r.springs_precracked
     );
     if !sim.body.lattice.kind.is_random() {
         println!(
             "  cell weights {}",
-            if sim.cell_weighted {
+            if r.cell_weights {
                 "on: face and edge springs and nodes stand for their share of the bulk's cells (lattice.cell_weights)"
             } else {
                 "off: every spring and node as in the bulk (lattice.cell_weights = false, or a body too thin, turned or periodic)"
             }
         );
     }
+    print_constants(sim)?;
+    println!("  fracture     {}", r.criterion.as_deref().unwrap_or("off"));
+    print_contact(sim);
+    for n in r
+        .notes
+        .iter()
+        .filter(|n| n.about != "softening" && n.about != "energy-criterion")
+    {
+        println!("  note         {}", n.text);
+    }
+    if let Some(s) = &r.softening {
+        println!(
+            "  softening    {}: peak stretch {:e}, final stretch {:e} ({:.1} x the peak), \
+             equivalent stretch {:e} (peak fraction {:.3}), measured toughness factor F = {:.3}, \
+             strength factor S = {}",
+            s.shape,
+            s.peak,
+            s.last,
+            s.last / s.peak,
+            s.equivalent_stretch,
+            s.peak_fraction,
+            s.toughness_factor,
+            match s.strength_factor {
+                Some(v) =>
+                    format!("{v:.3} (a body's tensile strength is S E times the peak stretch)"),
+                None => "not measured on this lattice (the springs peak at f_t / E)".into(),
+            }
+        );
+    }
+    for n in r
+        .notes
+        .iter()
+        .filter(|n| n.about == "softening" || n.about == "energy-criterion")
+    {
+        println!("  note         {}", n.text);
+    }
+    println!(
+        "  dt           {:e} s (critical {:e} s), {} steps to {:e} s",
+        r.dt, r.dt_critical, r.steps, r.end_time
+    );
+    println!(
+        "  memory       about {:.1} MiB for the body, state and integrator; peak {} while \
+         checking (set-up, a few steps, one output frame and a checkpoint; a run's own peak, \
+         printed at its end, lies within about a third of it)",
+        r.state_bytes as f64 / (1 << 20) as f64,
+        r.peak_memory_bytes
+            .map_or("unknown".to_string(), |b| format!(
+                "{:.0} MiB",
+                b as f64 / (1 << 20) as f64
+            ))
+    );
+    println!(
+        "  time         {:.3} ms per step, about {:.1} s in all",
+        r.seconds_per_step * 1e3,
+        r.estimated_seconds
+    );
+    Ok(())
+}
+
+/// The material's constants: the anisotropic design or spring families with the stiffness
+/// tensor, or k (kappa) and q.
+fn print_constants(sim: &Simulation) -> Result<()> {
     if let (Some(m), Some(cal)) = (&sim.anisotropic, &sim.random_design) {
         print_material(m)?;
         let d = &cal.design;
@@ -259,10 +257,7 @@ pub fn check(args: CheckArgs) -> Result<()> {
         } else {
             println!("  stiffness    C (Pa, Voigt xx yy zz yz xz xy, global axes):");
         }
-        for row in stiffness {
-            let cells: Vec<String> = row.iter().map(|x| format!("{x:>12.4e}")).collect();
-            println!("               {}", cells.join(" "));
-        }
+        print_tensor(&stiffness);
     } else if sim.body.lattice.kind.is_random() {
         let unit = if sim.body.lattice.dim() == 3 {
             "Pa"
@@ -303,121 +298,43 @@ pub fn check(args: CheckArgs) -> Result<()> {
                 _ => "",
             }
         );
-        for row in m.stiffness()? {
-            let cells: Vec<String> = row.iter().map(|x| format!("{x:>12.4e}")).collect();
-            println!("               {}", cells.join(" "));
-        }
+        print_tensor(&m.stiffness()?);
     } else {
         println!("  k, q         {:e} N/m, {:.6}", sim.k, sim.q);
     }
-    println!(
-        "  fracture     {}",
-        sim.fracture
-            .as_ref()
-            .map_or("off".to_string(), |f| format!("{:?}", f.criterion()))
-    );
-    if let Some(c) = &sim.contact {
-        println!(
-            "  contact      penalty k = {} m/dt^2 per node, node radius {:e} m, fragments {}",
-            c.opts.stiffness_factor,
-            c.opts.radius,
-            c.opts
-                .fragment_distance
-                .map_or("off".to_string(), |d| format!("below {d:e} m"))
-        );
-        for b in &c.bodies {
-            let motion = match &b.motion {
-                hooke_contact::Motion::Dynamic { mass } => format!("dynamic, {mass:.4e} kg"),
-                hooke_contact::Motion::Kinematic(_) => "kinematic".to_string(),
-            };
-            println!(
-                "  rigid        {}: {:?}, {motion}, at {:?} m, velocity {:?} m/s, friction {}",
-                b.name, b.geometry, b.position, b.velocity, b.friction
-            );
-        }
-    }
-    let kind = sim.body.lattice.kind;
-    if let Some(c) = &sim.body.lattice.cells {
-        if !hooke_core::random::calibration::calibrated(kind, c.sampler) {
-            println!(
-                "  note         the {:?} sampler is calibrated only at amplitude {}: E and nu \
-                 are met only roughly (measure them with hooke moduli --sampler jitter)",
-                c.sampler,
-                hooke_core::random::calibration::JITTER_CALIBRATED
-            );
-        }
-    }
-    if sim.fracture.is_some() && !hooke_fracture::stretch::toughness_calibrated(kind, sim.q) {
-        println!(
-            "  note         nu = {:.3} lies outside the range where the lattice toughness was \
-             measured (hooke toughness): cracks leave their plane there and G_c is matched \
-             only roughly",
-            hooke_core::material::nu_from_q(kind, sim.q)
-        );
-    }
-    if let Some(law) = sim
-        .fracture
-        .as_ref()
-        .and_then(|f| f.criterion().as_softening())
-    {
-        let nu = hooke_core::material::nu_from_q(kind, sim.q);
-        let rho = law.peak / law.equivalent_stretch();
-        println!(
-            "  softening    {}: peak stretch {:e}, final stretch {:e} ({:.1} x the peak), \
-             equivalent stretch {:e} (peak fraction {rho:.3}), measured toughness factor F = {:.3}, \
-             strength factor S = {}",
-            law.shape.name(),
-            law.peak,
-            law.last,
-            law.last / law.peak,
-            law.equivalent_stretch(),
-            hooke_fracture::softening::toughness_factor(kind, nu, rho, law.shape),
-            match hooke_fracture::softening::strength_factor(kind, nu, rho, law.shape) {
-                Some(s) => format!("{s:.3} (a body's tensile strength is S E times the peak stretch)"),
-                None => "not measured on this lattice (the springs peak at f_t / E)".into(),
-            }
-        );
-        if !hooke_fracture::softening::calibrated(kind, nu, rho) {
-            println!(
-                "  note         softening springs are calibrated for nu in [-0.5, 0.25] and peak \
-                 fractions in [0.35, 0.9] on hex, random2d and cubic lattices (random3d takes the \
-                 cubic table); here (nu = {nu:.3}, peak fraction {rho:.3}) the table's edge \
-                 values are used and G_f is met only roughly"
-            );
-        }
-    }
-    if let Some(f) = &sim.fracture {
-        let nu = hooke_core::material::nu_from_q(kind, sim.q);
-        if f.criterion().name() == "spring-energy"
-            && !hooke_fracture::energy::energy_calibrated(kind, nu)
-        {
-            println!(
-                "  note         the energy criterion's G_c calibration holds for hex nu_2D in \
-                 [-0.9, 0.5] and cubic nu in [-0.1, 0.4]; at nu = {nu:.3} its crack roughens \
-                 and G_c is matched only roughly (the stretch criterion covers more)"
-            );
-        }
-    }
-    println!(
-        "  dt           {:e} s (critical {:e} s), {} steps to {:e} s",
-        it.dt, it.stable.dt_critical, steps, sim.end_time
-    );
-    println!(
-        "  memory       about {:.1} MiB for the state; peak {} while checking (set-up, a few \
-         steps, one output frame and a checkpoint; a run's own peak, printed at its end, lies within \
-         about a third of it)",
-        bytes as f64 / (1 << 20) as f64,
-        crate::bench::peak_memory().map_or("unknown".to_string(), |b| format!(
-            "{:.0} MiB",
-            b as f64 / (1 << 20) as f64
-        ))
-    );
-    println!(
-        "  time         {:.3} ms per step, about {:.1} s in all",
-        per_step * 1e3,
-        per_step * steps
-    );
     Ok(())
+}
+
+fn print_tensor(c: &[[Real; 6]; 6]) {
+    for row in c {
+        let cells: Vec<String> = row.iter().map(|x| format!("{x:>12.4e}")).collect();
+        println!("               {}", cells.join(" "));
+    }
+}
+
+/// The contact options and the rigid bodies.
+fn print_contact(sim: &Simulation) {
+    let Some(c) = &sim.contact else {
+        return;
+    };
+    println!(
+        "  contact      penalty k = {} m/dt^2 per node, node radius {:e} m, fragments {}",
+        c.opts.stiffness_factor,
+        c.opts.radius,
+        c.opts
+            .fragment_distance
+            .map_or("off".to_string(), |d| format!("below {d:e} m"))
+    );
+    for b in &c.bodies {
+        let motion = match &b.motion {
+            hooke_contact::Motion::Dynamic { mass } => format!("dynamic, {mass:.4e} kg"),
+            hooke_contact::Motion::Kinematic(_) => "kinematic".to_string(),
+        };
+        println!(
+            "  rigid        {}: {:?}, {motion}, at {:?} m, velocity {:?} m/s, friction {}",
+            b.name, b.geometry, b.position, b.velocity, b.friction
+        );
+    }
 }
 
 pub fn run(args: RunArgs) -> Result<()> {

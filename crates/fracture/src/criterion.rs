@@ -73,14 +73,19 @@ pub trait Criterion: Send + Sync + std::fmt::Debug {
     fn screen(&self) -> Option<Real> {
         None
     }
-    /// The spring's damage weight after this state, given its weight `w` so far (1 undamaged):
-    /// at most `w` (damage is irreversible), 0 to break it. Brittle criteria break or leave
-    /// it; a softening law ([`crate::Softening`]) lowers it gradually. The screen, if any,
-    /// must still hold: below it the weight stays `w`.
     /// The softening law, if this criterion is one (for reports).
     fn as_softening(&self) -> Option<&crate::Softening> {
         None
     }
+    /// True for the spring-energy criterion, whose G_c calibration covers a range of its own
+    /// (`crate::energy::energy_calibrated`; for reports).
+    fn is_energy(&self) -> bool {
+        false
+    }
+    /// The spring's damage weight after this state, given its weight `w` so far (1 undamaged):
+    /// at most `w` (damage is irreversible), 0 to break it. Brittle criteria break or leave
+    /// it; a softening law ([`crate::Softening`]) lowers it gradually. The screen, if any,
+    /// must still hold: below it the weight stays `w`.
     fn weight(&self, s: &SpringState, w: Real) -> Real {
         if self.breaks(s) {
             0.0

@@ -144,6 +144,10 @@ impl Criterion for SpringEnergy {
         "spring-energy"
     }
 
+    fn is_energy(&self) -> bool {
+        true
+    }
+
     fn breaks(&self, s: &SpringState) -> bool {
         let r = s.rest / self.l_ref;
         s.dl > 0.0 && s.energy() > self.w_c * r * r

@@ -17,6 +17,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 mod builder;
+mod check;
 mod error;
 pub mod geometry;
 mod observer;
@@ -28,6 +29,7 @@ mod run;
 mod simulation;
 
 pub use builder::{Bc, BreakRule, BuildError, Builder, Strength};
+pub use check::{BoundaryNodes, CheckReport, Note, SofteningReport};
 pub use error::{Error, Result};
 pub use geometry::{fill_lattice, Face, Region, Shape, Solid};
 pub use observer::{Observer, Progress, Silent, StopFlag};

@@ -11,6 +11,7 @@
 //!   [`alloc::prefetch`];
 //! - [`free_space`]: free bytes on a file system (`statvfs`);
 //! - [`online_cores`]: the machine's cores (`sysconf`);
+//! - [`peak_memory`], [`resident_memory`]: this process's resident memory (`/proc`);
 //! - [`default_sigpipe`]: a closed pipe ends the program quietly (`signal`);
 //! - [`cache_dir`]: where programs keep calibrations between processes (the environment: the
 //!   libraries take the directory as an option, the programs read the variables here).
@@ -89,4 +90,22 @@ pub fn cache_dir() -> Option<std::path::PathBuf> {
             .or_else(|| var("HOME").map(|h| PathBuf::from(h).join(".cache")))
             .map(|d| d.join("hooke")),
     }
+}
+
+/// Peak resident memory of this process (Linux: `VmHWM` of `/proc/self/status`), in bytes.
+pub fn peak_memory() -> Option<u64> {
+    status_bytes("VmHWM:")
+}
+
+/// Resident memory of this process now (Linux: `VmRSS`), in bytes: after set-up, what a run
+/// keeps.
+pub fn resident_memory() -> Option<u64> {
+    status_bytes("VmRSS:")
+}
+
+fn status_bytes(key: &str) -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with(key))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }

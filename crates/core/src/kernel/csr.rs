@@ -267,20 +267,15 @@ struct Springs<'a> {
     alive: &'a [bool],
 }
 
-/// True when sweep 1 may use AVX (x86-64 processors since 2011), unless `HOOKE_NO_SIMD` is
-/// set. Either way the results are the same bits: the vector loop performs the same IEEE
-/// operations (Rust never fuses a multiply and an add on its own).
-/// Decided once per process: the sweep asks every step, and reading the environment is not
-/// free.
+/// True when sweep 1 may use AVX (x86-64 processors since 2011), unless the portable paths are
+/// forced ([`super::Simd::Portable`]). Either way the results are the same bits: the vector
+/// loop performs the same IEEE operations (Rust never fuses a multiply and an add on its own).
 pub(crate) fn wide_available() -> bool {
-    static WIDE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    *WIDE.get_or_init(|| {
-        #[cfg(target_arch = "x86_64")]
-        let avx = std::arch::is_x86_feature_detected!("avx");
-        #[cfg(not(target_arch = "x86_64"))]
-        let avx = false;
-        super::simd_allowed() && avx
-    })
+    #[cfg(target_arch = "x86_64")]
+    let avx = std::arch::is_x86_feature_detected!("avx");
+    #[cfg(not(target_arch = "x86_64"))]
+    let avx = false;
+    super::simd_allowed() && avx
 }
 
 /// [`spring_chunk`] compiled for AVX.
@@ -538,7 +533,7 @@ mod tests {
     use crate::random::RandomSpec;
 
     /// The AVX build of sweep 1 and the portable one give the same bits (the portable one is what
-    /// runs where AVX is missing or `HOOKE_NO_SIMD` is set), on plates and solids with broken
+    /// runs where AVX is missing or the portable paths are forced), on plates and solids with broken
     /// springs and a displacement.
     #[test]
     fn wide_and_portable_sweeps_agree_bit_for_bit() {

@@ -162,7 +162,7 @@ impl Kernel {
 
     /// Whether [`Kernel::for_body`] could ever give the CSR kernel to bodies of a lattice with
     /// periods `period` (0: not periodic): on a periodic lattice, or where the vector paths are
-    /// unavailable (neither AVX-512 nor AVX2, or `HOOKE_NO_SIMD`), since a stencil body that softens moves to
+    /// unavailable (neither AVX-512 nor AVX2, or [`Simd::Portable`]), since a stencil body that softens moves to
     /// a general kernel. Only then is the rows' neighbour array built
     /// ([`crate::lattice::Bonds::keep_neighbours`]; the CSR kernel also runs without it, with
     /// one more indirection per row entry).
@@ -438,11 +438,54 @@ impl Kernel {
     }
 }
 
-/// False when the environment variable `HOOKE_NO_SIMD` is set: every kernel then takes its
-/// portable path (what CI checks the vector paths against, and the way to rule them out when
-/// chasing a problem).
+/// Which vector instructions the kernels may use, for the whole process. Every choice gives the
+/// same bits (each vector path performs the portable path's operations lane by lane); the
+/// setting exists to test and measure the paths against each other. Programs set it once,
+/// before they build integrators: the `hooke` binary and the Python module map the environment
+/// variables `HOOKE_NO_SIMD` (portable) and `HOOKE_SIMD=avx2` onto it ([`Simd::from_env_values`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Simd {
+    /// The widest the processor has: AVX-512, else AVX2 (AVX for the CSR kernel's sweep 1).
+    #[default]
+    Best,
+    /// AVX2 where the processor has AVX-512 too.
+    Avx2,
+    /// No vector instructions: every kernel takes its portable path.
+    Portable,
+}
+
+static SIMD: std::sync::atomic::AtomicU8 = std::sync::atomic::AtomicU8::new(0);
+
+impl Simd {
+    /// The choice the two environment variables make: `HOOKE_NO_SIMD` set (`no_simd`) is
+    /// [`Simd::Portable`], else `HOOKE_SIMD=avx2` is [`Simd::Avx2`], else [`Simd::Best`].
+    pub fn from_env_values(no_simd: bool, simd: Option<&str>) -> Simd {
+        match (no_simd, simd) {
+            (true, _) => Simd::Portable,
+            (false, Some("avx2")) => Simd::Avx2,
+            _ => Simd::Best,
+        }
+    }
+}
+
+/// Set the process's [`Simd`] choice (before integrators are built: a kernel picks its path
+/// when it is made).
+pub fn set_simd(choice: Simd) {
+    SIMD.store(choice as u8, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// The process's [`Simd`] choice.
+pub fn simd() -> Simd {
+    match SIMD.load(std::sync::atomic::Ordering::Relaxed) {
+        1 => Simd::Avx2,
+        2 => Simd::Portable,
+        _ => Simd::Best,
+    }
+}
+
+/// False when the process runs the portable paths only ([`Simd::Portable`]).
 pub(crate) fn simd_allowed() -> bool {
-    std::env::var_os("HOOKE_NO_SIMD").is_none()
+    simd() != Simd::Portable
 }
 
 /// A mutable slice shared by parallel tasks that each write a disjoint range of it.

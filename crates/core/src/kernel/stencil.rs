@@ -188,15 +188,15 @@ impl<const D: usize> Factors<D> {
 
 /// The vector instructions the kernels' vector paths use: AVX-512 (8 lanes) where the
 /// processor has it, else AVX2 (4 lanes; a block of 8 nodes as two halves); `None` without
-/// either or with `HOOKE_NO_SIMD`. `HOOKE_SIMD=avx2` takes AVX2 where AVX-512 is there too (to test and
-/// measure that path on such a machine).
+/// either or with [`super::Simd::Portable`]. [`super::Simd::Avx2`] takes AVX2 where AVX-512 is
+/// there too (to test and measure that path on such a machine).
 pub(crate) fn simd_lanes() -> Option<Lanes> {
     if !super::simd_allowed() {
         return None;
     }
     #[cfg(target_arch = "x86_64")]
     {
-        let want_avx2 = std::env::var("HOOKE_SIMD").is_ok_and(|v| v == "avx2");
+        let want_avx2 = super::simd() == super::Simd::Avx2;
         if !want_avx2 && std::arch::is_x86_feature_detected!("avx512f") {
             return Some(Lanes::Avx512);
         }
@@ -207,7 +207,7 @@ pub(crate) fn simd_lanes() -> Option<Lanes> {
     None
 }
 
-/// AVX2 where the processor has it and `HOOKE_NO_SIMD` is not set, whatever else it has: what
+/// AVX2 where the processor has it and the portable paths are not forced, whatever else it has: what
 /// the kernels' `use_avx2` switch to (to test and measure that path on an AVX-512 processor).
 pub(crate) fn avx2_lanes() -> Option<Lanes> {
     #[cfg(target_arch = "x86_64")]

@@ -579,7 +579,7 @@ mod tests {
             panic!("a cubic box has its stencil");
         };
         if !stencil.wave() {
-            // No AVX-512 here (or HOOKE_NO_SIMD): nothing to compare.
+            // No AVX-512 here (or the portable paths forced): nothing to compare.
             return;
         }
         let mut gather = stencil.clone();
