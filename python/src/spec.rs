@@ -299,6 +299,208 @@ fn rigid(a: &Value, key: &str, dim: usize, thickness: Real, k: usize) -> R<Rigid
     .map_err(|(which, why)| format!("{key}: {which}: {why}"))
 }
 
+/// The `orthotropic` call's material.
+fn orthotropic(a: &Value, key: &str) -> R<hooke_core::Orthotropic> {
+    let three = |name: &str| -> R<[Real; 3]> {
+        let v = field(a, name, key)?;
+        let arr = v
+            .as_array()
+            .filter(|x| x.len() == 3)
+            .ok_or_else(|| format!("{key}: {name}: give three numbers, not {v}"))?;
+        Ok([num(&arr[0], key)?, num(&arr[1], key)?, num(&arr[2], key)?])
+    };
+    let axes = match a.get("axes").filter(|v| !v.is_null()) {
+        None => hooke_core::Orthotropic::AXES,
+        Some(v) => {
+            let pair = v.as_array().filter(|p| p.len() == 2).ok_or_else(|| {
+                format!("{key}: axes: give the material x and y axes, two directions, not {v}")
+            })?;
+            hooke_core::Orthotropic::axes_from(point(&pair[0], key)?, point(&pair[1], key)?)
+                .map_err(|e| format!("{key}: axes: {e}"))?
+        }
+    };
+    Ok(hooke_core::Orthotropic {
+        youngs: three("youngs")?,
+        poisson: three("poisson")?,
+        shear: three("shear")?,
+        density: num(field(a, "density", key)?, key)?,
+        axes,
+    })
+}
+
+/// The `boundary` call's boundary condition.
+fn boundary(a: &Value, key: &str) -> R<Bc> {
+    let mut bc = Bc::on(region(field(a, "region", key)?, key)?);
+    if let Some(Value::Array(ax)) = a.get("fixed") {
+        for x in ax {
+            bc = bc.fixed(axis(x, key)?);
+        }
+    }
+    for (what, f) in [("velocity", 0), ("displacement", 1)] {
+        if let Some(Value::Object(m)) = a.get(what) {
+            for (ax, tf) in m {
+                let (ax, tf) = (
+                    axis(&Value::from(ax.as_str()), key)?,
+                    time_function(tf, key)?,
+                );
+                bc = if f == 0 {
+                    bc.velocity(ax, tf)
+                } else {
+                    bc.displacement(ax, tf)
+                };
+            }
+        }
+    }
+    if let Some(t) = a.get("traction") {
+        let v = point(field(t, "value", key)?, key)?;
+        let normal = axis(field(t, "normal", key)?, key)?;
+        let scale = match t.get("scale") {
+            Some(f) => time_function(f, key)?,
+            None => TimeFunction::Constant(1.0),
+        };
+        bc = bc.traction(v, normal, scale);
+    }
+    if a.get("no_fail").and_then(Value::as_bool) == Some(true) {
+        bc = bc.no_fail();
+    }
+    if let Some(n) = a.get("name").and_then(Value::as_str) {
+        bc = bc.named(n);
+    }
+    Ok(bc)
+}
+
+/// The `random` call's seed and sampler.
+fn random_spec(a: &Value, key: &str) -> R<RandomSpec> {
+    let seed = match a.get("seed") {
+        None => 1,
+        Some(s) => s
+            .as_u64()
+            .ok_or_else(|| format!("{key}: give a non-negative integer seed"))?,
+    };
+    let sampler = match a
+        .get("sampler")
+        .and_then(Value::as_str)
+        .unwrap_or("poisson")
+    {
+        "poisson" => Sampler::Poisson,
+        "jitter" => {
+            let j = a
+                .get("jitter")
+                .map(|j| num(j, key))
+                .transpose()?
+                .unwrap_or(0.6);
+            if !(0.0..=1.0).contains(&j) {
+                return Err(format!(
+                    "{key}: jitter {j}: give the largest move as a fraction of the spacing, 0 to 1"
+                ));
+            }
+            Sampler::Jitter { amplitude: j }
+        }
+        other => {
+            return Err(format!(
+                "{key}: unknown sampler \"{other}\"; use \"poisson\" or \"jitter\""
+            ))
+        }
+    };
+    Ok(RandomSpec { sampler, seed })
+}
+
+/// The `breaking` call's rule: a critical stretch or a fracture energy, for the stretch or
+/// the energy criterion.
+fn breaking_rule(a: &Value, key: &str) -> R<BreakRule> {
+    let energy = match a
+        .get("criterion")
+        .and_then(Value::as_str)
+        .unwrap_or("stretch")
+    {
+        "stretch" => false,
+        "energy" => true,
+        other => {
+            return Err(format!(
+                "{key}: criterion \"{other}\": give \"stretch\" or \"energy\""
+            ))
+        }
+    };
+    let fibre = a.get("stretch_fibre").filter(|v| !v.is_null());
+    let rule = match (a.get("stretch"), a.get("fracture_energy"), energy, fibre) {
+        (Some(s), None, false, Some(f)) => BreakRule::FibreStretch {
+            across: num(s, key)?,
+            along: num(f, key)?,
+        },
+        (_, _, _, Some(_)) => {
+            return Err(format!(
+            "{key}: stretch_fibre goes with stretch (across the fibre) and the stretch criterion"
+        ))
+        }
+        _ => match (a.get("stretch"), a.get("fracture_energy"), energy) {
+            (Some(s), None, false) => BreakRule::Stretch(num(s, key)?),
+            (Some(s), None, true) => BreakRule::SpringEnergyFromStretch(num(s, key)?),
+            (None, Some(g), false) => BreakRule::FractureEnergy(num(g, key)?),
+            (None, Some(g), true) => BreakRule::SpringEnergy(num(g, key)?),
+            _ => return Err(format!("{key}: give stretch or fracture_energy")),
+        },
+    };
+    Ok(rule)
+}
+
+/// The `softening` call's rule.
+fn softening_rule(a: &Value, key: &str) -> R<BreakRule> {
+    let shape = match a.get("shape").and_then(Value::as_str).unwrap_or("linear") {
+        "linear" => SofteningShape::Linear,
+        "bilinear" => SofteningShape::Bilinear,
+        other => {
+            return Err(format!(
+                "{key}: shape \"{other}\": give \"linear\" or \"bilinear\""
+            ))
+        }
+    };
+    let get = |k: &str| a.get(k).filter(|v| !v.is_null());
+    let rule = match (
+        get("fracture_energy"),
+        get("tensile_strength"),
+        get("characteristic_length"),
+        get("peak_stretch"),
+        get("final_stretch"),
+    ) {
+        (Some(g), Some(f), None, None, None) => BreakRule::Softening {
+            fracture_energy: num(g, key)?,
+            strength: Strength::Tensile(num(f, key)?),
+            shape,
+        },
+        (Some(g), None, Some(l), None, None) => BreakRule::Softening {
+            fracture_energy: num(g, key)?,
+            strength: Strength::CharacteristicLength(num(l, key)?),
+            shape,
+        },
+        (None, None, None, Some(p), Some(f)) => BreakRule::SofteningStretch {
+            peak: num(p, key)?,
+            last: num(f, key)?,
+            shape,
+        },
+        _ => {
+            return Err(format!(
+                "{key}: give fracture_energy with tensile_strength or \
+                 characteristic_length, or peak_stretch with final_stretch"
+            ))
+        }
+    };
+    Ok(rule)
+}
+
+/// The `time_step` call: a safety factor on the stable step, or a fixed step.
+fn time_step(a: &Value, key: &str) -> R<TimeStep> {
+    Ok(match (a.get("safety"), a.get("dt")) {
+        (Some(s), None) => TimeStep::Auto {
+            safety: num(s, key)?,
+        },
+        (None, Some(dt)) => TimeStep::Fixed {
+            dt: num(dt, key)?,
+            force: a.get("force").and_then(Value::as_bool).unwrap_or(false),
+        },
+        _ => return Err(format!("{key}: give safety or dt")),
+    })
+}
+
 /// Build the simulation a `hooke.Builder` spec describes.
 pub fn build(spec: &Value) -> R<Simulation> {
     let kind = match field(spec, "lattice", "lattice")?.as_str() {
@@ -364,37 +566,7 @@ pub fn build(spec: &Value) -> R<Simulation> {
                     fibre,
                 })
             }
-            "orthotropic" => {
-                let three = |name: &str| -> R<[Real; 3]> {
-                    let v = field(&a, name, key)?;
-                    let arr = v
-                        .as_array()
-                        .filter(|x| x.len() == 3)
-                        .ok_or_else(|| format!("{key}: {name}: give three numbers, not {v}"))?;
-                    Ok([num(&arr[0], key)?, num(&arr[1], key)?, num(&arr[2], key)?])
-                };
-                let axes = match a.get("axes").filter(|v| !v.is_null()) {
-                    None => hooke_core::Orthotropic::AXES,
-                    Some(v) => {
-                        let pair = v
-                            .as_array()
-                            .filter(|p| p.len() == 2)
-                            .ok_or_else(|| format!("{key}: axes: give the material x and y axes, two directions, not {v}"))?;
-                        hooke_core::Orthotropic::axes_from(
-                            point(&pair[0], key)?,
-                            point(&pair[1], key)?,
-                        )
-                        .map_err(|e| format!("{key}: axes: {e}"))?
-                    }
-                };
-                b.orthotropic(hooke_core::Orthotropic {
-                    youngs: three("youngs")?,
-                    poisson: three("poisson")?,
-                    shear: three("shear")?,
-                    density: num(field(&a, "density", key)?, key)?,
-                    axes,
-                })
-            }
+            "orthotropic" => b.orthotropic(orthotropic(&a, key)?),
             "rotate_lattice" => b.rotate_lattice(point(&a, key)?),
             "cell_weights" => b.cell_weights(
                 a.as_bool()
@@ -420,45 +592,7 @@ pub fn build(spec: &Value) -> R<Simulation> {
                     .collect::<R<Vec<_>>>()?;
                 b.precrack(Crack::Polygon { vertices: vs })
             }
-            "boundary" => {
-                let mut bc = Bc::on(region(field(&a, "region", key)?, key)?);
-                if let Some(Value::Array(ax)) = a.get("fixed") {
-                    for x in ax {
-                        bc = bc.fixed(axis(x, key)?);
-                    }
-                }
-                for (what, f) in [("velocity", 0), ("displacement", 1)] {
-                    if let Some(Value::Object(m)) = a.get(what) {
-                        for (ax, tf) in m {
-                            let (ax, tf) = (
-                                axis(&Value::from(ax.as_str()), key)?,
-                                time_function(tf, key)?,
-                            );
-                            bc = if f == 0 {
-                                bc.velocity(ax, tf)
-                            } else {
-                                bc.displacement(ax, tf)
-                            };
-                        }
-                    }
-                }
-                if let Some(t) = a.get("traction") {
-                    let v = point(field(t, "value", key)?, key)?;
-                    let normal = axis(field(t, "normal", key)?, key)?;
-                    let scale = match t.get("scale") {
-                        Some(f) => time_function(f, key)?,
-                        None => TimeFunction::Constant(1.0),
-                    };
-                    bc = bc.traction(v, normal, scale);
-                }
-                if a.get("no_fail").and_then(Value::as_bool) == Some(true) {
-                    bc = bc.no_fail();
-                }
-                if let Some(n) = a.get("name").and_then(Value::as_str) {
-                    bc = bc.named(n);
-                }
-                b.boundary(bc)
-            }
+            "boundary" => b.boundary(boundary(&a, key)?),
             "initial_velocity" => b.initial_velocity(
                 region(field(&a, "region", key)?, key)?,
                 point(field(&a, "velocity", key)?, key)?,
@@ -483,125 +617,10 @@ pub fn build(spec: &Value) -> R<Simulation> {
                     .ok_or_else(|| format!("{key}: give a positive number of load steps"))?
                     as usize,
             ),
-            "time_step" => b.time_step(match (a.get("safety"), a.get("dt")) {
-                (Some(s), None) => TimeStep::Auto {
-                    safety: num(s, key)?,
-                },
-                (None, Some(dt)) => TimeStep::Fixed {
-                    dt: num(dt, key)?,
-                    force: a.get("force").and_then(Value::as_bool).unwrap_or(false),
-                },
-                _ => return Err(format!("{key}: give safety or dt")),
-            }),
-            "random" => {
-                let seed = match a.get("seed") {
-                    None => 1,
-                    Some(s) => s
-                        .as_u64()
-                        .ok_or_else(|| format!("{key}: give a non-negative integer seed"))?,
-                };
-                let sampler = match a
-                    .get("sampler")
-                    .and_then(Value::as_str)
-                    .unwrap_or("poisson")
-                {
-                    "poisson" => Sampler::Poisson,
-                    "jitter" => {
-                        let j = a
-                            .get("jitter")
-                            .map(|j| num(j, key))
-                            .transpose()?
-                            .unwrap_or(0.6);
-                        if !(0.0..=1.0).contains(&j) {
-                            return Err(format!("{key}: jitter {j}: give the largest move as a fraction of the spacing, 0 to 1"));
-                        }
-                        Sampler::Jitter { amplitude: j }
-                    }
-                    other => {
-                        return Err(format!(
-                            "{key}: unknown sampler \"{other}\"; use \"poisson\" or \"jitter\""
-                        ))
-                    }
-                };
-                b.random(RandomSpec { sampler, seed })
-            }
-            "breaking" => {
-                let energy = match a
-                    .get("criterion")
-                    .and_then(Value::as_str)
-                    .unwrap_or("stretch")
-                {
-                    "stretch" => false,
-                    "energy" => true,
-                    other => {
-                        return Err(format!(
-                            "{key}: criterion \"{other}\": give \"stretch\" or \"energy\""
-                        ))
-                    }
-                };
-                let fibre = a.get("stretch_fibre").filter(|v| !v.is_null());
-                let rule = match (a.get("stretch"), a.get("fracture_energy"), energy, fibre) {
-                    (Some(s), None, false, Some(f)) => BreakRule::FibreStretch {
-                        across: num(s, key)?,
-                        along: num(f, key)?,
-                    },
-                    (_, _, _, Some(_)) => {
-                        return Err(format!(
-                            "{key}: stretch_fibre goes with stretch (across the fibre) and the stretch criterion"
-                        ))
-                    }
-                    _ => match (a.get("stretch"), a.get("fracture_energy"), energy) {
-                    (Some(s), None, false) => BreakRule::Stretch(num(s, key)?),
-                    (Some(s), None, true) => BreakRule::SpringEnergyFromStretch(num(s, key)?),
-                    (None, Some(g), false) => BreakRule::FractureEnergy(num(g, key)?),
-                    (None, Some(g), true) => BreakRule::SpringEnergy(num(g, key)?),
-                    _ => return Err(format!("{key}: give stretch or fracture_energy")),
-                    },
-                };
-                b.breaking(rule)
-            }
-            "softening" => {
-                let shape = match a.get("shape").and_then(Value::as_str).unwrap_or("linear") {
-                    "linear" => SofteningShape::Linear,
-                    "bilinear" => SofteningShape::Bilinear,
-                    other => {
-                        return Err(format!(
-                            "{key}: shape \"{other}\": give \"linear\" or \"bilinear\""
-                        ))
-                    }
-                };
-                let get = |k: &str| a.get(k).filter(|v| !v.is_null());
-                let rule = match (
-                    get("fracture_energy"),
-                    get("tensile_strength"),
-                    get("characteristic_length"),
-                    get("peak_stretch"),
-                    get("final_stretch"),
-                ) {
-                    (Some(g), Some(f), None, None, None) => BreakRule::Softening {
-                        fracture_energy: num(g, key)?,
-                        strength: Strength::Tensile(num(f, key)?),
-                        shape,
-                    },
-                    (Some(g), None, Some(l), None, None) => BreakRule::Softening {
-                        fracture_energy: num(g, key)?,
-                        strength: Strength::CharacteristicLength(num(l, key)?),
-                        shape,
-                    },
-                    (None, None, None, Some(p), Some(f)) => BreakRule::SofteningStretch {
-                        peak: num(p, key)?,
-                        last: num(f, key)?,
-                        shape,
-                    },
-                    _ => {
-                        return Err(format!(
-                            "{key}: give fracture_energy with tensile_strength or \
-                             characteristic_length, or peak_stretch with final_stretch"
-                        ))
-                    }
-                };
-                b.breaking(rule)
-            }
+            "time_step" => b.time_step(time_step(&a, key)?),
+            "random" => b.random(random_spec(&a, key)?),
+            "breaking" => b.breaking(breaking_rule(&a, key)?),
+            "softening" => b.breaking(softening_rule(&a, key)?),
             "rigid" => {
                 let body = rigid(&a, key, dim, thickness, rigids.len())?;
                 let start_gap = match a.get("start_gap") {

@@ -212,7 +212,7 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
     body.validate()?;
     let lat = &body.lattice;
     let n = body.nodes();
-    let [nx, ny, nz] = t.size;
+    let nx = t.size[0];
     let lx = (nx - 1) as Real * a;
     let pos = &lat.pos;
     let xc = 0.5 * lx;
@@ -259,20 +259,7 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
         state.u.set(i, u);
     }
     if t.ends == Ends::Slide {
-        let mut ty = Coords::zeros(n);
-        ty.y_mut().fill(1.0);
-        cons.add_null_mode(ty);
-        if t.kind.dim() == 3 {
-            let mut tz = Coords::zeros(n);
-            tz.z_mut().fill(1.0);
-            cons.add_null_mode(tz);
-            let mut rx = Coords::zeros(n);
-            for i in 0..n {
-                rx.y_mut()[i] = -(pos.z()[i] - zc);
-                rx.z_mut()[i] = pos.y()[i] - yc;
-            }
-            cons.add_null_mode(rx);
-        }
+        slide_modes(&mut cons, pos, t.kind.dim(), yc, zc);
     }
     let solve = statics::solve(&body, &mut state, &cons, None, &t.solver)?;
 
@@ -281,14 +268,42 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
         .filter(|&i| end_of(i) == Some(1.0))
         .map(|i| -state.f.x()[i])
         .sum();
-    let (area, area_cell, w_change, lateral) = match t.kind {
+    let (area, area_cell, w_change, lateral) = regular_lateral(t, lat, &state.u);
+    Ok(BlockResult {
+        nu_target,
+        nu_measured: -w_change / t.strain,
+        e_target,
+        e_measured: force / area / t.strain,
+        e_measured_cell: force / area_cell / t.strain,
+        q,
+        nodes: n,
+        springs: body.springs(),
+        solve,
+        e_measured_middle: None,
+        lateral_measured: lateral,
+        lateral_target: (t.kind == LatticeKind::Cubic).then_some(lateral_target),
+    })
+}
+
+/// A regular block's section (nominal and by node cells) and its lateral strain at the middle
+/// cross-section: the mean over the lateral axes, and each axis's ratio (cubic).
+fn regular_lateral(
+    t: &BlockTest,
+    lat: &Lattice,
+    u: &Coords,
+) -> (Real, Real, Real, Option<[Real; 2]>) {
+    let a = t.spacing;
+    let [nx, ny, nz] = t.size;
+    let pos = &lat.pos;
+    let xc = 0.5 * (nx - 1) as Real * a;
+    match t.kind {
         LatticeKind::Cubic => {
             let w = (ny - 1) as Real * a;
             let h = (nz - 1) as Real * a;
             let mids = middle_columns(nx);
             let u = |ix: usize, iy: usize, iz: usize, c: usize| {
                 let i = lat.grid_index(ix, iy, iz);
-                state.u.comp(c)[i]
+                u.comp(c)[i]
             };
             let mut dy = 0.0;
             for &ix in &mids {
@@ -325,7 +340,7 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
                     .into_iter()
                     .filter(|&i| (pos.x()[i] - xc).abs() <= best + 1e-9 * a)
                     .collect();
-                sel.iter().map(|&i| state.u.y()[i]).sum::<Real>() / sel.len() as Real
+                sel.iter().map(|&i| u.y()[i]).sum::<Real>() / sel.len() as Real
             };
             (
                 w,
@@ -335,21 +350,126 @@ pub fn block_test(t: &BlockTest) -> Result<BlockResult> {
             )
         }
         LatticeKind::Random2d | LatticeKind::Random3d => unreachable!("handled above"),
-    };
-    Ok(BlockResult {
-        nu_target,
-        nu_measured: -w_change / t.strain,
-        e_target,
-        e_measured: force / area / t.strain,
-        e_measured_cell: force / area_cell / t.strain,
-        q,
-        nodes: n,
-        springs: body.springs(),
-        solve,
-        e_measured_middle: None,
-        lateral_measured: lateral,
-        lateral_target: (t.kind == LatticeKind::Cubic).then_some(lateral_target),
+    }
+}
+
+/// A regular block's free motions with sliding ends, projected out of the solve: translation
+/// across the load (y, and z in 3D) and the rotation about the bar's axis (3D).
+fn slide_modes(cons: &mut Constraints, pos: &Coords, dim: usize, yc: Real, zc: Real) {
+    let n = pos.len();
+    let mut ty = Coords::zeros(n);
+    ty.y_mut().fill(1.0);
+    cons.add_null_mode(ty);
+    if dim == 3 {
+        let mut tz = Coords::zeros(n);
+        tz.z_mut().fill(1.0);
+        cons.add_null_mode(tz);
+        let mut rx = Coords::zeros(n);
+        for i in 0..n {
+            rx.y_mut()[i] = -(pos.z()[i] - zc);
+            rx.z_mut()[i] = pos.y()[i] - yc;
+        }
+        cons.add_null_mode(rx);
+    }
+}
+
+/// The random bar (or, with `t.cylinder`, the pillar inscribed in it: radius `radius` about
+/// the load axis `ax` through `centre`, its curved wall conforming unless `t.conform` is off).
+fn random_block_lattice(
+    t: &BlockTest,
+    ax: usize,
+    ext: [Real; 3],
+    centre: [Real; 3],
+    radius: Real,
+    radial: &(dyn Fn([Real; 3]) -> [Real; 3] + Sync),
+) -> Result<Lattice> {
+    let (dim, a) = (t.kind.dim(), t.spacing);
+    Ok(if t.cylinder {
+        let tol = 1e-9 * a;
+        let inside = |p: [Real; 3]| {
+            let d = radial(p);
+            (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() <= radius + tol
+                && p[ax] >= -tol
+                && p[ax] <= ext[ax] + tol
+        };
+        let mut curved = Vec::new();
+        if t.conform {
+            curved.push(crate::random::Curved::cylinder_wall(
+                centre,
+                ax,
+                radius,
+                0.5 * ext[ax],
+            ));
+            for end in [0.0, ext[ax]] {
+                let mut c = centre;
+                c[ax] = end;
+                curved.push(crate::random::Curved::circle(3, c, ax, radius));
+            }
+        }
+        Lattice::random_conforming(dim, [0.0; 3], ext, a, 1.0, t.random, &inside, &curved)?
+    } else {
+        Lattice::random(dim, [0.0; 3], ext, a, 1.0, t.random, &|_| true)?
     })
+}
+
+/// An anisotropic block's calibrated direction functions and its targets under uniaxial stress
+/// along axis `ax`, from the compliance: E = 1 / S_aa and the lateral ratios -S_ca / S_aa (a
+/// plate's: of its in-plane stiffness, xx yy xy, per thickness).
+fn anisotropic_targets(
+    t: &BlockTest,
+    m: &crate::Anisotropic,
+    dim: usize,
+    ax: usize,
+) -> Result<(crate::random::anisotropic::Calibrated, Real, [Real; 2])> {
+    let sampler = t.random.sampler;
+    let singular = || Error::InvalidInput {
+        what: "anisotropic material",
+        why: "its stiffness is singular".into(),
+    };
+    let s = if dim == 2 {
+        let c = m.plane_stiffness(t.plane)?;
+        let idx = [0, 1, 5];
+        let s3 = nalgebra::Matrix3::from_fn(|i, j| c[idx[i]][idx[j]])
+            .try_inverse()
+            .ok_or_else(singular)?;
+        let mut s = nalgebra::Matrix6::<Real>::zeros();
+        for i in 0..3 {
+            for j in 0..3 {
+                s[(idx[i], idx[j])] = s3[(i, j)];
+            }
+        }
+        s
+    } else {
+        let c = m.stiffness()?;
+        nalgebra::Matrix6::from_fn(|i, j| c[i][j])
+            .try_inverse()
+            .ok_or_else(singular)?
+    };
+    let design = m.random_design_for(dim, sampler, t.plane)?;
+    let lat: Vec<usize> = (0..3).filter(|&c| c != ax).collect();
+    let ratios = [
+        -s[(lat[0], ax)] / s[(ax, ax)],
+        -s[(lat[1], ax)] / s[(ax, ax)],
+    ];
+    Ok((design, 1.0 / s[(ax, ax)], ratios))
+}
+
+/// The axial strain of the middle third of a bar along axis `ax` (centre `mid`, length `len`):
+/// the least-squares slope of u_ax against the position over its nodes.
+fn middle_axial_strain(u: &Coords, pos: &Coords, ax: usize, mid: Real, len: Real) -> Real {
+    let (mut xu, mut xx, mut sx, mut su, mut m) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for i in 0..u.len() {
+        let x = pos.comp(ax)[i] - mid;
+        if x.abs() <= len / 6.0 {
+            let u = u.comp(ax)[i];
+            xu += x * u;
+            xx += x * x;
+            sx += x;
+            su += u;
+            m += 1.0;
+        }
+    }
+    (xu - sx * su / m) / (xx - sx * sx / m)
 }
 
 /// The block test on a random lattice. The box is `(size - 1) a` long per axis (the regular
@@ -371,42 +491,9 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
     let a = t.spacing;
     let sampler = t.random.sampler;
     let ax = t.axis;
-    // An anisotropic material: its calibrated direction functions, and the targets under
-    // uniaxial stress along the load axis from the compliance, E = 1 / S_aa and the lateral
-    // ratios -S_ca / S_aa (a plate's: of its in-plane stiffness, xx yy xy, per thickness).
+    // An anisotropic material: its calibrated direction functions and targets.
     let aniso = match &t.anisotropic {
-        Some(m) => {
-            let singular = || Error::InvalidInput {
-                what: "anisotropic material",
-                why: "its stiffness is singular".into(),
-            };
-            let s = if dim == 2 {
-                let c = m.plane_stiffness(t.plane)?;
-                let idx = [0, 1, 5];
-                let s3 = nalgebra::Matrix3::from_fn(|i, j| c[idx[i]][idx[j]])
-                    .try_inverse()
-                    .ok_or_else(singular)?;
-                let mut s = nalgebra::Matrix6::<Real>::zeros();
-                for i in 0..3 {
-                    for j in 0..3 {
-                        s[(idx[i], idx[j])] = s3[(i, j)];
-                    }
-                }
-                s
-            } else {
-                let c = m.stiffness()?;
-                nalgebra::Matrix6::from_fn(|i, j| c[i][j])
-                    .try_inverse()
-                    .ok_or_else(singular)?
-            };
-            let design = m.random_design_for(dim, sampler, t.plane)?;
-            let lat: Vec<usize> = (0..3).filter(|&c| c != ax).collect();
-            let ratios = [
-                -s[(lat[0], ax)] / s[(ax, ax)],
-                -s[(lat[1], ax)] / s[(ax, ax)],
-            ];
-            Some((design, 1.0 / s[(ax, ax)], ratios))
-        }
+        Some(m) => Some(anisotropic_targets(t, m, dim, ax)?),
         None => None,
     };
     let q = match (&aniso, t.q) {
@@ -448,32 +535,7 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
         }
         d
     };
-    let lattice = if t.cylinder {
-        let tol = 1e-9 * a;
-        let inside = |p: [Real; 3]| {
-            let d = radial(p);
-            (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() <= radius + tol
-                && p[ax] >= -tol
-                && p[ax] <= ext[ax] + tol
-        };
-        let mut curved = Vec::new();
-        if t.conform {
-            curved.push(crate::random::Curved::cylinder_wall(
-                centre,
-                ax,
-                radius,
-                0.5 * ext[ax],
-            ));
-            for end in [0.0, ext[ax]] {
-                let mut c = centre;
-                c[ax] = end;
-                curved.push(crate::random::Curved::circle(3, c, ax, radius));
-            }
-        }
-        Lattice::random_conforming(dim, [0.0; 3], ext, a, 1.0, t.random, &inside, &curved)?
-    } else {
-        Lattice::random(dim, [0.0; 3], ext, a, 1.0, t.random, &|_| true)?
-    };
+    let lattice = random_block_lattice(t, ax, ext, centre, radius, &radial)?;
     let (body, e_target) = match &aniso {
         Some((cal, e, _)) => (cal.design.body(lattice, 1.0)?, *e),
         None => {
@@ -588,21 +650,7 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
         lateral_strain /= lateral.len() as Real;
     }
     let e_measured = force / area / t.strain;
-    let axial_middle = {
-        let (mut xu, mut xx, mut sx, mut su, mut m) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for i in 0..n {
-            let x = coord(ax, i) - centre[ax];
-            if x.abs() <= len / 6.0 {
-                let u = state.u.comp(ax)[i];
-                xu += x * u;
-                xx += x * x;
-                sx += x;
-                su += u;
-                m += 1.0;
-            }
-        }
-        (xu - sx * su / m) / (xx - sx * sx / m)
-    };
+    let axial_middle = middle_axial_strain(&state.u, pos, ax, centre[ax], len);
     let (nu_target, lateral_measured, lateral_target) = match &aniso {
         Some((.., r)) if dim == 3 && !t.cylinder => (0.5 * (r[0] + r[1]), Some(per_axis), Some(*r)),
         // A plate has one lateral axis (the second ratio is the out-of-plane one, not measured).

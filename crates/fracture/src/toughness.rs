@@ -404,6 +404,142 @@ fn cut_to(body: &Body, t: &StripTest, yc: Real, x: Real) -> Result<State, Fractu
     Ok(state)
 }
 
+/// The brittle strip's load ratio: the most loaded breakable spring's ratio to the criterion
+/// (linear in the grip opening), and the springs past it that break now: only the most loaded
+/// (and its exact ties, e.g. the periodic copies across a 3D strip), the classic quasi-static
+/// rule, one event per equilibrium.
+fn most_loaded(
+    t: &StripTest,
+    body: &Body,
+    state: &State,
+    breakable: &[bool],
+    w_c: Real,
+) -> (Real, Vec<(usize, Real)>) {
+    let bonds = &*body.lattice.bonds;
+    let mut worst = 0.0 as Real;
+    let mut over = Vec::new();
+    for b in 0..bonds.len() {
+        let [i, j] = bonds.ends[b].map(|v| v as usize);
+        if !state.alive()[b] || !breakable[i] || !breakable[j] {
+            continue;
+        }
+        let g = spring_geometry(&body.lattice, &state.u, i, j, body.lattice.rest(b));
+        let s = SpringState {
+            k: body.k[b],
+            rest: body.lattice.rest(b),
+            lever: body.levers().get(b),
+            dir: crate::criterion::reference_direction(body, i, j),
+            dl: g.dl,
+            pool: [state.pool[i], state.pool[j]],
+            q: body.q,
+        };
+        // Load ratio: linear in the grip opening for either criterion.
+        let r = if t.energy {
+            if s.dl > 0.0 {
+                (s.energy().max(0.0) / (w_c * s.rest * s.rest)).sqrt()
+            } else {
+                0.0
+            }
+        } else {
+            s.stretch() / t.s_c
+        };
+        if r > 1.0 {
+            over.push((b, r));
+        }
+        worst = worst.max(r);
+    }
+    over.retain(|&(_, r)| r >= worst * (1.0 - 1e-9));
+    (worst, over)
+}
+
+/// The softening strip's weight changes at this equilibrium into `changes`: each breakable
+/// spring's weight lowered to the envelope of its stretch, changes below a part in `tol` left for
+/// the next load step, and of the springs that reach their end only the most stretched (and its
+/// exact ties), so that the crack advance is resolved spring by spring. Returns the largest
+/// stretch over the peak.
+fn softening_changes(
+    body: &Body,
+    state: &State,
+    breakable: &[bool],
+    law: &Softening,
+    tol: Real,
+    changes: &mut Vec<(usize, Real)>,
+) -> Real {
+    let bonds = &*body.lattice.bonds;
+    let (mut worst, mut most) = (0.0 as Real, 0.0 as Real);
+    changes.clear();
+    for b in 0..bonds.len() {
+        let [i, j] = bonds.ends[b].map(|v| v as usize);
+        if !state.alive()[b] || !breakable[i] || !breakable[j] {
+            continue;
+        }
+        let stretch = spring_geometry(&body.lattice, &state.u, i, j, body.lattice.rest(b)).dl
+            / body.lattice.rest(b);
+        worst = worst.max(stretch / law.peak);
+        let w = state.weight_of(b);
+        let next = law.weight_at(stretch).min(w);
+        // Changes below a part in `tol` of the weight wait for the next load step.
+        if next == 0.0 || next < w * (1.0 - tol) {
+            changes.push((b, next));
+            if next == 0.0 {
+                most = most.max(stretch);
+            }
+        }
+    }
+    // Of the springs that reach their end, only the most stretched breaks per
+    // equilibrium (and its exact ties), as in the brittle experiment: the crack advance
+    // is then resolved spring by spring, never a jump across the window.
+    changes.retain(|&(b, w)| {
+        if w > 0.0 {
+            return true;
+        }
+        let [i, j] = bonds.ends[b].map(|v| v as usize);
+        let stretch = spring_geometry(&body.lattice, &state.u, i, j, body.lattice.rest(b)).dl
+            / body.lattice.rest(b);
+        stretch >= most * (1.0 - 1e-9)
+    });
+    worst
+}
+
+/// The strip's figures from its history of (tip, dissipated, eps) after each round of breaks:
+/// the dissipation per unit of new crack area over the window from `x1`, the release rate at
+/// the running strain (`per_length` eps^2 / w), and the counts.
+fn strip_result(
+    t: &StripTest,
+    history: &[(Real, Real, Real)],
+    x1: Real,
+    w: Real,
+    per_length: Real,
+    (broken, off_plane, solves): (usize, usize, usize),
+) -> Result<StripResult, FractureError> {
+    let first = history.iter().position(|h| h.0 >= x1).ok_or_else(|| {
+        FractureError::Experiment("strip: the crack never reached the window".into())
+    })?;
+    // The window closes with the last equilibrium before the tip leaves it: the final event can
+    // need a higher load (the crack then feels the end of the strip) and is not steady growth.
+    let last = history.len().saturating_sub(2).max(first);
+    let (ta, da, _) = history[first];
+    let (tb, db, eps_run) = history[last];
+    if tb - ta < 2.0 {
+        return Err(FractureError::Experiment(format!(
+            "strip: measuring window of {:.1} spacings; make the strip longer",
+            tb - ta
+        )));
+    }
+    Ok(StripResult {
+        g_measured: (db - da) / ((tb - ta) * w),
+        g_release: per_length * eps_run * eps_run / w,
+        g_calibrated: g_calibrated(t),
+        gamma: (db - da) / ((tb - ta) * w) / (t.s_c * t.s_c),
+        eps_run,
+        window: tb - ta,
+        broken,
+        off_plane,
+        solves,
+        release_is_measure: t.kind == LatticeKind::Random3d && t.softening.is_none(),
+    })
+}
+
 /// Run the strip experiment (see the module docs).
 pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
     if t.height < 6
@@ -517,40 +653,7 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
                     t.max_solves
                 )));
             }
-            let (mut worst, mut most) = (0.0 as Real, 0.0 as Real);
-            changes.clear();
-            for b in 0..bonds.len() {
-                let [i, j] = bonds.ends[b].map(|v| v as usize);
-                if !state.alive()[b] || !breakable[i] || !breakable[j] {
-                    continue;
-                }
-                let stretch = spring_geometry(&body.lattice, &state.u, i, j, body.lattice.rest(b))
-                    .dl
-                    / body.lattice.rest(b);
-                worst = worst.max(stretch / law.peak);
-                let w = state.weight_of(b);
-                let next = law.weight_at(stretch).min(w);
-                // Changes below a part in `tol` of the weight wait for the next load step.
-                if next == 0.0 || next < w * (1.0 - tol) {
-                    changes.push((b, next));
-                    if next == 0.0 {
-                        most = most.max(stretch);
-                    }
-                }
-            }
-            // Of the springs that reach their end, only the most stretched breaks per
-            // equilibrium (and its exact ties), as in the brittle experiment: the crack advance
-            // is then resolved spring by spring, never a jump across the window.
-            changes.retain(|&(b, w)| {
-                if w > 0.0 {
-                    return true;
-                }
-                let [i, j] = bonds.ends[b].map(|v| v as usize);
-                let stretch = spring_geometry(&body.lattice, &state.u, i, j, body.lattice.rest(b))
-                    .dl
-                    / body.lattice.rest(b);
-                stretch >= most * (1.0 - 1e-9)
-            });
+            let worst = softening_changes(&body, &state, &breakable, &law, tol, &mut changes);
             if changes.is_empty() {
                 let f = if worst < 1.0 {
                     (1.0 + 1e-6) / worst.max(1e-300)
@@ -584,42 +687,7 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
                 t.max_solves
             )));
         }
-        // The most stretched breakable spring, relative to s_c.
-        let mut worst = 0.0 as Real;
-        let mut over = Vec::new();
-        for b in 0..bonds.len() {
-            let [i, j] = bonds.ends[b].map(|v| v as usize);
-            if !state.alive()[b] || !breakable[i] || !breakable[j] {
-                continue;
-            }
-            let g = spring_geometry(&body.lattice, &state.u, i, j, body.lattice.rest(b));
-            let s = SpringState {
-                k: body.k[b],
-                rest: body.lattice.rest(b),
-                lever: body.levers().get(b),
-                dir: crate::criterion::reference_direction(&body, i, j),
-                dl: g.dl,
-                pool: [state.pool[i], state.pool[j]],
-                q: body.q,
-            };
-            // Load ratio: linear in the grip opening for either criterion.
-            let r = if t.energy {
-                if s.dl > 0.0 {
-                    (s.energy().max(0.0) / (w_c * s.rest * s.rest)).sqrt()
-                } else {
-                    0.0
-                }
-            } else {
-                s.stretch() / t.s_c
-            };
-            if r > 1.0 {
-                over.push((b, r));
-            }
-            worst = worst.max(r);
-        }
-        // Only the most stretched spring breaks (and its exact ties, e.g. the periodic copies
-        // across a 3D strip): the classic quasi-static rule, one event per equilibrium.
-        over.retain(|&(_, r)| r >= worst * (1.0 - 1e-9));
+        let (worst, over) = most_loaded(t, &body, &state, &breakable, w_c);
         if over.is_empty() {
             // Scale the opening (and, as the initial guess, the whole field) so that the most
             // stretched spring just passes the criterion.
@@ -640,32 +708,7 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
         solves += 1;
         history.push((tip, work - stored(&body, &state), eps));
     }
-    let first = history.iter().position(|h| h.0 >= x1).ok_or_else(|| {
-        FractureError::Experiment("strip: the crack never reached the window".into())
-    })?;
-    // The window closes with the last equilibrium before the tip leaves it: the final event can
-    // need a higher load (the crack then feels the end of the strip) and is not steady growth.
-    let last = history.len().saturating_sub(2).max(first);
-    let (ta, da, _) = history[first];
-    let (tb, db, eps_run) = history[last];
-    if tb - ta < 2.0 {
-        return Err(FractureError::Experiment(format!(
-            "strip: measuring window of {:.1} spacings; make the strip longer",
-            tb - ta
-        )));
-    }
-    Ok(StripResult {
-        g_measured: (db - da) / ((tb - ta) * w),
-        g_release: per_length * eps_run * eps_run / w,
-        g_calibrated: g_calibrated(t),
-        gamma: (db - da) / ((tb - ta) * w) / (t.s_c * t.s_c),
-        eps_run,
-        window: tb - ta,
-        broken,
-        off_plane,
-        solves,
-        release_is_measure: t.kind == LatticeKind::Random3d && t.softening.is_none(),
-    })
+    strip_result(t, &history, x1, w, per_length, (broken, off_plane, solves))
 }
 
 #[cfg(test)]
