@@ -172,7 +172,7 @@ impl PySimulation {
             ));
         }
         if let Some((sim, _)) = &self.pending {
-            if sim.quasi_static.is_some() {
+            if sim.solver.is_quasi_static() {
                 return Err(RunError::new_err(
                     "a quasi-static simulation solves its load steps to the end in one go: call finish()",
                 ));
@@ -347,7 +347,7 @@ impl PySimulation {
         }
         let (summary, ended) = match self.pending.take() {
             // Quasi-static: the load steps, to the end, through the library's driver.
-            Some((sim, opts)) if sim.quasi_static.is_some() => {
+            Some((sim, opts)) if sim.solver.is_quasi_static() => {
                 let (summary, ended) = py
                     .detach(|| hooke_sim::run_keeping(sim, opts, &mut Quiet))
                     .map_err(run_error)?;

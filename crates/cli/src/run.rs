@@ -404,7 +404,7 @@ fn run_in(args: RunArgs, team: Option<Arc<dyn hooke_core::team::Team>>) -> Resul
         // A second handler cannot be installed in one process; tests call run() once per process.
         let _ = ctrlc::set_handler(move || stop.store(true, Ordering::SeqCst));
     }
-    let quasi = sim.quasi_static;
+    let quasi = sim.solver.quasi_static_steps();
     let every = if crate::quiet() {
         0.0
     } else {

@@ -455,7 +455,10 @@ impl Builder {
             fields: self.fields,
             regions,
             boundaries,
-            quasi_static: self.quasi_static,
+            solver: match self.quasi_static {
+                Some(steps) => crate::Solver::QuasiStatic { steps },
+                None => crate::Solver::Explicit,
+            },
             vtk: self.formats.0,
             hdf5: self.formats.1,
             k,

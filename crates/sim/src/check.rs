@@ -167,7 +167,7 @@ impl Simulation {
             dt_critical: it.stable.dt_critical,
             steps,
             end_time: self.end_time,
-            quasi_static_steps: self.quasi_static,
+            quasi_static_steps: self.solver.quasi_static_steps(),
             state_bytes,
             peak_memory_bytes: hooke_sys::peak_memory(),
             seconds_per_step: per_step,

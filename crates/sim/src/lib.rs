@@ -37,4 +37,4 @@ pub use output::{EnergyRow, Frame, RegionReaction, Sink};
 pub use provenance::{utc_now, GIT_COMMIT};
 pub use rigid::{ContactSpec, RigidSpec};
 pub use run::{free_space, run, run_keeping, seconds, write_probe, Run, RunOptions, Summary};
-pub use simulation::{Boundary, FromParts, Held, Schedule, Simulation};
+pub use simulation::{Boundary, FromParts, Held, Schedule, Simulation, Solver};

@@ -64,7 +64,7 @@ impl Provenance {
             "nu": nu,
             "springs_precracked": sim.precracked,
             "criterion": sim.fracture.as_ref().map(|f| format!("{:?}", f.criterion())),
-            "quasi_static_steps": sim.quasi_static,
+            "quasi_static_steps": sim.solver.quasi_static_steps(),
         });
         let key = if kind.is_random() { "kappa" } else { "k" };
         constants[key] = json!(sim.k);

@@ -171,13 +171,13 @@ fn preflight(sim: &Simulation, opts: &RunOptions) -> Result<()> {
     if sim.hdf5 && !cfg!(feature = "hdf5") {
         return Err(Error::Input("output.format asks for \"hdf5\", but this hooke was built without HDF5; install the library (tools/install-hdf5.sh) and build with --features hdf5".into()));
     }
-    if sim.contact.is_some() && sim.quasi_static.is_some() {
+    if sim.contact.is_some() && sim.solver.is_quasi_static() {
         return Err(Error::Input(
             "contact ([[rigid]], [contact]) runs with the explicit solver; remove solver.type = \"quasi-static\""
                 .into(),
         ));
     }
-    if opts.resume.is_some() && sim.quasi_static.is_some() {
+    if opts.resume.is_some() && sim.solver.is_quasi_static() {
         return Err(Error::Input(
             "--resume continues explicit runs; a quasi-static run restarts from its case".into(),
         ));
@@ -500,7 +500,7 @@ impl Run {
     /// Check the folder, open the outputs, prepare the integrator (or load the checkpoint to
     /// resume from) and write the first frame. Quasi-static simulations run through [`run`].
     pub fn start(mut sim: Simulation, opts: RunOptions) -> Result<Run> {
-        if sim.quasi_static.is_some() {
+        if sim.solver.is_quasi_static() {
             return Err(Error::Input(
                 "a quasi-static simulation runs to its end through hooke_sim::run".into(),
             ));
@@ -1126,7 +1126,7 @@ pub fn run_keeping(
     opts: RunOptions,
     obs: &mut dyn Observer,
 ) -> Result<(Summary, Simulation)> {
-    match sim.quasi_static {
+    match sim.solver.quasi_static_steps() {
         Some(_) if opts.team.as_ref().is_some_and(|t| t.size() > 1) => Err(Error::Input(
             "quasi-static runs (solver.type = \"quasi-static\") run in one process: their static solves are not shared between processes yet; run without mpirun (or with -np 1)".into(),
         )),

@@ -7,6 +7,32 @@ use hooke_core::loading::Loading;
 use hooke_core::{Body, Real, State};
 use hooke_fracture::Fracture;
 
+/// How a simulation advances in time.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Solver {
+    /// Explicit dynamics: leapfrog steps of the stable size (`hooke_core::dynamics`).
+    #[default]
+    Explicit,
+    /// Quasi-static loading in `steps` load steps, each solved to equilibrium (static
+    /// solves, breaking between them).
+    QuasiStatic { steps: usize },
+}
+
+impl Solver {
+    /// The load steps of a quasi-static simulation; `None` for explicit dynamics.
+    pub fn quasi_static_steps(self) -> Option<usize> {
+        match self {
+            Solver::Explicit => None,
+            Solver::QuasiStatic { steps } => Some(steps),
+        }
+    }
+
+    /// True for quasi-static loading.
+    pub fn is_quasi_static(self) -> bool {
+        matches!(self, Solver::QuasiStatic { .. })
+    }
+}
+
 /// A named set of nodes whose reaction and mean displacement the run records
 /// (`NAME_reactions.csv`): every boundary condition's region.
 #[derive(Clone, Debug, PartialEq)]
@@ -63,8 +89,8 @@ pub struct Simulation {
     pub regions: Vec<u32>,
     /// The boundary regions, in order, for the reaction history.
     pub boundaries: Vec<Boundary>,
-    /// Quasi-static solve in this many load steps (None: explicit dynamics).
-    pub quasi_static: Option<usize>,
+    /// How the simulation advances: explicit dynamics or quasi-static load steps.
+    pub solver: Solver,
     /// Write the VTK series.
     pub vtk: bool,
     /// Write the HDF5 + XDMF series.
