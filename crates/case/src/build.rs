@@ -514,6 +514,66 @@ fn material(
     })
 }
 
+/// `material.axes` of an orthotropic material: the material x and y axes in the body (z their
+/// cross product), or the body's axes.
+fn material_axes(
+    ctx: &Ctx,
+    m: &RawMaterial,
+    spans: &mut Spans,
+) -> Result<[[Real; 3]; 3], CaseError> {
+    Ok(match &m.axes {
+        None => hooke_core::Orthotropic::AXES,
+        Some(a) => {
+            spans.at("material.axes", a.span());
+            let bad = |why: String| ctx.err(a.span(), "material.axes", why);
+            match a.get_ref().as_slice() {
+                [x, y] if x.len() == 3 && y.len() == 3 => hooke_core::Orthotropic::axes_from(
+                    [x[0], x[1], x[2]],
+                    [y[0], y[1], y[2]],
+                )
+                .map_err(|e| bad(format!("{e}")))?,
+                _ => {
+                    return Err(bad(
+                        "give the material x and y axes as two directions, e.g. axes = [[0.866, 0.5, 0], [-0.5, 0.866, 0]] (z is their cross product)".into(),
+                    ))
+                }
+            }
+        }
+    })
+}
+
+/// `material.fibre` of a transversely isotropic material (required; `at` is where to point
+/// when it is missing).
+fn material_fibre(
+    ctx: &Ctx,
+    m: &RawMaterial,
+    at: Range<usize>,
+    spans: &mut Spans,
+) -> Result<[Real; 3], CaseError> {
+    Ok(match &m.fibre {
+        None => {
+            return Err(ctx.err(
+                at,
+                "material.fibre",
+                "missing: give the fibre direction, e.g. fibre = [0, 0, 1] (along a lattice axis)",
+            ))
+        }
+        Some(f) => {
+            spans.at("material.fibre", f.span());
+            match f.get_ref().as_slice() {
+                &[x, y, z] => [x, y, z],
+                _ => {
+                    return Err(ctx.err(
+                        f.span(),
+                        "material.fibre",
+                        "give three numbers, e.g. fibre = [0, 0, 1]",
+                    ))
+                }
+            }
+        }
+    })
+}
+
 /// `[material]`'s elastic part: `youngs` and `poisson` (the default, `kind = "isotropic"`);
 /// `kind = "transverse"` with `youngs_plane`, `youngs_fibre`, `poisson_plane`, `poisson_fibre`,
 /// `shear_fibre` and `fibre`; or `kind = "orthotropic"` with `youngs_x|y|z`,
@@ -628,25 +688,7 @@ fn elastic(
         }
         "orthotropic" => {
             let c = values(&orthotropic)?;
-            let axes = match &m.axes {
-                None => hooke_core::Orthotropic::AXES,
-                Some(a) => {
-                    spans.at("material.axes", a.span());
-                    let bad = |why: String| ctx.err(a.span(), "material.axes", why);
-                    match a.get_ref().as_slice() {
-                        [x, y] if x.len() == 3 && y.len() == 3 => hooke_core::Orthotropic::axes_from(
-                            [x[0], x[1], x[2]],
-                            [y[0], y[1], y[2]],
-                        )
-                        .map_err(|e| bad(format!("{e}")))?,
-                        _ => {
-                            return Err(bad(
-                                "give the material x and y axes as two directions, e.g. axes = [[0.866, 0.5, 0], [-0.5, 0.866, 0]] (z is their cross product)".into(),
-                            ))
-                        }
-                    }
-                }
-            };
+            let axes = material_axes(ctx, m, spans)?;
             Ok(b.orthotropic(hooke_core::Orthotropic {
                 youngs: [c[0], c[1], c[2]],
                 poisson: [c[3], c[4], c[5]],
@@ -657,28 +699,7 @@ fn elastic(
         }
         _ => {
             let c = values(&transverse)?;
-            let fibre = match &m.fibre {
-                None => {
-                    return Err(ctx.err(
-                        at,
-                        "material.fibre",
-                        "missing: give the fibre direction, e.g. fibre = [0, 0, 1] (along a lattice axis)",
-                    ))
-                }
-                Some(f) => {
-                    spans.at("material.fibre", f.span());
-                    match f.get_ref().as_slice() {
-                        &[x, y, z] => [x, y, z],
-                        _ => {
-                            return Err(ctx.err(
-                                f.span(),
-                                "material.fibre",
-                                "give three numbers, e.g. fibre = [0, 0, 1]",
-                            ))
-                        }
-                    }
-                }
-            };
+            let fibre = material_fibre(ctx, m, at, spans)?;
             Ok(b.transverse(hooke_core::Transverse {
                 youngs_plane: c[0],
                 youngs_fibre: c[1],
@@ -1382,15 +1403,9 @@ fn contact(
     Ok(b.contact(spec, bodies))
 }
 
-fn rigid(
-    ctx: &Ctx,
-    r: &Spanned<RawRigid>,
-    k: usize,
-    dim: usize,
-    h: Real,
-) -> Result<RigidBody, CaseError> {
-    let key = format!("rigid[{k}]");
-    let raw = r.get_ref();
+/// A rigid body's shape (`rigid[k].shape`): exactly one of its kinds, checked for the
+/// body's dimension.
+fn rigid_geometry(ctx: &Ctx, raw: &RawRigid, key: &str, dim: usize) -> Result<Geometry, CaseError> {
     let sh = raw.shape.get_ref();
     let given = [
         sh.sphere.is_some(),
@@ -1418,7 +1433,7 @@ fn rigid(
         axis_index(ctx, a, akey, dim)
     };
     let radius = |b: &RawRadius| ctx.positive(&b.radius, &format!("{skey}.radius"), "m");
-    let geometry = if let Some(b) = sh.sphere.as_ref().or(sh.circle.as_ref()) {
+    Ok(if let Some(b) = sh.sphere.as_ref().or(sh.circle.as_ref()) {
         Geometry::ball(dim, radius(b)?)
     } else if let Some(b) = &sh.bbox {
         let v = ctx.point(&b.size, &format!("{skey}.box.size"), dim)?;
@@ -1495,7 +1510,20 @@ fn rigid(
         let mesh = MeshShape::load(&base.join(m.file.get_ref()), scale)
             .map_err(|e| ctx.err(m.file.span(), format!("{skey}.mesh.file"), e.to_string()))?;
         Geometry::mesh(&mesh)
-    };
+    })
+}
+
+fn rigid(
+    ctx: &Ctx,
+    r: &Spanned<RawRigid>,
+    k: usize,
+    dim: usize,
+    h: Real,
+) -> Result<RigidBody, CaseError> {
+    let key = format!("rigid[{k}]");
+    let raw = r.get_ref();
+    let geometry = rigid_geometry(ctx, raw, &key, dim)?;
+    let span = raw.shape.span();
     let unbounded = geometry.is_unbounded();
     let position = ctx.point(&raw.position, &format!("{key}.position"), dim)?;
     let velocity = match &raw.velocity {

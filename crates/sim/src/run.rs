@@ -136,6 +136,81 @@ pub fn free_space(dir: &Path) -> Option<u64> {
     hooke_sys::free_space(dir)
 }
 
+/// A run resumed from a whole checkpoint: the state, the rigid bodies and the fracture totals
+/// restored in place (readers that view the state's buffers keep seeing it), and the
+/// integrator with the checkpoint's step. A changed physics is refused with the key.
+fn resume_from_whole(sim: &mut Simulation, opts: &RunOptions, path: &Path) -> Result<Integrator> {
+    let ck = Checkpoint::load(path, &sim.body, opts.digest).map_err(|e| {
+        let mut msg = e.to_string();
+        if let hooke_io::IoError::DigestMismatch { .. } = e {
+            if let Some(key) = changed_physics(&opts.out, &opts.physics) {
+                msg = format!("{msg}; the physics changed at {key} (a resumed run may change solver.end_time and [output] only)");
+            }
+        }
+        Error::Input(msg)
+    })?;
+    // In place: readers that view the state's buffers (numpy) keep seeing it.
+    sim.state.clone_from(&ck.state);
+    match sim.contact.as_mut() {
+        Some(c) => c
+            .restore(&ck.extra)
+            .map_err(|e| Error::Input(format!("{}: {e}", path.display())))?,
+        None if !ck.extra.is_empty() => {
+            return Err(Error::Input(format!(
+                "{}: the checkpoint holds rigid bodies, this case has none",
+                path.display()
+            )))
+        }
+        None => {}
+    }
+    if let Some(fr) = sim.fracture.as_mut() {
+        fr.broken_total = ck.broken as usize;
+        fr.released_total = ck.released;
+    }
+    Ok(Integrator::resume(
+        &sim.body,
+        &sim.state,
+        sim.loading.clone(),
+        &sim.options,
+        &ck.integrator,
+    )?)
+}
+
+/// The sinks, the contact history and the provenance of a run.
+type Outputs = (Vec<Box<dyn Sink>>, Option<ContactHistory>, Option<Provenance>);
+
+/// The run's outputs: the sinks (frames in pieces when shared), the contact history and the
+/// provenance, opened by the writer; the other processes open only their frames' pieces.
+fn open_outputs(
+    sim: &Simulation,
+    opts: &RunOptions,
+    it: &Integrator,
+    until: Real,
+    pieces: Option<(usize, Vec<std::ops::Range<usize>>)>,
+) -> Result<Outputs> {
+    let resuming = opts.resume.is_some();
+    if opts.writes() {
+        (|| -> Result<_> {
+            let sinks =
+                open_sinks_in_pieces(sim, &opts.out, &opts.name, resuming, until, pieces.clone())?;
+            let contact_history = if sim.has_rigid_bodies() {
+                Some(ContactHistory::open(
+                    &opts.out,
+                    &opts.name,
+                    resuming.then_some(until),
+                )?)
+            } else {
+                None
+            };
+            let provenance = Provenance::start(sim, opts, Some(it))?;
+            Ok((sinks, contact_history, Some(provenance)))
+        })()
+    } else {
+        open_sinks_in_pieces(sim, &opts.out, &opts.name, resuming, until, pieces.clone())
+            .map(|s| (s, None, None))
+    }
+}
+
 /// Checks before anything is written: no earlier run in the folder (unless resuming), room on
 /// the disk, a build that has the formats asked for, no contact in quasi-static runs.
 fn preflight(sim: &Simulation, opts: &RunOptions) -> Result<()> {
@@ -562,42 +637,7 @@ impl Run {
                 opts.team.clone(),
             )
             .map_err(|e| Error::Input(e.to_string()))?,
-            (None, Some(path)) => {
-                let ck = Checkpoint::load(path, &sim.body, opts.digest).map_err(|e| {
-                    let mut msg = e.to_string();
-                    if let hooke_io::IoError::DigestMismatch { .. } = e {
-                        if let Some(key) = changed_physics(&opts.out, &opts.physics) {
-                            msg = format!("{msg}; the physics changed at {key} (a resumed run may change solver.end_time and [output] only)");
-                        }
-                    }
-                    Error::Input(msg)
-                })?;
-                // In place: readers that view the state's buffers (numpy) keep seeing it.
-                sim.state.clone_from(&ck.state);
-                match sim.contact.as_mut() {
-                    Some(c) => c
-                        .restore(&ck.extra)
-                        .map_err(|e| Error::Input(format!("{}: {e}", path.display())))?,
-                    None if !ck.extra.is_empty() => {
-                        return Err(Error::Input(format!(
-                            "{}: the checkpoint holds rigid bodies, this case has none",
-                            path.display()
-                        )))
-                    }
-                    None => {}
-                }
-                if let Some(fr) = sim.fracture.as_mut() {
-                    fr.broken_total = ck.broken as usize;
-                    fr.released_total = ck.released;
-                }
-                Integrator::resume(
-                    &sim.body,
-                    &sim.state,
-                    sim.loading.clone(),
-                    &sim.options,
-                    &ck.integrator,
-                )?
-            }
+            (None, Some(path)) => resume_from_whole(&mut sim, &opts, path)?,
         };
         let mut it = it;
         let on_parts = sim.held.is_some();
@@ -621,32 +661,7 @@ impl Run {
         let pieces = it.share().map(|s| (s.rank, s.nodes.clone()));
         // Only the writer opens files (and the other processes their frames' pieces); a
         // failure there stops every member.
-        let opened = if opts.writes() {
-            (|| -> Result<_> {
-                let sinks = open_sinks_in_pieces(
-                    &sim,
-                    &opts.out,
-                    &opts.name,
-                    resuming,
-                    until,
-                    pieces.clone(),
-                )?;
-                let contact_history = if sim.has_rigid_bodies() {
-                    Some(ContactHistory::open(
-                        &opts.out,
-                        &opts.name,
-                        resuming.then_some(until),
-                    )?)
-                } else {
-                    None
-                };
-                let provenance = Provenance::start(&sim, &opts, Some(&it))?;
-                Ok((sinks, contact_history, Some(provenance)))
-            })()
-        } else {
-            open_sinks_in_pieces(&sim, &opts.out, &opts.name, resuming, until, pieces.clone())
-                .map(|s| (s, None, None))
-        };
+        let opened = open_outputs(&sim, &opts, &it, until, pieces);
         if opts.anyone(opened.is_err()) {
             opened?;
             return Err(elsewhere(true));
