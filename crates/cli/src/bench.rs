@@ -297,35 +297,9 @@ fn bench_steps(
     let seconds = start.elapsed().as_secs_f64();
     it.check_shared(&body, &mut state)?;
     let state_digest = format!("{:016x}", it.state_digest(&state));
-    let contact_overhead = if args.contact {
-        // Alternate windows with and without contact on the same body and take the median of
-        // each: this machine's speed drifts by more than the figure we want.
-        let mut contact = hooke_contact::Contact::new(
-            &body,
-            Vec::new(),
-            hooke_contact::ContactOptions::for_body(&body),
-        );
-        let (mut with, mut without) = (Vec::new(), Vec::new());
-        for _ in 0..args.repeats.max(1) {
-            let t0 = Instant::now();
-            for _ in 0..args.steps {
-                it.step(&body, &mut state);
-            }
-            without.push(t0.elapsed().as_secs_f64());
-            let t0 = Instant::now();
-            for _ in 0..args.steps {
-                it.step_with(&body, &mut state, Some(&mut contact));
-            }
-            with.push(t0.elapsed().as_secs_f64());
-        }
-        let median = |v: &mut Vec<f64>| {
-            v.sort_by(|a, b| a.total_cmp(b));
-            v[v.len() / 2]
-        };
-        Some(median(&mut with) / median(&mut without))
-    } else {
-        None
-    };
+    let contact_overhead = args
+        .contact
+        .then(|| contact_overhead(args, &body, &mut state, &mut it));
     let mut memory_parts = std::collections::BTreeMap::new();
     for (name, b) in body
         .footprint()
@@ -375,60 +349,95 @@ fn bench_steps(
     if args.json {
         println!("{}", serde_json::to_string(&out)?);
     } else {
-        println!(
-            "{} law, {} lattice, {} kernel, {} threads: {} nodes, {} springs, {} steps in {:.3} s\n  {:.1} million spring-updates/s, {:.3} ms/step, peak memory {}",
-            out.law,
-            out.lattice,
-            out.kernel,
-            out.threads,
-            out.nodes,
-            out.springs,
-            out.steps,
-            out.seconds,
-            out.spring_updates_per_s / 1e6,
-            out.seconds_per_step * 1e3,
-            out.peak_memory_bytes.map_or("unknown".into(), |b| format!("{:.2} GiB", b as f64 / (1u64 << 30) as f64)),
-        );
-        let largest: Vec<String> = {
-            let mut parts: Vec<_> = out.memory_parts.iter().collect();
-            parts.sort_by(|a, b| b.1.total_cmp(a.1));
-            parts
-                .iter()
-                .take(4)
-                .map(|(name, b)| format!("{name} {b:.0}"))
-                .collect()
-        };
-        println!(
-            "  set-up {:.2} s: lattice {:.2}, body {:.2}, integrator (stable step) {:.2}",
-            out.setup_seconds,
-            out.setup_parts["lattice"],
-            out.setup_parts["body"],
-            out.setup_parts["integrator"],
-        );
-        println!(
-            "  arrays {:.0} bytes per node ({}, ...; --json lists them all)",
-            out.memory_bytes_per_node,
-            largest.join(", ")
-        );
-        if let Some(n) = out.piece_nodes {
-            println!("  each rank holds its piece only: rank 0 {n} nodes");
-        }
-        if out.processes > 1 {
-            println!(
-                "  {} MPI ranks: {:.2} MB received per rank and step ({} ghost nodes), {} halo \
-                 messages and {} collectives",
-                out.processes,
-                out.halo_bytes_per_step as f64 / 1e6,
-                out.ghost_nodes,
-                out.halo_messages_per_step,
-                out.collectives_per_step
-            );
-        }
-        if let Some(r) = out.contact_overhead {
-            println!("  with contact switched on (no fragments yet): {r:.3} x the step time");
-        }
+        print_bench(&out);
     }
     Ok(())
+}
+
+/// The step time with contact switched on (no fragments yet) over the time without, medians of
+/// alternating windows: this machine's speed drifts by more than the figure we want.
+fn contact_overhead(args: &BenchArgs, body: &Body, state: &mut State, it: &mut Integrator) -> f64 {
+    // Alternate windows with and without contact on the same body and take the median of
+    // each: this machine's speed drifts by more than the figure we want.
+    let mut contact = hooke_contact::Contact::new(
+        body,
+        Vec::new(),
+        hooke_contact::ContactOptions::for_body(body),
+    );
+    let (mut with, mut without) = (Vec::new(), Vec::new());
+    for _ in 0..args.repeats.max(1) {
+        let t0 = Instant::now();
+        for _ in 0..args.steps {
+            it.step(body, state);
+        }
+        without.push(t0.elapsed().as_secs_f64());
+        let t0 = Instant::now();
+        for _ in 0..args.steps {
+            it.step_with(body, state, Some(&mut contact));
+        }
+        with.push(t0.elapsed().as_secs_f64());
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(|a, b| a.total_cmp(b));
+        v[v.len() / 2]
+    };
+    median(&mut with) / median(&mut without)
+}
+
+/// A benchmark's text: throughput, set-up, memory per node, the ranks' traffic, contact.
+fn print_bench(out: &BenchJson) {
+    println!(
+        "{} law, {} lattice, {} kernel, {} threads: {} nodes, {} springs, {} steps in {:.3} s\n  {:.1} million spring-updates/s, {:.3} ms/step, peak memory {}",
+        out.law,
+        out.lattice,
+        out.kernel,
+        out.threads,
+        out.nodes,
+        out.springs,
+        out.steps,
+        out.seconds,
+        out.spring_updates_per_s / 1e6,
+        out.seconds_per_step * 1e3,
+        out.peak_memory_bytes.map_or("unknown".into(), |b| format!("{:.2} GiB", b as f64 / (1u64 << 30) as f64)),
+    );
+    let largest: Vec<String> = {
+        let mut parts: Vec<_> = out.memory_parts.iter().collect();
+        parts.sort_by(|a, b| b.1.total_cmp(a.1));
+        parts
+            .iter()
+            .take(4)
+            .map(|(name, b)| format!("{name} {b:.0}"))
+            .collect()
+    };
+    println!(
+        "  set-up {:.2} s: lattice {:.2}, body {:.2}, integrator (stable step) {:.2}",
+        out.setup_seconds,
+        out.setup_parts["lattice"],
+        out.setup_parts["body"],
+        out.setup_parts["integrator"],
+    );
+    println!(
+        "  arrays {:.0} bytes per node ({}, ...; --json lists them all)",
+        out.memory_bytes_per_node,
+        largest.join(", ")
+    );
+    if let Some(n) = out.piece_nodes {
+        println!("  each rank holds its piece only: rank 0 {n} nodes");
+    }
+    if out.processes > 1 {
+        println!(
+            "  {} MPI ranks: {:.2} MB received per rank and step ({} ghost nodes), {} halo \
+             messages and {} collectives",
+            out.processes,
+            out.halo_bytes_per_step as f64 / 1e6,
+            out.ghost_nodes,
+            out.halo_messages_per_step,
+            out.collectives_per_step
+        );
+    }
+    if let Some(r) = out.contact_overhead {
+        println!("  with contact switched on (no fragments yet): {r:.3} x the step time");
+    }
 }
 
 /// The block the benchmarks run on: about `--nodes` nodes of `--lattice` in lattice units.

@@ -228,45 +228,14 @@ fn own(split: &Option<&mut Split>, n: usize) -> (std::ops::Range<usize>, std::op
     }
 }
 
-/// [`estimate_in`] with the drift's scratch `u_next` ([`drift_scratch`]) and a vector
-/// `ones` from the caller, who may keep them: an integrator's own drift scratch, which it
-/// clears afterwards, and its inverse masses, which the estimate leaves holding 1 per node (the
-/// unit masses of its force evaluations). Large bodies' set-up is dominated by first touches
-/// of fresh memory, so the estimate allocates as little as it can: with `state.f` at +0 (a
-/// fresh state) the force at the base point is kept there, and `state.f` is given back at +0.
-///
-/// Its sums (the Lanczos coefficients) are formed per chunk of [`crate::kernel::CHUNK`] nodes
-/// and added in chunk order, in parallel and the same for any thread count, and with `split`
-/// for any number of ranks sharing it (see [`Split`]; the state's displacements, velocities
-/// and forces are given back whole on every rank, its pools current on the rank's nodes).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn estimate_using(
-    body: &Body,
-    state: &mut State,
-    kernel: &Kernel,
-    iterations: usize,
-    tolerance: Real,
-    u_next: &mut Coords,
-    ones: &mut Vec<Real>,
-    mut split: Option<&mut Split>,
-) -> StableStep {
-    let n = body.nodes();
-    let (nodes, chunks) = own(&split, n);
-    let inv_sqrt_m: Vec<Real> = body
-        .mass
-        .par_iter()
-        .with_min_len(BLOCK)
-        .map(|m| 1.0 / m.sqrt())
-        .collect();
-    let dims = body.lattice.dim();
-    let mut op = KernelJacobian::new(body, state, u_next, ones);
-    // A deterministic, non-special start vector (a hash of the body's node index), so dt is
-    // reproducible.
+/// Lanczos's start vector, of unit norm: a deterministic, non-special hash of the body's node
+/// index, so that dt is reproducible; on a piece, its own and ghost nodes' entries of the whole
+/// body's vector.
+fn start_vector(n: usize, dims: usize, on_piece: Option<&PieceMap>) -> Coords {
     let start = |i: usize, c: usize| {
         let h = (i as u64 * 3 + c as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 11;
         (h as Real / (1u64 << 53) as Real) - 0.5
     };
-    let on_piece = split.as_deref().and_then(|s| s.piece.as_ref());
     let mut q = Coords::zeros(n);
     for c in 0..dims {
         q.comp_mut(c)
@@ -299,6 +268,89 @@ pub(crate) fn estimate_using(
         None => q.norm(),
     };
     scale(&mut q, 1.0 / qn);
+    q
+}
+
+/// `w -= alpha q + beta q_prev` (no `q_prev` in the first iteration: +0 everywhere), and
+/// `|w|^2` summed by chunk in chunk order (over the team's chunks when split).
+fn orthogonalise(
+    w: &mut Coords,
+    q: &Coords,
+    q_prev: Option<&Coords>,
+    (a, b_last): (Real, Real),
+    (partial, chunks): (&mut [Real], &std::ops::Range<usize>),
+    mut split: Option<&mut Split>,
+) -> Real {
+    let mut b2 = 0.0;
+    for c in 0..3 {
+        let (x, p) = (q.comp(c), q_prev.map(|p| p.comp(c)));
+        w.comp_mut(c)
+            .par_chunks_mut(CHUNK)
+            .zip(partial.par_iter_mut())
+            .enumerate()
+            .filter(|(k, _)| chunks.contains(k))
+            .for_each(|(k, (y, out))| {
+                let r = k * CHUNK..k * CHUNK + y.len();
+                let mut part = 0.0;
+                match p {
+                    Some(p) => {
+                        for ((y, x), p) in y.iter_mut().zip(&x[r.clone()]).zip(&p[r]) {
+                            *y += -a * x + -b_last * p;
+                            part += *y * *y;
+                        }
+                    }
+                    // The first q_prev: +0 everywhere.
+                    None => {
+                        for (y, x) in y.iter_mut().zip(&x[r]) {
+                            *y += -a * x + -b_last * 0.0;
+                            part += *y * *y;
+                        }
+                    }
+                }
+                *out = part;
+            });
+        b2 += match split.as_deref_mut() {
+            Some(sp) => sp.sum(partial),
+            None => in_order(partial),
+        };
+    }
+    b2
+}
+
+/// [`estimate_in`] with the drift's scratch `u_next` ([`drift_scratch`]) and a vector
+/// `ones` from the caller, who may keep them: an integrator's own drift scratch, which it
+/// clears afterwards, and its inverse masses, which the estimate leaves holding 1 per node (the
+/// unit masses of its force evaluations). Large bodies' set-up is dominated by first touches
+/// of fresh memory, so the estimate allocates as little as it can: with `state.f` at +0 (a
+/// fresh state) the force at the base point is kept there, and `state.f` is given back at +0.
+///
+/// Its sums (the Lanczos coefficients) are formed per chunk of [`crate::kernel::CHUNK`] nodes
+/// and added in chunk order, in parallel and the same for any thread count, and with `split`
+/// for any number of ranks sharing it (see [`Split`]; the state's displacements, velocities
+/// and forces are given back whole on every rank, its pools current on the rank's nodes).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn estimate_using(
+    body: &Body,
+    state: &mut State,
+    kernel: &Kernel,
+    iterations: usize,
+    tolerance: Real,
+    u_next: &mut Coords,
+    ones: &mut Vec<Real>,
+    mut split: Option<&mut Split>,
+) -> StableStep {
+    let n = body.nodes();
+    let (nodes, chunks) = own(&split, n);
+    let inv_sqrt_m: Vec<Real> = body
+        .mass
+        .par_iter()
+        .with_min_len(BLOCK)
+        .map(|m| 1.0 / m.sqrt())
+        .collect();
+    let dims = body.lattice.dim();
+    let mut op = KernelJacobian::new(body, state, u_next, ones);
+    let on_piece = split.as_deref().and_then(|s| s.piece.as_ref());
+    let mut q = start_vector(n, dims, on_piece);
     // The previous Lanczos vector; none is read in the first iteration (its beta is 0), so the
     // buffer is found after it: the state's force array when the estimate does not need it.
     let mut q_prev = Coords::default();
@@ -346,39 +398,14 @@ pub(crate) fn estimate_using(
         alpha.push(a);
         // w -= alpha q + beta q_prev, and beta' = |w|.
         let b_last = beta.last().copied().unwrap_or(0.0);
-        let mut b2 = 0.0;
-        for c in 0..3 {
-            let (x, p) = (q.comp(c), (it > 0).then(|| q_prev.comp(c)));
-            w.comp_mut(c)
-                .par_chunks_mut(CHUNK)
-                .zip(partial.par_iter_mut())
-                .enumerate()
-                .filter(|(k, _)| chunks.contains(k))
-                .for_each(|(k, (y, out))| {
-                    let r = k * CHUNK..k * CHUNK + y.len();
-                    let mut part = 0.0;
-                    match p {
-                        Some(p) => {
-                            for ((y, x), p) in y.iter_mut().zip(&x[r.clone()]).zip(&p[r]) {
-                                *y += -a * x + -b_last * p;
-                                part += *y * *y;
-                            }
-                        }
-                        // The first q_prev: +0 everywhere.
-                        None => {
-                            for (y, x) in y.iter_mut().zip(&x[r]) {
-                                *y += -a * x + -b_last * 0.0;
-                                part += *y * *y;
-                            }
-                        }
-                    }
-                    *out = part;
-                });
-            b2 += match split.as_deref_mut() {
-                Some(sp) => sp.sum(&mut partial),
-                None => in_order(&partial),
-            };
-        }
+        let b2 = orthogonalise(
+            &mut w,
+            &q,
+            (it > 0).then_some(&q_prev),
+            (a, b_last),
+            (&mut partial, &chunks),
+            split.as_deref_mut(),
+        );
         let b = b2.sqrt();
         let top = largest_ritz(&alpha, &beta);
         if b <= 1e-14 * a.abs() || (it > 5 && (top - last).abs() <= tolerance * top) {

@@ -42,12 +42,10 @@ pub(crate) fn run(
     r
 }
 
-fn drive(
-    sim: &mut Simulation,
-    steps: usize,
-    sinks: &mut [Box<dyn Sink>],
-    obs: &mut dyn Observer,
-) -> Result<Summary> {
+/// The supports: every prescribed DOF fixed (with its motion), a plate's z fixed, and each
+/// translation that no boundary condition touches projected out as a free rigid motion rather
+/// than left singular.
+fn supports(sim: &Simulation) -> (Constraints, Vec<(usize, usize, Motion)>) {
     let n = sim.body.nodes();
     let dim = sim.body.lattice.dim();
     let mut cons = Constraints::all_free(n);
@@ -63,18 +61,6 @@ fn drive(
             dofs.push((i as usize, p.axis, p.motion.clone()));
         }
     }
-    // Prescribed displacement at time t; a prescribed velocity is integrated (trapezoid).
-    let disp_at = |m: &Motion, u0: Real, t: Real| match m {
-        Motion::Fixed => u0,
-        Motion::Displacement(f) => f.value(t),
-        Motion::Velocity(f) => {
-            let k = 256;
-            let h = t / k as Real;
-            u0 + (0..k)
-                .map(|j| 0.5 * h * (f.value(j as Real * h) + f.value((j + 1) as Real * h)))
-                .sum::<Real>()
-        }
-    };
     // A translation along an axis that no boundary condition touches is a free rigid motion:
     // project it out rather than leave the stiffness singular.
     for c in 0..dim {
@@ -84,6 +70,67 @@ fn drive(
             cons.add_null_mode(mode);
         }
     }
+    (cons, dofs)
+}
+
+/// Prescribed displacement at time `t` from `u0`; a prescribed velocity is integrated
+/// (trapezoid rule, 256 intervals).
+fn prescribed_displacement(m: &Motion, u0: Real, t: Real) -> Real {
+    match m {
+        Motion::Fixed => u0,
+        Motion::Displacement(f) => f.value(t),
+        Motion::Velocity(f) => {
+            let k = 256;
+            let h = t / k as Real;
+            u0 + (0..k)
+                .map(|j| 0.5 * h * (f.value(j as Real * h) + f.value((j + 1) as Real * h)))
+                .sum::<Real>()
+        }
+    }
+}
+
+/// A progress report after load step `k` of `steps`: the energy balance from the work of the
+/// loads and supports and the energy dissipated so far.
+fn report(
+    sim: &Simulation,
+    obs: &mut dyn Observer,
+    (k, steps): (usize, usize),
+    start: Instant,
+    (w_ext, w_bc, dissipated): (Real, Real, Real),
+) {
+    let t = sim.state.time;
+    let wall = start.elapsed().as_secs_f64();
+    let frac = k as f64 / steps as f64;
+    let e = law::energy(
+        &sim.body,
+        &sim.state.u,
+        sim.state.springs(&sim.body),
+        sim.state.norm(),
+    );
+    obs.progress(&Progress {
+        time: t,
+        end_time: sim.end_time,
+        fraction: frac,
+        step: k as u64,
+        steps_per_second: k as f64 / wall.max(1e-9),
+        eta_seconds: Some(wall * (1.0 - frac) / frac),
+        broken_springs: sim.broken().0,
+        energy: e.total(),
+        balance: (e.total() + sim.broken().1 + dissipated - w_ext - w_bc).abs()
+            / (w_ext + w_bc).abs().max(e.total()).max(1e-300),
+        energy_time: t,
+        load_step: Some((k, steps)),
+    });
+}
+
+fn drive(
+    sim: &mut Simulation,
+    steps: usize,
+    sinks: &mut [Box<dyn Sink>],
+    obs: &mut dyn Observer,
+) -> Result<Summary> {
+    let n = sim.body.nodes();
+    let (cons, dofs) = supports(sim);
     let u0: Vec<Real> = dofs
         .iter()
         .map(|&(i, c, _)| sim.state.u.comp(c)[i])
@@ -101,7 +148,7 @@ fn drive(
         let t = sim.end_time * k as Real / steps as Real;
         let u_prev = sim.state.u.clone();
         for (m, &(i, c, ref mo)) in dofs.iter().enumerate() {
-            sim.state.u.comp_mut(c)[i] = disp_at(mo, u0[m], t);
+            sim.state.u.comp_mut(c)[i] = prescribed_displacement(mo, u0[m], t);
         }
         external_forces(sim, t, &mut fext);
         let body = &sim.body;
@@ -208,28 +255,7 @@ fn drive(
         if let Some(interval) = obs.progress_interval() {
             if last_report.elapsed() >= interval || k == steps {
                 last_report = Instant::now();
-                let wall = start.elapsed().as_secs_f64();
-                let frac = k as f64 / steps as f64;
-                let e = law::energy(
-                    &sim.body,
-                    &sim.state.u,
-                    sim.state.springs(&sim.body),
-                    sim.state.norm(),
-                );
-                obs.progress(&Progress {
-                    time: t,
-                    end_time: sim.end_time,
-                    fraction: frac,
-                    step: k as u64,
-                    steps_per_second: k as f64 / wall.max(1e-9),
-                    eta_seconds: Some(wall * (1.0 - frac) / frac),
-                    broken_springs: sim.broken().0,
-                    energy: e.total(),
-                    balance: (e.total() + sim.broken().1 + dissipated - w_ext - w_bc).abs()
-                        / (w_ext + w_bc).abs().max(e.total()).max(1e-300),
-                    energy_time: t,
-                    load_step: Some((k, steps)),
-                });
+                report(sim, obs, (k, steps), start, (w_ext, w_bc, dissipated));
             }
         }
     }

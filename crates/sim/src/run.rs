@@ -177,7 +177,11 @@ fn resume_from_whole(sim: &mut Simulation, opts: &RunOptions, path: &Path) -> Re
 }
 
 /// The sinks, the contact history and the provenance of a run.
-type Outputs = (Vec<Box<dyn Sink>>, Option<ContactHistory>, Option<Provenance>);
+type Outputs = (
+    Vec<Box<dyn Sink>>,
+    Option<ContactHistory>,
+    Option<Provenance>,
+);
 
 /// The run's outputs: the sinks (frames in pieces when shared), the contact history and the
 /// provenance, opened by the writer; the other processes open only their frames' pieces.
