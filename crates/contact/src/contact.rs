@@ -185,6 +185,44 @@ struct Near {
     mass: Real,
 }
 
+/// The box of the current positions of the nodes `mine`, and over the team's processes when
+/// shared (minima and maxima are exact in any grouping).
+fn current_bounds(
+    body: &Body,
+    u: &Coords,
+    mine: &std::ops::Range<usize>,
+    team: Option<&dyn Team>,
+) -> ([Real; 3], [Real; 3]) {
+    let (mut lo, mut hi) = mine
+        .clone()
+        .into_par_iter()
+        .with_min_len(4096)
+        .map(|i| {
+            let p = Contact::position(body, u, i);
+            (p, p)
+        })
+        .reduce(
+            || ([Real::INFINITY; 3], [Real::NEG_INFINITY; 3]),
+            |(a, b), (c, d)| {
+                (
+                    [0, 1, 2].map(|k| a[k].min(c[k])),
+                    [0, 1, 2].map(|k| b[k].max(d[k])),
+                )
+            },
+        );
+    if let Some(t) = team {
+        let mut lists = vec![lo.iter().chain(&hi).copied().collect()];
+        gather_lists(t, &mut lists);
+        for b in lists[0].chunks(6) {
+            for c in 0..3 {
+                lo[c] = lo[c].min(b[c]);
+                hi[c] = hi[c].max(b[3 + c]);
+            }
+        }
+    }
+    (lo, hi)
+}
+
 impl Near {
     /// The distance between two nodes in the reference configuration (m).
     fn rest(&self, o: &Near) -> Real {
@@ -641,6 +679,20 @@ impl Contact {
                 c.extend(l.iter().map(|&i| i as u32));
             }
         }
+        self.rebuild_fragments(body, state, team, mine);
+    }
+
+    /// The fragment lists (see the module docs): pairs of nodes within the fragment distance
+    /// of which one is damaged and which no intact spring joins, found through a cell list over
+    /// the nodes near a damaged one. Each process passes over its own nodes `mine`.
+    fn rebuild_fragments(
+        &mut self,
+        body: &Body,
+        state: &State,
+        team: Option<std::sync::Arc<dyn Team>>,
+        mine: std::ops::Range<usize>,
+    ) {
+        let n = body.nodes();
         self.frag_nbr.clear();
         self.frag_nodes.clear();
         self.frag_offsets.iter_mut().for_each(|o| *o = 0);
@@ -688,34 +740,7 @@ impl Contact {
             self.wanted.clear();
             return;
         }
-        // (Minima and maxima are exact in any grouping.)
-        let (mut lo, mut hi) = mine
-            .clone()
-            .into_par_iter()
-            .with_min_len(4096)
-            .map(|i| {
-                let p = Self::position(body, &state.u, i);
-                (p, p)
-            })
-            .reduce(
-                || ([Real::INFINITY; 3], [Real::NEG_INFINITY; 3]),
-                |(a, b), (c, d)| {
-                    (
-                        [0, 1, 2].map(|k| a[k].min(c[k])),
-                        [0, 1, 2].map(|k| b[k].max(d[k])),
-                    )
-                },
-            );
-        if let Some(t) = &team {
-            let mut lists = vec![lo.iter().chain(&hi).copied().collect()];
-            gather_lists(t.as_ref(), &mut lists);
-            for b in lists[0].chunks(6) {
-                for c in 0..3 {
-                    lo[c] = lo[c].min(b[c]);
-                    hi[c] = hi[c].max(b[3 + c]);
-                }
-            }
-        }
+        let (lo, hi) = current_bounds(body, &state.u, &mine, team.as_deref());
         // Cell list: cells of side df + skin, nodes sorted by cell.
         let h = df + self.skin;
         let cell = |p: &[Real; 3]| [0, 1, 2].map(|c| ((p[c] - lo[c]) / h).floor() as i64);
@@ -770,7 +795,9 @@ impl Contact {
         // Whether the intact spring joins body nodes `i` and `j`: read from the row of an end
         // this process holds whole (on a piece, an own node; its neighbours are all in the
         // piece, so an end outside it is no neighbour). `None`: neither end is held.
-        let piece = self.piece.as_ref();
+        // Held aside while the pairs are stored (their closures read it).
+        let held = self.piece.take();
+        let piece = held.as_ref();
         let local = |g: u32| -> Option<usize> {
             match piece {
                 None => Some(g as usize),
@@ -838,6 +865,27 @@ impl Contact {
         pairs.retain(|p| own(p.0));
         pairs.par_sort_unstable();
         pairs.dedup();
+        self.store_pairs(
+            &pairs,
+            &local,
+            (team.as_deref(), piece.is_some()),
+            &listed,
+            n,
+        );
+        self.piece = held;
+    }
+
+    /// The fragment pairs (first node own, both directions, sorted) as a CSR by node in this
+    /// process's numbering (`local`); on a piece, the other ends wherever they are, each once in
+    /// node order, with what the forces read of them (`listed`).
+    fn store_pairs(
+        &mut self,
+        pairs: &[(u32, u32)],
+        local: &dyn Fn(u32) -> Option<usize>,
+        (team, on_piece): (Option<&dyn Team>, bool),
+        listed: &[Near],
+        n: usize,
+    ) {
         // Their first nodes, in this process's numbering.
         let firsts: Vec<u32> = pairs
             .iter()
@@ -854,8 +902,8 @@ impl Contact {
                 .filter(|&i| self.frag_offsets[i as usize + 1] > self.frag_offsets[i as usize]),
         );
         self.frag_force.resize(self.frag_nodes.len(), [0.0; 3]);
-        match (&team, piece) {
-            (Some(t), Some(_)) => {
+        match team {
+            Some(t) if on_piece => {
                 // The other ends, wherever they are: every rank's list of them, each once, in
                 // node order (so each owner's run is contiguous), with what the forces read
                 // of them; their displacements are gathered each step.
@@ -864,7 +912,7 @@ impl Contact {
                 wanted.dedup();
                 let mut all = Vec::new();
                 let mut parts = Vec::new();
-                hooke_core::team::gather_runs(t.as_ref(), &wanted, &mut all, &mut parts);
+                hooke_core::team::gather_runs(t, &wanted, &mut all, &mut parts);
                 let mut ids: Vec<u32> = all.iter().map(|&x| x as u32).collect();
                 ids.sort_unstable();
                 ids.dedup();

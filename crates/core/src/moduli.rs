@@ -412,6 +412,76 @@ fn random_block_lattice(
     })
 }
 
+/// The lateral strain of a random bar's middle third: for the pillar, the least-squares fit of
+/// `u_r = eps_r r` over its nodes (exact for a uniform lateral strain, whatever the nodes'
+/// radii); for the box, the mean over its lateral axes of the change of width between the
+/// sides' nodes, and each axis's ratio to the load.
+fn random_lateral_strain(
+    t: &BlockTest,
+    u: &Coords,
+    pos: &Coords,
+    (ax, lateral): (usize, &[usize]),
+    (centre, ext): ([Real; 3], [Real; 3]),
+    radial: &dyn Fn([Real; 3]) -> [Real; 3],
+) -> (Real, [Real; 2]) {
+    let n = u.len();
+    let len = ext[ax];
+    let mut lateral_strain = 0.0;
+    let mut per_axis = [0.0; 2];
+    if t.cylinder {
+        // The radial strain of the middle third: the least-squares fit of u_r = eps_r r over
+        // its nodes (exact for a uniform lateral strain, whatever the nodes' radii).
+        let (mut ur, mut rr) = (0.0, 0.0);
+        for i in 0..n {
+            if (pos.comp(ax)[i] - centre[ax]).abs() > len / 6.0 {
+                continue;
+            }
+            let d = radial([pos.x()[i], pos.y()[i], pos.z()[i]]);
+            let u = u.get(i);
+            ur += u.x * d[0] + u.y * d[1] + u.z * d[2];
+            rr += d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        }
+        lateral_strain = ur / rr;
+    }
+    for (m, &c) in lateral.iter().enumerate().filter(|_| !t.cylinder) {
+        let side_mean = |at: Real| {
+            let sel: Vec<usize> = (0..n)
+                .filter(|&i| {
+                    pos.comp(c)[i] == at && (pos.comp(ax)[i] - centre[ax]).abs() <= len / 6.0
+                })
+                .collect();
+            sel.iter().map(|&i| u.comp(c)[i]).sum::<Real>() / sel.len().max(1) as Real
+        };
+        let e = (side_mean(ext[c]) - side_mean(0.0)) / ext[c];
+        per_axis[m] = -e / t.strain;
+        lateral_strain += e;
+    }
+    if !t.cylinder {
+        lateral_strain /= lateral.len() as Real;
+    }
+    (lateral_strain, per_axis)
+}
+
+/// A random bar's free motions with sliding ends, projected out of the solve: the translations
+/// across the load and, in 3D (two lateral axes), the rotation about the bar's axis.
+fn random_slide_modes(cons: &mut Constraints, pos: &Coords, lateral: &[usize], centre: [Real; 3]) {
+    let n = pos.len();
+    for &c in lateral {
+        let mut tr = Coords::zeros(n);
+        tr.comp_mut(c).fill(1.0);
+        cons.add_null_mode(tr);
+    }
+    if lateral.len() == 2 {
+        let (b, c) = (lateral[0], lateral[1]);
+        let mut rot = Coords::zeros(n);
+        for i in 0..n {
+            rot.comp_mut(b)[i] = -(pos.comp(c)[i] - centre[c]);
+            rot.comp_mut(c)[i] = pos.comp(b)[i] - centre[b];
+        }
+        cons.add_null_mode(rot);
+    }
+}
+
 /// An anisotropic block's calibrated direction functions and its targets under uniaxial stress
 /// along axis `ax`, from the compliance: E = 1 / S_aa and the lateral ratios -S_ca / S_aa (a
 /// plate's: of its in-plane stiffness, xx yy xy, per thickness).
@@ -593,20 +663,7 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
         state.u.set(i, Vector::new(u[0], u[1], u[2]));
     }
     if t.ends == Ends::Slide {
-        for &c in &lateral {
-            let mut tr = Coords::zeros(n);
-            tr.comp_mut(c).fill(1.0);
-            cons.add_null_mode(tr);
-        }
-        if dim == 3 {
-            let (b, c) = (lateral[0], lateral[1]);
-            let mut rot = Coords::zeros(n);
-            for i in 0..n {
-                rot.comp_mut(b)[i] = -(coord(c, i) - centre[c]);
-                rot.comp_mut(c)[i] = coord(b, i) - centre[b];
-            }
-            cons.add_null_mode(rot);
-        }
+        random_slide_modes(&mut cons, pos, &lateral, centre);
     }
     let solve = statics::solve(&body, &mut state, &cons, None, &t.solver)?;
     let force: Real = (0..n)
@@ -618,37 +675,8 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
     } else {
         lateral.iter().map(|&c| ext[c]).product()
     };
-    let mut lateral_strain = 0.0;
-    let mut per_axis = [0.0; 2];
-    if t.cylinder {
-        // The radial strain of the middle third: the least-squares fit of u_r = eps_r r over
-        // its nodes (exact for a uniform lateral strain, whatever the nodes' radii).
-        let (mut ur, mut rr) = (0.0, 0.0);
-        for i in 0..n {
-            if (coord(ax, i) - centre[ax]).abs() > len / 6.0 {
-                continue;
-            }
-            let d = radial([coord(0, i), coord(1, i), coord(2, i)]);
-            let u = state.u.get(i);
-            ur += u.x * d[0] + u.y * d[1] + u.z * d[2];
-            rr += d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        }
-        lateral_strain = ur / rr;
-    }
-    for (m, &c) in lateral.iter().enumerate().filter(|_| !t.cylinder) {
-        let side_mean = |at: Real| {
-            let sel: Vec<usize> = (0..n)
-                .filter(|&i| coord(c, i) == at && (coord(ax, i) - centre[ax]).abs() <= len / 6.0)
-                .collect();
-            sel.iter().map(|&i| state.u.comp(c)[i]).sum::<Real>() / sel.len().max(1) as Real
-        };
-        let e = (side_mean(ext[c]) - side_mean(0.0)) / ext[c];
-        per_axis[m] = -e / t.strain;
-        lateral_strain += e;
-    }
-    if !t.cylinder {
-        lateral_strain /= lateral.len() as Real;
-    }
+    let (lateral_strain, per_axis) =
+        random_lateral_strain(t, &state.u, pos, (ax, &lateral), (centre, ext), &radial);
     let e_measured = force / area / t.strain;
     let axial_middle = middle_axial_strain(&state.u, pos, ax, centre[ax], len);
     let (nu_target, lateral_measured, lateral_target) = match &aniso {

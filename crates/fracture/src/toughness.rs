@@ -540,6 +540,37 @@ fn strip_result(
     })
 }
 
+/// The crack front after spring `b` broke with the front at `tip`, or `None` when `b` is off
+/// the crack plane: on the plane is crossing it (regular lattices), or with its midpoint within a
+/// quarter height of it (random lattices, whose crack path is rough). The front is the farthest
+/// broken spring on the plane; in a random3d slab a spring near a free face can break well
+/// ahead of the front (a surface flaw), so the front moves only through springs within two
+/// spacings of it, and such a break does not count as growth until the crack reaches it.
+fn crack_front(
+    t: &StripTest,
+    body: &Body,
+    (yc, top): (Real, Real),
+    tip: Real,
+    b: usize,
+) -> Option<Real> {
+    let bonds = &*body.lattice.bonds;
+    let [i, j] = bonds.ends[b].map(|v| v as usize);
+    let (yi, yj) = (body.lattice.pos.y()[i], body.lattice.pos.y()[j]);
+    let crosses = if t.kind.is_random() {
+        (0.5 * (yi + yj) - yc).abs() <= 0.25 * top
+    } else {
+        (yi - yc) * (yj - yc) < 0.0
+    };
+    crosses.then(|| {
+        let x = 0.5 * (body.lattice.pos.x()[i] + body.lattice.pos.x()[j]);
+        if t.kind == LatticeKind::Random3d && x > tip + 2.0 {
+            tip
+        } else {
+            tip.max(x)
+        }
+    })
+}
+
 /// Run the strip experiment (see the module docs).
 pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
     if t.height < 6
@@ -572,40 +603,7 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
     for &i in &grip {
         breakable[i] = false;
     }
-    let bonds = &*body.lattice.bonds;
-    // On the crack plane: crossing it (regular lattices), or with its midpoint within a quarter
-    // height of it (random lattices, whose crack path is rough).
-    let random = t.kind.is_random();
-    let crosses = |b: usize| {
-        let [i, j] = bonds.ends[b].map(|v| v as usize);
-        let (yi, yj) = (body.lattice.pos.y()[i], body.lattice.pos.y()[j]);
-        if random {
-            (0.5 * (yi + yj) - yc).abs() <= 0.25 * top
-        } else {
-            (yi - yc) * (yj - yc) < 0.0
-        }
-    };
-    // The crack front: the farthest broken spring on the plane. In a random3d slab a spring
-    // near a free face can break well ahead of the front (a surface flaw); the front moves only
-    // through springs within two spacings of it, so such a break does not count as growth until
-    // the crack reaches it.
-    let advance = |tip: Real, x: Real| -> Real {
-        if t.kind == LatticeKind::Random3d && x > tip + 2.0 {
-            tip
-        } else {
-            tip.max(x)
-        }
-    };
-    // The front after spring b broke, or None when b is off the crack plane.
-    let grown = |tip: Real, b: usize| -> Option<Real> {
-        let [i, j] = bonds.ends[b].map(|v| v as usize);
-        crosses(b).then(|| {
-            advance(
-                tip,
-                0.5 * (body.lattice.pos.x()[i] + body.lattice.pos.x()[j]),
-            )
-        })
-    };
+    let grown = |tip: Real, b: usize| crack_front(t, &body, (yc, top), tip, b);
     let per_length = if t.kind == LatticeKind::Random3d {
         slab_release_per_length(&body, &cons, (&grip, &sign), (t, yc, top), (x1, x2))?
     } else {

@@ -123,6 +123,40 @@ fn report(
     });
 }
 
+/// The work of the loads and of the supports over a load increment from `u_prev`, added term
+/// by term (trapezoid rule: the mean of the forces at its two ends).
+fn add_work(
+    (w_ext, w_bc): (&mut Real, &mut Real),
+    (fext_prev, fext): (&Coords, &Coords),
+    (state, u_prev): (&State, &Coords),
+    dofs: &[(usize, usize, Motion)],
+    reactions_prev: &[Real],
+) {
+    for c in 0..3 {
+        for i in 0..u_prev.len() {
+            *w_ext += 0.5
+                * (fext_prev.comp(c)[i] + fext.comp(c)[i])
+                * (state.u.comp(c)[i] - u_prev.comp(c)[i]);
+        }
+    }
+    for (m, &(i, c, _)) in dofs.iter().enumerate() {
+        let r = -state.f.comp(c)[i] - fext.comp(c)[i];
+        *w_bc += 0.5 * (reactions_prev[m] + r) * (state.u.comp(c)[i] - u_prev.comp(c)[i]);
+    }
+}
+
+/// The potential energy at fixed loads: the strain energy minus the loads' work `f . u`.
+fn potential_energy(body: &hooke_core::Body, state: &State, fext: &Coords) -> Real {
+    let e = law::energy(body, &state.u, state.springs(body), state.norm()).total();
+    let mut w = 0.0;
+    for c in 0..3 {
+        for i in 0..state.u.len() {
+            w += fext.comp(c)[i] * state.u.comp(c)[i];
+        }
+    }
+    e - w
+}
+
 fn drive(
     sim: &mut Simulation,
     steps: usize,
@@ -190,28 +224,15 @@ fn drive(
         };
         // The load increment first, elastically (no spring breaks).
         solve(&mut sim.state, peak, None, &fext)?;
-        for c in 0..3 {
-            for i in 0..n {
-                w_ext += 0.5
-                    * (fext_prev.comp(c)[i] + fext.comp(c)[i])
-                    * (sim.state.u.comp(c)[i] - u_prev.comp(c)[i]);
-            }
-        }
-        for (m, &(i, c, _)) in dofs.iter().enumerate() {
-            let r = -sim.state.f.comp(c)[i] - fext.comp(c)[i];
-            w_bc += 0.5 * (reactions_prev[m] + r) * (sim.state.u.comp(c)[i] - u_prev.comp(c)[i]);
-        }
+        add_work(
+            (&mut w_ext, &mut w_bc),
+            (&fext_prev, &fext),
+            (&sim.state, &u_prev),
+            &dofs,
+            &reactions_prev,
+        );
         // Then breaking rounds at fixed supports and loads (see the module's docs).
-        let potential = |state: &State| {
-            let e = law::energy(body, &state.u, state.springs(body), state.norm()).total();
-            let mut w = 0.0;
-            for c in 0..3 {
-                for i in 0..n {
-                    w += fext.comp(c)[i] * state.u.comp(c)[i];
-                }
-            }
-            e - w
-        };
+        let potential = |state: &State| potential_energy(body, state, &fext);
         for _ in 0..10_000 {
             let Some(fr) = sim.fracture.as_mut() else {
                 break;

@@ -136,6 +136,47 @@ pub fn free_space(dir: &Path) -> Option<u64> {
     hooke_sys::free_space(dir)
 }
 
+/// A run on pieces drops the whole body and state here, every process alike (cutting its
+/// piece, and reading its own checkpoint when resuming); one set up from parts never held them,
+/// and resumes here. A failure on any process stops every one.
+fn onto_pieces(
+    sim: &mut Simulation,
+    it: &mut Integrator,
+    opts: &RunOptions,
+    on_parts: bool,
+    piece_resume: Option<&Path>,
+) -> Result<()> {
+    if on_parts {
+        if let (Some(c), Some(piece)) = (sim.contact.as_mut(), it.piece()) {
+            c.cut(piece)
+                .map_err(|e| Error::Input(format!("--parts: {e}")))?;
+        }
+        let resumed = match piece_resume {
+            Some(path) => resume_piece(
+                it,
+                &sim.body,
+                &mut sim.state,
+                (sim.contact.as_mut(), sim.fracture.as_mut()),
+                opts,
+                path,
+            ),
+            None => Ok(()),
+        };
+        if opts.anyone(resumed.is_err()) {
+            resumed?;
+            return Err(elsewhere(true));
+        }
+    } else if opts.on_pieces().is_some() {
+        let cut = cut_to_piece(sim, it, opts, piece_resume);
+        if opts.anyone(cut.is_err()) {
+            cut?;
+            return Err(elsewhere(true));
+        }
+        hooke_sys::alloc::release_free_memory();
+    }
+    Ok(())
+}
+
 /// A run resumed from a whole checkpoint: the state, the rigid bodies and the fracture totals
 /// restored in place (readers that view the state's buffers keep seeing it), and the
 /// integrator with the checkpoint's step. A changed physics is refused with the key.
@@ -671,36 +712,7 @@ impl Run {
             return Err(elsewhere(true));
         }
         let (sinks, contact_history, provenance) = opened?;
-        // A run on pieces drops the whole body and state here, every process alike; one set
-        // up from parts never held them, and resumes here.
-        if on_parts {
-            if let (Some(c), Some(piece)) = (sim.contact.as_mut(), it.piece()) {
-                c.cut(piece)
-                    .map_err(|e| Error::Input(format!("--parts: {e}")))?;
-            }
-            let resumed = match piece_resume.as_deref() {
-                Some(path) => resume_piece(
-                    &mut it,
-                    &sim.body,
-                    &mut sim.state,
-                    (sim.contact.as_mut(), sim.fracture.as_mut()),
-                    &opts,
-                    path,
-                ),
-                None => Ok(()),
-            };
-            if opts.anyone(resumed.is_err()) {
-                resumed?;
-                return Err(elsewhere(true));
-            }
-        } else if opts.on_pieces().is_some() {
-            let cut = cut_to_piece(&mut sim, &mut it, &opts, piece_resume.as_deref());
-            if opts.anyone(cut.is_err()) {
-                cut?;
-                return Err(elsewhere(true));
-            }
-            hooke_sys::alloc::release_free_memory();
-        }
+        onto_pieces(&mut sim, &mut it, &opts, on_parts, piece_resume.as_deref())?;
         // The next output times after t. A frame is taken at the first step within half a step
         // of its time, so one due just after t may already have been taken just before it (a
         // resumed run): count t + dt/2 as passed.

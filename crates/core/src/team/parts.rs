@@ -98,42 +98,7 @@ pub fn assemble(team: &dyn Team, body: &Sampling, margin: Real) -> Result<(Piece
     }
     // 3. Ghosts: asked of their owners by grid index.
     let owner = |k: u64| keys[1..size].partition_point(|&s| s <= k);
-    let ghosts: Vec<usize> = (0..part.pos.len())
-        .filter(|i| !part.own.contains(i))
-        .collect();
-    let mut asks = vec![Vec::new(); size];
-    for &i in &ghosts {
-        let q = owner(part.key[i]);
-        asks[q].push(Real::from_bits(part.key[i]));
-        asks[q].push(Real::from_bits(part.grid[i]));
-    }
-    let own_ids: Vec<(u64, u64)> = part
-        .own
-        .clone()
-        .map(|i| (part.key[i], part.grid[i]))
-        .collect();
-    let mut sends = vec![Vec::new(); size];
-    let answers = ask(team, &asks, 2, 5, &mut |from, q| {
-        let id = (q[0].to_bits(), q[1].to_bits());
-        let at = own_ids.binary_search(&id).ok()?;
-        sends[from].push(at);
-        let s = part.surface[at];
-        Some(vec![
-            (split[rank] + at) as Real,
-            part.volume[at],
-            s[0],
-            s[1],
-            s[2],
-        ])
-    })?;
-    // The ghosts' answers, in the part's order (owners ascend with the keys).
-    let mut ghost_info = Vec::with_capacity(ghosts.len());
-    for a in &answers {
-        ghost_info.extend(
-            a.chunks(5)
-                .map(|x| (x[0] as usize, x[1], [x[2], x[3], x[4]])),
-        );
-    }
+    let (ghosts, ghost_info, sends) = ask_ghosts(team, &part, split[rank], &owner)?;
     // 4. Springs: numbered by the owners of their lower ends.
     let global = |i: usize| -> usize {
         if part.own.contains(&i) {
@@ -143,50 +108,7 @@ pub fn assemble(team: &dyn Team, body: &Sampling, margin: Real) -> Result<(Piece
             ghost_info[g].0
         }
     };
-    let lower_own: Vec<(usize, usize)> = part
-        .springs
-        .iter()
-        .filter(|(e, _)| part.own.contains(&(e[0] as usize)))
-        .map(|(e, _)| (global(e[0] as usize), global(e[1] as usize)))
-        .collect();
-    let mut spring_counts = vec![0.0; size];
-    spring_counts[rank] = lower_own.len() as Real;
-    team.gather(&mut spring_counts, &singles(size));
-    let spring_first = prefix(
-        &spring_counts
-            .iter()
-            .map(|&c| c as usize)
-            .collect::<Vec<_>>(),
-    );
-    let mut asks = vec![Vec::new(); size];
-    for (e, _) in &part.springs {
-        let lo = e[0] as usize;
-        if !part.own.contains(&lo) {
-            let q = owner(part.key[lo]);
-            asks[q].push(global(lo) as Real);
-            asks[q].push(global(e[1] as usize) as Real);
-        }
-    }
-    let answers = ask(team, &asks, 2, 1, &mut |_, q| {
-        let at = lower_own
-            .binary_search(&(q[0] as usize, q[1] as usize))
-            .ok()?;
-        Some(vec![(spring_first[rank] + at) as Real])
-    })?;
-    let mut foreign = answers.iter().flatten().map(|&x| x as u32);
-    let mut next_own = spring_first[rank] as u32;
-    let springs: Vec<u32> = part
-        .springs
-        .iter()
-        .map(|(e, _)| {
-            if part.own.contains(&(e[0] as usize)) {
-                next_own += 1;
-                next_own - 1
-            } else {
-                foreign.next().expect("an answer per foreign spring")
-            }
-        })
-        .collect();
+    let (springs, spring_first) = number_springs(team, &part, &global, &owner)?;
     // The piece: dummies, ghosts below, own nodes, ghosts above (the part's order).
     let below = part.own.start;
     let pad = below.next_multiple_of(CHUNK) - below;
@@ -237,26 +159,7 @@ pub fn assemble(team: &dyn Team, body: &Sampling, margin: Real) -> Result<(Piece
     // A dummy stands for no material, but a body built from the cells gives every node its
     // volume's mass, and a node needs a positive one: the mean.
     node[..pad].fill(cell_volume);
-    let lattice = Lattice {
-        kind: if body.dim == 2 {
-            LatticeKind::Random2d
-        } else {
-            LatticeKind::Random3d
-        },
-        spacing: body.a,
-        pos,
-        cell_volume,
-        thickness: if body.dim == 2 { body.h } else { 1.0 },
-        period: [0.0; 3],
-        grid: None,
-        bonds: Topology::from(bonds),
-        cells: Some(Cells {
-            node,
-            spring: part.springs.iter().map(|(_, v)| *v).collect(),
-            surface,
-            sampler: body.spec.sampler,
-        }),
-    };
+    let lattice = part_lattice(body, &part, pos, bonds, cell_volume, (node, surface));
     // The share's halo in the body's numbering (the piece trades its own, in its numbering):
     // what the figures of a share's traffic count.
     let to_global = |list: &Vec<u32>| list.iter().map(|&i| global_ids[i as usize]).collect();
@@ -282,6 +185,147 @@ pub fn assemble(team: &dyn Team, body: &Sampling, margin: Real) -> Result<(Piece
     Ok((piece, lattice, share))
 }
 
+/// The part's ghosts (its nodes that other ranks own, ascending), what their owners answer for
+/// each (its index in the body, volume and boundary share), and the own nodes this rank sends
+/// to each rank from then on. `first` is the body's index of the part's first own node, `owner`
+/// gives a key's rank. Collective.
+#[allow(clippy::type_complexity)]
+fn ask_ghosts(
+    team: &dyn Team,
+    part: &crate::random::part::Part,
+    first: usize,
+    owner: &dyn Fn(u64) -> usize,
+) -> Result<(Vec<usize>, Vec<(usize, Real, [Real; 3])>, Vec<Vec<usize>>)> {
+    let size = team.size();
+    let ghosts: Vec<usize> = (0..part.pos.len())
+        .filter(|i| !part.own.contains(i))
+        .collect();
+    let mut asks = vec![Vec::new(); size];
+    for &i in &ghosts {
+        let q = owner(part.key[i]);
+        asks[q].push(Real::from_bits(part.key[i]));
+        asks[q].push(Real::from_bits(part.grid[i]));
+    }
+    let own_ids: Vec<(u64, u64)> = part
+        .own
+        .clone()
+        .map(|i| (part.key[i], part.grid[i]))
+        .collect();
+    let mut sends = vec![Vec::new(); size];
+    let answers = ask(team, &asks, 2, 5, &mut |from, q| {
+        let id = (q[0].to_bits(), q[1].to_bits());
+        let at = own_ids.binary_search(&id).ok()?;
+        sends[from].push(at);
+        let s = part.surface[at];
+        Some(vec![
+            (first + at) as Real,
+            part.volume[at],
+            s[0],
+            s[1],
+            s[2],
+        ])
+    })?;
+    // The ghosts' answers, in the part's order (owners ascend with the keys).
+    let mut ghost_info = Vec::with_capacity(ghosts.len());
+    for a in &answers {
+        ghost_info.extend(
+            a.chunks(5)
+                .map(|x| (x[0] as usize, x[1], [x[2], x[3], x[4]])),
+        );
+    }
+    Ok((ghosts, ghost_info, sends))
+}
+
+/// The part's springs in the body's numbering: the springs whose lower end a rank owns are
+/// numbered by that rank, in order after the lower ranks' (`spring_first`, one entry per rank
+/// and the total); the others are asked of their lower end's owner. `global` numbers a node of
+/// the part in the body, `owner` gives a key's rank. Collective.
+fn number_springs(
+    team: &dyn Team,
+    part: &crate::random::part::Part,
+    global: &dyn Fn(usize) -> usize,
+    owner: &dyn Fn(u64) -> usize,
+) -> Result<(Vec<u32>, Vec<usize>)> {
+    let (rank, size) = (team.rank(), team.size());
+    let lower_own: Vec<(usize, usize)> = part
+        .springs
+        .iter()
+        .filter(|(e, _)| part.own.contains(&(e[0] as usize)))
+        .map(|(e, _)| (global(e[0] as usize), global(e[1] as usize)))
+        .collect();
+    let mut spring_counts = vec![0.0; size];
+    spring_counts[rank] = lower_own.len() as Real;
+    team.gather(&mut spring_counts, &singles(size));
+    let spring_first = prefix(
+        &spring_counts
+            .iter()
+            .map(|&c| c as usize)
+            .collect::<Vec<_>>(),
+    );
+    let mut asks = vec![Vec::new(); size];
+    for (e, _) in &part.springs {
+        let lo = e[0] as usize;
+        if !part.own.contains(&lo) {
+            let q = owner(part.key[lo]);
+            asks[q].push(global(lo) as Real);
+            asks[q].push(global(e[1] as usize) as Real);
+        }
+    }
+    let answers = ask(team, &asks, 2, 1, &mut |_, q| {
+        let at = lower_own
+            .binary_search(&(q[0] as usize, q[1] as usize))
+            .ok()?;
+        Some(vec![(spring_first[rank] + at) as Real])
+    })?;
+    let mut foreign = answers.iter().flatten().map(|&x| x as u32);
+    let mut next_own = spring_first[rank] as u32;
+    let springs: Vec<u32> = part
+        .springs
+        .iter()
+        .map(|(e, _)| {
+            if part.own.contains(&(e[0] as usize)) {
+                next_own += 1;
+                next_own - 1
+            } else {
+                foreign.next().expect("an answer per foreign spring")
+            }
+        })
+        .collect();
+    Ok((springs, spring_first))
+}
+
+/// The piece's lattice: its positions and springs, the nodes' and springs' volumes and boundary
+/// shares, the body's mean cell volume.
+fn part_lattice(
+    body: &Sampling,
+    part: &crate::random::part::Part,
+    pos: Coords,
+    bonds: Bonds,
+    cell_volume: Real,
+    (node, surface): (Vec<Real>, Vec<[Real; 3]>),
+) -> Lattice {
+    Lattice {
+        kind: if body.dim == 2 {
+            LatticeKind::Random2d
+        } else {
+            LatticeKind::Random3d
+        },
+        spacing: body.a,
+        pos,
+        cell_volume,
+        thickness: if body.dim == 2 { body.h } else { 1.0 },
+        period: [0.0; 3],
+        grid: None,
+        bonds: Topology::from(bonds),
+        cells: Some(Cells {
+            node,
+            spring: part.springs.iter().map(|(_, v)| *v).collect(),
+            surface,
+            sampler: body.spec.sampler,
+        }),
+    }
+}
+
 /// Add the nodes every rank reads each step to every rank's piece (the loaded and prescribed
 /// nodes: a shared run's bookkeeping gathers their velocities and forces, so each rank holds
 /// them, as [`Share::new`]'s `everyone` puts them in every rank's halo). `mine` are the
@@ -302,21 +346,7 @@ pub fn everyone(
     let (rank, size) = (team.rank(), team.size());
     let first = piece.first;
     let own_g = first..first + piece.own.len();
-    let bad = mine.windows(2).any(|w| w[0] >= w[1])
-        || mine.iter().any(|&g| !own_g.contains(&(g as usize)));
-    // Every rank refuses alike (a rank returning alone would leave the others waiting).
-    let bad = all_ok(
-        team,
-        if bad {
-            Err(Error::InvalidInput {
-                what: "nodes every process reads",
-                why: "give this process's own nodes, ascending, each once".into(),
-            })
-        } else {
-            Ok(())
-        },
-    );
-    bad?;
+    check_mine(team, mine, &own_g)?;
     let all = gather_ids(team, mine);
     let owner_of = |g: u32| share.nodes.partition_point(|r| r.end <= g as usize);
     // The ones this piece lacks: not its own, not a ghost already.
@@ -344,19 +374,7 @@ pub fn everyone(
     let info: Vec<&[Real]> = answers.iter().flat_map(|a| a.chunks(7)).collect();
     // The piece again: old and new nodes merged in the body's order, dummies recounted.
     let real: Vec<u32> = piece.global.iter().copied().filter(|&g| g != PAD).collect();
-    let mut merged: Vec<(u32, Option<usize>)> = Vec::with_capacity(real.len() + new.len());
-    {
-        let (mut a, mut b) = (0, 0);
-        while a < real.len() || b < new.len() {
-            if b == new.len() || (a < real.len() && real[a] < new[b]) {
-                merged.push((real[a], None));
-                a += 1;
-            } else {
-                merged.push((new[b], Some(b)));
-                b += 1;
-            }
-        }
-    }
+    let merged = merge_ascending(&real, &new);
     let below = merged.partition_point(|&(g, _)| (g as usize) < first);
     let pad = below.next_multiple_of(CHUNK) - below;
     let n = pad + merged.len();
@@ -454,6 +472,41 @@ pub fn everyone(
         ..piece
     };
     Ok((piece, lattice, share, all))
+}
+
+/// Refuse `mine` unless it is this rank's own nodes, ascending, each once: on every rank alike
+/// (a rank returning alone would leave the others waiting). Collective.
+fn check_mine(team: &dyn Team, mine: &[u32], own_g: &Range<usize>) -> Result<()> {
+    let bad = mine.windows(2).any(|w| w[0] >= w[1])
+        || mine.iter().any(|&g| !own_g.contains(&(g as usize)));
+    all_ok(
+        team,
+        if bad {
+            Err(Error::InvalidInput {
+                what: "nodes every process reads",
+                why: "give this process's own nodes, ascending, each once".into(),
+            })
+        } else {
+            Ok(())
+        },
+    )
+}
+
+/// Two ascending lists of body indices merged in order: each entry with `None` when it comes
+/// from `old`, or its index in `new`.
+fn merge_ascending(old: &[u32], new: &[u32]) -> Vec<(u32, Option<usize>)> {
+    let mut merged = Vec::with_capacity(old.len() + new.len());
+    let (mut a, mut b) = (0, 0);
+    while a < old.len() || b < new.len() {
+        if b == new.len() || (a < old.len() && old[a] < new[b]) {
+            merged.push((old[a], None));
+            a += 1;
+        } else {
+            merged.push((new[b], Some(b)));
+            b += 1;
+        }
+    }
+    merged
 }
 
 /// Every rank's `mine` (node or spring indices), concatenated in rank order: ascending when
