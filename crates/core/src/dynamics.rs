@@ -1725,48 +1725,11 @@ impl Integrator {
         true
     }
 
-    fn step_full(
-        &mut self,
-        body: &Body,
-        state: &mut State,
-        mut interaction: Option<&mut dyn Interaction>,
-        breaker: Option<&mut dyn Breaker>,
-    ) {
-        self.sync(body, state);
-        self.killed.clear();
-        // Sweep 1 done (and consistent with every break) before the contact forces.
-        let swept = match breaker {
-            Some(b) => self.break_at_start(body, state, b),
-            None => false,
-        };
-        let dt = self.dt;
-        let t = state.time;
-        self.contact.clear();
-        self.v_contact.clear();
-        if let (Some(it), Some(t)) = (interaction.as_mut(), self.team.as_ref()) {
-            // Contact reads the displacements and velocities of whichever nodes come near: of
-            // those its lists hold, or of all when it rebuilds them (on a piece, its own nodes,
-            // which are current: it asks for none).
-            match it.reads(body, state, &t.share.nodes) {
-                Reads::All => self.current(state, true, false, true),
-                Reads::Nodes(list) => {
-                    self.current_at(state, list, true, Pools::No, true);
-                }
-            }
-        }
-        if let Some(it) = interaction.as_mut() {
-            it.forces(body, state, dt, &mut self.contact);
-            for &(i, _) in &self.contact {
-                let i = i as usize;
-                self.v_contact
-                    .push([state.v.x()[i], state.v.y()[i], state.v.z()[i]]);
-            }
-        }
-        if !swept {
-            self.pools_everywhere(body, state, Real::INFINITY);
-        }
-        // Sparse bookkeeping before the sweep overwrites v: the half-step velocity and the
-        // internal force at u(t) of every loaded or prescribed node.
+    /// The sparse bookkeeping before the sweep overwrites v: the half-step velocity of every
+    /// loaded or prescribed node, the prescribed DOFs' displacements (when the kernel drifts in
+    /// place), and the internal force at u(t) on every prescribed node (in a team computed by the
+    /// owners and gathered).
+    fn record_before(&mut self, body: &Body, state: &State, in_place: bool) {
         self.v_before.clear();
         self.f_before.clear();
         for &(i, _) in &self.loaded {
@@ -1778,7 +1741,6 @@ impl Integrator {
             self.v_before
                 .push([state.v.x()[i], state.v.y()[i], state.v.z()[i]]);
         }
-        let in_place = self.kernel.drifts_in_place();
         self.u_before.clear();
         if in_place {
             self.u_before
@@ -1814,34 +1776,18 @@ impl Integrator {
             }
             Some(_) => {}
         }
-        let params = StepParams {
-            dt,
-            damping: self.damping,
-            accel: self.loading.body_acceleration.into(),
-            plane: self.plane,
-        };
-        let sums = self.sweep_everywhere(body, state, &params);
-        if let Some(t) = self.team.as_mut() {
-            // The bookkeeping below reads the sweep's velocities of the loaded and prescribed
-            // nodes and of those contact pushes, whichever rank swept them.
-            let mut nodes = std::mem::take(&mut t.ends);
-            nodes.clear();
-            nodes.extend_from_slice(&t.special);
-            // On a piece contact pushes its own nodes only, whose velocities are current.
-            if t.piece.is_none() {
-                nodes.extend(self.contact.iter().map(|c| c.0));
-            }
-            nodes.sort_unstable();
-            nodes.dedup();
-            self.current_at(state, &nodes, false, Pools::No, true);
-            self.team.as_mut().expect("shared").ends = nodes;
-        }
-        self.ledger.dissipated += sums.dissipated;
-        self.ledger.body_work += sums.body_work;
-        // External loads: the sweep kicked without them; add their share of the kick (linear in
-        // the force, so this equals kicking with it). The velocities the sweep computed are kept
-        // first, so that the work can be booked once every load on a node has acted.
-        let grow = 1.0 / (1.0 + 0.5 * self.damping * dt);
+    }
+
+    /// External loads: the sweep kicked without them; add their share of the kick (linear in
+    /// the force, so this equals kicking with it). The velocities the sweep computed are kept
+    /// first, so that the work can be booked once every load on a node has acted.
+    fn kick_loads(
+        &mut self,
+        body: &Body,
+        state: &mut State,
+        (t, dt, grow): (Real, Real, Real),
+        in_place: bool,
+    ) {
         self.v_kernel.clear();
         for &(i, _) in &self.loaded {
             self.v_kernel
@@ -1873,11 +1819,22 @@ impl Integrator {
                 }
             }
         }
-        // Interaction forces: an extra kick like the loads; work booked with the node's
-        // velocities before and after the whole step. Damping and body-force work were booked by
-        // the sweep with its own velocity; the contact kick changes that velocity, so rebook
-        // their share as for the loads.
-        // On a piece each rank pushes its own nodes: their work terms are gathered and every
+    }
+
+    /// Interaction forces: an extra kick like the loads; work booked with the node's velocities
+    /// before and after the whole step. Damping and body-force work were booked by the sweep
+    /// with its own velocity; the contact kick changes that velocity, so their share is
+    /// rebooked as for the loads. On a piece each rank pushes its own nodes: their work terms
+    /// are gathered and every rank books them in node order, as one process does.
+    fn kick_contact(
+        &mut self,
+        body: &Body,
+        state: &mut State,
+        params: &StepParams,
+        (dt, grow): (Real, Real),
+        in_place: bool,
+    ) {
+        let g = self.loading.body_acceleration;
         // rank books them in node order, as one process does.
         let pieced = self.team.as_ref().is_some_and(|t| t.piece.is_some());
         let mut terms = std::mem::take(&mut self.contact_terms);
@@ -1923,7 +1880,10 @@ impl Integrator {
             }
         }
         self.contact_terms = terms;
-        // Prescribed motion overrides its DOFs; the reaction's work is booked.
+    }
+
+    /// Prescribed motion overrides its DOFs; the reaction's work is booked.
+    fn prescribe(&mut self, body: &Body, state: &mut State, (t, dt): (Real, Real), in_place: bool) {
         let nl = self.loaded.len();
         for (k, d) in self.dofs.iter().enumerate() {
             let (i, c) = (d.node, d.axis);
@@ -1963,6 +1923,78 @@ impl Integrator {
                 + self.damping * m * 0.5 * (v_half + v_old);
             self.ledger.boundary_work += reaction * 0.5 * (v_old + v_half) * dt;
         }
+    }
+
+    fn step_full(
+        &mut self,
+        body: &Body,
+        state: &mut State,
+        mut interaction: Option<&mut dyn Interaction>,
+        breaker: Option<&mut dyn Breaker>,
+    ) {
+        self.sync(body, state);
+        self.killed.clear();
+        // Sweep 1 done (and consistent with every break) before the contact forces.
+        let swept = match breaker {
+            Some(b) => self.break_at_start(body, state, b),
+            None => false,
+        };
+        let dt = self.dt;
+        let t = state.time;
+        self.contact.clear();
+        self.v_contact.clear();
+        if let (Some(it), Some(t)) = (interaction.as_mut(), self.team.as_ref()) {
+            // Contact reads the displacements and velocities of whichever nodes come near: of
+            // those its lists hold, or of all when it rebuilds them (on a piece, its own nodes,
+            // which are current: it asks for none).
+            match it.reads(body, state, &t.share.nodes) {
+                Reads::All => self.current(state, true, false, true),
+                Reads::Nodes(list) => {
+                    self.current_at(state, list, true, Pools::No, true);
+                }
+            }
+        }
+        if let Some(it) = interaction.as_mut() {
+            it.forces(body, state, dt, &mut self.contact);
+            for &(i, _) in &self.contact {
+                let i = i as usize;
+                self.v_contact
+                    .push([state.v.x()[i], state.v.y()[i], state.v.z()[i]]);
+            }
+        }
+        if !swept {
+            self.pools_everywhere(body, state, Real::INFINITY);
+        }
+        let in_place = self.kernel.drifts_in_place();
+        self.record_before(body, state, in_place);
+        let params = StepParams {
+            dt,
+            damping: self.damping,
+            accel: self.loading.body_acceleration.into(),
+            plane: self.plane,
+        };
+        let sums = self.sweep_everywhere(body, state, &params);
+        if let Some(t) = self.team.as_mut() {
+            // The bookkeeping below reads the sweep's velocities of the loaded and prescribed
+            // nodes and of those contact pushes, whichever rank swept them.
+            let mut nodes = std::mem::take(&mut t.ends);
+            nodes.clear();
+            nodes.extend_from_slice(&t.special);
+            // On a piece contact pushes its own nodes only, whose velocities are current.
+            if t.piece.is_none() {
+                nodes.extend(self.contact.iter().map(|c| c.0));
+            }
+            nodes.sort_unstable();
+            nodes.dedup();
+            self.current_at(state, &nodes, false, Pools::No, true);
+            self.team.as_mut().expect("shared").ends = nodes;
+        }
+        self.ledger.dissipated += sums.dissipated;
+        self.ledger.body_work += sums.body_work;
+        let grow = 1.0 / (1.0 + 0.5 * self.damping * dt);
+        self.kick_loads(body, state, (t, dt, grow), in_place);
+        self.kick_contact(body, state, &params, (dt, grow), in_place);
+        self.prescribe(body, state, (t, dt), in_place);
         if !in_place {
             std::mem::swap(&mut state.u, &mut self.u_next);
         }
