@@ -4,11 +4,15 @@
 //! steps a body or writes a file by itself. Stepping releases the interpreter in slices of about
 //! a tenth of a second and checks for Ctrl-C between slices, so a long `run` stays interruptible
 //! and leaves the simulation usable (the KeyboardInterrupt arrives after a whole step).
+//!
+//! Modules: this file (the `Simulation` class, `load_case`, `build`, the `hooke-lab` calls and
+//! the numpy views, the one place with `unsafe` here) and `spec` (a `hooke.Builder` call log
+//! replayed on `hooke_sim::Builder`).
 
 mod spec;
 
 // Large arrays at staggered offsets into their pages, as in the `hooke` binary
-// (hooke_core::memory): the extension's own allocations only; Python's are its own.
+// (hooke_sys::alloc): the extension's own allocations only; Python's are its own.
 #[global_allocator]
 static ALLOC: hooke_sys::alloc::Staggered = hooke_sys::alloc::Staggered;
 

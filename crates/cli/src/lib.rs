@@ -1,4 +1,10 @@
-//! The `hooke` command line, as a library so that tests can call [`run`] directly.
+//! The `hooke` command line, as a library so that tests can call [`run`] directly. It parses,
+//! prints and exits; the logic is the libraries'.
+//!
+//! Modules: `run` (`hooke run` and `hooke check`: case files through `hooke-case`, runs
+//! through `hooke-sim`, the progress bar and summaries), `moduli` and `toughness` (flags into
+//! `hooke-lab`'s options, tables and plots), `bench` (timing the step), `plot`, and `mpi` (the
+//! `mpi` feature: the team's collectives over rsmpi, and ending the job when a rank fails).
 
 // `unsafe` only where the MPI communicator is shared between threads (`mpi`).
 #![deny(unsafe_code)]

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use clap::Parser;
 
 // Large arrays start at staggered offsets into their pages, so that the kernels' streams do
-// not alias modulo 4 KiB (hooke_core::memory).
+// not alias modulo 4 KiB (hooke_sys::alloc).
 #[global_allocator]
 static ALLOC: hooke_sys::alloc::Staggered = hooke_sys::alloc::Staggered;
 
@@ -18,7 +18,7 @@ fn main() -> ExitCode {
     // run writes to its output folder is written before the summary it prints.
     hooke_sys::default_sigpipe();
     // Large blocks in mappings of their own, given back when freed: a body's set-up
-    // temporaries otherwise stay resident for the whole run (hooke_core::memory).
+    // temporaries otherwise stay resident for the whole run (hooke_sys::alloc).
     hooke_sys::alloc::map_large_blocks();
     // HOOKE_NO_SIMD forces the kernels' portable paths, HOOKE_SIMD=avx2 AVX2 over AVX-512 (the
     // same bits either way: to test and measure the paths against each other).

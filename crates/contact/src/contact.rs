@@ -935,64 +935,12 @@ impl Contact {
         }
     }
 
-    fn stiffness(&self, m: Real, dt: Real) -> Real {
-        self.opts.stiffness_factor * m / (dt * dt)
-    }
-}
-
-impl Interaction for Contact {
-    fn reads(&mut self, body: &Body, state: &State, nodes: &[std::ops::Range<usize>]) -> Reads<'_> {
-        // Each process checks the nodes it owns, whose displacements it holds current.
-        let own = self.team.as_ref().map(|t| nodes[t.rank()].clone());
-        if self.piece.is_some() {
-            // A piece: the lists hold its own nodes, which are current (the fragment pairs'
-            // other ends are gathered by the forces).
-            if self.node_parts.as_slice() != nodes {
-                self.node_parts = nodes.to_vec();
-            }
-            if !self.lists_valid(body, &state.u, None) {
-                self.rebuild(body, state);
-            }
-            self.checked = Some(true);
-            return Reads::Nodes(&[]);
-        }
-        if own.is_some() && self.node_parts.as_slice() != nodes {
-            self.node_parts = nodes.to_vec();
-        }
-        let valid = self.lists_valid(body, &state.u, own);
-        if !valid && self.team.is_some() {
-            // A rebuild reads only this process's own nodes and what the others send of
-            // theirs, so it runs here, and the step then gathers the state of the nodes the
-            // new lists hold, not of every node.
-            self.rebuild(body, state);
-        }
-        // In a team the lists are current either way (rebuilt just above).
-        let current = valid || self.team.is_some();
-        self.checked = Some(current);
-        if current {
-            Reads::Nodes(&self.read_nodes)
-        } else {
-            Reads::All
-        }
-    }
-
-    fn forces(&mut self, body: &Body, state: &State, dt: Real, out: &mut Vec<(u32, [Real; 3])>) {
-        let valid = match self.checked.take() {
-            Some(v) => v,
-            None => self.lists_valid(body, &state.u, None),
-        };
-        if !valid {
-            self.rebuild(body, state);
-        }
+    /// The rigid bodies' contact forces on the nodes (into `acc`, the nodes marked `touched`),
+    /// in body order, each body's reaction and torque summed in node order; their penalty
+    /// energy is added to `potential`.
+    fn rigid_forces(&mut self, body: &Body, state: &State, dt: Real, potential: &mut Real) {
         let t = state.time;
         let dim = self.dim;
-        for &i in &self.touched {
-            self.acc[i as usize] = [0.0; 3];
-            self.mark[i as usize] = false;
-        }
-        self.touched.clear();
-        let mut potential = 0.0;
-        // Rigid bodies, in body order; each body's reaction summed in node order.
         for k in 0..self.bodies.len() {
             let mut reaction = [0.0; 3];
             let mut torque = [0.0; 3];
@@ -1089,7 +1037,7 @@ impl Interaction for Contact {
                 let i = node(&self.candidates[k], idx);
                 let f = [hit[0], hit[1], hit[2]];
                 self.max_penetration = self.max_penetration.max(hit[4]);
-                potential += hit[3];
+                *potential += hit[3];
                 for c in 0..dim {
                     if let Some(i) = i {
                         self.acc[i][c] += f[c];
@@ -1125,9 +1073,14 @@ impl Interaction for Contact {
                 });
             }
         }
-        // Fragments: gathered per node (each pair seen from both ends, forces exactly opposite).
-        // On a piece the other ends' displacements come from their owners first (every rank
-        // calls this gather while any rank has pairs).
+    }
+
+    /// Fragment contact: forces gathered per node (each pair seen from both ends, exactly
+    /// opposite) into `acc`, and their penalty energy (summed in node order, every rank's on a
+    /// piece); `None` when no pair is listed anywhere. On a piece the other ends' displacements
+    /// come from their owners first (every rank calls this gather while any rank has pairs).
+    fn fragment_forces(&mut self, body: &Body, state: &State, dt: Real) -> Option<Real> {
+        let dim = self.dim;
         if let (Some(p), Some(t)) = (&self.piece, &self.team) {
             if !self.wanted.is_empty() {
                 let own = p.first..p.first + p.own.len();
@@ -1152,7 +1105,10 @@ impl Interaction for Contact {
                 self.wanted_u = mine;
             }
         }
-        if !self.frag_nodes.is_empty() || !self.wanted.is_empty() {
+        if self.frag_nodes.is_empty() && self.wanted.is_empty() {
+            return None;
+        }
+        {
             let c_pen = self.opts.stiffness_factor;
             let df = self.opts.fragment_distance.unwrap_or(0.0);
             let (offs, nbr, nodes) = (&self.frag_offsets, &self.frag_nbr, &self.frag_nodes);
@@ -1177,6 +1133,7 @@ impl Interaction for Contact {
                     )
                 }
             };
+            let energy;
             let mut energies = std::mem::take(&mut self.frag_energy);
             energies.resize(nodes.len(), 0.0);
             self.frag_force
@@ -1223,9 +1180,9 @@ impl Interaction for Contact {
                     &mut self.scratch,
                     &mut self.scratch_parts,
                 );
-                potential += self.scratch.iter().sum::<Real>();
+                energy = self.scratch.iter().sum::<Real>();
             } else {
-                potential += energies.iter().sum::<Real>();
+                energy = energies.iter().sum::<Real>();
             }
             self.frag_energy = energies;
             for (idx, &i) in self.frag_nodes.iter().enumerate() {
@@ -1242,6 +1199,68 @@ impl Interaction for Contact {
                     self.touched.push(i as u32);
                 }
             }
+            Some(energy)
+        }
+    }
+
+    fn stiffness(&self, m: Real, dt: Real) -> Real {
+        self.opts.stiffness_factor * m / (dt * dt)
+    }
+}
+
+impl Interaction for Contact {
+    fn reads(&mut self, body: &Body, state: &State, nodes: &[std::ops::Range<usize>]) -> Reads<'_> {
+        // Each process checks the nodes it owns, whose displacements it holds current.
+        let own = self.team.as_ref().map(|t| nodes[t.rank()].clone());
+        if self.piece.is_some() {
+            // A piece: the lists hold its own nodes, which are current (the fragment pairs'
+            // other ends are gathered by the forces).
+            if self.node_parts.as_slice() != nodes {
+                self.node_parts = nodes.to_vec();
+            }
+            if !self.lists_valid(body, &state.u, None) {
+                self.rebuild(body, state);
+            }
+            self.checked = Some(true);
+            return Reads::Nodes(&[]);
+        }
+        if own.is_some() && self.node_parts.as_slice() != nodes {
+            self.node_parts = nodes.to_vec();
+        }
+        let valid = self.lists_valid(body, &state.u, own);
+        if !valid && self.team.is_some() {
+            // A rebuild reads only this process's own nodes and what the others send of
+            // theirs, so it runs here, and the step then gathers the state of the nodes the
+            // new lists hold, not of every node.
+            self.rebuild(body, state);
+        }
+        // In a team the lists are current either way (rebuilt just above).
+        let current = valid || self.team.is_some();
+        self.checked = Some(current);
+        if current {
+            Reads::Nodes(&self.read_nodes)
+        } else {
+            Reads::All
+        }
+    }
+
+    fn forces(&mut self, body: &Body, state: &State, dt: Real, out: &mut Vec<(u32, [Real; 3])>) {
+        let valid = match self.checked.take() {
+            Some(v) => v,
+            None => self.lists_valid(body, &state.u, None),
+        };
+        if !valid {
+            self.rebuild(body, state);
+        }
+        for &i in &self.touched {
+            self.acc[i as usize] = [0.0; 3];
+            self.mark[i as usize] = false;
+        }
+        self.touched.clear();
+        let mut potential = 0.0;
+        self.rigid_forces(body, state, dt, &mut potential);
+        if let Some(e) = self.fragment_forces(body, state, dt) {
+            potential += e;
         }
         self.potential = potential;
         self.touched.sort_unstable();

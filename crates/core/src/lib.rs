@@ -7,12 +7,22 @@
 //! springs in proportion to their length, which adds a pressure-like modulus B (paper eqs. 5-8)
 //! at the cost of one extra gather per step and no extra elements.
 //!
-//! Layout: [`math`] (the scalar and vector types), [`lattice`] (geometry and CSR topology,
-//! immutable), [`material`] ((E, nu) to (k, q)), [`body`] (a lattice with its constants),
-//! [`state`] (everything that changes), [`law`] (the force law and its energy), [`tangent`] (its
-//! exact stiffness, matrix-free), [`statics`] (Newton-CG equilibrium), [`moduli`] (the paper's
-//! block test and the exact bulk test), [`anisotropy`] (transversely isotropic and orthotropic materials by
-//! direction-weighted dispersion).
+//! Modules, by reason to change:
+//!
+//! - geometry and topology: [`math`] (scalar and vector types), [`lattice`] (positions and CSR
+//!   topology, immutable), [`random`] (Poisson-disk and jittered nodes, Delaunay springs, parts);
+//! - material mapping: [`material`] ((E, nu) to (k, q)), [`anisotropy`] (transversely isotropic
+//!   and orthotropic materials by direction-weighted dispersion), `random::calibration` and
+//!   `random::anisotropic` (the random lattices' measured tables and designs);
+//! - body, state, loads and law: [`body`] (a lattice with its constants), [`state`] (everything
+//!   that changes), [`loading`], [`law`] (the force law and its energy), [`tangent`] (its exact
+//!   stiffness, matrix-free);
+//! - kernels: [`kernel`] (the explicit step's sweeps; every `unsafe` block of this crate);
+//! - solvers: [`dynamics`] (the explicit integrator), [`stability`] (the stable step),
+//!   [`statics`] (Newton-CG equilibrium), [`relax`] (dynamic relaxation), [`moduli`] (the
+//!   paper's block test and the bulk tests);
+//! - decomposition: [`team`] (sharing a step between processes; pieces and parts);
+//! - plumbing: [`error`], [`memory`] (what the arrays hold).
 //!
 //! Units: SI throughout. No I/O here.
 

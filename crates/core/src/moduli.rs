@@ -482,6 +482,25 @@ fn random_slide_modes(cons: &mut Constraints, pos: &Coords, lateral: &[usize], c
     }
 }
 
+/// The Poisson's ratio a random block is compared with, and its lateral ratios measured and
+/// targeted: an anisotropic material's mean ratio (a plate's in-plane one: its second is the
+/// out-of-plane ratio, not measured; the pillar's radial strain has no per-axis ratios), or the
+/// isotropic target.
+#[allow(clippy::type_complexity)]
+fn lateral_targets(
+    t: &BlockTest,
+    ratios: Option<[Real; 2]>,
+    per_axis: [Real; 2],
+) -> (Real, Option<[Real; 2]>, Option<[Real; 2]>) {
+    let dim = t.kind.dim();
+    match ratios {
+        Some(r) if dim == 3 && !t.cylinder => (0.5 * (r[0] + r[1]), Some(per_axis), Some(r)),
+        Some(r) if dim == 2 => (r[0], None, Some(r)),
+        Some(r) => (0.5 * (r[0] + r[1]), None, Some(r)),
+        None => (t.nu, None, None),
+    }
+}
+
 /// An anisotropic block's calibrated direction functions and its targets under uniaxial stress
 /// along axis `ax`, from the compliance: E = 1 / S_aa and the lateral ratios -S_ca / S_aa (a
 /// plate's: of its in-plane stiffness, xx yy xy, per thickness).
@@ -679,13 +698,8 @@ fn random_block_test(t: &BlockTest) -> Result<BlockResult> {
         random_lateral_strain(t, &state.u, pos, (ax, &lateral), (centre, ext), &radial);
     let e_measured = force / area / t.strain;
     let axial_middle = middle_axial_strain(&state.u, pos, ax, centre[ax], len);
-    let (nu_target, lateral_measured, lateral_target) = match &aniso {
-        Some((.., r)) if dim == 3 && !t.cylinder => (0.5 * (r[0] + r[1]), Some(per_axis), Some(*r)),
-        // A plate has one lateral axis (the second ratio is the out-of-plane one, not measured).
-        Some((.., r)) if dim == 2 => (r[0], None, Some(*r)),
-        Some((.., r)) => (0.5 * (r[0] + r[1]), None, Some(*r)),
-        None => (t.nu, None, None),
-    };
+    let (nu_target, lateral_measured, lateral_target) =
+        lateral_targets(t, aniso.as_ref().map(|(.., r)| *r), per_axis);
     Ok(BlockResult {
         nu_target,
         nu_measured: -lateral_strain / t.strain,

@@ -8,6 +8,10 @@
 //! Everything is written to a temporary file and renamed into place: a run killed at any moment
 //! (even with `kill -9`) leaves every completed frame, the collection and the last checkpoint
 //! readable.
+//!
+//! Modules: [`vtk`] (frames, series, rigid surfaces; `vtu` streams a frame's arrays),
+//! [`fields`] (the point fields a case chooses), `h5` (HDF5 + XDMF, feature `hdf5`),
+//! [`checkpoint`], [`error`].
 #![forbid(unsafe_code)]
 
 pub mod checkpoint;

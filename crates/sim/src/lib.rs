@@ -11,6 +11,12 @@
 //! continue bit for bit, and reports to an [`Observer`] (progress, interruption).
 //!
 //! Simulations come from case files (`hooke_case::load`) or from code through [`Builder`].
+//!
+//! Modules: `builder` ([`Builder`], and set-up from parts), `simulation` ([`Simulation`],
+//! [`Solver`]), `run` ([`Run`], [`RunOptions`], checkpoints and resume), `quasi_static`,
+//! `check` ([`Simulation::check`]: [`CheckReport`]), [`output`] (the [`Sink`]s), `observer`,
+//! `provenance` (`run.json`), [`geometry`] (shapes, regions, lattice filling), [`rigid`] (rigid
+//! bodies and contact as written), `error`.
 #![forbid(unsafe_code)]
 // Checks are written `!(x > 0.0)` on purpose: a NaN fails them, where `x <= 0.0` would let it
 // through; clippy's suggestion (partial_cmp) would hide that.
