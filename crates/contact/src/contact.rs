@@ -223,6 +223,88 @@ fn current_bounds(
     (lo, hi)
 }
 
+/// Every pair (i, j) of a damaged node i and a listed node j in its or the next cells (`order`:
+/// the listed nodes sorted by cell, `cell` the cell of a position), closer than `h`, not
+/// coincident in the reference configuration and joined by no intact spring (`bonded`: `None`
+/// when this process holds neither end's row), in both directions.
+fn search_pairs<C, B>(
+    damaged: &[Near],
+    order: &[([i64; 3], &Near)],
+    cell: &C,
+    h: Real,
+    bonded: &B,
+) -> Vec<(u32, u32)>
+where
+    C: Fn(&[Real; 3]) -> [i64; 3] + Sync,
+    B: Fn(u32, u32) -> Option<bool> + Sync,
+{
+    damaged
+        .par_iter()
+        .with_min_len(64)
+        .flat_map_iter(|di| {
+            let mut pairs = Vec::new();
+            let ci = cell(&di.x);
+            for dz in -1..=1i64 {
+                for dy in -1..=1i64 {
+                    for dx in -1..=1i64 {
+                        let key = [ci[0] + dx, ci[1] + dy, ci[2] + dz];
+                        let start = order.partition_point(|e| e.0 < key);
+                        for &(k, dj) in &order[start..] {
+                            if k != key {
+                                break;
+                            }
+                            if dj.id == di.id {
+                                continue;
+                            }
+                            let d2: Real = (0..3).map(|c| (di.x[c] - dj.x[c]).powi(2)).sum();
+                            if d2 >= h * h {
+                                continue;
+                            }
+                            if di.rest(dj) < 1e-12 * h || bonded(di.id, dj.id).is_none_or(|b| b) {
+                                continue;
+                            }
+                            pairs.push((di.id, dj.id));
+                            pairs.push((dj.id, di.id));
+                        }
+                    }
+                }
+            }
+            pairs
+        })
+        .collect()
+}
+
+/// A bitmap over the body's grid of cells (`dims` cells a side) marking the cells next to a
+/// damaged node's, or `None` when the grid is too large for one (every node is then listed).
+fn near_cells(
+    damaged: &[Near],
+    dims: [i64; 3],
+    cell: &dyn Fn(&[Real; 3]) -> [i64; 3],
+    index: &dyn Fn([i64; 3]) -> usize,
+) -> Option<Vec<u64>> {
+    let cells = dims
+        .iter()
+        .try_fold(1u64, |t, &d| t.checked_mul(d.max(1) as u64));
+    cells.filter(|&t| t <= 1 << 28).map(|t| {
+        let mut bits = vec![0u64; (t as usize).div_ceil(64)];
+        for d in damaged {
+            let ci = cell(&d.x);
+            for dx in -1..=1i64 {
+                for dy in -1..=1i64 {
+                    for dz in -1..=1i64 {
+                        let k = [ci[0] + dx, ci[1] + dy, ci[2] + dz];
+                        if (0..3).all(|c| k[c] >= 0 && k[c] < dims[c]) {
+                            let at = index(k);
+                            bits[at >> 6] |= 1 << (at & 63);
+                        }
+                    }
+                }
+            }
+        }
+        bits
+    })
+}
+
 impl Near {
     /// The distance between two nodes in the reference configuration (m).
     fn rest(&self, o: &Near) -> Real {
@@ -749,28 +831,8 @@ impl Contact {
         // node by cell at each rebuild was a sixth of a running crack's step). The pairs are a
         // set, so which nodes are listed changes nothing but the time.
         let dims = [0, 1, 2].map(|c| ((hi[c] - lo[c]) / h).floor() as i64 + 1);
-        let cells = dims
-            .iter()
-            .try_fold(1u64, |t, &d| t.checked_mul(d.max(1) as u64));
         let index = |k: [i64; 3]| ((k[0] * dims[1] + k[1]) * dims[2] + k[2]) as usize;
-        let near = cells.filter(|&t| t <= 1 << 28).map(|t| {
-            let mut bits = vec![0u64; (t as usize).div_ceil(64)];
-            for d in &damaged {
-                let ci = cell(&d.x);
-                for dx in -1..=1i64 {
-                    for dy in -1..=1i64 {
-                        for dz in -1..=1i64 {
-                            let k = [ci[0] + dx, ci[1] + dy, ci[2] + dz];
-                            if (0..3).all(|c| k[c] >= 0 && k[c] < dims[c]) {
-                                let at = index(k);
-                                bits[at >> 6] |= 1 << (at & 63);
-                            }
-                        }
-                    }
-                }
-            }
-            bits
-        });
+        let near = near_cells(&damaged, dims, &cell, &index);
         // Each listed node with its cell.
         let listed: Vec<Near> = mine
             .clone()
@@ -826,41 +888,7 @@ impl Contact {
             }))
         };
         // Pairs (i, j) from every damaged i, then both directions, sorted: a CSR by node.
-        let mut pairs: Vec<(u32, u32)> = damaged
-            .par_iter()
-            .with_min_len(64)
-            .flat_map_iter(|di| {
-                let mut pairs = Vec::new();
-                let ci = cell(&di.x);
-                for dz in -1..=1i64 {
-                    for dy in -1..=1i64 {
-                        for dx in -1..=1i64 {
-                            let key = [ci[0] + dx, ci[1] + dy, ci[2] + dz];
-                            let start = order.partition_point(|e| e.0 < key);
-                            for &(k, dj) in &order[start..] {
-                                if k != key {
-                                    break;
-                                }
-                                if dj.id == di.id {
-                                    continue;
-                                }
-                                let d2: Real = (0..3).map(|c| (di.x[c] - dj.x[c]).powi(2)).sum();
-                                if d2 >= h * h {
-                                    continue;
-                                }
-                                if di.rest(dj) < 1e-12 * h || bonded(di.id, dj.id).is_none_or(|b| b)
-                                {
-                                    continue;
-                                }
-                                pairs.push((di.id, dj.id));
-                                pairs.push((dj.id, di.id));
-                            }
-                        }
-                    }
-                }
-                pairs
-            })
-            .collect();
+        let mut pairs = search_pairs(&damaged, &order, &cell, h, &bonded);
         // On a piece only the pairs with an own first node are this rank's.
         pairs.retain(|p| own(p.0));
         pairs.par_sort_unstable();
