@@ -33,6 +33,9 @@ use crate::stability::{self, StableStep, DEFAULT_SAFETY};
 use crate::state::State;
 use crate::team::{Piece, Share, Team};
 
+mod breaks;
+pub use breaks::{commit_alone, node_dispersive_energy, BreakReport, Breaker, Candidates};
+
 /// How the time step is chosen.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum TimeStep {
@@ -167,24 +170,6 @@ pub enum Reads<'a> {
     Nodes(&'a [u32]),
 }
 
-/// Breaks springs inside a step, between sweep 1 and sweep 2 (fracture, `hooke-fracture`).
-///
-/// A step with a breaker ([`Integrator::step_breaking`]) runs sweep 1 with the breaker's screen,
-/// lets the breaker decide and commit breaks at the step's start state (through
-/// [`Integrator::break_spring`]), brings sweep 1's results in line with the broken springs,
-/// then computes the forces. That is the same state and the same bits as checking after the
-/// previous step and then stepping, without a pass of its own over all springs: the screen
-/// costs a compare per spring inside sweep 1, which has each extension at hand.
-pub trait Breaker {
-    /// Screen stretch s: the breaker never breaks a spring with `dL <= s L` (the integrator
-    /// widens it by a margin far above round-off before the kernel compares). Infinity: the
-    /// breaker needs no spring listed (it is still called every step).
-    fn screen(&self) -> Real;
-    /// Decide and commit breaks in the state at the step's start. [`Integrator::hot_springs`]
-    /// lists every spring that can be past the screen.
-    fn break_in_step(&mut self, body: &Body, state: &mut State, it: &mut Integrator);
-}
-
 /// The explicit integrator for one body.
 #[derive(Debug)]
 pub struct Integrator {
@@ -226,6 +211,8 @@ pub struct Integrator {
     synced: u64,
     /// Springs broken through [`Integrator::break_spring`] since the step began.
     killed: Vec<u32>,
+    /// What committing a breaker's decisions keeps between rounds.
+    breaks: breaks::BreakScratch,
     /// The processes sharing the sweeps, and this one's share (`None`: one process does all).
     team: Option<Shared>,
     /// A plate on which nothing acts along z (see [`Integrator::is_plane`]): its z components
@@ -265,13 +252,12 @@ struct Shared {
     /// Messages of a halo trade, per rank (kept: a step allocates nothing).
     out: Vec<Vec<Real>>,
     inp: Vec<Vec<Real>>,
-    /// Values and parts of an all-gather at listed nodes ([`Integrator::current_at`]) or of
-    /// per-chunk lists ([`Integrator::gather_chunk_lists`], `ends` their first entries), and
-    /// the ends of the springs a breaker looks at.
+    /// Values and parts of an all-gather at listed nodes ([`Integrator::current_at`]) or of a
+    /// list's runs (a breaker's decisions), and the nodes whose velocities a step's
+    /// bookkeeping reads.
     listed: Vec<Real>,
     listed_parts: Vec<std::ops::Range<usize>>,
     ends: Vec<u32>,
-    springs: Vec<u32>,
     /// Whether `state.u`, `state.pool` and `state.v` hold stale values at other ranks' nodes.
     /// A step makes current only what the next step reads: displacements and pools on this
     /// rank's nodes and its ghosts, velocities on its nodes and the special ones. Whatever
@@ -281,9 +267,8 @@ struct Shared {
     v_partial: bool,
     /// Set once the rank holds only its piece of the body ([`Integrator::cut`]).
     piece: Option<Box<Pieced>>,
-    /// On pieces: a breaker's gathered decisions changed springs somewhere
-    /// ([`Integrator::gather_decisions`]), so the repaired pools are traded; and this rank's
-    /// decisions as they travel.
+    /// On pieces: a breaker's gathered decisions changed springs somewhere, so the repaired
+    /// pools are traded; and this rank's decisions as they travel.
     broke: bool,
     springs_flat: Vec<Real>,
 }
@@ -698,6 +683,7 @@ impl Integrator {
             contact_terms: Vec::new(),
             synced: 0,
             killed: Vec::new(),
+            breaks: Default::default(),
         }
     }
 
@@ -949,7 +935,6 @@ impl Integrator {
             listed: Vec::new(),
             listed_parts: Vec::new(),
             ends: Vec::new(),
-            springs: Vec::new(),
             stale_u: false,
             stale_pool: false,
             v_partial: false,
@@ -1343,107 +1328,6 @@ impl Integrator {
         }
     }
 
-    /// All-gather per-chunk lists of `(spring, value)` pairs, one list per node chunk (a
-    /// breaker's decisions): on entry the lists of this rank's chunks are valid, on return
-    /// every rank holds every chunk's, in chunk order. Two all-gathers (the lengths, then the
-    /// pairs; a spring index is exact as a `Real`). Collective; alone it does nothing.
-    pub fn gather_chunk_lists(&mut self, lists: &mut [Vec<(u32, Real)>]) {
-        let Some(t) = self.team.as_mut() else {
-            return;
-        };
-        t.whole("a breaker's per-chunk lists");
-        let chunk = crate::kernel::CHUNK;
-        t.listed_parts.clear();
-        t.listed_parts.extend(
-            t.share
-                .nodes
-                .iter()
-                .map(|r| r.start / chunk..r.end.div_ceil(chunk)),
-        );
-        let counts = &mut t.listed;
-        counts.clear();
-        counts.resize(lists.len(), 0.0);
-        for c in t.share.chunks() {
-            counts[c] = lists[c].len() as Real;
-        }
-        t.team.gather(counts, &t.listed_parts);
-        // Each chunk's first pair, from the lengths every rank now holds.
-        t.ends.clear();
-        let mut at = 0u32;
-        for &k in counts.iter() {
-            t.ends.push(at);
-            at += k as u32;
-        }
-        t.ends.push(at);
-        let chunks = lists.len();
-        let first = |c: usize| 2 * t.ends[c.min(chunks)] as usize;
-        t.listed_parts.clear();
-        t.listed_parts.extend(
-            t.share
-                .nodes
-                .iter()
-                .map(|r| first(r.start / chunk)..first(r.end.div_ceil(chunk))),
-        );
-        let pairs = &mut t.listed;
-        pairs.clear();
-        pairs.resize(2 * at as usize, 0.0);
-        for c in t.share.chunks() {
-            for (k, &(b, w)) in lists[c].iter().enumerate() {
-                pairs[first(c) + 2 * k] = b as Real;
-                pairs[first(c) + 2 * k + 1] = w;
-            }
-        }
-        t.team.gather(pairs, &t.listed_parts);
-        let mine = t.share.chunks();
-        for (c, list) in lists.iter_mut().enumerate() {
-            if !mine.contains(&c) {
-                list.clear();
-                list.extend(
-                    pairs[first(c)..first(c + 1)]
-                        .chunks_exact(2)
-                        .map(|p| (p[0] as u32, p[1])),
-                );
-            }
-        }
-    }
-
-    /// On a piece: all-gather a breaker's decisions, `(spring, new weight, [lower end, upper
-    /// end])` with the body's indices, each rank's for the springs whose lower end it owns,
-    /// ascending. On return every rank holds every rank's, in rank order, which is ascending
-    /// spring order: one process's decisions in its order. Two all-gathers (the counts, then
-    /// the entries; indices are exact as reals). Collective; off a piece it does nothing.
-    pub fn gather_decisions(&mut self, list: &mut Vec<(u32, Real, [u32; 2])>) {
-        let Some(t) = self.team.as_mut().filter(|t| t.piece.is_some()) else {
-            return;
-        };
-        let mut mine = std::mem::take(&mut t.springs_flat);
-        mine.clear();
-        mine.extend(
-            list.iter()
-                .flat_map(|&(b, w, [i, j])| [b as Real, w, i as Real, j as Real]),
-        );
-        crate::team::gather_runs(&*t.team, &mine, &mut t.listed, &mut t.listed_parts);
-        t.springs_flat = mine;
-        t.broke = !t.listed.is_empty();
-        list.clear();
-        list.extend(
-            t.listed
-                .chunks_exact(4)
-                .map(|e| (e[0] as u32, e[1], [e[2] as u32, e[3] as u32])),
-        );
-    }
-
-    /// On a piece: the ghosts' velocities from their owners, through the halo (what the
-    /// released energy of breaks reads at a touched node's neighbours). Collective; off a
-    /// piece it does nothing.
-    pub fn trade_velocities(&mut self, state: &mut State) {
-        let dims = if self.plane { 2 } else { 3 };
-        if let Some(t) = self.team.as_mut().filter(|t| t.piece.is_some()) {
-            let mut v = state.v.xyz_mut();
-            t.trade(&mut v[..dims]);
-        }
-    }
-
     /// Make the displacements, pools and velocities (as asked) current at `nodes` only
     /// (ascending, each once): one all-gather of what their owners hold.
     fn current_at(&mut self, state: &mut State, nodes: &[u32], u: bool, pool: Pools, v: bool) {
@@ -1633,11 +1517,6 @@ impl Integrator {
         state.u.z().iter().chain(state.v.z()).all(|&z| z == 0.0)
     }
 
-    /// Book energy released by springs broken outside the integrator (fracture).
-    pub fn add_released(&mut self, e: Real) {
-        self.ledger.released += e;
-    }
-
     /// One step.
     pub fn step(&mut self, body: &Body, state: &mut State) {
         self.step_with(body, state, None);
@@ -1651,78 +1530,6 @@ impl Integrator {
         interaction: Option<&mut dyn Interaction>,
     ) {
         self.step_full(body, state, interaction, None);
-    }
-
-    /// One step that breaks springs at its start ([`Breaker`]), with an optional interaction.
-    pub fn step_breaking(
-        &mut self,
-        body: &Body,
-        state: &mut State,
-        interaction: Option<&mut dyn Interaction>,
-        breaker: &mut dyn Breaker,
-    ) {
-        self.step_full(body, state, interaction, Some(breaker));
-    }
-
-    /// The springs that the last screened sweep 1 found possibly past the breaker's screen
-    /// (ascending, each once, broken ones included), into `out` (cleared first).
-    pub fn hot_springs(&self, body: &Body, state: &State, out: &mut Vec<u32>) {
-        self.kernel.hot_springs(body, state, out);
-    }
-
-    /// Apply the breaker's decisions at the current state now, without stepping (before writing
-    /// a frame or a checkpoint, so that they show the springs the next step would break at its
-    /// start). The breaker must decide idempotently: deciding again at the same state breaks
-    /// nothing more, so settling never changes a run.
-    pub fn settle(&mut self, body: &Body, state: &mut State, breaker: &mut dyn Breaker) {
-        self.sync(body, state);
-        self.killed.clear();
-        self.break_at_start(body, state, breaker);
-    }
-
-    /// Screened sweep 1, the breaker's decisions, and sweep 1's results repaired for them.
-    /// Returns false if the pools still have to be computed (springs changed behind the
-    /// integrator's back).
-    fn break_at_start(&mut self, body: &Body, state: &mut State, b: &mut dyn Breaker) -> bool {
-        let s = b.screen();
-        let screen = if s.is_finite() {
-            s - 1e-9 * s.abs() - 1e-12
-        } else {
-            s
-        };
-        self.pools_everywhere(body, state, screen);
-        let pieced = self.piece().is_some();
-        if self.team.is_some() && !pieced && state.hot.iter().any(|&h| h) {
-            // The breaker reads both ends of every flagged spring, wherever it is.
-            let t = self.team.as_mut().expect("shared");
-            let mut springs = std::mem::take(&mut t.springs);
-            self.kernel.hot_springs(body, state, &mut springs);
-            self.current_at_ends(body, state, &springs, true, Pools::IfStale);
-            self.team.as_mut().expect("shared").springs = springs;
-        }
-        b.break_in_step(body, state, self);
-        if self.synced != state.breaks() {
-            self.sync(body, state);
-            return false;
-        }
-        let killed = std::mem::take(&mut self.killed);
-        self.kernel
-            .repair_shared(body, state, &killed, self.team.as_ref().map(Shared::sweeps));
-        if pieced {
-            // On pieces the owners' repaired pools reach the ghosts through the halo, on
-            // every rank alike when any rank's springs changed.
-            let t = self.team.as_mut().expect("shared");
-            if std::mem::take(&mut t.broke) {
-                t.trade(&mut [&mut state.pool[..]]);
-            }
-        } else if !killed.is_empty() {
-            // Only a broken spring's ends change their pools, and only their owners hold
-            // what those pools read: every rank takes them from the owners (the rest of its
-            // pools, its ghosts' from this step's trade, stand).
-            self.current_at_ends(body, state, &killed, false, Pools::Repaired);
-        }
-        self.killed = killed;
-        true
     }
 
     /// The sparse bookkeeping before the sweep overwrites v: the half-step velocity of every
@@ -1931,13 +1738,13 @@ impl Integrator {
         state: &mut State,
         mut interaction: Option<&mut dyn Interaction>,
         breaker: Option<&mut dyn Breaker>,
-    ) {
+    ) -> BreakReport {
         self.sync(body, state);
         self.killed.clear();
         // Sweep 1 done (and consistent with every break) before the contact forces.
-        let swept = match breaker {
+        let (swept, broke) = match breaker {
             Some(b) => self.break_at_start(body, state, b),
-            None => false,
+            None => (false, BreakReport::default()),
         };
         let dt = self.dt;
         let t = state.time;
@@ -2000,6 +1807,7 @@ impl Integrator {
         }
         state.step += 1;
         state.time = t + dt;
+        broke
     }
 
     /// Run `steps` steps, checking for blow-up every 64 steps and at the end. On instability

@@ -205,10 +205,7 @@ fn drive(
                     // Springs break while the body relaxes: an unstable crack runs through.
                     let mut fr = fr;
                     let mut hook = |s: &mut State| match fr.as_deref_mut() {
-                        Some(f) => {
-                            f.decide(body, s);
-                            f.commit(body, s, None).broken > 0
-                        }
+                        Some(f) => f.break_alone(body, s).broken > 0,
                         None => false,
                     };
                     let ropts = hooke_core::relax::RelaxOptions {
@@ -237,8 +234,7 @@ fn drive(
             let Some(fr) = sim.fracture.as_mut() else {
                 break;
             };
-            fr.decide(body, &sim.state);
-            if fr.commit(body, &mut sim.state, None).broken == 0 {
+            if fr.break_alone(body, &mut sim.state).broken == 0 {
                 break;
             }
             let before = potential(&sim.state);
