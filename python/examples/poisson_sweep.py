@@ -30,7 +30,7 @@ for nu in nus:
 
     def watch(s):
         global peak
-        peak = max(peak, abs(s.reactions()["boundary[0]"]["force"][1]))
+        peak = max(peak, abs(s.reactions()["boundary[0]"].force[1]))
 
     sim.run(every=0.5e-6, callback=watch)
     sim.finish()

@@ -26,7 +26,214 @@ from . import _hooke
 from ._hooke import CaseError, RunError
 
 __version__ = _hooke.__version__
-__all__ = ["load_case", "loads", "Builder", "ramp", "smooth_ramp", "table", "Simulation", "moduli", "toughness", "read", "Output", "CaseError", "RunError"]
+__all__ = ["load_case", "loads", "Builder", "ramp", "smooth_ramp", "table", "Simulation", "moduli",
+           "toughness", "read", "Output", "Reaction", "CaseError", "RunError",
+           "Region", "All", "Face", "Plane", "Nodes", "Shape", "Box", "Sphere", "Cylinder",
+           "Capsule", "HalfSpace"]
+
+
+def _vec(v: Any, what: str) -> List[float]:
+    """A point or vector as a list of floats (2 or 3 of them)."""
+    try:
+        out = [float(x) for x in v]
+    except (TypeError, ValueError):
+        raise CaseError(f"{what}: give 2 or 3 numbers, not {v!r}") from None
+    if len(out) not in (2, 3):
+        raise CaseError(f"{what}: give 2 or 3 numbers, not {len(out)}")
+    return out
+
+
+class Region:
+    """Where conditions act: a set of nodes. ``All()``, ``Face("y+")``, ``Plane("x", 0.0)``,
+    ``Nodes([...])``, or any :class:`Shape` (the nodes inside it). Builder methods also take
+    the older forms: ``"all"`` and dicts such as ``{"face": "y+"}``."""
+
+    def _region(self) -> Any:
+        raise NotImplementedError
+
+    def __eq__(self, other: Any) -> bool:
+        return isinstance(other, Region) and self._region() == other._region()
+
+    def __repr__(self) -> str:
+        return f"hooke.{type(self).__name__}({self._region()!r})"
+
+
+class All(Region):
+    """Every node of the body."""
+
+    def _region(self) -> Any:
+        return "all"
+
+
+class Face(Region):
+    """The nodes on a face of the body's bounding box: ``"x-"``, ``"x+"``, ``"y-"``, ``"y+"``,
+    ``"z-"`` or ``"z+"``."""
+
+    def __init__(self, face: str):
+        if face not in ("x-", "x+", "y-", "y+", "z-", "z+"):
+            raise CaseError(f"Face({face!r}): give x-, x+, y-, y+, z- or z+")
+        self.face = face
+
+    def _region(self) -> Any:
+        return {"face": self.face}
+
+
+class Plane(Region):
+    """The nodes on the plane ``axis = at`` (m), within ``tolerance`` (m; default: a fraction
+    of the spacing)."""
+
+    def __init__(self, axis: str, at: float, tolerance: Optional[float] = None):
+        if axis not in ("x", "y", "z"):
+            raise CaseError(f"Plane(axis={axis!r}): give x, y or z")
+        self.axis, self.at, self.tolerance = axis, float(at), tolerance
+
+    def _region(self) -> Any:
+        p: Dict[str, Any] = {"axis": self.axis, "at": self.at}
+        if self.tolerance is not None:
+            p["tolerance"] = float(self.tolerance)
+        return {"plane": p}
+
+
+class Nodes(Region):
+    """These nodes, by index."""
+
+    def __init__(self, nodes: Any):
+        self.nodes = [int(n) for n in np.asarray(nodes).ravel()]
+
+    def _region(self) -> Any:
+        return {"nodes": self.nodes}
+
+
+class Shape(Region):
+    """A solid: it makes up a body (``Builder.add``, ``Builder.subtract``), selects the nodes
+    inside it as a region, and is a rigid body's shape (``Builder.rigid``, placed at its
+    centre unless a position is given)."""
+
+    def _shape(self) -> Any:
+        raise CaseError(f"{type(self).__name__} cannot make up a lattice body; use Box, Sphere or Cylinder")
+
+    def _rigid(self) -> Tuple[Dict[str, Any], Optional[List[float]]]:
+        raise NotImplementedError
+
+    def _region(self) -> Any:
+        return {"inside": self._shape()}
+
+
+class Box(Shape):
+    """The axis-aligned box from ``min`` to ``max`` (m)."""
+
+    def __init__(self, min: Any, max: Any):
+        self.min, self.max = _vec(min, "Box min"), _vec(max, "Box max")
+        if len(self.min) != len(self.max):
+            raise CaseError("Box: give min and max with as many coordinates")
+
+    def _shape(self) -> Any:
+        return {"box": {"min": self.min, "max": self.max}}
+
+    def _region(self) -> Any:
+        return {"box": {"min": self.min, "max": self.max}}
+
+    def _rigid(self) -> Tuple[Dict[str, Any], Optional[List[float]]]:
+        size = [b - a for a, b in zip(self.min, self.max)]
+        centre = [(a + b) / 2 for a, b in zip(self.min, self.max)]
+        return {"box": {"size": size}}, centre
+
+
+class Sphere(Shape):
+    """The ball (a disk in 2D) of ``radius`` (m) about ``center``."""
+
+    def __init__(self, center: Any, radius: float):
+        self.center, self.radius = _vec(center, "Sphere center"), float(radius)
+
+    def _shape(self) -> Any:
+        return {"sphere": {"center": self.center, "radius": self.radius}}
+
+    def _rigid(self) -> Tuple[Dict[str, Any], Optional[List[float]]]:
+        return {"sphere": {"radius": self.radius}}, self.center
+
+
+class Cylinder(Shape):
+    """The cylinder of ``radius`` and ``length`` (m) about ``center``, along ``axis`` (x, y or
+    z)."""
+
+    def __init__(self, center: Any, axis: str, radius: float, length: float):
+        if axis not in ("x", "y", "z"):
+            raise CaseError(f"Cylinder(axis={axis!r}): give x, y or z")
+        self.center, self.axis = _vec(center, "Cylinder center"), axis
+        self.radius, self.length = float(radius), float(length)
+
+    def _shape(self) -> Any:
+        return {"cylinder": {"center": self.center, "axis": self.axis, "radius": self.radius,
+                             "length": self.length}}
+
+    def _rigid(self) -> Tuple[Dict[str, Any], Optional[List[float]]]:
+        return ({"cylinder": {"radius": self.radius, "length": self.length, "axis": self.axis}},
+                self.center)
+
+
+class Capsule(Shape):
+    """A rigid capsule: a cylinder of ``radius`` and ``length`` (m) along ``axis`` with
+    hemispherical ends, about ``center``. A rigid body's shape only."""
+
+    def __init__(self, center: Any, axis: str, radius: float, length: float):
+        if axis not in ("x", "y", "z"):
+            raise CaseError(f"Capsule(axis={axis!r}): give x, y or z")
+        self.center, self.axis = _vec(center, "Capsule center"), axis
+        self.radius, self.length = float(radius), float(length)
+
+    def _rigid(self) -> Tuple[Dict[str, Any], Optional[List[float]]]:
+        return ({"capsule": {"radius": self.radius, "length": self.length, "axis": self.axis}},
+                self.center)
+
+
+class HalfSpace(Shape):
+    """A rigid half-space: everything behind the plane through ``point`` with outward
+    ``normal``. A rigid body's shape only."""
+
+    def __init__(self, point: Any, normal: Any):
+        self.point, self.normal = _vec(point, "HalfSpace point"), _vec(normal, "HalfSpace normal")
+
+    def _rigid(self) -> Tuple[Dict[str, Any], Optional[List[float]]]:
+        return {"halfspace": {"normal": self.normal}}, self.point
+
+
+def _region(r: Any) -> Any:
+    """A region as the builder's spec: a :class:`Region`, or the older string and dict forms."""
+    return r._region() if isinstance(r, Region) else r
+
+
+def _shape(s: Any) -> Any:
+    """A body shape as the builder's spec: a :class:`Shape`, or the older dict form."""
+    return s._shape() if isinstance(s, Shape) else s
+
+
+class Reaction:
+    """One boundary region's reaction now: its ``name``, ``force`` on the body (N; in 2D for
+    the plate's thickness) and mean ``displacement`` (m), each a numpy array of 3. Indexing by
+    key (``r["force"]``) reads the same fields, as the dicts these replace did."""
+
+    __slots__ = ("name", "force", "displacement")
+
+    def __init__(self, name: str, force: Any, displacement: Any):
+        self.name = name
+        self.force = np.asarray(force, dtype=float)
+        self.displacement = np.asarray(displacement, dtype=float)
+
+    def __getitem__(self, key: str) -> Any:
+        if key not in self.__slots__:
+            raise KeyError(key)
+        return getattr(self, key)
+
+    def keys(self) -> List[str]:
+        return list(self.__slots__)
+
+    def __repr__(self) -> str:
+        return (f"hooke.Reaction({self.name!r}, force={self.force.tolist()}, "
+                f"displacement={self.displacement.tolist()})")
+
+
+# The columns of a run's histories (NAME_KIND.csv), typed: what ``Output.history`` returns.
+_REACTION_DTYPE = np.dtype([("time", "f8"), ("force", "f8", (3,)), ("displacement", "f8", (3,))])
 
 
 def _toml_value(v: Any) -> str:
@@ -169,9 +376,11 @@ class Simulation:
         columns)."""
         return json.loads(self._inner.energy_json())
 
-    def reactions(self) -> Dict[str, Dict[str, Any]]:
-        """Each boundary region's force on the body (N) and displacement (m), by name."""
-        return {r["name"]: r for r in json.loads(self._inner.reactions_json())}
+    def reactions(self) -> Dict[str, Reaction]:
+        """Each boundary region's :class:`Reaction` now (force on the body in N, mean
+        displacement in m, numpy arrays), by name."""
+        return {r["name"]: Reaction(r["name"], r["force"], r["displacement"])
+                for r in json.loads(self._inner.reactions_json())}
 
     def __repr__(self) -> str:
         return repr(self._inner)
@@ -270,7 +479,10 @@ def table(points: Any) -> Dict[str, List[List[float]]]:
 class Builder:
     """A simulation built in code, for cases easier as code than as a file: the library's
     builder (``hooke_sim::Builder``) with the same checks and messages (a mistake raises
-    ``CaseError`` naming the item). Regions: ``"all"``, ``{"face": "y+"}``,
+    ``CaseError`` naming the item). Regions: ``hooke.All()``, ``hooke.Face("y+")``,
+    ``hooke.Plane("x", 0.0)``, ``hooke.Nodes([...])`` or a shape (the nodes inside it); shapes:
+    ``hooke.Box(min, max)``, ``hooke.Sphere(center, radius)``, ``hooke.Cylinder(center, axis,
+    radius, length)``. The older forms still work: ``"all"``, ``{"face": "y+"}``,
     ``{"box": {"min": [...], "max": [...]}}``, ``{"plane": {"axis": "x", "at": 0.0}}``,
     ``{"inside": SHAPE}``, ``{"nodes": [...]}``; shapes: ``{"box": {min, max}}``,
     ``{"sphere": {"center", "radius"}}``, ``{"cylinder": {"center", "axis", "radius",
@@ -278,7 +490,7 @@ class Builder:
 
         sim = (hooke.Builder("random2d", spacing=0.5e-3).thickness(1e-3)
                .box([0, 0], [60e-3, 30e-3]).material(72e9, 0.22, 2440).fracture_energy(3.8)
-               .boundary({"face": "y+"}, velocity={"y": hooke.smooth_ramp(0.02, 5e-6)})
+               .boundary(hooke.Face("y+"), velocity={"y": hooke.smooth_ramp(0.02, 5e-6)})
                .end_time(60e-6).output_every(1e-6).build("out", "plate"))
     """
 
@@ -301,12 +513,12 @@ class Builder:
         """The body is this box (m)."""
         return self._call("box", {"min": list(lo), "max": list(hi)})
 
-    def add(self, shape: Mapping[str, Any]) -> "Builder":
+    def add(self, shape: Any) -> "Builder":
         """The body is the union of the added shapes (instead of a box)."""
-        return self._call("add", shape)
+        return self._call("add", _shape(shape))
 
-    def subtract(self, shape: Mapping[str, Any]) -> "Builder":
-        return self._call("subtract", shape)
+    def subtract(self, shape: Any) -> "Builder":
+        return self._call("subtract", _shape(shape))
 
     def material(self, youngs: float, poisson: float, density: float) -> "Builder":
         """E (Pa), nu (any value in (-1, 1/2)), rho (kg/m^3)."""
@@ -367,7 +579,7 @@ class Builder:
         per axis (``{"y": 0.02}`` or a time function), a ``traction`` (Pa, a vector, spread
         over the region's area normal to the axis ``normal``, times the time function
         ``scale``), ``no_fail`` springs, a ``name`` for the reactions."""
-        arg: Dict[str, Any] = {"region": region, "fixed": list(fixed), "no_fail": no_fail}
+        arg: Dict[str, Any] = {"region": _region(region), "fixed": list(fixed), "no_fail": no_fail}
         if velocity:
             arg["velocity"] = dict(velocity)
         if displacement:
@@ -379,7 +591,7 @@ class Builder:
         return self._call("boundary", arg)
 
     def initial_velocity(self, region: Any, v: Any) -> "Builder":
-        return self._call("initial_velocity", {"region": region, "velocity": list(v)})
+        return self._call("initial_velocity", {"region": _region(region), "velocity": list(v)})
 
     def gravity(self, g: Any) -> "Builder":
         """Body acceleration (m/s^2)."""
@@ -467,13 +679,15 @@ class Builder:
         """Write the intact springs as lines in the VTK frames."""
         return self._call("springs", bool(on))
 
-    def rigid(self, shape: Mapping[str, Any], position: Any, velocity: Any = (0.0, 0.0, 0.0),
+    def rigid(self, shape: Any, position: Any = None, velocity: Any = (0.0, 0.0, 0.0),
               motion: str = "dynamic", mass: Optional[float] = None,
               density: Optional[float] = None, friction: float = 0.0,
               name: Optional[str] = None, angular_velocity: Optional[Any] = None,
               rotates: Optional[bool] = None, start_gap: Optional[float] = None) -> "Builder":
         """A rigid body in contact with the lattice, as the case file's ``[[rigid]]``:
-        ``shape`` one of ``{"sphere": {"radius"}}``, ``{"box": {"size": [...]}}``,
+        ``shape`` a :class:`Shape` (``hooke.Sphere(center, radius)``, ``Box``, ``Cylinder``,
+        ``Capsule``, ``HalfSpace``; the body starts at its centre unless ``position`` is given)
+        or one of ``{"sphere": {"radius"}}``, ``{"box": {"size": [...]}}``,
         ``{"cylinder": {"radius", "length", "axis"}}``, ``{"capsule": {...}}``,
         ``{"halfspace": {"normal": [...]}}``; ``motion`` ``"dynamic"`` (with ``mass`` or
         ``density``) or ``"kinematic"`` (moves at ``velocity``). ``angular_velocity`` (rad/s;
@@ -481,6 +695,11 @@ class Builder:
         body's initial one; a dynamic body turns under the contact torques unless
         ``rotates=False``. ``start_gap`` (m) moves the body along its velocity until the nearest
         node is that far outside its contact range, as in a case file."""
+        if isinstance(shape, Shape):
+            shape, centre = shape._rigid()
+            position = centre if position is None else position
+        if position is None:
+            raise CaseError("rigid: give the body's position (or a shape with a centre)")
         arg: Dict[str, Any] = {"shape": dict(shape), "position": list(position),
                                "velocity": list(velocity), "motion": motion,
                                "friction": float(friction)}
@@ -580,12 +799,39 @@ class Output:
 
     def energy(self) -> Dict[str, np.ndarray]:
         """The energy history (NAME_energy.csv) by column."""
-        path = self.folder / f"{self.name}_energy.csv"
-        data = np.genfromtxt(path, delimiter=",", names=True)
+        data = self.history("energy")
         return {k: np.asarray(data[k]) for k in data.dtype.names}
+
+    def history(self, kind: str = "energy") -> np.ndarray:
+        """A history (NAME_KIND.csv: ``"energy"``, ``"reactions"`` or ``"contact"``) as a
+        structured numpy array, one record per line, a field per column (``h["time"]``,
+        ``h["kinetic"]``; ``pandas.DataFrame(h)`` makes a frame of it)."""
+        path = self.folder / f"{self.name}_{kind}.csv"
+        if not path.exists():
+            have = sorted(p.name for p in self.folder.glob(f"{self.name}_*.csv"))
+            raise CaseError(f"{path}: no such history here (this run wrote {', '.join(have) or 'none'})")
+        # The header comment (a history may open with "# hooke ...") is not the column names.
+        lines = [l for l in path.read_text().splitlines() if l and not l.startswith("#")]
+        data = np.genfromtxt(lines, delimiter=",", names=True, dtype=None, encoding="utf-8")
+        return np.atleast_1d(data)
+
+    def reactions(self) -> Dict[str, np.ndarray]:
+        """The reactions history by region name: a structured array per region with fields
+        ``time`` (s), ``force`` (N, 3 per record) and ``displacement`` (m, 3 per record)."""
+        h = self.history("reactions")
+        out: Dict[str, np.ndarray] = {}
+        for name in dict.fromkeys(h["name"].tolist()):
+            rows = h[h["name"] == name]
+            a = np.empty(len(rows), dtype=_REACTION_DTYPE)
+            a["time"] = rows["time"]
+            a["force"] = np.stack([rows[f"force_{c}"] for c in "xyz"], axis=1)
+            a["displacement"] = np.stack([rows[f"displacement_{c}"] for c in "xyz"], axis=1)
+            out[str(name)] = a
+        return out
 
 
 def read(folder: Union[str, os.PathLike]) -> Output:
     """Open a run's output folder: ``out.times``, ``out.fields(i)``, ``out.mesh(i)``,
-    ``out.energy()``, ``out.info`` (run.json)."""
+    ``out.energy()``, ``out.history(kind)`` and ``out.reactions()`` (structured numpy arrays),
+    ``out.info`` (run.json)."""
     return Output(folder)

@@ -417,6 +417,74 @@ def test_the_builder_with_contact_traction_and_rules_is_the_case_file_bit_for_bi
                     str(tmp_path / "case")], check=True)
 
 
+def test_region_and_shape_classes_build_the_same_run_as_the_dict_forms(tmp_path):
+    """hooke.Face, hooke.Sphere and friends are the dicts they replace: the impact run built
+    with them is the dict-built run bit for bit (frames, histories)."""
+    typed = (hooke.Builder("random2d", spacing=1e-3).thickness(2e-3).random(seed=5)
+             .box([0.0, 0.0], [20e-3, 10e-3]).material(3e9, 0.3, 1200.0).breaking(stretch=0.02)
+             .boundary(hooke.Face("y-"), fixed=["x", "y"], no_fail=True)
+             .boundary(hooke.Face("x+"), traction=[2e5, 0.0], normal="x")
+             .rigid(hooke.Sphere([10e-3, 12.8e-3], 2e-3), velocity=[0.0, -100.0],
+                    density=7800.0, name="striker", friction=0.3, angular_velocity=[3000.0],
+                    start_gap=20e-6)
+             .contact(stiffness_factor=0.2)
+             .end_time(30e-6).time_step(safety=0.7).output_every(5e-6).reactions_every(1e-6))
+    s1 = typed.build(tmp_path / "typed", "impact").finish()
+    s2 = impact_builder().build(tmp_path / "dicts", "impact").finish()
+    assert s1["broken_springs"] == s2["broken_springs"] > 0
+    subprocess.run([sys.executable, str(ROOT / "tools" / "compare_runs.py"), str(tmp_path / "typed"),
+                    str(tmp_path / "dicts")], check=True)
+    # Each class is its dict form; a shape as a region is the nodes inside it.
+    assert hooke.Face("y+")._region() == {"face": "y+"} and hooke.All()._region() == "all"
+    assert hooke.Plane("x", 0.5)._region() == {"plane": {"axis": "x", "at": 0.5}}
+    assert hooke.Nodes(np.array([3, 1]))._region() == {"nodes": [3, 1]}
+    assert hooke.Box([0, 0], [1, 2])._region() == {"box": {"min": [0.0, 0.0], "max": [1.0, 2.0]}}
+    assert hooke.Sphere([1, 2, 3], 0.5)._region() == {
+        "inside": {"sphere": {"center": [1.0, 2.0, 3.0], "radius": 0.5}}}
+    assert hooke.Box([0, 0], [1, 2])._rigid() == ({"box": {"size": [1.0, 2.0]}}, [0.5, 1.0])
+    assert hooke.Cylinder([0, 0, 0], "z", 1.0, 2.0)._shape() == {
+        "cylinder": {"center": [0.0, 0.0, 0.0], "axis": "z", "radius": 1.0, "length": 2.0}}
+    for bad in (lambda: hooke.Face("w+"), lambda: hooke.Plane("q", 0.0),
+                lambda: hooke.Cylinder([0, 0, 0], "w", 1.0, 1.0), lambda: hooke.Sphere([0], 1.0),
+                lambda: hooke.Box([0, 0], [1, 1, 1])):
+        with pytest.raises(hooke.CaseError):
+            bad()
+    with pytest.raises(hooke.CaseError, match="cannot make up"):
+        hooke.Builder("cubic", spacing=1e-3).add(hooke.HalfSpace([0, 0, 0], [0, 0, 1]))
+
+
+def test_results_are_typed(tmp_path):
+    """Reactions come back as hooke.Reaction (numpy force and displacement, still indexable
+    by key); histories as structured numpy arrays whose last records are the run's end."""
+    sim = hooke.load_case(CASE, scale=0.25, out=tmp_path / "r",
+                          overrides={"solver.end_time": 4e-6, "output.reactions_every": 1e-6})
+    sim.run()
+    now = sim.reactions()
+    assert set(now) == {"boundary[0]", "boundary[1]"}
+    for name, r in now.items():
+        assert isinstance(r, hooke.Reaction) and r.name == name
+        assert r.force.shape == (3,) and r.displacement.shape == (3,)
+        assert r["force"][1] == r.force[1] and set(r.keys()) == {"name", "force", "displacement"}
+    assert abs(now["boundary[1]"].force[1]) > 0.0
+    energy_now = sim.energy()
+    sim.finish()
+    out = hooke.read(tmp_path / "r")
+    e = out.history("energy")
+    assert e.dtype.names[0] == "time" and "kinetic" in e.dtype.names and len(e) >= 2
+    assert np.array_equal(e["kinetic"], out.energy()["kinetic"])
+    assert e["kinetic"][-1] == pytest.approx(energy_now["kinetic"], rel=1e-12)
+    hist = out.reactions()
+    assert set(hist) == set(now)
+    for name, h in hist.items():
+        assert h.dtype.names == ("time", "force", "displacement") and h["force"].shape == (len(h), 3)
+        assert np.all(np.diff(h["time"]) > 0)
+        np.testing.assert_allclose(h["force"][-1], now[name].force, rtol=1e-12, atol=0.0)
+        np.testing.assert_allclose(h["displacement"][-1], now[name].displacement, rtol=1e-12,
+                                   atol=0.0)
+    with pytest.raises(hooke.CaseError, match="energy.csv"):
+        out.history("nope")
+
+
 def test_builder_refuses_bad_rigid_bodies_and_rules(tmp_path):
     base = lambda: (hooke.Builder("hex", spacing=1e-3).thickness(1e-3).box([0, 0], [1e-2, 1e-2])
                     .material(1e9, 0.2, 1000).end_time(1e-6))
