@@ -1,4 +1,5 @@
-//! A fingerprint of this crate's sources (and of the workspace's lock file, where there is one),
+//! A fingerprint of this crate's sources and of `hooke-lattice`'s, whose random lattices the
+//! calibrations are measured on (and of the workspace's lock file, where there is one),
 //! for the on-disk cache of calibrations (`random::anisotropic`): a cached design is used only
 //! by a build of exactly the code that computed it, so a cache hit gives the bits a fresh
 //! calibration would.
@@ -29,16 +30,24 @@ fn files(dir: &Path, out: &mut Vec<PathBuf>) {
 
 fn main() {
     let root = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("set by cargo"));
+    let lattice = root.join("../lattice");
     let mut list = Vec::new();
     files(&root.join("src"), &mut list);
     list.push(root.join("Cargo.toml"));
+    files(&lattice.join("src"), &mut list);
+    list.push(lattice.join("Cargo.toml"));
     list.push(root.join("../../Cargo.lock"));
     // The order of a directory listing is the file system's: sort for a stable hash.
     list.sort();
     let mut h = 0xcbf2_9ce4_8422_2325u64;
     for p in &list {
         if let Ok(bytes) = std::fs::read(p) {
-            let name = p.strip_prefix(&root).unwrap_or(p);
+            // Named from the crates' folder, so that where the checkout lies changes nothing
+            // (core's own files keep the names they had before the lattice crate left it).
+            let name = p
+                .strip_prefix(&root)
+                .or_else(|_| p.strip_prefix(root.join("..")))
+                .unwrap_or(p);
             fnv(&mut h, name.to_string_lossy().as_bytes());
             fnv(&mut h, &bytes);
         }
@@ -46,6 +55,8 @@ fn main() {
     println!("cargo:rustc-env=HOOKE_CORE_FINGERPRINT={h:016x}");
     println!("cargo:rerun-if-changed=src");
     println!("cargo:rerun-if-changed=Cargo.toml");
+    println!("cargo:rerun-if-changed=../lattice/src");
+    println!("cargo:rerun-if-changed=../lattice/Cargo.toml");
     if root.join("../../Cargo.lock").exists() {
         println!("cargo:rerun-if-changed=../../Cargo.lock");
     }

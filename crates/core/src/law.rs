@@ -1262,6 +1262,54 @@ pub fn node_virial(body: &Body, u: &Coords, tension: &[Real], n: usize) -> Matri
 mod tests {
     use super::*;
 
+    /// A box moved away from the origin (as a case's box is, by its lower corner) sheds its
+    /// rest lengths only where each is `|X_j - X_i|` of the moved nodes, to the bit: so a
+    /// reader that recomputes a shed length from the positions (the frame, the CSR kernel)
+    /// finds [`Lattice::rest`]'s, built or not. An offset that rounds some lengths otherwise
+    /// keeps them; none (or one that rounds none) sheds them.
+    #[test]
+    fn a_moved_box_sheds_only_the_lengths_its_nodes_give() {
+        let mut kept = 0;
+        for offset in [0.0, 0.0347, -1.23e-2, 7.0] {
+            for (hex, build) in [(false, false), (false, true), (true, false), (true, true)] {
+                let mut l = if hex {
+                    Lattice::hex_box(9, 7, 0.1, 0.3).unwrap()
+                } else {
+                    Lattice::cubic_box([6, 5, 7], 0.1).unwrap()
+                };
+                let dims = if hex { 2 } else { 3 };
+                for c in 0..dims {
+                    for x in l.pos.comp_mut(c) {
+                        *x += offset * (1.0 + c as Real);
+                    }
+                }
+                if build {
+                    let _ = &*l.bonds;
+                }
+                let shed = l.shed_rest();
+                assert!(l.bonds.grid().is_some());
+                if !shed {
+                    kept += 1;
+                    assert!(offset != 0.0, "nodes in place shed their lengths");
+                }
+                for b in 0..l.bonds.len() {
+                    let [i, j] = l.bonds.ends[b].map(|v| v as usize);
+                    let (_, rest) =
+                        super::spring_geometry_rest(&l, &Coords::zeros(l.len()), b, i, j);
+                    assert_eq!(
+                        rest.to_bits(),
+                        l.rest(b).to_bits(),
+                        "offset {offset}, spring {b}"
+                    );
+                }
+            }
+        }
+        assert!(
+            kept > 0,
+            "no offset rounded a length otherwise: the test checks nothing"
+        );
+    }
+
     /// The forces of a few nodes from the pools of their neighbourhoods alone are the bits of
     /// [`update_forces`] at those nodes: a box from its grid (one stiffness, and without
     /// dispersion), the box with springs broken (its rows), random plates and solids with broken

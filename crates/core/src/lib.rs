@@ -9,8 +9,9 @@
 //!
 //! Modules, by reason to change:
 //!
-//! - geometry and topology: [`math`] (scalar and vector types), [`lattice`] (positions and CSR
-//!   topology, immutable), [`random`] (Poisson-disk and jittered nodes, Delaunay springs, parts);
+//! - geometry and topology, the crate `hooke-lattice` re-exported: [`math`] (scalar and vector
+//!   types), [`lattice`] (positions and CSR topology, immutable), [`random`] (Poisson-disk and
+//!   jittered nodes, Delaunay springs, parts; here with the calibrations below);
 //! - material mapping: [`material`] ((E, nu) to (k, q)), [`anisotropy`] (transversely isotropic
 //!   and orthotropic materials by direction-weighted dispersion), `random::calibration` and
 //!   `random::anisotropic` (the random lattices' measured tables and designs);
@@ -22,7 +23,7 @@
 //!   [`statics`] (Newton-CG equilibrium), [`relax`] (dynamic relaxation), [`moduli`] (the
 //!   paper's block test and the bulk tests);
 //! - decomposition: [`team`] (sharing a step between processes; pieces and parts);
-//! - plumbing: [`error`], [`memory`] (what the arrays hold).
+//! - plumbing, from `hooke-lattice` too: [`error`], [`memory`] (what the arrays hold).
 //!
 //! Units: SI throughout. No I/O here.
 
@@ -32,18 +33,16 @@
 // `unsafe` only in the SIMD kernels (`kernel`), each block with its SAFETY comment.
 #![deny(unsafe_code)]
 
+pub use hooke_lattice::{error, lattice, math, memory};
+
 pub mod anisotropy;
 pub mod body;
 pub mod dynamics;
-pub mod error;
 #[allow(unsafe_code)]
 pub mod kernel;
-pub mod lattice;
 pub mod law;
 pub mod loading;
 pub mod material;
-pub mod math;
-pub mod memory;
 pub mod moduli;
 pub mod random;
 pub mod relax;

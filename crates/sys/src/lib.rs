@@ -9,6 +9,8 @@
 //! - [`alloc`]: the global allocator [`alloc::Staggered`] (large blocks on staggered cache
 //!   lines), glibc's tuning ([`alloc::map_large_blocks`], [`alloc::release_free_memory`]) and
 //!   [`alloc::prefetch`];
+//! - [`simd`]: which vector instructions the kernels may use (the process's choice and the
+//!   processor's features);
 //! - [`free_space`]: free bytes on a file system (`statvfs`);
 //! - [`online_cores`]: the machine's cores (`sysconf`);
 //! - [`peak_memory`], [`resident_memory`]: this process's resident memory (`/proc`);
@@ -17,6 +19,7 @@
 //!   libraries take the directory as an option, the programs read the variables here).
 
 pub mod alloc;
+pub mod simd;
 
 pub use alloc::prefetch;
 

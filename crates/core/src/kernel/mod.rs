@@ -30,9 +30,8 @@ use crate::body::Body;
 use crate::math::{Coords, Real};
 use crate::state::State;
 
-/// Nodes per parallel task and per partial sum. Fixed, not derived from the thread count, so
-/// reductions always add the same partial sums in the same order.
-pub const CHUNK: usize = 4096;
+/// Nodes per parallel task and per partial sum ([`hooke_lattice::CHUNK`]).
+pub use hooke_lattice::CHUNK;
 
 /// Length of the scratch that [`Kernel::force_kick_drift`] needs for `n` nodes (one partial sum
 /// per chunk; the caller owns it, so that a step allocates nothing).
@@ -167,7 +166,7 @@ impl Kernel {
     /// ([`crate::lattice::Bonds::keep_neighbours`]; the CSR kernel also runs without it, with
     /// one more indirection per row entry).
     pub fn csr_may_run(period: [Real; 3]) -> bool {
-        period.iter().any(|&p| p > 0.0) || stencil::simd_lanes().is_none()
+        crate::lattice::csr_may_run(period)
     }
 
     /// The kernel's heap memory by part (see [`crate::memory::Footprint`]).
@@ -438,55 +437,8 @@ impl Kernel {
     }
 }
 
-/// Which vector instructions the kernels may use, for the whole process. Every choice gives the
-/// same bits (each vector path performs the portable path's operations lane by lane); the
-/// setting exists to test and measure the paths against each other. Programs set it once,
-/// before they build integrators: the `hooke` binary and the Python module map the environment
-/// variables `HOOKE_NO_SIMD` (portable) and `HOOKE_SIMD=avx2` onto it ([`Simd::from_env_values`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Simd {
-    /// The widest the processor has: AVX-512, else AVX2 (AVX for the CSR kernel's sweep 1).
-    #[default]
-    Best,
-    /// AVX2 where the processor has AVX-512 too.
-    Avx2,
-    /// No vector instructions: every kernel takes its portable path.
-    Portable,
-}
-
-static SIMD: std::sync::atomic::AtomicU8 = std::sync::atomic::AtomicU8::new(0);
-
-impl Simd {
-    /// The choice the two environment variables make: `HOOKE_NO_SIMD` set (`no_simd`) is
-    /// [`Simd::Portable`], else `HOOKE_SIMD=avx2` is [`Simd::Avx2`], else [`Simd::Best`].
-    pub fn from_env_values(no_simd: bool, simd: Option<&str>) -> Simd {
-        match (no_simd, simd) {
-            (true, _) => Simd::Portable,
-            (false, Some("avx2")) => Simd::Avx2,
-            _ => Simd::Best,
-        }
-    }
-}
-
-/// Set the process's [`Simd`] choice (before integrators are built: a kernel picks its path
-/// when it is made).
-pub fn set_simd(choice: Simd) {
-    SIMD.store(choice as u8, std::sync::atomic::Ordering::Relaxed);
-}
-
-/// The process's [`Simd`] choice.
-pub fn simd() -> Simd {
-    match SIMD.load(std::sync::atomic::Ordering::Relaxed) {
-        1 => Simd::Avx2,
-        2 => Simd::Portable,
-        _ => Simd::Best,
-    }
-}
-
-/// False when the process runs the portable paths only ([`Simd::Portable`]).
-pub(crate) fn simd_allowed() -> bool {
-    simd() != Simd::Portable
-}
+pub(crate) use hooke_sys::simd::simd_allowed;
+pub use hooke_sys::simd::{set_simd, simd, Simd};
 
 /// A mutable slice shared by parallel tasks that each write a disjoint range of it.
 #[derive(Clone, Copy)]

@@ -186,45 +186,8 @@ impl<const D: usize> Factors<D> {
     }
 }
 
-/// The vector instructions the kernels' vector paths use: AVX-512 (8 lanes) where the
-/// processor has it, else AVX2 (4 lanes; a block of 8 nodes as two halves); `None` without
-/// either or with [`super::Simd::Portable`]. [`super::Simd::Avx2`] takes AVX2 where AVX-512 is
-/// there too (to test and measure that path on such a machine).
-pub(crate) fn simd_lanes() -> Option<Lanes> {
-    if !super::simd_allowed() {
-        return None;
-    }
-    #[cfg(target_arch = "x86_64")]
-    {
-        let want_avx2 = super::simd() == super::Simd::Avx2;
-        if !want_avx2 && std::arch::is_x86_feature_detected!("avx512f") {
-            return Some(Lanes::Avx512);
-        }
-        if std::arch::is_x86_feature_detected!("avx2") {
-            return Some(Lanes::Avx2);
-        }
-    }
-    None
-}
-
-/// AVX2 where the processor has it and the portable paths are not forced, whatever else it has: what
-/// the kernels' `use_avx2` switch to (to test and measure that path on an AVX-512 processor).
-pub(crate) fn avx2_lanes() -> Option<Lanes> {
-    #[cfg(target_arch = "x86_64")]
-    if super::simd_allowed() && std::arch::is_x86_feature_detected!("avx2") {
-        return Some(Lanes::Avx2);
-    }
-    None
-}
-
-/// Which vector instructions a kernel's vector path runs on (see [`simd_lanes`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Lanes {
-    /// AVX-512F: 8 doubles to a vector.
-    Avx512,
-    /// AVX2: 4 doubles to a vector.
-    Avx2,
-}
+pub use hooke_sys::simd::Lanes;
+pub(crate) use hooke_sys::simd::{avx2_lanes, lanes as simd_lanes};
 
 /// Sweep 1, and with a finite `screen` s the break screen: `state.hot` flags each block of
 /// [`SCREEN`] nodes with an intact spring of `dL > s L` (seen from either end: both ends

@@ -2,8 +2,7 @@
 //! taken from and given back to the system (the allocator, glibc's tuning) is `hooke_sys::alloc`.
 
 /// Where a run's memory lies: named parts with their heap bytes (capacity, not length), as
-/// [`crate::body::Body::footprint`], [`crate::state::State::footprint`] and
-/// [`crate::dynamics::Integrator::footprint`] list them. `hooke bench --json` prints them per
+/// `hooke_core`'s `Body::footprint`, `State::footprint` and `Integrator::footprint` list them. `hooke bench --json` prints them per
 /// node (`memory_parts`), beside the resident memory that the system reports.
 pub type Footprint = Vec<(&'static str, usize)>;
 

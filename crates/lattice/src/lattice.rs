@@ -11,7 +11,7 @@
 //!   Node cell area `sqrt(3)/2 a^2`.
 //!
 //! The topology is immutable once built; whether a spring is intact lives in
-//! [`crate::State`].
+//! `hooke_core::State`.
 
 use std::sync::OnceLock;
 
@@ -79,8 +79,16 @@ impl LatticeKind {
 /// Each neighbour is read as the other end of the entry's spring, `ends[b][0] ^ ends[b][1] ^ n`.
 /// The one reader that streams them every step, the CSR kernel, has them as an array of their
 /// own (4 bytes per entry), built only for lattices the CSR kernel may run
-/// ([`crate::kernel::Kernel::csr_may_run`]; [`Bonds::keep_neighbours`] builds it for a caller that
+/// ([`csr_may_run`]; [`Bonds::keep_neighbours`] builds it for a caller that
 /// asks for that kernel anyway). On random3d that is 59 bytes per node, on Ladd's lattice 72.
+/// Whether the general (CSR) kernel could ever run a body of a lattice with periods `period`
+/// (0: not periodic): on a periodic lattice, or where no vector stencil can run (neither
+/// AVX-512 nor AVX2, or `Simd::Portable`: [`hooke_sys::simd::lanes`]), since a stencil body that
+/// softens moves to a general kernel. Only then is the rows' neighbour array built.
+pub fn csr_may_run(period: [Real; 3]) -> bool {
+    period.iter().any(|&p| p > 0.0) || hooke_sys::simd::lanes().is_none()
+}
+
 #[derive(Clone, Debug, Default)]
 pub struct Bonds {
     pub offsets: Vec<u32>,
@@ -137,7 +145,7 @@ impl Bonds {
             .map(|&[i, j]| reference_length(reference_vector(pos, period, i as usize, j as usize)))
             .collect();
         let mut bonds = Self::assemble(n_nodes, ends, rest);
-        if crate::kernel::Kernel::csr_may_run(period) {
+        if csr_may_run(period) {
             bonds.keep_neighbours();
         }
         Ok(bonds)
@@ -285,7 +293,7 @@ impl Bonds {
 /// quasi-static solvers, a frame once a spring has broken), exactly as the box's constructor
 /// built them before, and an intact body the stencils run never holds them (Ladd's rows and
 /// ends: 146 bytes per node; its frames and prescribed nodes read the grid through
-/// [`crate::law::GridLaw`]). Changing them through `DerefMut`
+/// `hooke_core::law::GridLaw`). Changing them through `DerefMut`
 /// makes them explicit for good; the changes that keep every value (shedding or storing rest
 /// lengths, the neighbour array) keep the grid.
 #[derive(Clone, Debug)]
@@ -590,7 +598,7 @@ impl GridSprings {
         }
         debug_assert_eq!(ends.len(), self.springs);
         let mut b = Bonds::assemble(total, ends, rest);
-        if crate::kernel::Kernel::csr_may_run([0.0; 3]) {
+        if csr_may_run([0.0; 3]) {
             let mut nbr = vec![0u32; b.bond.len()];
             for n in 0..total {
                 for e in b.row(n) {
@@ -701,12 +709,12 @@ impl Lattice {
     /// spring's volume (the stiffnesses hold it) and each node's boundary area (tractions are
     /// spread with it); the node volumes shrink to their length. On a random3d body that is 91
     /// bytes per node (`hooke bench --json`, `memory_parts`). A body built from the lattice
-    /// afterwards ([`crate::body::Body::from_cells`]) or a traction spread over it would need
+    /// afterwards (`hooke_core::body::Body::from_cells`) or a traction spread over it would need
     /// them: both refuse a shed lattice. Regular lattices keep nothing of the kind.
     ///
     /// The rest lengths go too where every one of them is `|X_j - X_i|` to the bit, computed
     /// as [`Bonds::from_pairs`] computed it (a lattice that was not moved or periodic since),
-    /// and no kernel streams them ([`crate::kernel::Kernel::csr_may_run`]): [`Lattice::rest`]
+    /// and no kernel streams them ([`csr_may_run`]): [`Lattice::rest`]
     /// then recomputes each one, a square root of values already loaded, instead of 8 bytes
     /// per spring (59 bytes per random3d node).
     pub fn shed_setup(&mut self) {
@@ -715,7 +723,7 @@ impl Lattice {
             c.surface = Vec::new();
             c.node.shrink_to_fit();
         }
-        if !crate::kernel::Kernel::csr_may_run(self.period) {
+        if !csr_may_run(self.period) {
             self.shed_rest();
         }
     }
@@ -1598,54 +1606,6 @@ mod tests {
                 assert_eq!(bits(m.pos.as_flat()), bits(l.pos.as_flat()));
             }
         }
-    }
-
-    /// A box moved away from the origin (as a case's box is, by its lower corner) sheds its
-    /// rest lengths only where each is `|X_j - X_i|` of the moved nodes, to the bit: so a
-    /// reader that recomputes a shed length from the positions (the frame, the CSR kernel)
-    /// finds [`Lattice::rest`]'s, built or not. An offset that rounds some lengths otherwise
-    /// keeps them; none (or one that rounds none) sheds them.
-    #[test]
-    fn a_moved_box_sheds_only_the_lengths_its_nodes_give() {
-        let mut kept = 0;
-        for offset in [0.0, 0.0347, -1.23e-2, 7.0] {
-            for (hex, build) in [(false, false), (false, true), (true, false), (true, true)] {
-                let mut l = if hex {
-                    Lattice::hex_box(9, 7, 0.1, 0.3).unwrap()
-                } else {
-                    Lattice::cubic_box([6, 5, 7], 0.1).unwrap()
-                };
-                let dims = if hex { 2 } else { 3 };
-                for c in 0..dims {
-                    for x in l.pos.comp_mut(c) {
-                        *x += offset * (1.0 + c as Real);
-                    }
-                }
-                if build {
-                    let _ = &*l.bonds;
-                }
-                let shed = l.shed_rest();
-                assert!(l.bonds.grid().is_some());
-                if !shed {
-                    kept += 1;
-                    assert!(offset != 0.0, "nodes in place shed their lengths");
-                }
-                for b in 0..l.bonds.len() {
-                    let [i, j] = l.bonds.ends[b].map(|v| v as usize);
-                    let (_, rest) =
-                        crate::law::spring_geometry_rest(&l, &Coords::zeros(l.len()), b, i, j);
-                    assert_eq!(
-                        rest.to_bits(),
-                        l.rest(b).to_bits(),
-                        "offset {offset}, spring {b}"
-                    );
-                }
-            }
-        }
-        assert!(
-            kept > 0,
-            "no offset rounded a length otherwise: the test checks nothing"
-        );
     }
 
     #[test]
