@@ -4,36 +4,19 @@
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use clap::{Args, ValueEnum};
-use hooke_core::dynamics::{Integrator, IntegratorOptions};
+use clap::Args;
+use hooke_core::dynamics::Integrator;
 use hooke_core::loading::Loading;
 use hooke_core::material::q_from_nu;
 use hooke_core::moduli::{block_test, BlockTest};
-use hooke_core::team::Piece;
-use hooke_core::{Body, Lattice, LatticeKind, Real, State};
+use hooke_core::{Body, LatticeKind, Real, State};
+use hooke_lab::bench::{
+    alternate, block, integrator_options, median, moving, BenchOptions, CompareReport,
+    KernelChoice, Law, StepsReport,
+};
 
 use crate::InputError;
 use hooke_lab::moduli::LatticeName;
-
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
-pub enum LawArg {
-    /// Plain springs (q = 0, nu fixed at 1/4 or 1/3).
-    Plain,
-    /// The dispersive law (nu = 0.3 in 3D, 0.45 in 2D).
-    Dispersive,
-}
-
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
-pub enum KernelArg {
-    /// The fastest kernel for the body (the vector stencil for cubic and hexagonal boxes, the
-    /// row kernel for other lattices where the processor has AVX-512).
-    Auto,
-    /// The same kernel without vector instructions (the stencils' and the row kernel's
-    /// portable paths).
-    Portable,
-    /// The general CSR kernel (random lattices without AVX-512; the row kernel gives its bits).
-    Csr,
-}
 
 #[derive(Debug, Args)]
 pub struct BenchArgs {
@@ -45,13 +28,13 @@ pub struct BenchArgs {
     pub nodes: usize,
     /// Force law.
     #[arg(long, value_enum, default_value = "dispersive")]
-    pub law: LawArg,
+    pub law: Law,
     /// Timed steps (after 3 warm-up steps).
     #[arg(long, default_value_t = 50)]
     pub steps: u64,
     /// Kernel to use.
     #[arg(long, value_enum, default_value = "auto")]
-    pub kernel: KernelArg,
+    pub kernel: KernelChoice,
     /// Weight the block's springs and nodes by their cells (regular lattices: what a case's
     /// body has by default, `lattice.cell_weights`), so the stencils carry their face classes.
     #[arg(long)]
@@ -119,55 +102,25 @@ pub struct BenchArgs {
     pub parts: bool,
 }
 
-#[derive(Debug, serde::Serialize)]
-struct BenchJson {
-    law: &'static str,
-    lattice: &'static str,
-    kernel: String,
-    nodes: usize,
-    springs: usize,
-    steps: u64,
-    threads: usize,
-    seconds: f64,
-    seconds_per_step: f64,
-    spring_updates_per_s: f64,
-    node_updates_per_s: f64,
-    peak_memory_bytes: Option<u64>,
-    /// Resident memory after the timed steps (the steady state: set-up scratch returned).
-    resident_memory_bytes: Option<u64>,
-    /// What the body, state, integrator and kernel hold on the heap, by part, in bytes per
-    /// node (capacities: what was allocated, whether or not the system has paged it in).
-    memory_parts: std::collections::BTreeMap<&'static str, f64>,
-    /// Their sum, bytes per node.
-    memory_bytes_per_node: f64,
-    /// With --pieces: the nodes this rank holds (rank 0's: its own, its ghosts and the
-    /// dummies that align its own on a chunk). `memory_parts` are still per node of the block.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    piece_nodes: Option<usize>,
-    /// Digest of every node's displacement and velocity after the steps, in hexadecimal
-    /// (`Integrator::state_digest`): the same for any number of ranks, with or without
-    /// --pieces, exactly when the bits are.
-    state_digest: String,
-    setup_seconds: f64,
-    /// Where the set-up's seconds went: the lattice (nodes, springs), the body (stiffnesses,
-    /// masses, state) and the integrator (its stable-step estimate, mostly).
-    setup_parts: std::collections::BTreeMap<&'static str, f64>,
-    /// With --contact: step time with contact over step time without (medians of alternating
-    /// windows).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    contact_overhead: Option<f64>,
-    /// MPI ranks sharing each step (`mpirun -np N hooke bench`, feature `mpi`), 1 alone.
-    processes: usize,
-    /// Bytes each rank receives per step (rank 0's figure: its ghosts' pools and
-    /// displacements, and the partial sums), the point-to-point messages it sends per step
-    /// (halo trades), its ghost nodes, and the collective operations per step; zero alone.
-    halo_bytes_per_step: usize,
-    halo_messages_per_step: usize,
-    ghost_nodes: usize,
-    collectives_per_step: usize,
-}
-
 pub use hooke_sys::{peak_memory, resident_memory};
+
+impl BenchArgs {
+    /// The library's options for these flags.
+    pub fn options(&self) -> BenchOptions {
+        BenchOptions {
+            lattice: self.lattice,
+            nodes: self.nodes,
+            law: self.law,
+            steps: self.steps,
+            kernel: self.kernel,
+            cell_weights: self.cell_weights,
+            repeats: self.repeats,
+            contact: self.contact,
+            pieces: self.pieces,
+            parts: self.parts,
+        }
+    }
+}
 
 pub fn run(args: BenchArgs) -> Result<()> {
     if args.pieces
@@ -187,7 +140,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
             || args.frame
             || args.contact
             || args.export_lammps.is_some()
-            || args.kernel == KernelArg::Csr)
+            || args.kernel == KernelChoice::Csr)
     {
         return Err(InputError(
             "--parts times the steps alone: it takes none of --static-solve, --compare, \
@@ -209,7 +162,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
         return bench_static(&args);
     }
     if args.compare {
-        return bench_compare(&args);
+        let out = hooke_lab::bench::compare(&args.options())?;
+        print_compare(&args, &out)?;
+        return Ok(());
     }
     if args.fracture {
         return bench_fracture(&args);
@@ -217,13 +172,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if args.frame {
         return bench_frame(&args);
     }
-    if args.nodes < 27 || args.steps == 0 {
-        return Err(InputError(format!(
-            "--nodes {} --steps {}: give at least 27 nodes and 1 step",
-            args.nodes, args.steps
-        ))
-        .into());
-    }
+    args.options().check()?;
     // Under `mpirun -np N` (feature `mpi`) the ranks share every step, as `hooke run` does;
     // rank 0 times and prints.
     #[cfg(feature = "mpi")]
@@ -233,7 +182,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
 }
 
 /// The step benchmark (`hooke bench` without a mode of its own), on this rank of a team or
-/// alone.
+/// alone: rank 0 prints.
 fn bench_steps(
     args: &BenchArgs,
     team: Option<std::sync::Arc<dyn hooke_core::team::Team>>,
@@ -241,108 +190,14 @@ fn bench_steps(
     if team.as_ref().is_some_and(|t| t.rank() != 0) {
         crate::set_quiet();
     }
-    if args.pieces && team.as_ref().is_none_or(|t| t.size() < 2) {
-        return Err(InputError(
-            "--pieces cuts the block between MPI ranks: run it under `mpirun -np N` with N > 1 \
-             (a build with `--features mpi`)"
-                .into(),
-        )
-        .into());
-    }
-    let setup = Instant::now();
-    let (body, mut state, mut it, nodes, springs, setup_parts) = if args.parts {
-        bench_from_parts(args, team.clone())?
-    } else {
-        let lattice = bench_lattice(args)?;
-        let lattice_seconds = setup.elapsed().as_secs_f64();
-        let kind = lattice.kind;
-        let nu = match (args.law, kind) {
-            (LawArg::Plain, _) => hooke_core::material::nu_from_q(kind, 0.0),
-            (LawArg::Dispersive, LatticeKind::Cubic | LatticeKind::Random3d) => 0.3,
-            (LawArg::Dispersive, LatticeKind::Hex | LatticeKind::Random2d) => 0.45,
-        };
-        let (body, state, mut it, [body_seconds, integrator_seconds]) =
-            bench_run_timed(args, lattice, q_from_nu(kind, nu)?, team.clone())?;
-        let setup_parts = [
-            ("lattice", lattice_seconds),
-            ("body", body_seconds),
-            ("integrator", integrator_seconds),
-        ]
-        .into_iter()
-        .collect();
-        if let Some(path) = &args.export_lammps {
-            write_lammps(path, &body, &state, it.dt)
-                .with_context(|| format!("writing the LAMMPS data file {}", path.display()))?;
+    let mut export = |body: &Body, state: &State, dt: Real| -> Result<()> {
+        match &args.export_lammps {
+            Some(path) => write_lammps(path, body, state, dt)
+                .with_context(|| format!("writing the LAMMPS data file {}", path.display())),
+            None => Ok(()),
         }
-        let (nodes, springs) = (body.nodes(), body.springs());
-        let (body, state) = if args.pieces {
-            let piece = it.cut(&body, &state)?;
-            drop((body, state));
-            piece
-        } else {
-            (body, state)
-        };
-        (body, state, it, nodes, springs, setup_parts)
     };
-    let setup_seconds = setup.elapsed().as_secs_f64();
-    // As `hooke run` does after its set-up (hooke_sim::Run::start).
-    hooke_sys::alloc::release_free_memory();
-    for _ in 0..3 {
-        it.step(&body, &mut state);
-    }
-    let start = Instant::now();
-    for _ in 0..args.steps {
-        it.step(&body, &mut state);
-    }
-    let seconds = start.elapsed().as_secs_f64();
-    it.check_shared(&body, &mut state)?;
-    let state_digest = format!("{:016x}", it.state_digest(&state));
-    let contact_overhead = args
-        .contact
-        .then(|| contact_overhead(args, &body, &mut state, &mut it));
-    let mut memory_parts = std::collections::BTreeMap::new();
-    for (name, b) in body
-        .footprint()
-        .into_iter()
-        .chain(state.footprint())
-        .chain(it.footprint())
-    {
-        *memory_parts.entry(name).or_insert(0.0) += b as f64 / nodes as f64;
-    }
-    memory_parts.retain(|_, b| *b > 0.0);
-    let memory_bytes_per_node = memory_parts.values().sum();
-    let out = BenchJson {
-        law: match args.law {
-            LawArg::Plain => "plain",
-            LawArg::Dispersive => "dispersive",
-        },
-        lattice: body.lattice.kind.name(),
-        kernel: it.kernel.name().to_string(),
-        nodes,
-        springs,
-        steps: args.steps,
-        threads: rayon::current_num_threads(),
-        seconds,
-        seconds_per_step: seconds / args.steps as f64,
-        spring_updates_per_s: springs as f64 * args.steps as f64 / seconds,
-        node_updates_per_s: nodes as f64 * args.steps as f64 / seconds,
-        peak_memory_bytes: peak_memory(),
-        resident_memory_bytes: resident_memory(),
-        memory_parts,
-        memory_bytes_per_node,
-        piece_nodes: it.piece().map(Piece::len),
-        state_digest,
-        setup_seconds,
-        setup_parts,
-        contact_overhead,
-        processes: team.as_ref().map_or(1, |t| t.size()),
-        halo_bytes_per_step: it
-            .share()
-            .map_or(0, |s| s.received_per_step(body.lattice.dim())),
-        halo_messages_per_step: it.share().map_or(0, |s| s.messages_per_step()),
-        ghost_nodes: it.share().map_or(0, |s| s.halo.ghosts()),
-        collectives_per_step: it.collectives_per_step(),
-    };
+    let out = hooke_lab::bench::steps(&args.options(), team, Some(&mut export))?;
     if crate::quiet() {
         return Ok(());
     }
@@ -354,38 +209,24 @@ fn bench_steps(
     Ok(())
 }
 
-/// The step time with contact switched on (no fragments yet) over the time without, medians of
-/// alternating windows: this machine's speed drifts by more than the figure we want.
-fn contact_overhead(args: &BenchArgs, body: &Body, state: &mut State, it: &mut Integrator) -> f64 {
-    // Alternate windows with and without contact on the same body and take the median of
-    // each: this machine's speed drifts by more than the figure we want.
-    let mut contact = hooke_contact::Contact::new(
-        body,
-        Vec::new(),
-        hooke_contact::ContactOptions::for_body(body),
-    );
-    let (mut with, mut without) = (Vec::new(), Vec::new());
-    for _ in 0..args.repeats.max(1) {
-        let t0 = Instant::now();
-        for _ in 0..args.steps {
-            it.step(body, state);
-        }
-        without.push(t0.elapsed().as_secs_f64());
-        let t0 = Instant::now();
-        for _ in 0..args.steps {
-            it.step_with(body, state, Some(&mut contact));
-        }
-        with.push(t0.elapsed().as_secs_f64());
+/// `--compare`'s JSON or text.
+fn print_compare(args: &BenchArgs, out: &CompareReport) -> Result<()> {
+    if args.json {
+        println!("{}", serde_json::to_string(out)?);
+    } else {
+        println!(
+            "{} lattice, {} nodes, {} springs, {} kernel, {} threads, medians of {} windows of {} steps:\n  plain {:.3} ms/step ({:.1} M spring-updates/s), dispersive {:.3} ms/step ({:.1} M/s), ratio {:.3}",
+            out.lattice, out.nodes, out.springs, out.kernel, out.threads, out.repeats, out.steps,
+            out.plain_seconds_per_step * 1e3, out.plain_spring_updates_per_s / 1e6,
+            out.dispersive_seconds_per_step * 1e3, out.dispersive_spring_updates_per_s / 1e6,
+            out.ratio_dispersive_over_plain
+        );
     }
-    let median = |v: &mut Vec<f64>| {
-        v.sort_by(|a, b| a.total_cmp(b));
-        v[v.len() / 2]
-    };
-    median(&mut with) / median(&mut without)
+    Ok(())
 }
 
 /// A benchmark's text: throughput, set-up, memory per node, the ranks' traffic, contact.
-fn print_bench(out: &BenchJson) {
+fn print_bench(out: &StepsReport) {
     println!(
         "{} law, {} lattice, {} kernel, {} threads: {} nodes, {} springs, {} steps in {:.3} s\n  {:.1} million spring-updates/s, {:.3} ms/step, peak memory {}",
         out.law,
@@ -440,278 +281,16 @@ fn print_bench(out: &BenchJson) {
     }
 }
 
-/// The block the benchmarks run on: about `--nodes` nodes of `--lattice` in lattice units.
-fn bench_lattice(args: &BenchArgs) -> Result<Lattice> {
-    Ok(match args.lattice {
-        LatticeName::Cubic => {
-            let side = (args.nodes as f64).cbrt().round().max(3.0) as usize;
-            Lattice::cubic_box([side, side, side], 1.0)?
-        }
-        LatticeName::Hex => {
-            let side = (args.nodes as f64).sqrt().round().max(3.0) as usize;
-            Lattice::hex_box(side, side, 1.0, 1.0)?
-        }
-        LatticeName::Random3d => {
-            let side = (args.nodes as f64).cbrt().round().max(3.0) - 1.0;
-            let spec = hooke_core::random::RandomSpec::default();
-            Lattice::random(3, [0.0; 3], [side; 3], 1.0, 1.0, spec, &|_| true)?
-        }
-        LatticeName::Random2d => {
-            let side = (args.nodes as f64).sqrt().round().max(3.0) - 1.0;
-            let spec = hooke_core::random::RandomSpec::default();
-            Lattice::random(2, [0.0; 3], [side, side, 0.0], 1.0, 1.0, spec, &|_| true)?
-        }
-    })
-}
-
-/// The set-up of `--parts`: the block of `--lattice random3d` or `random2d` as a jittered grid
-/// (amplitude 0.6, seed 1) whose parts each rank samples, triangulates and numbers alone, the
-/// body in lattice units on the piece, at rest, its integrator (the stable step estimated on
-/// the pieces as one process estimates it), then moving as `bench_run_timed` sets it. Alone, the team is one
-/// process. Returns what `run` times, with the block's node and spring counts and the
-/// set-up's seconds by part.
-#[allow(clippy::type_complexity)]
-fn bench_from_parts(
-    args: &BenchArgs,
-    team: Option<std::sync::Arc<dyn hooke_core::team::Team>>,
-) -> Result<(
-    Body,
-    State,
-    Integrator,
-    usize,
-    usize,
-    std::collections::BTreeMap<&'static str, f64>,
-)> {
-    use hooke_core::random::part::Sampling;
-    use hooke_core::random::{RandomSpec, Sampler};
-    use hooke_core::team::parts::assemble;
-    let team: std::sync::Arc<dyn hooke_core::team::Team> =
-        team.unwrap_or_else(|| std::sync::Arc::new(hooke_core::team::Alone));
-    let (dim, kind) = match args.lattice {
-        LatticeName::Random2d => (2, LatticeKind::Random2d),
-        _ => (3, LatticeKind::Random3d),
-    };
-    let hi = if dim == 3 {
-        [(args.nodes as f64).cbrt().round().max(3.0) - 1.0; 3]
-    } else {
-        let side = (args.nodes as f64).sqrt().round().max(3.0) - 1.0;
-        [side, side, 0.0]
-    };
-    let spec = RandomSpec {
-        sampler: Sampler::Jitter { amplitude: 0.6 },
-        seed: 1,
-    };
-    let start = Instant::now();
-    let block = Sampling {
-        dim,
-        lo: [0.0; 3],
-        hi,
-        a: 1.0,
-        h: 1.0,
-        spec,
-        inside: &|_| true,
-    };
-    let (piece, lattice, share) = assemble(&*team, &block, 4.0)?;
-    let lattice_seconds = start.elapsed().as_secs_f64();
-    let start = Instant::now();
-    let nu = match (args.law, dim) {
-        (LawArg::Plain, _) => hooke_core::material::nu_from_q(kind, 0.0),
-        (LawArg::Dispersive, 3) => 0.3,
-        (LawArg::Dispersive, _) => 0.45,
-    };
-    let mut body = Body::uniform(lattice, 1.0, q_from_nu(kind, nu)?, 1.0);
-    body.lattice.shed_setup();
-    let mut state = State::new(&body);
-    let body_seconds = start.elapsed().as_secs_f64();
-    let start = Instant::now();
-    let size = team.size();
-    let mut counts = vec![0.0; size];
-    counts[team.rank()] = share.springs.len() as Real;
-    let singles: Vec<_> = (0..size).map(|r| r..r + 1).collect();
-    team.gather(&mut counts, &singles);
-    let springs = counts.iter().sum::<Real>() as usize;
-    let nodes = piece.total;
-    let dummy: Vec<bool> = piece
-        .global
-        .iter()
-        .map(|&g| g == hooke_core::team::PAD)
-        .collect();
-    let it = Integrator::on_piece(
-        &body,
-        &mut state,
-        Loading::default(),
-        piece,
-        share,
-        team,
-        &bench_opts(args),
-    )
-    .context("setting up the integrator on the piece")?;
-    for (i, _) in dummy.iter().enumerate().filter(|(_, &d)| !d) {
-        let p = body.lattice.pos.get(i);
-        state.v.x_mut()[i] = 1e-3 * (0.1 * p.y).sin();
-        state.v.y_mut()[i] = 1e-3 * (0.13 * p.z + 0.07 * p.x).cos();
-    }
-    let integrator_seconds = start.elapsed().as_secs_f64();
-    let parts = [
-        ("lattice", lattice_seconds),
-        ("body", body_seconds),
-        ("integrator", integrator_seconds),
-    ]
-    .into_iter()
-    .collect();
-    Ok((body, state, it, nodes, springs, parts))
-}
-
-/// A body on `lattice` in lattice units with ratio `q`, moving with a smooth velocity field (so
-/// the springs do real work), and its integrator on the kernel `args` asks for.
-fn bench_run(args: &BenchArgs, lattice: Lattice, q: Real) -> Result<(Body, State, Integrator)> {
-    bench_run_timed(args, lattice, q, None).map(|(b, s, i, _)| (b, s, i))
-}
-
-/// [`bench_run`], with the seconds spent on the body (and state) and on the integrator (its
-/// stable-step estimate, mostly); with `team`, shared by its members and distributed.
-fn bench_run_timed(
-    args: &BenchArgs,
-    lattice: Lattice,
-    q: Real,
-    team: Option<std::sync::Arc<dyn hooke_core::team::Team>>,
-) -> Result<(Body, State, Integrator, [f64; 2])> {
-    let start = Instant::now();
-    let mut body = Body::uniform(lattice, 1.0, q, 1.0);
-    if args.cell_weights {
-        body = body
-            .with_cell_weights()
-            .context("--cell-weights (regular lattices only)")?;
-    }
-    // As a case's set-up does (hooke_sim's builder), once nothing more is built from them.
-    body.lattice.shed_setup();
-    // The CSR kernel, asked for where it would not run, streams the neighbours and the rest
-    // lengths.
-    if args.kernel == KernelArg::Csr {
-        body.lattice.bonds.keep_neighbours();
-        body.lattice.keep_rest();
-    }
-    let mut state = State::new(&body);
-    let body_seconds = start.elapsed().as_secs_f64();
-    let start = Instant::now();
-    // Set up at rest, as a case usually is (a moving start would make the estimate keep a copy
-    // of the velocities), then moving: the velocities below are the half-step ones.
-    // Under mpirun the team shares the estimate, and the integrator comes back distributed.
-    let it = Integrator::new_shared(
-        &body,
-        &mut state,
-        Loading::default(),
-        &bench_opts(args),
-        team,
-    )
-    .context("setting up the integrator")?;
-    let integrator_seconds = start.elapsed().as_secs_f64();
-    for i in 0..body.nodes() {
-        let p = body.lattice.pos.get(i);
-        state.v.x_mut()[i] = 1e-3 * (0.1 * p.y).sin();
-        state.v.y_mut()[i] = 1e-3 * (0.13 * p.z + 0.07 * p.x).cos();
-    }
-    Ok((body, state, it, [body_seconds, integrator_seconds]))
-}
-
-/// The integrator options `--kernel` asks for.
-fn bench_opts(args: &BenchArgs) -> IntegratorOptions {
-    IntegratorOptions {
-        portable: args.kernel == KernelArg::Portable,
-        force_csr: args.kernel == KernelArg::Csr,
-        ..Default::default()
-    }
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(|a, b| a.total_cmp(b));
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
-fn bench_compare(args: &BenchArgs) -> Result<()> {
-    if args.repeats == 0 || args.steps == 0 {
-        return Err(InputError("--repeats and --steps must be at least 1".into()).into());
-    }
-    let lattice = bench_lattice(args)?;
-    let kind = lattice.kind;
-    // The dispersive law at the bench's Poisson's ratio against plain springs on the same
-    // lattice (the plain lattice's own ratio: 1/4 in 3D, 1/3 in 2D).
-    let nu = match kind {
-        LatticeKind::Cubic | LatticeKind::Random3d => 0.3,
-        LatticeKind::Hex | LatticeKind::Random2d => 0.45,
-    };
-    let mut runs = Vec::new();
-    for q in [0.0, q_from_nu(kind, nu)?] {
-        let (body, mut state, mut it) = bench_run(args, lattice.clone(), q)?;
-        for _ in 0..3 {
-            it.step(&body, &mut state);
-        }
-        runs.push((body, state, it, Vec::new()));
-    }
-    for _ in 0..args.repeats {
-        for (body, state, it, times) in runs.iter_mut() {
-            let start = Instant::now();
-            for _ in 0..args.steps {
-                it.step(body, state);
-            }
-            times.push(start.elapsed().as_secs_f64() / args.steps as f64);
-        }
-    }
-    let springs = runs[0].0.springs();
-    let plain = median(&mut runs[0].3.clone());
-    let disp = median(&mut runs[1].3.clone());
-    let out = serde_json::json!({
-        "lattice": kind.name(), "nodes": runs[0].0.nodes(), "springs": springs, "threads": rayon::current_num_threads(),
-        "kernel": runs[1].2.kernel.name(), "repeats": args.repeats, "steps": args.steps,
-        "plain_seconds_per_step": plain, "dispersive_seconds_per_step": disp,
-        "plain_spring_updates_per_s": springs as f64 / plain, "dispersive_spring_updates_per_s": springs as f64 / disp,
-        "ratio_dispersive_over_plain": disp / plain,
-    });
-    if args.json {
-        println!("{out}");
-    } else {
-        println!(
-            "{} lattice, {} nodes, {} springs, {} kernel, {} threads, medians of {} windows of {} steps:\n  plain {:.3} ms/step ({:.1} M spring-updates/s), dispersive {:.3} ms/step ({:.1} M/s), ratio {:.3}",
-            kind.name(), runs[0].0.nodes(), springs, runs[1].2.kernel.name(), rayon::current_num_threads(), args.repeats, args.steps,
-            plain * 1e3, springs as f64 / plain / 1e6, disp * 1e3, springs as f64 / disp / 1e6, disp / plain
-        );
-    }
-    Ok(())
-}
-
-/// Medians of alternating windows: `a` and `b` each take `steps` steps per window.
-fn alternate(
-    repeats: usize,
-    mut a: impl FnMut() -> Result<()>,
-    mut b: impl FnMut() -> Result<()>,
-) -> Result<(f64, f64)> {
-    let (mut ta, mut tb) = (Vec::new(), Vec::new());
-    for _ in 0..repeats.max(1) {
-        let t0 = Instant::now();
-        a()?;
-        ta.push(t0.elapsed().as_secs_f64());
-        let t0 = Instant::now();
-        b()?;
-        tb.push(t0.elapsed().as_secs_f64());
-    }
-    Ok((median(&mut ta), median(&mut tb)))
-}
-
 fn bench_fracture(args: &BenchArgs) -> Result<()> {
     if args.repeats == 0 || args.steps == 0 {
         return Err(InputError("--repeats and --steps must be at least 1".into()).into());
     }
     // Nothing breaking: a random3d (or the chosen lattice's) block with a criterion no spring
     // reaches, against the same block without fracture.
-    let lattice = bench_lattice(args)?;
+    let lattice = block(&args.options())?;
     let kind = lattice.kind;
     let q = q_from_nu(kind, if kind.dim() == 3 { 0.3 } else { 0.45 })?;
-    let (body, mut state, mut it) = bench_run(args, lattice, q)?;
+    let (body, mut state, mut it) = moving(&args.options(), lattice, q)?;
     let mut fr =
         hooke_fracture::Fracture::new(&body, Box::new(hooke_fracture::CriticalStretch::new(1.0)?));
     let mut plain_state = state.clone();
@@ -719,7 +298,7 @@ fn bench_fracture(args: &BenchArgs) -> Result<()> {
         &body,
         &plain_state,
         Loading::default(),
-        &bench_opts(args),
+        &integrator_options(&args.options()),
         &it.checkpoint(),
     )?;
     let steps = args.steps;

@@ -7,11 +7,15 @@
 //! - [`moduli`]: the paper's Section 4 block test and the exact and relaxed bulk tests, their
 //!   ensembles over random node sets, the relaxed-bulk extrapolation and the tensor statistics,
 //!   and the random lattices' calibration table (`hooke_core::random::calibration`).
+//! - [`bench`](mod@bench): the step benchmark's blocks and set-ups (alone, shared, from parts), the timed
+//!   steps with memory and traffic, contact's cost, and the dispersive law against plain
+//!   springs (`hooke bench`).
 //! - [`toughness`]: the fracture energy a lattice crack dissipates in a strip under fixed grips,
 //!   the strip's size per lattice, the mean over node sets, and the G_c calibration tables
 //!   (`hooke_fracture::stretch`, `energy`, `softening`).
 #![forbid(unsafe_code)]
 
+pub mod bench;
 pub mod moduli;
 pub mod toughness;
 
