@@ -478,8 +478,8 @@ def table(points: Any) -> Dict[str, List[List[float]]]:
 
 class Builder:
     """A simulation built in code, for cases easier as code than as a file: the library's
-    builder (``hooke_sim::Builder``) with the same checks and messages (a mistake raises
-    ``CaseError`` naming the item). Regions: ``hooke.All()``, ``hooke.Face("y+")``,
+    builder (``hooke_sim::Builder``) with the same checks and messages: each call is applied
+    as it is made, and a mistake raises ``CaseError`` there, naming the call. Regions: ``hooke.All()``, ``hooke.Face("y+")``,
     ``hooke.Plane("x", 0.0)``, ``hooke.Nodes([...])`` or a shape (the nodes inside it); shapes:
     ``hooke.Box(min, max)``, ``hooke.Sphere(center, radius)``, ``hooke.Cylinder(center, axis,
     radius, length)``. The older forms still work: ``"all"``, ``{"face": "y+"}``,
@@ -495,10 +495,11 @@ class Builder:
     """
 
     def __init__(self, lattice: str, spacing: float):
-        self._spec: Dict[str, Any] = {"lattice": lattice, "spacing": float(spacing), "calls": []}
+        self._inner = _hooke.Builder(str(lattice), float(spacing))
 
     def _call(self, name: str, arg: Any = None) -> "Builder":
-        self._spec["calls"].append([name, arg])
+        # Applied to the library's builder now: a mistake raises here, at its call.
+        self._inner.call(name, arg)
         return self
 
     def thickness(self, h: float) -> "Builder":
@@ -730,7 +731,7 @@ class Builder:
 
     def build(self, out: Union[str, os.PathLike], name: str = "run") -> Simulation:
         """The simulation; it writes to ``out`` (files named ``name``) once it steps."""
-        return Simulation(_hooke.build(json.dumps(self._spec), str(out), name))
+        return Simulation(self._inner.build(str(out), name))
 
 
 def moduli(lattice: str = "cubic", nu: Optional[float] = 0.3, **flags: Any) -> Dict[str, Any]:

@@ -5,9 +5,9 @@
 //! a tenth of a second and checks for Ctrl-C between slices, so a long `run` stays interruptible
 //! and leaves the simulation usable (the KeyboardInterrupt arrives after a whole step).
 //!
-//! Modules: this file (the `Simulation` class, `load_case`, `build`, the `hooke-lab` calls and
-//! the numpy views, the one place with `unsafe` here) and `spec` (a `hooke.Builder` call log
-//! replayed on `hooke_sim::Builder`).
+//! Modules: this file (the `Simulation` and `Builder` classes, `load_case`, the `hooke-lab`
+//! calls and the numpy views, the one place with `unsafe` here) and `spec` (a `hooke.Builder`
+//! call's arguments applied to `hooke_sim::Builder` as the call is made).
 
 mod spec;
 
@@ -586,16 +586,107 @@ fn load_case(
     Ok(PySimulation::new(sim, opts))
 }
 
-/// A simulation built from a `hooke.Builder` spec (JSON text).
-#[pyfunction]
-fn build(spec: &str, out: PathBuf, name: String) -> PyResult<PySimulation> {
-    let v: serde_json::Value =
-        serde_json::from_str(spec).map_err(|e| CaseError::new_err(format!("builder spec: {e}")))?;
-    let sim = spec::build(&v).map_err(CaseError::new_err)?;
-    let mut opts = RunOptions::new(out, name);
-    opts.command = vec!["python".into(), "hooke.Builder".into()];
-    opts.case_text = spec.to_string();
-    Ok(PySimulation::new(sim, opts))
+/// `hooke.Builder`'s engine: a simulation under construction, each call applied to the
+/// library's builder as it is made ([`spec::Pending`]), so that a mistake raises `CaseError` at
+/// the call that made it. The calls are also kept, as data, for the run's provenance (run.json
+/// records how the simulation was built, as it records a case file's text).
+#[pyclass(module = "hooke._hooke", name = "Builder", unsendable)]
+struct PyBuilder {
+    pending: spec::Pending,
+    lattice: String,
+    spacing: Real,
+    calls: Vec<serde_json::Value>,
+}
+
+#[pymethods]
+impl PyBuilder {
+    #[new]
+    fn new(lattice: &str, spacing: Real) -> PyResult<Self> {
+        Ok(PyBuilder {
+            pending: spec::Pending::new(lattice, spacing).map_err(CaseError::new_err)?,
+            lattice: lattice.to_string(),
+            spacing,
+            calls: Vec::new(),
+        })
+    }
+
+    /// Apply the builder method `name` with its argument (numbers, strings, bools, None, and
+    /// lists, tuples and dicts of them; numpy scalars and arrays too).
+    fn call(&mut self, name: &str, arg: &Bound<'_, PyAny>) -> PyResult<()> {
+        let v = to_value(arg)?;
+        self.pending.apply(name, &v).map_err(CaseError::new_err)?;
+        self.calls.push(serde_json::json!([name, v]));
+        Ok(())
+    }
+
+    /// The simulation, writing to `out` (files named `name`) once it steps. The builder stays
+    /// usable: building again gives another simulation of the same body.
+    fn build(&self, out: PathBuf, name: String) -> PyResult<PySimulation> {
+        let sim = self.pending.build().map_err(CaseError::new_err)?;
+        let mut opts = RunOptions::new(out, name);
+        opts.command = vec!["python".into(), "hooke.Builder".into()];
+        opts.case_text = serde_json::json!({
+            "lattice": self.lattice, "spacing": self.spacing, "calls": self.calls,
+        })
+        .to_string();
+        Ok(PySimulation::new(sim, opts))
+    }
+}
+
+/// A Python value as plain data: None, bools, numbers, strings, and sequences and dicts of
+/// them (numpy scalars through `float` or `int`, arrays through `tolist`).
+fn to_value(o: &Bound<'_, PyAny>) -> PyResult<serde_json::Value> {
+    use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+    use serde_json::Value;
+    if o.is_none() {
+        return Ok(Value::Null);
+    }
+    if let Ok(b) = o.cast::<PyBool>() {
+        return Ok(Value::Bool(b.is_true()));
+    }
+    if o.is_instance_of::<PyInt>() {
+        if let Ok(i) = o.extract::<i64>() {
+            return Ok(Value::from(i));
+        }
+        return Ok(Value::from(o.extract::<u64>()?));
+    }
+    if o.is_instance_of::<PyFloat>() {
+        return Ok(Value::from(o.extract::<f64>()?));
+    }
+    if o.is_instance_of::<PyString>() {
+        return Ok(Value::String(o.extract::<String>()?));
+    }
+    if let Ok(d) = o.cast::<PyDict>() {
+        let mut m = serde_json::Map::new();
+        for (k, v) in d.iter() {
+            let k: String = k
+                .extract()
+                .map_err(|_| CaseError::new_err(format!("{k}: a key must be a string")))?;
+            m.insert(k, to_value(&v)?);
+        }
+        return Ok(Value::Object(m));
+    }
+    if o.is_instance_of::<PyList>() || o.is_instance_of::<PyTuple>() {
+        let items = o
+            .try_iter()?
+            .map(|x| to_value(&x?))
+            .collect::<PyResult<_>>()?;
+        return Ok(Value::Array(items));
+    }
+    if o.hasattr("tolist")? {
+        // numpy: arrays become lists and scalars Python numbers.
+        return to_value(&o.call_method0("tolist")?);
+    }
+    if o.hasattr("__index__")? {
+        return Ok(Value::from(o.call_method0("__index__")?.extract::<i64>()?));
+    }
+    if o.hasattr("__float__")? {
+        return Ok(Value::from(o.call_method0("__float__")?.extract::<f64>()?));
+    }
+    Err(CaseError::new_err(format!(
+        "{}: give numbers, strings, bools, lists or dicts",
+        o.repr()?
+    )))
 }
 
 /// `hooke moduli ... --json`'s object as JSON text, from the experiment's options as JSON (the
@@ -635,7 +726,7 @@ fn _hooke(m: &Bound<'_, PyModule>) -> PyResult<()> {
     ));
     m.add_class::<PySimulation>()?;
     m.add_function(wrap_pyfunction!(load_case, m)?)?;
-    m.add_function(wrap_pyfunction!(build, m)?)?;
+    m.add_class::<PyBuilder>()?;
     m.add_function(wrap_pyfunction!(moduli_json, m)?)?;
     m.add_function(wrap_pyfunction!(toughness_json, m)?)?;
     m.add("CaseError", m.py().get_type::<CaseError>())?;

@@ -1,7 +1,8 @@
-//! A simulation built in Python: the Python `hooke.Builder` collects its calls into a JSON
-//! spec, and this module replays them on `hooke_sim::Builder`. Keeping the spec as plain data
-//! leaves the binding thin: every check and every error message is the library's
-//! (`BuildError` names the item), except the spec's own shape, checked here with the key.
+//! A simulation built in Python: `hooke.Builder` (a `#[pyclass]` over [`Pending`]) applies each
+//! call to `hooke_sim::Builder` as it is made. Arguments arrive as plain data (numbers, strings,
+//! lists and dicts: what `hooke.Face`, `hooke.Sphere`, `hooke.ramp` and friends stand for), so
+//! every check and every error message is the library's (`BuildError` names the item), except
+//! the arguments' own shape, checked here with the call's name.
 
 use hooke_contact::{Geometry, Motion, RigidBody};
 use hooke_core::dynamics::TimeStep;
@@ -501,33 +502,56 @@ fn time_step(a: &Value, key: &str) -> R<TimeStep> {
     })
 }
 
-/// Build the simulation a `hooke.Builder` spec describes.
-pub fn build(spec: &Value) -> R<Simulation> {
-    let kind = match field(spec, "lattice", "lattice")?.as_str() {
-        Some("cubic") => LatticeKind::Cubic,
-        Some("hex") => LatticeKind::Hex,
-        Some("random2d") => LatticeKind::Random2d,
-        Some("random3d") => LatticeKind::Random3d,
-        _ => return Err("lattice: give \"cubic\", \"hex\", \"random2d\" or \"random3d\"".into()),
-    };
-    let mut b = Builder::new(kind, num(field(spec, "spacing", "spacing")?, "spacing")?);
-    let calls = field(spec, "calls", "calls")?
-        .as_array()
-        .ok_or("calls: a list")?;
-    let mut solid = Solid::default();
-    let dim = kind.dim();
-    let mut thickness = 1.0;
-    let mut rigids = Vec::new();
-    let mut contact: Option<ContactSpec> = None;
-    for (k, call) in calls.iter().enumerate() {
-        let name = call.get(0).and_then(Value::as_str).unwrap_or("");
-        let a = call.get(1).cloned().unwrap_or(Value::Null);
-        let key = format!("{name} (call {})", k + 1);
+/// A simulation under construction in Python: `hooke.Builder`'s calls applied one by one to
+/// `hooke_sim::Builder` as they come (a mistake raises at the call that made it), with what the
+/// library's builder takes at the end (the solid, the rigid bodies and the contact options).
+#[derive(Clone, Debug)]
+pub struct Pending {
+    b: Builder,
+    solid: Solid,
+    dim: usize,
+    thickness: Real,
+    rigids: Vec<RigidSpec>,
+    contact: Option<ContactSpec>,
+    /// Calls applied so far (a mistake's message counts them, as the user wrote them).
+    calls: usize,
+}
+
+impl Pending {
+    /// A body of `lattice` ("cubic", "hex", "random2d", "random3d") with `spacing` (m).
+    pub fn new(lattice: &str, spacing: Real) -> R<Pending> {
+        let kind = match lattice {
+            "cubic" => LatticeKind::Cubic,
+            "hex" => LatticeKind::Hex,
+            "random2d" => LatticeKind::Random2d,
+            "random3d" => LatticeKind::Random3d,
+            _ => {
+                return Err(format!(
+                    "lattice \"{lattice}\": give \"cubic\", \"hex\", \"random2d\" or \"random3d\""
+                ))
+            }
+        };
+        Ok(Pending {
+            b: Builder::new(kind, spacing),
+            solid: Solid::default(),
+            dim: kind.dim(),
+            thickness: 1.0,
+            rigids: Vec::new(),
+            contact: None,
+            calls: 0,
+        })
+    }
+
+    /// Apply the call `name` with its argument `a` (the Python method's, as plain data). On a
+    /// mistake nothing changes and the message names the call.
+    pub fn apply(&mut self, name: &str, a: &Value) -> R<()> {
+        let key = format!("{name} (call {})", self.calls + 1);
         let key = key.as_str();
-        b = match name {
+        let b = self.b.clone();
+        self.b = match name {
             "thickness" => {
-                thickness = num(&a, key)?;
-                b.thickness(thickness)
+                self.thickness = num(a, key)?;
+                b.thickness(self.thickness)
             }
             "plane" => b.plane(match a.as_str() {
                 Some("stress") => PlaneModel::Stress,
@@ -535,48 +559,48 @@ pub fn build(spec: &Value) -> R<Simulation> {
                 _ => return Err(format!("{key}: give \"stress\" or \"strain\"")),
             }),
             "box" => {
-                solid.bbox = Some((
-                    Vector::from(point(field(&a, "min", key)?, key)?),
-                    Vector::from(point(field(&a, "max", key)?, key)?),
+                self.solid.bbox = Some((
+                    Vector::from(point(field(a, "min", key)?, key)?),
+                    Vector::from(point(field(a, "max", key)?, key)?),
                 ));
                 b
             }
             "add" => {
-                solid.add.push(shape(&a, key)?);
+                self.solid.add.push(shape(a, key)?);
                 b
             }
             "subtract" => {
-                solid.subtract.push(shape(&a, key)?);
+                self.solid.subtract.push(shape(a, key)?);
                 b
             }
             "material" => b.material(
-                num(field(&a, "youngs", key)?, key)?,
-                num(field(&a, "poisson", key)?, key)?,
-                num(field(&a, "density", key)?, key)?,
+                num(field(a, "youngs", key)?, key)?,
+                num(field(a, "poisson", key)?, key)?,
+                num(field(a, "density", key)?, key)?,
             ),
             "transverse" => {
-                let fibre = point(field(&a, "fibre", key)?, key)?;
+                let fibre = point(field(a, "fibre", key)?, key)?;
                 b.transverse(hooke_core::Transverse {
-                    youngs_plane: num(field(&a, "youngs_plane", key)?, key)?,
-                    youngs_fibre: num(field(&a, "youngs_fibre", key)?, key)?,
-                    poisson_plane: num(field(&a, "poisson_plane", key)?, key)?,
-                    poisson_fibre: num(field(&a, "poisson_fibre", key)?, key)?,
-                    shear_fibre: num(field(&a, "shear_fibre", key)?, key)?,
-                    density: num(field(&a, "density", key)?, key)?,
+                    youngs_plane: num(field(a, "youngs_plane", key)?, key)?,
+                    youngs_fibre: num(field(a, "youngs_fibre", key)?, key)?,
+                    poisson_plane: num(field(a, "poisson_plane", key)?, key)?,
+                    poisson_fibre: num(field(a, "poisson_fibre", key)?, key)?,
+                    shear_fibre: num(field(a, "shear_fibre", key)?, key)?,
+                    density: num(field(a, "density", key)?, key)?,
                     fibre,
                 })
             }
-            "orthotropic" => b.orthotropic(orthotropic(&a, key)?),
-            "rotate_lattice" => b.rotate_lattice(point(&a, key)?),
+            "orthotropic" => b.orthotropic(orthotropic(a, key)?),
+            "rotate_lattice" => b.rotate_lattice(point(a, key)?),
             "cell_weights" => b.cell_weights(
                 a.as_bool()
                     .ok_or_else(|| format!("{key}: give true or false"))?,
             ),
-            "fracture_energy" => b.fracture_energy(num(&a, key)?),
+            "fracture_energy" => b.fracture_energy(num(a, key)?),
             "precrack_segment" => {
                 let (p, q) = (
-                    point(field(&a, "a", key)?, key)?,
-                    point(field(&a, "b", key)?, key)?,
+                    point(field(a, "a", key)?, key)?,
+                    point(field(a, "b", key)?, key)?,
                 );
                 b.precrack(Crack::Segment {
                     a: [p[0], p[1]],
@@ -592,17 +616,17 @@ pub fn build(spec: &Value) -> R<Simulation> {
                     .collect::<R<Vec<_>>>()?;
                 b.precrack(Crack::Polygon { vertices: vs })
             }
-            "boundary" => b.boundary(boundary(&a, key)?),
+            "boundary" => b.boundary(boundary(a, key)?),
             "initial_velocity" => b.initial_velocity(
-                region(field(&a, "region", key)?, key)?,
-                point(field(&a, "velocity", key)?, key)?,
+                region(field(a, "region", key)?, key)?,
+                point(field(a, "velocity", key)?, key)?,
             ),
-            "gravity" => b.body_acceleration(point(&a, key)?),
-            "end_time" => b.end_time(num(&a, key)?),
-            "output_every" => b.output_every(num(&a, key)?),
-            "checkpoint_every" => b.checkpoint_every(num(&a, key)?),
-            "damping" => b.damping(num(&a, key)?),
-            "reactions_every" => b.reactions_every(num(&a, key)?),
+            "gravity" => b.body_acceleration(point(a, key)?),
+            "end_time" => b.end_time(num(a, key)?),
+            "output_every" => b.output_every(num(a, key)?),
+            "checkpoint_every" => b.checkpoint_every(num(a, key)?),
+            "damping" => b.damping(num(a, key)?),
+            "reactions_every" => b.reactions_every(num(a, key)?),
             "springs" => b.springs(
                 a.as_bool()
                     .ok_or_else(|| format!("{key}: give true or false"))?,
@@ -617,32 +641,39 @@ pub fn build(spec: &Value) -> R<Simulation> {
                     .ok_or_else(|| format!("{key}: give a positive number of load steps"))?
                     as usize,
             ),
-            "time_step" => b.time_step(time_step(&a, key)?),
-            "random" => b.random(random_spec(&a, key)?),
-            "breaking" => b.breaking(breaking_rule(&a, key)?),
-            "softening" => b.breaking(softening_rule(&a, key)?),
+            "time_step" => b.time_step(time_step(a, key)?),
+            "random" => b.random(random_spec(a, key)?),
+            "breaking" => b.breaking(breaking_rule(a, key)?),
+            "softening" => b.breaking(softening_rule(a, key)?),
             "rigid" => {
-                let body = rigid(&a, key, dim, thickness, rigids.len())?;
+                let body = rigid(a, key, self.dim, self.thickness, self.rigids.len())?;
                 let start_gap = match a.get("start_gap") {
                     None | Some(Value::Null) => None,
                     Some(g) => Some(num(g, key)?),
                 };
-                rigids.push(RigidSpec { body, start_gap });
+                self.rigids.push(RigidSpec { body, start_gap });
                 b
             }
             "contact" => {
-                contact = Some(contact_spec(&a)?);
+                self.contact = Some(contact_spec(a)?);
                 b
             }
             other => return Err(format!("{key}: unknown call \"{other}\"")),
         };
+        self.calls += 1;
+        Ok(())
     }
-    let b = if contact.is_some() || !rigids.is_empty() {
-        b.contact(contact.unwrap_or_default(), rigids)
-    } else {
-        b
-    };
-    b.solid(solid).build().map_err(|e| e.to_string())
+
+    /// The simulation (the builder stays as it was: it can build again).
+    pub fn build(&self) -> R<Simulation> {
+        let p = self.clone();
+        let b = if p.contact.is_some() || !p.rigids.is_empty() {
+            p.b.contact(p.contact.unwrap_or_default(), p.rigids)
+        } else {
+            p.b
+        };
+        b.solid(p.solid).build().map_err(|e| e.to_string())
+    }
 }
 
 /// Contact options as `[contact]` (checked against the body by the library's builder).

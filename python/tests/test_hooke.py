@@ -453,6 +453,32 @@ def test_region_and_shape_classes_build_the_same_run_as_the_dict_forms(tmp_path)
         hooke.Builder("cubic", spacing=1e-3).add(hooke.HalfSpace([0, 0, 0], [0, 0, 1]))
 
 
+def test_the_builder_applies_each_call_as_it_is_made(tmp_path):
+    """hooke.Builder is the library's builder: a mistake raises at its own call, naming it
+    (not later at build()); numpy values are taken as numbers; a builder builds again, and its
+    two simulations step alike; run.json records the calls."""
+    b = hooke.Builder("hex", spacing=1e-3).thickness(1e-3).box(np.array([0.0, 0.0]),
+                                                               np.array([1e-2, 1e-2]))
+    with pytest.raises(hooke.CaseError, match=r"boundary \(call 3\).*face"):
+        b.boundary({"face": "w+"}, fixed=["x"])
+    with pytest.raises(hooke.CaseError, match=r"plane \(call 3\).*stress"):
+        b.plane("bent")
+    with pytest.raises(hooke.CaseError, match="lattice"):
+        hooke.Builder("square", spacing=1e-3)
+    # The failed calls changed nothing: the builder goes on from where it was.
+    b.material(1e9, np.float32(0.2), 1000).boundary(hooke.Face("y-"), fixed=["x", "y"])
+    b.boundary(hooke.Face("y+"), velocity={"y": hooke.ramp(0.1, 1e-6)}).end_time(2e-6)
+    s1, s2 = b.build(tmp_path / "a", "p"), b.build(tmp_path / "b", "p")
+    s1.step(10)
+    s2.step(10)
+    assert np.array_equal(s1.displacement, s2.displacement) and np.abs(s1.displacement).max() > 0
+    s1.finish()
+    info = json.loads((tmp_path / "a" / "run.json").read_text())
+    case = json.loads(info["case"])
+    assert case["lattice"] == "hex" and [c[0] for c in case["calls"]] == [
+        "thickness", "box", "material", "boundary", "boundary", "end_time"]
+
+
 def test_results_are_typed(tmp_path):
     """Reactions come back as hooke.Reaction (numpy force and displacement, still indexable
     by key); histories as structured numpy arrays whose last records are the run's end."""
