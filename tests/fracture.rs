@@ -353,7 +353,7 @@ fn folded_break_check_is_the_check_after_the_step_bit_for_bit() {
         };
         let mut ia = Integrator::new(&body, &mut a, Loading::default(), &opts).unwrap();
         let mut ib = Integrator::new(&body, &mut b, Loading::default(), &opts).unwrap();
-        assert_eq!(ia.kernel.name(), ib.kernel.name());
+        assert_eq!(ia.kernel().name(), ib.kernel().name());
         let crit = || Box::new(CriticalStretch::new(0.01).unwrap());
         let (mut fa, mut fb) = (Fracture::new(&body, crit()), Fracture::new(&body, crit()));
         let no_fail: Vec<u32> = (0..body.nodes() as u32).filter(|&i| i % 13 == 0).collect();

@@ -81,7 +81,7 @@ fn steps_allocate_nothing() {
                 during,
                 0,
                 "kernel {}: {during} allocations in 200 steps",
-                it.kernel.name()
+                it.kernel().name()
             );
             // The folded break check: a screen every stretched spring passes (all nodes no-fail,
             // so every flagged spring is examined and none breaks), and one nothing passes.
@@ -104,7 +104,7 @@ fn steps_allocate_nothing() {
                     during,
                     0,
                     "kernel {} with fracture (s_c {s_c}): {during} allocations in 200 steps",
-                    it.kernel.name()
+                    it.kernel().name()
                 );
                 assert_eq!(fr.broken_total, 0);
             }

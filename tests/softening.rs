@@ -204,7 +204,7 @@ fn softening_run(kind: LatticeKind, nu: Real, shape: SofteningShape, safety: Rea
         ..Default::default()
     };
     let mut it = Integrator::new(&body, &mut state, loading, &opts).unwrap();
-    let first = it.kernel.name();
+    let first = it.kernel().name();
     let law = Softening::new(0.004, 0.03, shape).unwrap();
     let mut fr = Fracture::new(&body, Box::new(law));
     let (mut worst, end) = (0.0, 300.0);
@@ -218,7 +218,7 @@ fn softening_run(kind: LatticeKind, nu: Real, shape: SofteningShape, safety: Rea
         worst = Real::max(worst, b.relative_error.abs());
     }
     Outcome {
-        kernels: (first, it.kernel.name()),
+        kernels: (first, it.kernel().name()),
         state,
         softened: fr.softened_total,
         broken: fr.broken_total,

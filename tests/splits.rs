@@ -132,7 +132,7 @@ fn run(
     let n = body.nodes();
     let opts = options(path);
     let mut it = Integrator::new_shared(&body, &mut state, loading(n), &opts, team).unwrap();
-    let name = it.kernel.name().to_string();
+    let name = it.kernel().name().to_string();
     let mut fr = Fracture::new(&body, Box::new(CriticalStretch::new(0.03).unwrap()));
     if pieces {
         let (pb, mut ps) = it.cut(&body, &state).unwrap();

@@ -200,7 +200,7 @@ impl PySimulation {
             let run = self.running()?;
             if run.done()
                 || budget == 0
-                || run.simulation().state.time >= until - 0.5 * run.integrator().dt
+                || run.simulation().state.time >= until - 0.5 * run.integrator().dt()
             {
                 // Back in Python: the state shows every break due, and the output folder every
                 // frame written so far.
@@ -214,7 +214,7 @@ impl PySimulation {
             let result = py.detach(|| -> hooke_sim::Result<()> {
                 for _ in 0..n {
                     if run.done()
-                        || run.simulation().state.time >= until - 0.5 * run.integrator().dt
+                        || run.simulation().state.time >= until - 0.5 * run.integrator().dt()
                     {
                         break;
                     }
@@ -303,7 +303,7 @@ impl PySimulation {
             }
         }
         // Start now, so that the time step is known.
-        let dt = slf.borrow_mut().running()?.integrator().dt;
+        let dt = slf.borrow_mut().running()?.integrator().dt();
         loop {
             let now = slf.borrow().sim().state.time;
             // The next multiple of `every` past the current step (a step lands within half a
@@ -408,7 +408,7 @@ impl PySimulation {
     /// The time step (s), once started.
     #[getter]
     fn dt(&self) -> Option<Real> {
-        self.run.as_ref().map(|r| r.integrator().dt)
+        self.run.as_ref().map(|r| r.integrator().dt())
     }
 
     #[getter]

@@ -324,7 +324,7 @@ fn bench_fracture(args: &BenchArgs) -> Result<()> {
         ));
     }
     let mut out = serde_json::json!({
-        "lattice": kind.name(), "kernel": it.kernel.name(), "nodes": body.nodes(),
+        "lattice": kind.name(), "kernel": it.kernel().name(), "nodes": body.nodes(),
         "springs": body.springs(), "threads": rayon::current_num_threads(),
         "repeats": args.repeats, "steps": steps,
         "intact_seconds_per_step": without / steps as f64,
@@ -371,7 +371,7 @@ fn bench_fracture(args: &BenchArgs) -> Result<()> {
         )?;
         out["case"] = serde_json::json!(case.display().to_string());
         out["case_nodes"] = serde_json::json!(body.nodes());
-        out["case_kernel"] = serde_json::json!(it.kernel.name());
+        out["case_kernel"] = serde_json::json!(it.kernel().name());
         out["crack_time"] = serde_json::json!(until);
         out["springs_broken_while_timed"] = serde_json::json!(fr.broken_total - before);
         out["case_intact_seconds_per_step"] = serde_json::json!(without / steps as f64);
@@ -536,7 +536,7 @@ fn bench_frame(args: &BenchArgs) -> Result<()> {
         // and windows of no steps would time nothing.
         let needed = 2 * args.repeats as u64 * args.steps;
         let left = run.simulation().end_time - run.simulation().state.time;
-        let dt = run.integrator().dt;
+        let dt = run.integrator().dt();
         if (needed as Real) * dt > left {
             return Err(InputError(format!(
                 "the windows need {needed} steps ({:.3e} s) but the case ends {left:.3e} s after --crack-time: use fewer --repeats or --steps, or an earlier --crack-time",
@@ -555,7 +555,7 @@ fn bench_frame(args: &BenchArgs) -> Result<()> {
             run.steps(args.steps, &mut quiet)?;
             tb.push(t0.elapsed().as_secs_f64());
         }
-        let kernel = run.integrator().kernel.name().to_string();
+        let kernel = run.integrator().kernel().name().to_string();
         let broken = run.simulation().broken().0;
         // What the run holds once it has written frames: a box on a stencil keeps no rows.
         let rows = run.simulation().body.lattice.bonds.is_built();

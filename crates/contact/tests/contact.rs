@@ -443,7 +443,7 @@ fn free_body_keeps_its_angular_momentum_exactly() {
     );
     // The centre of mass moves on at its velocity, to the rounding of the 20 000 additions
     // `x += v dt` (each within half an ulp of x; how they add up depends on dt's last bits).
-    let t = 20_000.0 * it.dt;
+    let t = 20_000.0 * it.dt();
     let drift = (b.position[0] - (1.0 + t)).abs();
     assert!(
         drift <= 20_000.0 * 0.5 * f64::EPSILON * (1.0 + t),
@@ -614,7 +614,7 @@ fn a_spinning_kinematic_roller_drags_a_block() {
     assert_eq!(b.position, at);
     // It turned by 2000 rad/s for 400 steps: the quaternion's angle says so.
     let angle = 2.0 * b.orientation[1].atan2(b.orientation[0]);
-    let expect = (2000.0 * 400.0 * it.dt) % (2.0 * std::f64::consts::PI);
+    let expect = (2000.0 * 400.0 * it.dt()) % (2.0 * std::f64::consts::PI);
     let wrapped = (angle - expect).rem_euclid(2.0 * std::f64::consts::PI);
     assert!(
         wrapped.min(2.0 * std::f64::consts::PI - wrapped) < 1e-9,

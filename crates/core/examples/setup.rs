@@ -70,12 +70,12 @@ fn main() {
         h.reals(c.surface.iter().flatten().copied());
     }
     h.reals(body.mass.iter().copied());
-    h.reals([it.dt, it.stable.lambda_max]);
+    h.reals([it.dt(), it.stable().lambda_max]);
     println!(
         "nodes {} springs {} lattice {lattice_s:.3} s total {total_s:.3} s dt {:e} hash {:016x}",
         lat.pos.len(),
         lat.bonds.len(),
-        it.dt,
+        it.dt(),
         h.0
     );
 }

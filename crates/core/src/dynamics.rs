@@ -177,10 +177,11 @@ pub enum Reads<'a> {
 /// The explicit integrator for one body.
 #[derive(Debug)]
 pub struct Integrator {
-    pub dt: Real,
-    pub damping: Real,
-    pub kernel: Kernel,
-    pub stable: StableStep,
+    /// The time step (s), fixed for the run ([`Integrator::dt`]).
+    dt: Real,
+    damping: Real,
+    kernel: Kernel,
+    stable: StableStep,
     loading: Loading,
     motions: Vec<Motion>,
     dofs: Vec<PrescribedDof>,
@@ -315,6 +316,32 @@ fn step_size(opts: &IntegratorOptions, stable: &StableStep) -> Result<Real> {
 }
 
 impl Integrator {
+    /// The time step (s).
+    pub fn dt(&self) -> Real {
+        self.dt
+    }
+
+    /// The mass-proportional damping coefficient c (1/s): a force `-c m v` on every node.
+    pub fn damping(&self) -> Real {
+        self.damping
+    }
+
+    /// The kernel that sweeps the body (its name, its memory; see [`Kernel`]).
+    pub fn kernel(&self) -> &Kernel {
+        &self.kernel
+    }
+
+    /// The stable step and the estimate behind it.
+    pub fn stable(&self) -> &StableStep {
+        &self.stable
+    }
+
+    /// Take the AVX2 vector path even where AVX-512 is there too (to test and measure it);
+    /// false where the kernel has no such path or the processor lacks AVX2.
+    pub fn use_avx2(&mut self) -> bool {
+        self.kernel.use_avx2()
+    }
+
     /// The integrator's heap memory by part, its kernel's included (see
     /// [`crate::memory::Footprint`]).
     pub fn footprint(&self) -> crate::memory::Footprint {

@@ -808,7 +808,8 @@ mod tests {
                 };
                 let alone = Integrator::new(&body, &mut state.clone(), Loading::default(), &opts)
                     .unwrap()
-                    .stable;
+                    .stable()
+                    .to_owned();
                 for size in [2, 3] {
                     let found: Vec<(f64, f64)> = std::thread::scope(|s| {
                         let handles: Vec<_> = Threads::team(size)
@@ -825,7 +826,7 @@ mod tests {
                                         Some(team),
                                     )
                                     .unwrap();
-                                    (it.stable.lambda_max, it.stable.dt_critical)
+                                    (it.stable().lambda_max, it.stable().dt_critical)
                                 })
                             })
                             .collect();

@@ -217,7 +217,7 @@ pub fn steps(
             moving_body(args, lattice, q_from_nu(kind, nu)?, team.clone())?;
         let setup_parts = setup_seconds_by_part(lattice_seconds, body_seconds, integrator_seconds);
         if let Some(export) = export {
-            export(&body, &state, it.dt)?;
+            export(&body, &state, it.dt())?;
         }
         let (nodes, springs) = (body.nodes(), body.springs());
         let (body, state) = if args.pieces {
@@ -259,7 +259,7 @@ pub fn steps(
     Ok(StepsReport {
         law: args.law.name().into(),
         lattice: body.lattice.kind.name().into(),
-        kernel: it.kernel.name().to_string(),
+        kernel: it.kernel().name().to_string(),
         nodes,
         springs,
         steps: args.steps,
@@ -553,7 +553,7 @@ pub fn compare(args: &BenchOptions) -> Result<CompareReport> {
         nodes: runs[0].0.nodes(),
         springs,
         threads: rayon::current_num_threads(),
-        kernel: runs[1].2.kernel.name().to_string(),
+        kernel: runs[1].2.kernel().name().to_string(),
         repeats: args.repeats,
         steps: args.steps,
         plain_seconds_per_step: plain,

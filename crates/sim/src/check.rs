@@ -132,12 +132,12 @@ impl Simulation {
         .map(|(_, b)| b)
         .sum();
         let kind = self.body.lattice.kind;
-        let steps = (self.end_time / it.dt).ceil();
+        let steps = (self.end_time / it.dt()).ceil();
         let anisotropic = self.anisotropic_report()?;
         Ok(CheckReport {
             valid: true,
             lattice: kind.name(),
-            kernel: it.kernel.name(),
+            kernel: it.kernel().name(),
             spacing: self.body.lattice.spacing,
             nodes: self.body.nodes(),
             springs: self.body.springs(),
@@ -163,8 +163,8 @@ impl Simulation {
                     nodes: b.nodes.len(),
                 })
                 .collect(),
-            dt: it.dt,
-            dt_critical: it.stable.dt_critical,
+            dt: it.dt(),
+            dt_critical: it.stable().dt_critical,
             steps,
             end_time: self.end_time,
             quasi_static_steps: self.solver.quasi_static_steps(),

@@ -69,9 +69,9 @@ impl Provenance {
         let key = if kind.is_random() { "kappa" } else { "k" };
         constants[key] = json!(sim.k);
         if let Some(it) = it {
-            constants["dt"] = json!(it.dt);
-            constants["dt_critical"] = json!(it.stable.dt_critical);
-            constants["kernel"] = json!(it.kernel.name());
+            constants["dt"] = json!(it.dt());
+            constants["dt_critical"] = json!(it.stable().dt_critical);
+            constants["kernel"] = json!(it.kernel().name());
         }
         let doc = json!({
             "hooke_version": env!("CARGO_PKG_VERSION"),

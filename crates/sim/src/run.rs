@@ -716,7 +716,7 @@ impl Run {
         // The next output times after t. A frame is taken at the first step within half a step
         // of its time, so one due just after t may already have been taken just before it (a
         // resumed run): count t + dt/2 as passed.
-        let t = sim.state.time + 0.5 * it.dt;
+        let t = sim.state.time + 0.5 * it.dt();
         let next = |every: Real| (t / every).floor() * every + every;
         let next_frame = next(sim.output_every);
         let next_ckpt = next(sim.checkpoint_every);
@@ -765,7 +765,7 @@ impl Run {
 
     /// Whether the simulation has reached its end time.
     pub fn done(&self) -> bool {
-        self.sim.state.time >= self.sim.end_time - 0.5 * self.it.dt
+        self.sim.state.time >= self.sim.end_time - 0.5 * self.it.dt()
     }
 
     /// Commit the breaks that are due at the current state (a screened criterion decides them
@@ -877,7 +877,7 @@ impl Run {
 
     /// Frames, reactions and checkpoints that are due after the step just taken.
     fn write_due(&mut self) -> Result<()> {
-        let half = 0.5 * self.it.dt;
+        let half = 0.5 * self.it.dt();
         let done = self.sim.state.time >= self.sim.end_time - half;
         let time = self.sim.state.time;
         let reactions_due = self.next_reactions.is_some_and(|n| time >= n - half);
@@ -962,7 +962,7 @@ impl Run {
 
     fn advance_inner(&mut self, time: Real, obs: &mut dyn Observer) -> Result<()> {
         let until = time.min(self.sim.end_time);
-        while !self.done() && self.sim.state.time < until - 0.5 * self.it.dt {
+        while !self.done() && self.sim.state.time < until - 0.5 * self.it.dt() {
             self.step(obs)?;
         }
         self.settle();

@@ -1190,7 +1190,7 @@ mod tests {
         };
         let it = Integrator::new(body, &mut state, Loading::default(), &opts).unwrap();
         if path == Path::Avx2 {
-            assert_eq!(it.kernel.name(), "rows-avx2");
+            assert_eq!(it.kernel().name(), "rows-avx2");
         }
         let mut it = it;
         for step in 0..40 {
@@ -1205,7 +1205,7 @@ mod tests {
                 }
             }
         }
-        (state, it.kernel.name())
+        (state, it.kernel().name())
     }
 
     fn bits(s: &State) -> Vec<u64> {

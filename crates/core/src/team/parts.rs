@@ -750,7 +750,7 @@ mod tests {
         let steps = 25;
         let mut alone = State::new(body);
         let mut it = Integrator::new(body, &mut alone, Loading::default(), opts).unwrap();
-        let dt = it.dt;
+        let dt = it.dt();
         swing(&mut alone, &body.lattice.pos, &|_| false);
         for _ in 0..steps {
             it.step(body, &mut alone);
@@ -781,7 +781,7 @@ mod tests {
                             opts,
                         )
                         .unwrap();
-                        assert_eq!(it.dt.to_bits(), dt.to_bits(), "dt, {at}");
+                        assert_eq!(it.dt().to_bits(), dt.to_bits(), "dt, {at}");
                         swing(&mut ps, &pb.lattice.pos, &|i| global[i] == PAD);
                         for _ in 0..steps {
                             it.step(&pb, &mut ps);
@@ -872,7 +872,7 @@ mod tests {
         for size in [2, 3] {
             std::thread::scope(|scope| {
                 for team in Threads::team(size) {
-                    let (alone, dt, opts) = (&alone, it.dt, &opts);
+                    let (alone, dt, opts) = (&alone, it.dt(), &opts);
                     scope.spawn(move || {
                         let team: std::sync::Arc<dyn Team> = std::sync::Arc::new(team);
                         let at_rank = format!("{size} ranks, rank {}", team.rank());
@@ -902,7 +902,7 @@ mod tests {
                         let mut it =
                             Integrator::on_piece(&pb, &mut ps, loading, piece, share, team, opts)
                                 .unwrap();
-                        assert_eq!(it.dt.to_bits(), dt.to_bits(), "dt, {at_rank}");
+                        assert_eq!(it.dt().to_bits(), dt.to_bits(), "dt, {at_rank}");
                         for _ in 0..steps {
                             it.step(&pb, &mut ps);
                         }
