@@ -7,6 +7,7 @@
 
 use hooke_core::anisotropy::{tensor_component, Transverse};
 use hooke_core::kernel::Kernel;
+use hooke_core::Designs;
 use hooke_core::{law, Body, Coords, Lattice, LatticeKind, Real, State, Vector};
 use hooke_tests::{
     assert_force_is_minus_energy_gradient, assert_tangent_is_force_jacobian, dense_tangent,

@@ -1,6 +1,6 @@
-//! A fingerprint of this crate's sources and of `hooke-lattice`'s, whose random lattices the
-//! calibrations are measured on (and of the workspace's lock file, where there is one),
-//! for the on-disk cache of calibrations (`random::anisotropic`): a cached design is used only
+//! A fingerprint of this crate's sources, of those below it (`hooke-lattice`, whose random
+//! lattices the calibrations are measured on, `hooke-model` and `hooke-kernel`) and of the
+//! workspace's lock file, where there is one, for the on-disk cache of calibrations (`random::anisotropic`): a cached design is used only
 //! by a build of exactly the code that computed it, so a cache hit gives the bits a fresh
 //! calibration would.
 
@@ -28,14 +28,20 @@ fn files(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
+/// The crates core builds on whose sources a calibration's bits depend on.
+const BELOW: [&str; 3] = ["lattice", "model", "kernel"];
+
 fn main() {
     let root = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("set by cargo"));
-    let lattice = root.join("../lattice");
     let mut list = Vec::new();
     files(&root.join("src"), &mut list);
     list.push(root.join("Cargo.toml"));
-    files(&lattice.join("src"), &mut list);
-    list.push(lattice.join("Cargo.toml"));
+    // The crates below, whose code a calibration runs.
+    for below in BELOW {
+        let dir = root.join("..").join(below);
+        files(&dir.join("src"), &mut list);
+        list.push(dir.join("Cargo.toml"));
+    }
     list.push(root.join("../../Cargo.lock"));
     // The order of a directory listing is the file system's: sort for a stable hash.
     list.sort();
@@ -55,8 +61,10 @@ fn main() {
     println!("cargo:rustc-env=HOOKE_CORE_FINGERPRINT={h:016x}");
     println!("cargo:rerun-if-changed=src");
     println!("cargo:rerun-if-changed=Cargo.toml");
-    println!("cargo:rerun-if-changed=../lattice/src");
-    println!("cargo:rerun-if-changed=../lattice/Cargo.toml");
+    for below in BELOW {
+        println!("cargo:rerun-if-changed=../{below}/src");
+        println!("cargo:rerun-if-changed=../{below}/Cargo.toml");
+    }
     if root.join("../../Cargo.lock").exists() {
         println!("cargo:rerun-if-changed=../../Cargo.lock");
     }

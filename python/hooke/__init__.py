@@ -29,7 +29,7 @@ __version__ = _hooke.__version__
 __all__ = ["load_case", "loads", "Builder", "ramp", "smooth_ramp", "table", "Simulation", "moduli",
            "toughness", "read", "Output", "Reaction", "CaseError", "RunError",
            "Region", "All", "Face", "Plane", "Nodes", "Shape", "Box", "Sphere", "Cylinder",
-           "Capsule", "HalfSpace"]
+           "Capsule", "HalfSpace", "Report", "Moduli", "Toughness", "Check", "Summary"]
 
 
 def _vec(v: Any, what: str) -> List[float]:
@@ -232,6 +232,80 @@ class Reaction:
                 f"displacement={self.displacement.tolist()})")
 
 
+class Report(dict):
+    """A measurement's or a run's report, as the command line's ``--json`` writes it: every
+    key reads as an attribute too (``r.nu_measured``), where a list of numbers comes back as a
+    numpy array (``r.C_measured`` is 6x6) and a nested report as a :class:`Report`. It is
+    still the JSON's mapping (``r["nu_measured"]``, comparisons, ``json.dumps``), so the keys
+    stay the command line's, a contract with other tools."""
+
+    __slots__ = ()
+
+    def __getattr__(self, key: str) -> Any:
+        try:
+            value = self[key]
+        except KeyError:
+            raise AttributeError(f"{type(self).__name__} has no {key!r}; its keys: "
+                                 f"{', '.join(sorted(self))}") from None
+        return _typed(value)
+
+    def __dir__(self) -> List[str]:
+        return sorted(set(super().__dir__()) | {k for k in self if k.isidentifier()})
+
+    def __repr__(self) -> str:
+        return f"hooke.{type(self).__name__}({dict.__repr__(self)})"
+
+
+def _number(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def _typed(value: Any) -> Any:
+    """A JSON value as a report attribute gives it: a list of numbers, or a matrix of them,
+    as a numpy array; a mapping as a :class:`Report`; anything else as it is."""
+    if isinstance(value, dict):
+        return Report(value)
+    if isinstance(value, list) and value:
+        flat = all(_number(x) for x in value)
+        matrix = all(isinstance(x, list) and x and all(_number(y) for y in x) for x in value)
+        if flat or (matrix and len({len(x) for x in value}) == 1):
+            return np.asarray(value, dtype=float)
+    return value
+
+
+class Moduli(Report):
+    """What :func:`moduli` measured (``hooke moduli --json``). The block test: ``E_target``,
+    ``E_measured``, ``nu_target``, ``nu_measured`` and their errors, ``q``, ``size``, the
+    solver's ``iterations`` and ``residual``; the bulk tests (``bulk=True``): ``C_measured``
+    and ``C_target`` (6x6, Voigt order ``voigt``, Pa), ``max_relative_difference``, and on
+    random lattices ``C_spread`` and ``C_affine``."""
+
+    __slots__ = ()
+
+
+class Toughness(Report):
+    """What :func:`toughness` measured (``hooke toughness --json``): the fracture energy the
+    strip's crack dissipated per unit area against the calibrated ``G_c`` (``ratio``), with
+    the window's statistics."""
+
+    __slots__ = ()
+
+
+class Check(Report):
+    """What :meth:`Simulation.check` found (``hooke check --json``): ``valid``, ``nodes``,
+    ``springs``, the constants, ``dt`` and ``dt_critical``, the memory (``state_bytes``,
+    ``peak_memory_bytes``), the time it would take, and ``notes`` on calibrated ranges."""
+
+    __slots__ = ()
+
+
+class Summary(Report):
+    """What a finished run reports (``hooke run --json``): steps, time, broken springs,
+    energy, reactions, outputs and ``output_dir``."""
+
+    __slots__ = ()
+
+
 # The columns of a run's histories (NAME_KIND.csv), typed: what ``Output.history`` returns.
 _REACTION_DTYPE = np.dtype([("time", "f8"), ("force", "f8", (3,)), ("displacement", "f8", (3,))])
 
@@ -273,16 +347,17 @@ class Simulation:
         self._inner.run(until, every, cb)
         return self
 
-    def finish(self) -> Dict[str, Any]:
+    def finish(self) -> "Summary":
         """Run to the end time and make the outputs final; returns ``hooke run --json``'s
-        summary (steps, time, broken springs, energy, reactions, outputs, output_dir)."""
-        return json.loads(self._inner.finish())
+        :class:`Summary` (steps, time, broken springs, energy, reactions, outputs,
+        output_dir)."""
+        return Summary(json.loads(self._inner.finish()))
 
-    def check(self) -> Dict[str, Any]:
+    def check(self) -> "Check":
         """What the simulation would do, before its first step: ``hooke check --json``'s
-        report from the same library call (nodes, springs, constants, dt, memory, the time it
-        would take, ``notes`` on calibrated ranges). The simulation is not stepped."""
-        return json.loads(self._inner.check())
+        :class:`Check` from the same library call (nodes, springs, constants, dt, memory, the
+        time it would take, ``notes`` on calibrated ranges). The simulation is not stepped."""
+        return Check(json.loads(self._inner.check()))
 
     def __enter__(self) -> "Simulation":
         return self
@@ -370,11 +445,11 @@ class Simulation:
         """Springs broken so far and the energy they released (J)."""
         return self._inner.broken()
 
-    def energy(self) -> Dict[str, float]:
-        """The energy ledger now (J): kinetic, strain_direct, strain_dispersive, external_work,
-        boundary_work, body_work, dissipated, released, balance_error (NAME_energy.csv's
-        columns)."""
-        return json.loads(self._inner.energy_json())
+    def energy(self) -> "Report":
+        """The energy ledger now (J), a :class:`Report`: kinetic, strain_direct,
+        strain_dispersive, external_work, boundary_work, body_work, dissipated, released,
+        balance_error (NAME_energy.csv's columns; ``sim.energy().kinetic``)."""
+        return Report(json.loads(self._inner.energy_json()))
 
     def reactions(self) -> Dict[str, Reaction]:
         """Each boundary region's :class:`Reaction` now (force on the body in N, mean
@@ -734,7 +809,7 @@ class Builder:
         return Simulation(self._inner.build(str(out), name))
 
 
-def moduli(lattice: str = "cubic", nu: Optional[float] = 0.3, **flags: Any) -> Dict[str, Any]:
+def moduli(lattice: str = "cubic", nu: Optional[float] = 0.3, **flags: Any) -> "Moduli":
     """The paper's block test, as ``hooke moduli --lattice LATTICE --nu NU ... --json``: the
     same keys and numbers. Other flags by name (``size=[21, 6, 6]``, ``samples=4``,
     ``sampler="jitter"``; ``bulk=True``: the exact bulk test's 6x6 ``C_measured`` and
@@ -751,14 +826,14 @@ def moduli(lattice: str = "cubic", nu: Optional[float] = 0.3, **flags: Any) -> D
         # Weighted is the default: False asks for the old equal weights, not for nothing.
         flags = {k: v for k, v in flags.items() if k != "cell_weights"}
         flags["equal_weights"] = True
-    return json.loads(_hooke.moduli_json(_options(lattice, nu, flags)))
+    return Moduli(json.loads(_hooke.moduli_json(_options(lattice, nu, flags))))
 
 
-def toughness(lattice: str = "hex", nu: float = 0.25, **flags: Any) -> Dict[str, Any]:
+def toughness(lattice: str = "hex", nu: float = 0.25, **flags: Any) -> "Toughness":
     """The fracture energy a lattice crack dissipates in a strip under fixed grips, against
     the G_c calibration, as ``hooke toughness --lattice LATTICE --nu NU ... --json`` (same keys
     and numbers). Other flags by name (``height=20``, ``window=4``, ``criterion="energy"``)."""
-    return json.loads(_hooke.toughness_json(_options(lattice, nu, flags)))
+    return Toughness(json.loads(_hooke.toughness_json(_options(lattice, nu, flags))))
 
 
 class Output:

@@ -6,10 +6,15 @@
 //! and leaves the simulation usable (the KeyboardInterrupt arrives after a whole step).
 //!
 //! Modules: this file (the `Simulation` and `Builder` classes, `load_case`, the `hooke-lab`
-//! calls and the numpy views, the one place with `unsafe` here) and `spec` (a `hooke.Builder`
-//! call's arguments applied to `hooke_sim::Builder` as the call is made).
+//! calls), `views` (the zero-copy numpy views, the one place with `unsafe` here) and `spec` (a
+//! `hooke.Builder` call's arguments applied to `hooke_sim::Builder` as the call is made).
+
+// `unsafe` only in `views`, each block with its SAFETY comment.
+#![deny(unsafe_code)]
 
 mod spec;
+#[allow(unsafe_code)]
+mod views;
 
 // Large arrays at staggered offsets into their pages, as in the `hooke` binary
 // (hooke_sys::alloc): the extension's own allocations only; Python's are its own.
@@ -19,8 +24,7 @@ static ALLOC: hooke_sys::alloc::Staggered = hooke_sys::alloc::Staggered;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use numpy::ndarray::{ArrayView1, ArrayView2, ShapeBuilder};
-use numpy::{PyArray1, PyArray2, PyArrayMethods};
+use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
@@ -237,41 +241,6 @@ impl PySimulation {
     }
 }
 
-/// An `n x 3` read-only numpy array over `c`'s buffer, without a copy (the components are
-/// stored one after the other, so a row steps 8 bytes and a column `8 n`), kept alive by `owner`.
-///
-/// # Safety
-/// `c` lives in `owner` and is neither reallocated nor freed while `owner` lives
-/// (`PySimulation::sync` checks it after every call that runs Rust code).
-unsafe fn coords_view<'py>(
-    c: &Coords,
-    owner: &Bound<'py, PySimulation>,
-) -> Bound<'py, PyArray2<Real>> {
-    let n = c.len();
-    let view = ArrayView2::from_shape((n, 3).strides((1, n.max(1))), c.as_flat())
-        .expect("3 n values in component order");
-    // SAFETY: the caller's promise.
-    let a = unsafe { PyArray2::borrow_from_array(&view, owner.clone().into_any()) };
-    a.readwrite().make_nonwriteable();
-    a
-}
-
-/// A read-only numpy array over a slice owned by `owner`, without a copy.
-///
-/// # Safety
-/// As for [`coords_view`]: `v` lives in `owner` and is neither reallocated nor freed while
-/// `owner` lives.
-unsafe fn slice_view<'py, T: numpy::Element>(
-    v: &[T],
-    owner: &Bound<'py, PySimulation>,
-) -> Bound<'py, PyArray1<T>> {
-    let view = ArrayView1::from(v);
-    // SAFETY: the caller's promise.
-    let a = unsafe { PyArray1::borrow_from_array(&view, owner.clone().into_any()) };
-    a.readwrite().make_nonwriteable();
-    a
-}
-
 #[pymethods]
 impl PySimulation {
     /// Take `n` explicit steps (fewer if the end time comes first).
@@ -437,9 +406,7 @@ impl PySimulation {
     #[getter]
     fn positions<'py>(slf: Bound<'py, Self>) -> Bound<'py, PyArray2<Real>> {
         slf.borrow_mut().remember("positions");
-        let me = slf.borrow();
-        // SAFETY: the lattice is immutable and lives in the simulation, which `slf` owns.
-        unsafe { coords_view(&me.sim().body.lattice.pos, &slf) }
+        views::coords(&slf, views::Coords::Positions)
     }
 
     /// Displacements (m), n x 3, a read-only view without a copy that follows the state: it
@@ -452,10 +419,7 @@ impl PySimulation {
                 me.u_home = Some(me.sim().state.u.as_flat().as_ptr() as usize);
             }
         }
-        let me = slf.borrow();
-        // SAFETY: `u_home` pins the allocation; `sync` keeps the displacements in it, and the
-        // state's buffers are overwritten in place (never replaced) while the object lives.
-        unsafe { coords_view(&me.sim().state.u, &slf) }
+        views::coords(&slf, views::Coords::Displacement)
     }
 
     /// Velocities (m/s) at the current time (the full step, not leapfrog's half step), n x 3,
@@ -470,9 +434,7 @@ impl PySimulation {
                 me.sync()?;
             }
         }
-        let me = slf.borrow();
-        // SAFETY: the buffer belongs to `slf` and is only ever overwritten in place.
-        Ok(unsafe { coords_view(me.velocity.as_ref().expect("made above"), &slf) })
+        Ok(views::coords(&slf, views::Coords::Velocity))
     }
 
     /// Damage per node: the fraction of its springs that are broken (0 without fracture),
@@ -486,23 +448,14 @@ impl PySimulation {
                 me.sync()?;
             }
         }
-        let me = slf.borrow();
-        // SAFETY: the buffer belongs to `slf` and is only ever overwritten in place.
-        Ok(unsafe { slice_view(me.damage.as_ref().expect("made above"), &slf) })
+        Ok(views::damage(&slf))
     }
 
     /// Each spring's end nodes, m x 2 (uint32), a read-only view without a copy.
     #[getter]
     fn spring_ends<'py>(slf: Bound<'py, Self>) -> Bound<'py, PyArray2<u32>> {
         slf.borrow_mut().remember("spring_ends");
-        let me = slf.borrow();
-        let ends = &me.sim().body.lattice.bonds.ends;
-        let flat = ends.as_flattened();
-        let view = ArrayView2::from_shape((ends.len(), 2), flat).expect("2 m values");
-        // SAFETY: the topology is immutable and lives in the simulation, which `slf` owns.
-        let a = unsafe { PyArray2::borrow_from_array(&view, slf.clone().into_any()) };
-        a.readwrite().make_nonwriteable();
-        a
+        views::spring_ends(&slf)
     }
 
     /// Whether each spring is intact (bool, m), a read-only view without a copy that follows
@@ -510,9 +463,7 @@ impl PySimulation {
     #[getter]
     fn spring_intact<'py>(slf: Bound<'py, Self>) -> Bound<'py, PyArray1<bool>> {
         slf.borrow_mut().remember("spring_intact");
-        let me = slf.borrow();
-        // SAFETY: springs are broken in place; the buffer lives in the state, which `slf` owns.
-        unsafe { slice_view(me.sim().state.alive(), &slf) }
+        views::spring_intact(&slf)
     }
 
     /// The energy ledger now (J) as JSON text (`NAME_energy.csv`'s columns).

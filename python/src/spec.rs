@@ -165,6 +165,64 @@ fn region(v: &Value, key: &str) -> R<Region> {
 /// A rigid body (the case file's `[[rigid]]`, without `start_gap`), `dim` the lattice's.
 fn rigid(a: &Value, key: &str, dim: usize, thickness: Real, k: usize) -> R<RigidBody> {
     let sh = field(a, "shape", key)?;
+    let geometry = rigid_geometry(sh, key, dim)?;
+    let position = point(field(a, "position", key)?, key)?;
+    let velocity = match a.get("velocity") {
+        Some(v) => point(v, key)?,
+        None => [0.0; 3],
+    };
+    if position.iter().chain(&velocity).any(|x| !x.is_finite()) {
+        return Err(format!("{key}: position and velocity must be finite"));
+    }
+    let motion = rigid_motion(a, key, &geometry, velocity, thickness)?;
+    let friction = match a.get("friction") {
+        None => 0.0,
+        Some(f) => {
+            let x = num(f, key)?;
+            if !(x.is_finite() && x >= 0.0) {
+                return Err(format!(
+                    "{key}: friction {x}: give a Coulomb coefficient >= 0"
+                ));
+            }
+            x
+        }
+    };
+    let name = match a.get("name").and_then(Value::as_str) {
+        Some(n) => n.to_string(),
+        None => format!("rigid{k}"),
+    };
+    let flat = |p: [Real; 3]| [p[0], p[1], if dim == 3 { p[2] } else { 0.0 }];
+    let rotates = match a.get("rotates") {
+        None => None,
+        Some(r) => Some(
+            r.as_bool()
+                .ok_or_else(|| format!("{key}: rotates: give true or false"))?,
+        ),
+    };
+    let spin: Option<Vec<Real>> = match a.get("angular_velocity") {
+        None => None,
+        Some(w) => Some(
+            w.as_array()
+                .and_then(|v| v.iter().map(Value::as_f64).collect::<Option<Vec<Real>>>())
+                .ok_or_else(|| {
+                    format!("{key}: angular_velocity: give a list of numbers (rad/s)")
+                })?,
+        ),
+    };
+    RigidBody::new(
+        name,
+        geometry,
+        motion,
+        flat(position),
+        flat(velocity),
+        friction,
+    )
+    .with_spin_settings(rotates, spin.as_deref(), dim)
+    .map_err(|(which, why)| format!("{key}: {which}: {why}"))
+}
+
+/// A rigid body's shape from its `shape` argument.
+fn rigid_geometry(sh: &Value, key: &str, dim: usize) -> R<Geometry> {
     let pos = |v: &Value, what: &str| positive(v, &format!("{key}: {what}"));
     let axis_or_z = |v: &Value| -> R<usize> {
         match v.get("axis") {
@@ -212,14 +270,19 @@ fn rigid(a: &Value, key: &str, dim: usize, thickness: Real, k: usize) -> R<Rigid
     } else {
         return Err(format!("{key}: give the shape as {{\"sphere\": {{radius}}}}, {{\"box\": {{size}}}}, {{\"cylinder\": {{radius, length, axis}}}}, {{\"capsule\": {{...}}}} or {{\"halfspace\": {{normal}}}}"));
     };
-    let position = point(field(a, "position", key)?, key)?;
-    let velocity = match a.get("velocity") {
-        Some(v) => point(v, key)?,
-        None => [0.0; 3],
-    };
-    if position.iter().chain(&velocity).any(|x| !x.is_finite()) {
-        return Err(format!("{key}: position and velocity must be finite"));
-    }
+    Ok(geometry)
+}
+
+/// A rigid body's motion: kinematic at `velocity`, or dynamic with its mass (given, or from
+/// its density and `geometry`).
+fn rigid_motion(
+    a: &Value,
+    key: &str,
+    geometry: &Geometry,
+    velocity: [Real; 3],
+    thickness: Real,
+) -> R<Motion> {
+    let pos = |v: &Value, what: &str| positive(v, &format!("{key}: {what}"));
     let (mass, density) = (a.get("mass"), a.get("density"));
     let motion = match a.get("motion").and_then(Value::as_str).unwrap_or("dynamic") {
         "kinematic" => {
@@ -254,50 +317,51 @@ fn rigid(a: &Value, key: &str, dim: usize, thickness: Real, k: usize) -> R<Rigid
             ))
         }
     };
-    let friction = match a.get("friction") {
-        None => 0.0,
-        Some(f) => {
-            let x = num(f, key)?;
-            if !(x.is_finite() && x >= 0.0) {
-                return Err(format!(
-                    "{key}: friction {x}: give a Coulomb coefficient >= 0"
-                ));
-            }
-            x
-        }
-    };
-    let name = match a.get("name").and_then(Value::as_str) {
-        Some(n) => n.to_string(),
-        None => format!("rigid{k}"),
-    };
-    let flat = |p: [Real; 3]| [p[0], p[1], if dim == 3 { p[2] } else { 0.0 }];
-    let rotates = match a.get("rotates") {
-        None => None,
-        Some(r) => Some(
-            r.as_bool()
-                .ok_or_else(|| format!("{key}: rotates: give true or false"))?,
-        ),
-    };
-    let spin: Option<Vec<Real>> = match a.get("angular_velocity") {
-        None => None,
-        Some(w) => Some(
-            w.as_array()
-                .and_then(|v| v.iter().map(Value::as_f64).collect::<Option<Vec<Real>>>())
-                .ok_or_else(|| {
-                    format!("{key}: angular_velocity: give a list of numbers (rad/s)")
-                })?,
-        ),
-    };
-    RigidBody::new(
-        name,
-        geometry,
-        motion,
-        flat(position),
-        flat(velocity),
-        friction,
-    )
-    .with_spin_settings(rotates, spin.as_deref(), dim)
-    .map_err(|(which, why)| format!("{key}: {which}: {why}"))
+    Ok(motion)
+}
+
+/// The `transverse` call's material.
+fn transverse(a: &Value, key: &str) -> R<hooke_core::Transverse> {
+    let fibre = point(field(a, "fibre", key)?, key)?;
+    Ok(hooke_core::Transverse {
+        youngs_plane: num(field(a, "youngs_plane", key)?, key)?,
+        youngs_fibre: num(field(a, "youngs_fibre", key)?, key)?,
+        poisson_plane: num(field(a, "poisson_plane", key)?, key)?,
+        poisson_fibre: num(field(a, "poisson_fibre", key)?, key)?,
+        shear_fibre: num(field(a, "shear_fibre", key)?, key)?,
+        density: num(field(a, "density", key)?, key)?,
+        fibre,
+    })
+}
+
+/// A pre-crack: `precrack_segment` (2D, from `a` to `b`) or `precrack_polygon` (3D, its
+/// vertices).
+fn precrack(name: &str, a: &Value, key: &str) -> R<Crack> {
+    if name == "precrack_segment" {
+        let (p, q) = (
+            point(field(a, "a", key)?, key)?,
+            point(field(a, "b", key)?, key)?,
+        );
+        return Ok(Crack::Segment {
+            a: [p[0], p[1]],
+            b: [q[0], q[1]],
+        });
+    }
+    let vertices = a
+        .as_array()
+        .ok_or_else(|| format!("{key}: give a list of [x, y, z] vertices"))?
+        .iter()
+        .map(|v| point(v, key))
+        .collect::<R<Vec<_>>>()?;
+    Ok(Crack::Polygon { vertices })
+}
+
+/// An optional number `name` of `a` (absent or null: none).
+fn optional_num(a: &Value, name: &str, key: &str) -> R<Option<Real>> {
+    match a.get(name) {
+        None | Some(Value::Null) => Ok(None),
+        Some(g) => Ok(Some(num(g, key)?)),
+    }
 }
 
 /// The `orthotropic` call's material.
@@ -578,18 +642,7 @@ impl Pending {
                 num(field(a, "poisson", key)?, key)?,
                 num(field(a, "density", key)?, key)?,
             ),
-            "transverse" => {
-                let fibre = point(field(a, "fibre", key)?, key)?;
-                b.transverse(hooke_core::Transverse {
-                    youngs_plane: num(field(a, "youngs_plane", key)?, key)?,
-                    youngs_fibre: num(field(a, "youngs_fibre", key)?, key)?,
-                    poisson_plane: num(field(a, "poisson_plane", key)?, key)?,
-                    poisson_fibre: num(field(a, "poisson_fibre", key)?, key)?,
-                    shear_fibre: num(field(a, "shear_fibre", key)?, key)?,
-                    density: num(field(a, "density", key)?, key)?,
-                    fibre,
-                })
-            }
+            "transverse" => b.transverse(transverse(a, key)?),
             "orthotropic" => b.orthotropic(orthotropic(a, key)?),
             "rotate_lattice" => b.rotate_lattice(point(a, key)?),
             "cell_weights" => b.cell_weights(
@@ -597,25 +650,7 @@ impl Pending {
                     .ok_or_else(|| format!("{key}: give true or false"))?,
             ),
             "fracture_energy" => b.fracture_energy(num(a, key)?),
-            "precrack_segment" => {
-                let (p, q) = (
-                    point(field(a, "a", key)?, key)?,
-                    point(field(a, "b", key)?, key)?,
-                );
-                b.precrack(Crack::Segment {
-                    a: [p[0], p[1]],
-                    b: [q[0], q[1]],
-                })
-            }
-            "precrack_polygon" => {
-                let vs = a
-                    .as_array()
-                    .ok_or_else(|| format!("{key}: give a list of [x, y, z] vertices"))?
-                    .iter()
-                    .map(|v| point(v, key))
-                    .collect::<R<Vec<_>>>()?;
-                b.precrack(Crack::Polygon { vertices: vs })
-            }
+            "precrack_segment" | "precrack_polygon" => b.precrack(precrack(name, a, key)?),
             "boundary" => b.boundary(boundary(a, key)?),
             "initial_velocity" => b.initial_velocity(
                 region(field(a, "region", key)?, key)?,
@@ -647,10 +682,7 @@ impl Pending {
             "softening" => b.breaking(softening_rule(a, key)?),
             "rigid" => {
                 let body = rigid(a, key, self.dim, self.thickness, self.rigids.len())?;
-                let start_gap = match a.get("start_gap") {
-                    None | Some(Value::Null) => None,
-                    Some(g) => Some(num(g, key)?),
-                };
+                let start_gap = optional_num(a, "start_gap", key)?;
                 self.rigids.push(RigidSpec { body, start_gap });
                 b
             }

@@ -41,6 +41,22 @@ def test_bulk_moduli_match_the_command_line_exactly():
     assert c.shape == (6, 6) and np.allclose(c, t, rtol=0, atol=1e-9 * abs(t).max())
 
 
+def test_reports_read_as_attributes_with_numpy_arrays():
+    # A report is the command line's JSON mapping, and reads as typed attributes too.
+    mine = hooke.moduli(lattice="hex", nu=0.4, bulk=True)
+    assert isinstance(mine, hooke.Moduli) and isinstance(mine, dict)
+    c = mine.C_measured
+    assert isinstance(c, np.ndarray) and c.shape == (6, 6) and c.dtype == float
+    assert c.tolist() == mine["C_measured"] and mine.max_relative_difference < 1e-9
+    assert mine.voigt == ["xx", "yy", "zz", "yz", "xz", "xy"] and mine.test == "bulk"
+    assert "C_target" in dir(mine)
+    with pytest.raises(AttributeError, match="C_target"):
+        mine.C_targets
+    block = hooke.moduli(lattice="cubic", nu=0.3)
+    assert isinstance(block.size, np.ndarray) and block.size.tolist() == [71, 16, 16]
+    assert abs(block.nu_measured - 0.3) < 0.01 and repr(block).startswith("hooke.Moduli(")
+
+
 def test_relaxed_bulk_moduli_of_a_random_lattice_match_the_command_line():
     mine = hooke.moduli(lattice="random2d", nu=0.25, bulk=True, size=[41], samples=2)
     theirs = json.loads(cli("moduli", "--lattice", "random2d", "--nu", "0.25", "--bulk",

@@ -382,31 +382,8 @@ fn load_str_in(
     builder.build().map_err(|e| spans.error(&ctx, e))
 }
 
-/// `[material]`: the elastic constants and the breaking rule.
-fn material(
-    ctx: &Ctx,
-    raw: &RawCase,
-    kind: LatticeKind,
-    b: Builder,
-    spans: &mut Spans,
-) -> Result<Builder, CaseError> {
-    let m = &raw.material;
-    spans.at("material.density", m.density.span());
-    let b = elastic(ctx, m, b, spans)?;
-    let softening = m
-        .criterion
-        .as_ref()
-        .is_some_and(|c| c.get_ref() == "softening");
-    if softening {
-        if let Some(f) = &m.critical_stretch_fibre {
-            return Err(ctx.err(
-                f.span(),
-                "material.critical_stretch_fibre",
-                "goes with the stretch criterion, not softening springs; remove it",
-            ));
-        }
-        return softening_rule(ctx, m, b, spans);
-    }
+/// The softening springs' keys, in a material without `criterion = "softening"`: mistakes.
+fn refuse_softening_keys(ctx: &Ctx, m: &RawMaterial) -> Result<(), CaseError> {
     for (key, span) in [
         ("material.softening", m.softening.as_ref().map(|v| v.span())),
         (
@@ -434,30 +411,20 @@ fn material(
             ));
         }
     }
-    let given = match (&m.fracture_energy, &m.critical_stretch) {
-        (Some(g), None) => {
-            spans.at("material.fracture_energy", g.span());
-            Some((true, ctx.positive(g, "material.fracture_energy", "J/m^2")?))
-        }
-        (None, Some(s)) => {
-            spans.at("material.critical_stretch", s.span());
-            Some((
-                false,
-                ctx.positive(s, "material.critical_stretch", "(dimensionless)")?,
-            ))
-        }
-        (Some(g), Some(_)) => {
-            return Err(ctx.err(
-                g.span(),
-                "material.fracture_energy",
-                "give fracture_energy or critical_stretch, not both",
-            ))
-        }
-        (None, None) => None,
-    };
+    Ok(())
+}
+
+/// `material.criterion`: whether it is the spring-energy criterion (`"energy"`, regular
+/// lattices only) rather than the critical stretch itself (`"stretch"`, the default).
+fn energy_criterion(
+    ctx: &Ctx,
+    m: &RawMaterial,
+    kind: LatticeKind,
+    spans: &mut Spans,
+) -> Result<bool, CaseError> {
     // The criterion: the critical stretch itself, or the spring energy calibrated to the same
     // G_c (regular lattices only: see hooke_fracture::energy).
-    let energy = match &m.criterion {
+    Ok(match &m.criterion {
         None => false,
         Some(c) => {
             spans.at("material.criterion", c.span());
@@ -483,7 +450,57 @@ fn material(
                 }
             }
         }
+    })
+}
+
+/// `[material]`: the elastic constants and the breaking rule.
+fn material(
+    ctx: &Ctx,
+    raw: &RawCase,
+    kind: LatticeKind,
+    b: Builder,
+    spans: &mut Spans,
+) -> Result<Builder, CaseError> {
+    let m = &raw.material;
+    spans.at("material.density", m.density.span());
+    let b = elastic(ctx, m, b, spans)?;
+    let softening = m
+        .criterion
+        .as_ref()
+        .is_some_and(|c| c.get_ref() == "softening");
+    if softening {
+        if let Some(f) = &m.critical_stretch_fibre {
+            return Err(ctx.err(
+                f.span(),
+                "material.critical_stretch_fibre",
+                "goes with the stretch criterion, not softening springs; remove it",
+            ));
+        }
+        return softening_rule(ctx, m, b, spans);
+    }
+    refuse_softening_keys(ctx, m)?;
+    let given = match (&m.fracture_energy, &m.critical_stretch) {
+        (Some(g), None) => {
+            spans.at("material.fracture_energy", g.span());
+            Some((true, ctx.positive(g, "material.fracture_energy", "J/m^2")?))
+        }
+        (None, Some(s)) => {
+            spans.at("material.critical_stretch", s.span());
+            Some((
+                false,
+                ctx.positive(s, "material.critical_stretch", "(dimensionless)")?,
+            ))
+        }
+        (Some(g), Some(_)) => {
+            return Err(ctx.err(
+                g.span(),
+                "material.fracture_energy",
+                "give fracture_energy or critical_stretch, not both",
+            ))
+        }
+        (None, None) => None,
     };
+    let energy = energy_criterion(ctx, m, kind, spans)?;
     if let (Some(c), None) = (&m.criterion, &given) {
         return Err(ctx.err(
             c.span(),
@@ -574,41 +591,19 @@ fn material_fibre(
     })
 }
 
-/// `[material]`'s elastic part: `youngs` and `poisson` (the default, `kind = "isotropic"`);
-/// `kind = "transverse"` with `youngs_plane`, `youngs_fibre`, `poisson_plane`, `poisson_fibre`,
-/// `shear_fibre` and `fibre`; or `kind = "orthotropic"` with `youngs_x|y|z`,
-/// `poisson_xy|xz|yz` and `shear_yz|xz|xy`.
-fn elastic(
-    ctx: &Ctx,
-    m: &RawMaterial,
-    b: Builder,
-    spans: &mut Spans,
-) -> Result<Builder, CaseError> {
-    let isotropic = [("youngs", &m.youngs), ("poisson", &m.poisson)];
-    let transverse = [
-        ("youngs_plane", &m.youngs_plane),
-        ("youngs_fibre", &m.youngs_fibre),
-        ("poisson_plane", &m.poisson_plane),
-        ("poisson_fibre", &m.poisson_fibre),
-        ("shear_fibre", &m.shear_fibre),
-    ];
-    let orthotropic = [
-        ("youngs_x", &m.youngs_x),
-        ("youngs_y", &m.youngs_y),
-        ("youngs_z", &m.youngs_z),
-        ("poisson_xy", &m.poisson_xy),
-        ("poisson_xz", &m.poisson_xz),
-        ("poisson_yz", &m.poisson_yz),
-        ("shear_yz", &m.shear_yz),
-        ("shear_xz", &m.shear_xz),
-        ("shear_xy", &m.shear_xy),
-    ];
-    let kind = match &m.kind {
+/// A material key's name and its value in the case, where given.
+type MaterialKey<'a> = (&'a str, &'a Option<Spanned<Real>>);
+
+/// `material.kind`: isotropic (the default), transverse or orthotropic.
+fn material_kind(ctx: &Ctx, m: &RawMaterial, spans: &mut Spans) -> Result<&'static str, CaseError> {
+    Ok(match &m.kind {
         None => "isotropic",
         Some(k) => {
             spans.at("material.kind", k.span());
             match k.get_ref().as_str() {
-                v @ ("isotropic" | "transverse" | "orthotropic") => v,
+                "isotropic" => "isotropic",
+                "transverse" => "transverse",
+                "orthotropic" => "orthotropic",
                 other => {
                     return Err(ctx.err(
                         k.span(),
@@ -618,7 +613,19 @@ fn elastic(
                 }
             }
         }
-    };
+    })
+}
+
+/// The keys of the material kinds other than `kind`, and axes or a fibre where the kind takes
+/// none, are mistakes: the first one found is named, with the fix. `keys` are the isotropic,
+/// transverse and orthotropic kinds' keys.
+fn refuse_foreign_keys(
+    ctx: &Ctx,
+    m: &RawMaterial,
+    kind: &str,
+    keys: [&[MaterialKey<'_>]; 3],
+) -> Result<(), CaseError> {
+    let [isotropic, transverse, orthotropic] = keys;
     // Keys of the other kinds are mistakes: name them.
     let foreign: Vec<(&str, &Option<Spanned<Real>>, &str)> = isotropic
         .iter()
@@ -659,6 +666,45 @@ fn elastic(
             "a fibre direction belongs to transversely isotropic materials; add kind = \"transverse\" or remove it",
         ));
     }
+    Ok(())
+}
+
+/// `[material]`'s elastic part: `youngs` and `poisson` (the default, `kind = "isotropic"`);
+/// `kind = "transverse"` with `youngs_plane`, `youngs_fibre`, `poisson_plane`, `poisson_fibre`,
+/// `shear_fibre` and `fibre`; or `kind = "orthotropic"` with `youngs_x|y|z`,
+/// `poisson_xy|xz|yz` and `shear_yz|xz|xy`.
+fn elastic(
+    ctx: &Ctx,
+    m: &RawMaterial,
+    b: Builder,
+    spans: &mut Spans,
+) -> Result<Builder, CaseError> {
+    let isotropic = [("youngs", &m.youngs), ("poisson", &m.poisson)];
+    let transverse = [
+        ("youngs_plane", &m.youngs_plane),
+        ("youngs_fibre", &m.youngs_fibre),
+        ("poisson_plane", &m.poisson_plane),
+        ("poisson_fibre", &m.poisson_fibre),
+        ("shear_fibre", &m.shear_fibre),
+    ];
+    let orthotropic = [
+        ("youngs_x", &m.youngs_x),
+        ("youngs_y", &m.youngs_y),
+        ("youngs_z", &m.youngs_z),
+        ("poisson_xy", &m.poisson_xy),
+        ("poisson_xz", &m.poisson_xz),
+        ("poisson_yz", &m.poisson_yz),
+        ("shear_yz", &m.shear_yz),
+        ("shear_xz", &m.shear_xz),
+        ("shear_xy", &m.shear_xy),
+    ];
+    let kind = material_kind(ctx, m, spans)?;
+    refuse_foreign_keys(
+        ctx,
+        m,
+        kind,
+        [&isotropic[..], &transverse[..], &orthotropic[..]],
+    )?;
     let at = m.kind.as_ref().map_or(m.density.span(), |k| k.span());
     let mut values = |keys: &[(&str, &Option<Spanned<Real>>)]| -> Result<Vec<Real>, CaseError> {
         let names: Vec<&str> = keys.iter().map(|(k, _)| *k).collect();
@@ -713,15 +759,13 @@ fn elastic(
     }
 }
 
-/// `material.criterion = "softening"`: the curve's shape, then G_f with the tensile strength or
-/// the characteristic length, or the peak and final stretches.
-fn softening_rule(
+/// `material.softening`: the softening curve's shape (linear by default).
+fn softening_shape(
     ctx: &Ctx,
     m: &RawMaterial,
-    b: Builder,
     spans: &mut Spans,
-) -> Result<Builder, CaseError> {
-    let shape = match &m.softening {
+) -> Result<SofteningShape, CaseError> {
+    Ok(match &m.softening {
         None => SofteningShape::Linear,
         Some(v) => {
             spans.at("material.softening", v.span());
@@ -737,7 +781,57 @@ fn softening_rule(
                 }
             }
         }
-    };
+    })
+}
+
+/// The strength that goes with a softening material's G_f (`g`): its tensile strength or its
+/// characteristic length, one of them.
+fn softening_strength(
+    ctx: &Ctx,
+    m: &RawMaterial,
+    g: &Spanned<Real>,
+    spans: &mut Spans,
+) -> Result<Strength, CaseError> {
+    Ok(match (&m.tensile_strength, &m.characteristic_length) {
+        (Some(f), None) => {
+            spans.at("material.tensile_strength", f.span());
+            Strength::Tensile(ctx.positive(f, "material.tensile_strength", "Pa")?)
+        }
+        (None, Some(l)) => {
+            spans.at("material.characteristic_length", l.span());
+            Strength::CharacteristicLength(ctx.positive(
+                l,
+                "material.characteristic_length",
+                "m",
+            )?)
+        }
+        (Some(f), Some(_)) => {
+            return Err(ctx.err(
+                f.span(),
+                "material.tensile_strength",
+                "give tensile_strength or characteristic_length, not both",
+            ))
+        }
+        (None, None) => {
+            return Err(ctx.err(
+                g.span(),
+                "material.fracture_energy",
+                "softening springs need a strength too: add tensile_strength (Pa) or \
+                 characteristic_length (m, E G_f / f_t^2)",
+            ))
+        }
+    })
+}
+
+/// `material.criterion = "softening"`: the curve's shape, then G_f with the tensile strength or
+/// the characteristic length, or the peak and final stretches.
+fn softening_rule(
+    ctx: &Ctx,
+    m: &RawMaterial,
+    b: Builder,
+    spans: &mut Spans,
+) -> Result<Builder, CaseError> {
+    let shape = softening_shape(ctx, m, spans)?;
     if let Some(c) = &m.critical_stretch {
         return Err(ctx.err(
             c.span(),
@@ -753,35 +847,7 @@ fn softening_rule(
         (Some(g), None, None) => {
             spans.at("material.fracture_energy", g.span());
             let g_f = ctx.positive(g, "material.fracture_energy", "J/m^2")?;
-            let strength = match (&m.tensile_strength, &m.characteristic_length) {
-                (Some(f), None) => {
-                    spans.at("material.tensile_strength", f.span());
-                    Strength::Tensile(ctx.positive(f, "material.tensile_strength", "Pa")?)
-                }
-                (None, Some(l)) => {
-                    spans.at("material.characteristic_length", l.span());
-                    Strength::CharacteristicLength(ctx.positive(
-                        l,
-                        "material.characteristic_length",
-                        "m",
-                    )?)
-                }
-                (Some(f), Some(_)) => {
-                    return Err(ctx.err(
-                        f.span(),
-                        "material.tensile_strength",
-                        "give tensile_strength or characteristic_length, not both",
-                    ))
-                }
-                (None, None) => {
-                    return Err(ctx.err(
-                        g.span(),
-                        "material.fracture_energy",
-                        "softening springs need a strength too: add tensile_strength (Pa) or \
-                         characteristic_length (m, E G_f / f_t^2)",
-                    ))
-                }
-            };
+            let strength = softening_strength(ctx, m, g, spans)?;
             Ok(b.breaking(BreakRule::Softening {
                 fracture_energy: g_f,
                 strength,
@@ -1217,6 +1283,71 @@ fn parse(ctx: &Ctx) -> Result<RawCase, CaseError> {
     })
 }
 
+/// The body's solid: the bounding box and the shapes added and subtracted (the lattice fills
+/// the box, then keeps the nodes inside the body), and where its errors point (the box's max,
+/// the first shape, or both given, the box's min).
+fn solid(
+    ctx: &Ctx,
+    raw: &RawCase,
+    dim: usize,
+) -> Result<(Solid, std::ops::Range<usize>), CaseError> {
+    let geo = &raw.geometry;
+    let mut adds = Vec::new();
+    for (k, sh) in geo.add.iter().enumerate() {
+        adds.push(shape(ctx, sh, &format!("geometry.add[{k}]"), dim)?);
+    }
+    let mut subs = Vec::new();
+    for (k, sh) in geo.subtract.iter().enumerate() {
+        subs.push(shape(ctx, sh, &format!("geometry.subtract[{k}]"), dim)?);
+    }
+    let bbox = match &geo.bbox {
+        Some(g) => Some((
+            ctx.point(&g.min, "geometry.box.min", dim)?,
+            ctx.point(&g.max, "geometry.box.max", dim)?,
+        )),
+        None => None,
+    };
+    // Where geometry errors point: the box's max, the first shape, or (both given) the box's min.
+    let geo_span = match (&geo.bbox, geo.add.first()) {
+        (Some(g), None) => g.max.span(),
+        (None, Some(sh)) => sh.span(),
+        (Some(g), Some(_)) => g.min.span(),
+        (None, None) => 0..0,
+    };
+    let geometry = Solid {
+        bbox,
+        add: adds,
+        subtract: subs,
+    };
+
+    Ok((geometry, geo_span))
+}
+
+/// `lattice.plane`: how a 2D lattice stands for the material (plane stress by default).
+fn plane_model(ctx: &Ctx, l: &RawLattice, kind: LatticeKind) -> Result<PlaneModel, CaseError> {
+    Ok(match &l.plane {
+        None => PlaneModel::Stress,
+        Some(p) if kind.dim() == 3 => {
+            return Err(ctx.err(
+                p.span(),
+                "lattice.plane",
+                "only 2D lattices take a plane model; remove it",
+            ))
+        }
+        Some(p) => match p.get_ref().as_str() {
+            "stress" => PlaneModel::Stress,
+            "strain" => PlaneModel::Strain,
+            other => {
+                return Err(ctx.err(
+                    p.span(),
+                    "lattice.plane",
+                    format!("unknown plane model \"{other}\"; use \"stress\" or \"strain\""),
+                ))
+            }
+        },
+    })
+}
+
 /// `[lattice]` and `[geometry]`: the kind, spacing (divided by `scale`), plate thickness, plane
 /// model, random sampling and the body's shapes.
 fn lattice(
@@ -1263,57 +1394,8 @@ fn lattice(
         }
         (None, _) => 1.0,
     };
-    let plane = match &l.plane {
-        None => PlaneModel::Stress,
-        Some(p) if kind.dim() == 3 => {
-            return Err(ctx.err(
-                p.span(),
-                "lattice.plane",
-                "only 2D lattices take a plane model; remove it",
-            ))
-        }
-        Some(p) => match p.get_ref().as_str() {
-            "stress" => PlaneModel::Stress,
-            "strain" => PlaneModel::Strain,
-            other => {
-                return Err(ctx.err(
-                    p.span(),
-                    "lattice.plane",
-                    format!("unknown plane model \"{other}\"; use \"stress\" or \"strain\""),
-                ))
-            }
-        },
-    };
-
-    // Geometry: the lattice fills the bounding box, then keeps the nodes inside the body.
-    let geo = &raw.geometry;
-    let mut adds = Vec::new();
-    for (k, sh) in geo.add.iter().enumerate() {
-        adds.push(shape(ctx, sh, &format!("geometry.add[{k}]"), dim)?);
-    }
-    let mut subs = Vec::new();
-    for (k, sh) in geo.subtract.iter().enumerate() {
-        subs.push(shape(ctx, sh, &format!("geometry.subtract[{k}]"), dim)?);
-    }
-    let bbox = match &geo.bbox {
-        Some(g) => Some((
-            ctx.point(&g.min, "geometry.box.min", dim)?,
-            ctx.point(&g.max, "geometry.box.max", dim)?,
-        )),
-        None => None,
-    };
-    // Where geometry errors point: the box's max, the first shape, or (both given) the box's min.
-    let geo_span = match (&geo.bbox, geo.add.first()) {
-        (Some(g), None) => g.max.span(),
-        (None, Some(sh)) => sh.span(),
-        (Some(g), Some(_)) => g.min.span(),
-        (None, None) => 0..0,
-    };
-    let geometry = Solid {
-        bbox,
-        add: adds,
-        subtract: subs,
-    };
+    let plane = plane_model(ctx, l, kind)?;
+    let (geometry, geo_span) = solid(ctx, raw, dim)?;
 
     spans.at("lattice.spacing", l.spacing.span());
     spans.at(

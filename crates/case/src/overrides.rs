@@ -102,6 +102,116 @@ fn parse_error(file: &Path, text: &str, e: toml::de::Error) -> CaseError {
     }
 }
 
+/// The span of the value `parts` names in the table `root` (`None` where the key is not
+/// there), and how deep the existing tables along `parts` go.
+fn find_value(
+    root: &DeTable<'_>,
+    parts: &[&str],
+    o: &Override,
+) -> Result<(Option<std::ops::Range<usize>>, usize), CaseError> {
+    let mut table = root;
+    let mut depth = 0;
+    // Walk the tables that exist.
+    let mut found = None;
+    while depth < parts.len() {
+        let Some((_, v)) = table
+            .iter()
+            .find(|(k, _)| k.get_ref().as_ref() == parts[depth])
+        else {
+            break;
+        };
+        match v.get_ref() {
+            DeValue::Table(t) if depth + 1 < parts.len() => {
+                table = t;
+                depth += 1;
+            }
+            DeValue::Table(_) | DeValue::Array(_)
+                if depth + 1 < parts.len() || matches!(v.get_ref(), DeValue::Table(_)) =>
+            {
+                return Err(arg_error(
+                    &format!("{}={}", o.key, o.value),
+                    "this key is a table or an array of tables in the case: set one of its scalar keys, or edit [[...]] entries in the file",
+                ));
+            }
+            _ if depth + 1 == parts.len() => {
+                found = Some(v.span());
+                break;
+            }
+            _ => {
+                return Err(arg_error(
+                    &format!("{}={}", o.key, o.value),
+                    format!(
+                        "{} is a value in the case, not a table",
+                        parts[..=depth].join(".")
+                    ),
+                ))
+            }
+        }
+    }
+    Ok((found, depth))
+}
+
+/// Insert the key `parts` names, which the case lacks, into its table's section (or add the
+/// section at the end), noting the byte offsets of the inserted lines in `inserted_at`;
+/// `depth` tables along `parts` exist.
+fn insert_key(
+    text: &mut String,
+    parts: &[&str],
+    depth: usize,
+    o: &Override,
+    inserted_at: &mut Vec<usize>,
+) -> Result<(), CaseError> {
+    // Insert the key into its table's section, or add the section at the end.
+    let section = parts[..parts.len() - 1].join(".");
+    let key = parts[parts.len() - 1];
+    let header = text
+        .lines()
+        .scan(0usize, |at, l| {
+            let start = *at;
+            *at += l.len() + 1;
+            Some((start, l))
+        })
+        .find(|(_, l)| {
+            let t = l.trim();
+            t.starts_with('[')
+                && !t.starts_with("[[")
+                && t[1..]
+                    .split(']')
+                    .next()
+                    .is_some_and(|h| h.trim() == section)
+        });
+    match header {
+        Some((start, l)) => {
+            let at = (start + l.len() + 1).min(text.len());
+            let line = format!("{key} = {}\n", o.value);
+            if at == text.len() && !text.ends_with('\n') {
+                text.push('\n');
+            }
+            let at = at.min(text.len());
+            text.insert_str(at, &line);
+            inserted_at.push(at);
+        }
+        None if depth == parts.len() - 1 && depth > 0 => {
+            return Err(arg_error(
+                &format!("{}={}", o.key, o.value),
+                format!(
+                    "[{section}] is an inline or dotted table in the case: edit it in the file"
+                ),
+            ))
+        }
+        None => {
+            if !text.ends_with('\n') {
+                text.push('\n');
+            }
+            let at = text.len();
+            text.push_str(&format!("[{section}]\n{key} = {}\n", o.value));
+            inserted_at.push(at);
+            inserted_at.push(at + section.len() + 3);
+        }
+    }
+    Ok(())
+}
+
 /// Apply the overrides to the case text.
 pub(crate) fn apply(file: &Path, text: &str, overrides: &[Override]) -> Result<Edited, CaseError> {
     let mut text = text.to_string();
@@ -109,97 +219,12 @@ pub(crate) fn apply(file: &Path, text: &str, overrides: &[Override]) -> Result<E
     for o in overrides {
         let root = DeTable::parse(&text).map_err(|e| parse_error(file, &text, e))?;
         let parts: Vec<&str> = o.key.split('.').collect();
-        let mut table = root.get_ref();
-        let mut depth = 0;
-        // Walk the tables that exist.
-        let mut found = None;
-        while depth < parts.len() {
-            let Some((_, v)) = table
-                .iter()
-                .find(|(k, _)| k.get_ref().as_ref() == parts[depth])
-            else {
-                break;
-            };
-            match v.get_ref() {
-                DeValue::Table(t) if depth + 1 < parts.len() => {
-                    table = t;
-                    depth += 1;
-                }
-                DeValue::Table(_) | DeValue::Array(_)
-                    if depth + 1 < parts.len() || matches!(v.get_ref(), DeValue::Table(_)) =>
-                {
-                    return Err(arg_error(
-                        &format!("{}={}", o.key, o.value),
-                        "this key is a table or an array of tables in the case: set one of its scalar keys, or edit [[...]] entries in the file",
-                    ));
-                }
-                _ if depth + 1 == parts.len() => {
-                    found = Some(v.span());
-                    break;
-                }
-                _ => {
-                    return Err(arg_error(
-                        &format!("{}={}", o.key, o.value),
-                        format!(
-                            "{} is a value in the case, not a table",
-                            parts[..=depth].join(".")
-                        ),
-                    ))
-                }
-            }
-        }
+        let (found, depth) = find_value(root.get_ref(), &parts, o)?;
         match found {
             Some(span) => {
                 text.replace_range(span.clone(), &o.value);
             }
-            None => {
-                // Insert the key into its table's section, or add the section at the end.
-                let section = parts[..parts.len() - 1].join(".");
-                let key = parts[parts.len() - 1];
-                let header = text
-                    .lines()
-                    .scan(0usize, |at, l| {
-                        let start = *at;
-                        *at += l.len() + 1;
-                        Some((start, l))
-                    })
-                    .find(|(_, l)| {
-                        let t = l.trim();
-                        t.starts_with('[')
-                            && !t.starts_with("[[")
-                            && t[1..]
-                                .split(']')
-                                .next()
-                                .is_some_and(|h| h.trim() == section)
-                    });
-                match header {
-                    Some((start, l)) => {
-                        let at = (start + l.len() + 1).min(text.len());
-                        let line = format!("{key} = {}\n", o.value);
-                        if at == text.len() && !text.ends_with('\n') {
-                            text.push('\n');
-                        }
-                        let at = at.min(text.len());
-                        text.insert_str(at, &line);
-                        inserted_at.push(at);
-                    }
-                    None if depth == parts.len() - 1 && depth > 0 => {
-                        return Err(arg_error(
-                            &format!("{}={}", o.key, o.value),
-                            format!("[{section}] is an inline or dotted table in the case: edit it in the file"),
-                        ))
-                    }
-                    None => {
-                        if !text.ends_with('\n') {
-                            text.push('\n');
-                        }
-                        let at = text.len();
-                        text.push_str(&format!("[{section}]\n{key} = {}\n", o.value));
-                        inserted_at.push(at);
-                        inserted_at.push(at + section.len() + 3);
-                    }
-                }
-            }
+            None => insert_key(&mut text, &parts, depth, o, &mut inserted_at)?,
         }
     }
     // Where each override stands now.

@@ -1,19 +1,10 @@
 //! `hooke bench`: throughput of explicit steps (unique spring-updates per second), and the
 //! static solve time of the paper's block.
 
-use std::time::Instant;
-
 use anyhow::{Context, Result};
 use clap::Args;
-use hooke_core::dynamics::Integrator;
-use hooke_core::loading::Loading;
-use hooke_core::material::q_from_nu;
-use hooke_core::moduli::{block_test, BlockTest};
-use hooke_core::{Body, LatticeKind, Real, State};
-use hooke_lab::bench::{
-    alternate, block, integrator_options, median, moving, BenchOptions, CompareReport,
-    KernelChoice, Law, StepsReport,
-};
+use hooke_core::{Body, Real, State};
+use hooke_lab::bench::{BenchOptions, CompareReport, KernelChoice, Law, StepsReport};
 
 use crate::InputError;
 use hooke_lab::moduli::LatticeName;
@@ -102,7 +93,7 @@ pub struct BenchArgs {
     pub parts: bool,
 }
 
-pub use hooke_sys::{peak_memory, resident_memory};
+pub use hooke_sys::peak_memory;
 
 impl BenchArgs {
     /// The library's options for these flags.
@@ -281,153 +272,51 @@ fn print_bench(out: &StepsReport) {
     }
 }
 
+/// `--fracture`: the library's measurement, as JSON or text.
 fn bench_fracture(args: &BenchArgs) -> Result<()> {
-    if args.repeats == 0 || args.steps == 0 {
-        return Err(InputError("--repeats and --steps must be at least 1".into()).into());
-    }
-    // Nothing breaking: a random3d (or the chosen lattice's) block with a criterion no spring
-    // reaches, against the same block without fracture.
-    let lattice = block(&args.options())?;
-    let kind = lattice.kind;
-    let q = q_from_nu(kind, if kind.dim() == 3 { 0.3 } else { 0.45 })?;
-    let (body, mut state, mut it) = moving(&args.options(), lattice, q)?;
-    let mut fr =
-        hooke_fracture::Fracture::new(&body, Box::new(hooke_fracture::CriticalStretch::new(1.0)?));
-    let mut plain_state = state.clone();
-    let mut plain_it = Integrator::resume(
-        &body,
-        &plain_state,
-        Loading::default(),
-        &integrator_options(&args.options()),
-        &it.checkpoint(),
-    )?;
-    let steps = args.steps;
-    let (with, without) = alternate(
-        args.repeats,
-        || {
-            for _ in 0..steps {
-                fr.step(&body, &mut state, &mut it, None);
-            }
-            Ok(())
-        },
-        || {
-            for _ in 0..steps {
-                plain_it.step(&body, &mut plain_state);
-            }
-            Ok(())
-        },
-    )?;
-    if fr.broken_total > 0 {
-        return Err(anyhow::anyhow!(
-            "{} springs broke in the intact benchmark",
-            fr.broken_total
-        ));
-    }
-    let mut out = serde_json::json!({
-        "lattice": kind.name(), "kernel": it.kernel().name(), "nodes": body.nodes(),
-        "springs": body.springs(), "threads": rayon::current_num_threads(),
-        "repeats": args.repeats, "steps": steps,
-        "intact_seconds_per_step": without / steps as f64,
-        "fracture_seconds_per_step": with / steps as f64,
-        "fracture_overhead": with / without,
-    });
-    if let Some(case) = &args.case {
-        let sim = hooke_case::load(case, args.scale).map_err(|e| InputError(e.to_string()))?;
-        let mut sim = sim;
-        let until = args.crack_time.unwrap_or(0.5 * sim.end_time);
-        let body = &sim.body;
-        let mut it = Integrator::new(body, &mut sim.state, sim.loading.clone(), &sim.options)?;
-        let Some(mut fr) = sim.fracture.take() else {
-            return Err(InputError(format!("{}: the case has no fracture", case.display())).into());
-        };
-        let mut state = sim.state.clone();
-        while state.time < until {
-            fr.step(body, &mut state, &mut it, None);
+    let name = args.case.as_ref().map(|p| p.display().to_string());
+    let sim = match &args.case {
+        Some(path) => {
+            Some(hooke_case::load(path, args.scale).map_err(|e| InputError(e.to_string()))?)
         }
-        let before = fr.broken_total;
-        // Without breaking: a copy of the same state and integrator, stepped on its own.
-        let mut plain_state = state.clone();
-        let mut plain_it = Integrator::resume(
-            body,
-            &plain_state,
-            sim.loading.clone(),
-            &sim.options,
-            &it.checkpoint(),
-        )?;
-        let (with, without) = alternate(
-            args.repeats,
-            || {
-                for _ in 0..steps {
-                    fr.step(body, &mut state, &mut it, None);
-                }
-                Ok(())
-            },
-            || {
-                for _ in 0..steps {
-                    plain_it.step(body, &mut plain_state);
-                }
-                Ok(())
-            },
-        )?;
-        out["case"] = serde_json::json!(case.display().to_string());
-        out["case_nodes"] = serde_json::json!(body.nodes());
-        out["case_kernel"] = serde_json::json!(it.kernel().name());
-        out["crack_time"] = serde_json::json!(until);
-        out["springs_broken_while_timed"] = serde_json::json!(fr.broken_total - before);
-        out["case_intact_seconds_per_step"] = serde_json::json!(without / steps as f64);
-        out["case_fracture_seconds_per_step"] = serde_json::json!(with / steps as f64);
-        out["running_crack_overhead"] = serde_json::json!(with / without);
-    }
+        None => None,
+    };
+    let case = name.as_deref().zip(sim);
+    let out = hooke_lab::overhead::fracture(&args.options(), case, args.crack_time)?;
     if args.json {
-        println!("{out}");
-    } else {
+        println!("{}", serde_json::to_value(&out)?);
+        return Ok(());
+    }
+    println!(
+        "{} lattice, {} kernel, {} nodes, {} threads, medians of {} alternating windows of {} steps:\n  stretch criterion, nothing breaking: {:.3} x the intact step ({:.3} vs {:.3} ms)",
+        out.lattice, out.kernel, out.nodes, out.threads, out.repeats, out.steps,
+        out.fracture_overhead, out.fracture_seconds_per_step * 1e3, out.intact_seconds_per_step * 1e3
+    );
+    if let Some(r) = &out.running {
         println!(
-            "{} lattice, {} kernel, {} nodes, {} threads, medians of {} alternating windows of {} steps:\n  stretch criterion, nothing breaking: {:.3} x the intact step ({:.3} vs {:.3} ms)",
-            out["lattice"].as_str().unwrap_or(""), out["kernel"].as_str().unwrap_or(""), out["nodes"], out["threads"], args.repeats, steps,
-            out["fracture_overhead"].as_f64().unwrap_or(0.0), with / steps as f64 * 1e3, without / steps as f64 * 1e3
+            "  running crack ({}, {} springs broken while timed): {:.3} x the step without breaking",
+            r.case, r.springs_broken_while_timed, r.running_crack_overhead
         );
-        if let Some(r) = out.get("running_crack_overhead").and_then(|v| v.as_f64()) {
-            println!(
-                "  running crack ({}, {} springs broken while timed): {:.3} x the step without breaking",
-                out["case"].as_str().unwrap_or(""), out["springs_broken_while_timed"], r
-            );
-        }
     }
     Ok(())
 }
 
+/// `--static`: the library's solves of the paper's block, as JSON or text.
 fn bench_static(args: &BenchArgs) -> Result<()> {
-    let mut rows = Vec::new();
-    for nu in [-0.9, 0.3, 0.49] {
-        let t = BlockTest::paper(LatticeKind::Cubic, nu);
-        // Best of 3: the figure is the solver's, not the machine's noise.
-        let mut best = f64::INFINITY;
-        let mut last = None;
-        for _ in 0..3 {
-            let start = Instant::now();
-            let r = block_test(&t)?;
-            best = best.min(start.elapsed().as_secs_f64());
-            last = Some(r);
-        }
-        let r = last.expect("ran three times");
-        rows.push(serde_json::json!({
-            "nu": nu, "seconds": best, "newton": r.solve.newton_iterations,
-            "cg": r.solve.cg_iterations, "residual": r.solve.residual, "nodes": r.nodes,
-        }));
-        if !args.json {
-            println!(
-                "static solve, 71x16x16 block, nu = {nu:>5}: {best:.3} s ({} Newton, {} CG, residual {:.1e})",
-                r.solve.newton_iterations, r.solve.cg_iterations, r.solve.residual
-            );
-        }
-    }
+    let rows = hooke_lab::overhead::static_solves()?;
     if args.json {
         println!(
             "{}",
             serde_json::json!({ "static_solve": rows, "threads": rayon::current_num_threads() })
         );
+        return Ok(());
     }
-    let _: Real = 0.0;
+    for r in &rows {
+        println!(
+            "static solve, 71x16x16 block, nu = {:>5}: {:.3} s ({} Newton, {} CG, residual {:.1e})",
+            r.nu, r.seconds, r.newton, r.cg, r.residual
+        );
+    }
     Ok(())
 }
 
@@ -496,115 +385,32 @@ fn write_lammps(
     Ok(())
 }
 
+/// `--frame`: the library's measurement on the case, as JSON or text.
 fn bench_frame(args: &BenchArgs) -> Result<()> {
     let Some(case) = &args.case else {
         return Err(InputError("--frame needs --case CASE.toml".into()).into());
     };
-    if args.repeats == 0 || args.steps == 0 {
-        return Err(InputError("--repeats and --steps must be at least 1".into()).into());
-    }
     let text = std::fs::read_to_string(case)
         .map_err(|e| InputError(format!("{}: {e}", case.display())))?;
-    let (mut sim, mut opts) =
+    let (sim, opts) =
         hooke_case::prepare(case, &text, args.scale, &[]).map_err(|e| InputError(e.to_string()))?;
-    // Only the frames the benchmark asks for: none from the case's schedule inside a window.
-    sim.output_every = Real::INFINITY;
-    sim.checkpoint_every = Real::INFINITY;
-    let out = std::env::temp_dir().join(format!("hooke-bench-frame-{}", std::process::id()));
-    opts.out = out.clone();
-    let until = args.crack_time.unwrap_or(0.5 * sim.end_time);
-    let (nodes, springs) = (sim.body.nodes(), sim.body.springs());
-    // What the windows measured, and what the run holds after them.
-    struct Windows {
-        with: f64,
-        without: f64,
-        call: f64,
-        kernel: String,
-        broken: usize,
-        resident: Option<u64>,
-        rows: bool,
-    }
-    let result = (|| -> Result<Windows> {
-        let mut run = hooke_sim::Run::start(sim, opts)?;
-        let mut quiet = hooke_sim::Silent;
-        run.advance(until, &mut quiet)?;
-        // Window A: a frame, --steps steps, and the wait for the frame's file; window B: the
-        // same steps alone. A - B is what a frame adds to the run's wall time (the background
-        // writer included); the frame call alone is what the stepping thread waits.
-        let (mut ta, mut tb, mut tf) = (Vec::new(), Vec::new(), Vec::new());
-        // Every window must take its steps: a run that reaches its end time stops stepping,
-        // and windows of no steps would time nothing.
-        let needed = 2 * args.repeats as u64 * args.steps;
-        let left = run.simulation().end_time - run.simulation().state.time;
-        let dt = run.integrator().dt();
-        if (needed as Real) * dt > left {
-            return Err(InputError(format!(
-                "the windows need {needed} steps ({:.3e} s) but the case ends {left:.3e} s after --crack-time: use fewer --repeats or --steps, or an earlier --crack-time",
-                needed as Real * dt
-            ))
-            .into());
-        }
-        for _ in 0..args.repeats {
-            let t0 = Instant::now();
-            run.frame()?;
-            tf.push(t0.elapsed().as_secs_f64());
-            run.steps(args.steps, &mut quiet)?;
-            run.flush_outputs()?;
-            ta.push(t0.elapsed().as_secs_f64());
-            let t0 = Instant::now();
-            run.steps(args.steps, &mut quiet)?;
-            tb.push(t0.elapsed().as_secs_f64());
-        }
-        let kernel = run.integrator().kernel().name().to_string();
-        let broken = run.simulation().broken().0;
-        // What the run holds once it has written frames: a box on a stencil keeps no rows.
-        let rows = run.simulation().body.lattice.bonds.is_built();
-        let (a, b, f) = (median(&mut ta), median(&mut tb), median(&mut tf));
-        Ok(Windows {
-            with: a,
-            without: b,
-            call: f,
-            kernel,
-            broken,
-            resident: resident_memory(),
-            rows,
-        })
-    })();
-    let _ = std::fs::remove_dir_all(&out);
-    let Windows {
-        with,
-        without,
-        call,
-        kernel,
-        broken,
-        resident,
-        rows,
-    } = result?;
-    let step = without / args.steps as f64;
-    let cost = (with - without).max(0.0);
-    let json = serde_json::json!({
-        "case": case.display().to_string(), "nodes": nodes, "springs": springs,
-        "kernel": kernel, "threads": rayon::current_num_threads(), "repeats": args.repeats,
-        "steps": args.steps, "crack_time": until, "broken_springs": broken,
-        "step_seconds": step, "frame_seconds": cost, "frame_call_seconds": call,
-        "frame_over_step": cost / step, "resident_memory_bytes": resident,
-        "resident_bytes_per_node": resident.map(|r| r as f64 / nodes as f64),
-        "rows_built": rows,
-    });
+    let name = case.display().to_string();
+    let out = hooke_lab::overhead::frame(&name, sim, opts, &args.options(), args.crack_time)?;
     if args.json {
-        println!("{json}");
-    } else {
+        println!("{}", serde_json::to_value(&out)?);
+        return Ok(());
+    }
+    println!(
+        "{} ({} nodes, {} springs broken), {} kernel, {} threads, medians of {} alternating windows of {} steps:\n  step {:.3} ms; a frame adds {:.3} ms = {:.2} steps to the run (the stepping thread waits {:.3} ms for it)",
+        out.case, out.nodes, out.broken_springs, out.kernel, out.threads, out.repeats, out.steps,
+        out.step_seconds * 1e3, out.frame_seconds * 1e3, out.frame_over_step, out.frame_call_seconds * 1e3
+    );
+    if let Some(r) = out.resident_memory_bytes {
         println!(
-            "{} ({nodes} nodes, {broken} springs broken), {kernel} kernel, {} threads, medians of {} alternating windows of {} steps:\n  step {:.3} ms; a frame adds {:.3} ms = {:.2} steps to the run (the stepping thread waits {:.3} ms for it)",
-            case.display(), rayon::current_num_threads(), args.repeats, args.steps, step * 1e3, cost * 1e3, cost / step, call * 1e3
+            "  resident after the frames: {:.1} bytes per node (the springs' rows {})",
+            r as f64 / out.nodes as f64,
+            if out.rows_built { "built" } else { "not built" }
         );
-        if let Some(r) = resident {
-            println!(
-                "  resident after the frames: {:.1} bytes per node (the springs' rows {})",
-                r as f64 / nodes as f64,
-                if rows { "built" } else { "not built" }
-            );
-        }
     }
     Ok(())
 }

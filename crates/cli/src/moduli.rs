@@ -211,60 +211,7 @@ fn print_bulk(v: &serde_json::Value) {
         .into_iter()
         .find(|n| v[*n].is_object())
     {
-        if v["design"].is_object() {
-            let plate = v["lattice"] == "random2d";
-            let cubes = if plate { "squares" } else { "cubes" };
-            println!(
-                "relaxed bulk test: {} lattice{}, {name} {}; inner {cubes} (two thirds of the side) of {} {cubes} of {} spacings, seeds {} on; Voigt xx yy zz yz xz xy ({})",
-                v["lattice"].as_str().unwrap_or(""),
-                v["plane"].as_str().map_or(String::new(), |p| format!(" (plane {p})")),
-                v[name], v["samples"], v["cube_spacings"], v["seed"], v["units"].as_str().unwrap_or("")
-            );
-            let d = &v["design"];
-            println!(
-                "design: kappa(n) = sum_a kappa_aa n_a^2P + sum_a<b kappa_ab n_a^2 n_b^2, P = {}, over xx yy zz yz xz xy (material axes) = {} Pa; w(n) = sum alpha_a n_a^2, alpha = {}; q = {:.6}",
-                d["sharpness"], d["kappa"], d["alpha"], v["q"].as_f64().unwrap_or(0.0)
-            );
-            let cal = &v["calibration"];
-            println!(
-                "calibration: largest entry off the target over the largest normal entry after each measurement {}, on as many other {cubes} {:.2e} ({:.1} s; {} {cubes} of {} spacings, seeds {} to {}){}",
-                cal["residuals"], cal["held_out"].as_f64().unwrap_or(Real::NAN), cal["seconds"].as_f64().unwrap_or(0.0),
-                cal["samples"], cal["cube_spacings"], cal["seeds"][0], cal["seeds"][1],
-                cal["cache_note"].as_str().unwrap_or("")
-            );
-            println!(
-                "in the material axes, {} measured / target - 1: {}",
-                v["material_entries"]
-                    .as_array()
-                    .into_iter()
-                    .flatten()
-                    .map(|e| format!("C{}", e.as_str().unwrap_or("")))
-                    .collect::<Vec<_>>()
-                    .join(" "),
-                v["material_relative_difference"]
-                    .as_array()
-                    .into_iter()
-                    .flatten()
-                    .map(|x| format!("{:+.4}", x.as_f64().unwrap_or(Real::NAN)))
-                    .collect::<Vec<_>>()
-                    .join(" ")
-            );
-        } else {
-            println!(
-            "bulk (affine) test: {} lattice, {name} {}, q = {:.6} ({}); Voigt xx yy zz yz xz xy",
-            v["lattice"].as_str().unwrap_or(""),
-            v[name],
-            v["q"].as_f64().unwrap_or(0.0),
-            v["units"].as_str().unwrap_or("")
-        );
-            println!(
-                "springs: axes x y z k = {} w = {}; face diagonals yz xz xy k = {} w = {} (N/m)",
-                v["axis_stiffness"],
-                v["axis_weights"],
-                v["diagonal_stiffness"],
-                v["diagonal_weights"]
-            );
-        }
+        print_anisotropic_header(v, name);
     } else if v["relaxed"].as_bool() == Some(true) {
         println!(
             "relaxed bulk test: {} lattice, cube of {} spacings with its faces on the affine field, {} nodes ({} on the faces), {} sample(s) from seed {}",
@@ -291,6 +238,67 @@ fn print_bulk(v: &serde_json::Value) {
             v["youngs"].as_f64().unwrap_or(0.0), v["units"].as_str().unwrap_or("")
         );
     }
+    print_tensors(v);
+}
+
+/// `--bulk`'s header for an anisotropic material: its calibrated design on a random lattice
+/// (design, calibration, the material-axes differences), or its springs on the Ladd lattice.
+fn print_anisotropic_header(v: &serde_json::Value, name: &str) {
+    if v["design"].is_object() {
+        let plate = v["lattice"] == "random2d";
+        let cubes = if plate { "squares" } else { "cubes" };
+        println!(
+            "relaxed bulk test: {} lattice{}, {name} {}; inner {cubes} (two thirds of the side) of {} {cubes} of {} spacings, seeds {} on; Voigt xx yy zz yz xz xy ({})",
+            v["lattice"].as_str().unwrap_or(""),
+            v["plane"].as_str().map_or(String::new(), |p| format!(" (plane {p})")),
+            v[name], v["samples"], v["cube_spacings"], v["seed"], v["units"].as_str().unwrap_or("")
+        );
+        let d = &v["design"];
+        println!(
+            "design: kappa(n) = sum_a kappa_aa n_a^2P + sum_a<b kappa_ab n_a^2 n_b^2, P = {}, over xx yy zz yz xz xy (material axes) = {} Pa; w(n) = sum alpha_a n_a^2, alpha = {}; q = {:.6}",
+            d["sharpness"], d["kappa"], d["alpha"], v["q"].as_f64().unwrap_or(0.0)
+        );
+        let cal = &v["calibration"];
+        println!(
+            "calibration: largest entry off the target over the largest normal entry after each measurement {}, on as many other {cubes} {:.2e} ({:.1} s; {} {cubes} of {} spacings, seeds {} to {}){}",
+            cal["residuals"], cal["held_out"].as_f64().unwrap_or(Real::NAN), cal["seconds"].as_f64().unwrap_or(0.0),
+            cal["samples"], cal["cube_spacings"], cal["seeds"][0], cal["seeds"][1],
+            cal["cache_note"].as_str().unwrap_or("")
+        );
+        println!(
+            "in the material axes, {} measured / target - 1: {}",
+            v["material_entries"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .map(|e| format!("C{}", e.as_str().unwrap_or("")))
+                .collect::<Vec<_>>()
+                .join(" "),
+            v["material_relative_difference"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .map(|x| format!("{:+.4}", x.as_f64().unwrap_or(Real::NAN)))
+                .collect::<Vec<_>>()
+                .join(" ")
+        );
+    } else {
+        println!(
+            "bulk (affine) test: {} lattice, {name} {}, q = {:.6} ({}); Voigt xx yy zz yz xz xy",
+            v["lattice"].as_str().unwrap_or(""),
+            v[name],
+            v["q"].as_f64().unwrap_or(0.0),
+            v["units"].as_str().unwrap_or("")
+        );
+        println!(
+            "springs: axes x y z k = {} w = {}; face diagonals yz xz xy k = {} w = {} (N/m)",
+            v["axis_stiffness"], v["axis_weights"], v["diagonal_stiffness"], v["diagonal_weights"]
+        );
+    }
+}
+
+/// `--bulk`'s tensors and their differences, and the extrapolation where there is one.
+fn print_tensors(v: &serde_json::Value) {
     for name in [
         "C_measured",
         "C_target",

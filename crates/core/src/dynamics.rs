@@ -38,7 +38,7 @@ mod partition;
 
 pub use breaks::{commit_alone, node_dispersive_energy, BreakReport, Breaker, Candidates};
 pub(crate) use partition::special_nodes;
-use partition::{Pools, Shared};
+use partition::{Partition, Pools};
 
 /// How the time step is chosen.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -218,8 +218,8 @@ pub struct Integrator {
     killed: Vec<u32>,
     /// What committing a breaker's decisions keeps between rounds.
     breaks: breaks::BreakScratch,
-    /// The processes sharing the sweeps, and this one's share (`None`: one process does all).
-    team: Option<Shared>,
+    /// How the work is split between processes (alone, or this one's share of a team's).
+    partition: Partition,
     /// A plate on which nothing acts along z (see [`Integrator::is_plane`]): its z components
     /// stay the exact zeros they start as, so sweep 2 and the exchange between ranks leave them
     /// alone.
@@ -574,7 +574,7 @@ impl Integrator {
             u_before: Vec::with_capacity(sparse),
             v_kernel: Vec::with_capacity(sparse),
             partials: vec![Default::default(); crate::kernel::partials_len(body.nodes())],
-            team: None,
+            partition: Partition::Alone,
             plane,
             contact: Vec::new(),
             v_contact: Vec::new(),
@@ -765,11 +765,11 @@ impl Integrator {
             let simd = self.kernel.simd();
             // Softened springs: the stencil cannot hold their stiffnesses, and `for_body` gives
             // the CSR kernel.
-            self.kernel =
-                Kernel::for_body_in(body, state, self.team.as_ref().map(|t| t.sweeps().mine()));
+            let swept = self.partition.swept();
+            self.kernel = Kernel::for_body_in(body, state, swept.clone());
             self.kernel.set_simd(simd);
-            if let Some(t) = &self.team {
-                self.kernel.keep_rows(t.sweeps().mine());
+            if let Some(nodes) = swept {
+                self.kernel.keep_rows(nodes);
             }
         }
         self.synced = state.breaks();
@@ -897,7 +897,7 @@ impl Integrator {
     ) {
         let g = self.loading.body_acceleration;
         // rank books them in node order, as one process does.
-        let pieced = self.team.as_ref().is_some_and(|t| t.piece.is_some());
+        let pieced = self.partition.is_pieced();
         let mut terms = std::mem::take(&mut self.contact_terms);
         terms.clear();
         for (k, &(i, f)) in self.contact.iter().enumerate() {
@@ -1133,28 +1133,10 @@ impl Integrator {
         state: &mut State,
         whole: bool,
     ) -> (Coords, EnergyBalance, law::FrameFields) {
-        if self.piece().is_some() {
-            // A piece's frame is its own nodes' (a VTK piece); whole frames are written from
-            // a whole state.
-            assert!(
-                !whole,
-                "a whole frame reads the whole state, which a rank stepping its piece does not hold"
-            );
-            let mut scratch = std::mem::take(&mut self.frame_scratch);
-            let fields = self
-                .piece_fields(body, state, &mut scratch)
-                .expect("a piece");
-            if scratch.bytes() <= hooke_sys::alloc::KEPT_BLOCK {
-                self.frame_scratch = scratch;
-            }
-            let v = self.velocity_from_forces(body, state);
-            let b = self.balance(body, state, &v, fields.strain);
-            return (v, b, fields);
+        if let Some(frame) = self.frame_on_piece(body, state, whole) {
+            return frame;
         }
-        let part = self.team.as_ref().map(|t| law::FramePart {
-            team: &*t.team,
-            share: &t.share,
-        });
+        let part = self.partition.frame_part();
         // A box's frame from its grid, leaving its rows and stiffnesses unbuilt (one process).
         let grid = part.map_or_else(|| law::frame_fields_grid(body, state), |_| None);
         let mut fields = grid.unwrap_or_else(|| {
@@ -1167,18 +1149,7 @@ impl Integrator {
                 part,
             )
         });
-        if let Some(p) = part {
-            let nodes = &p.share.nodes;
-            let dims = if self.plane { 2 } else { 3 };
-            for c in fields.force.xyz_mut().into_iter().take(dims) {
-                p.team.gather(c, nodes);
-            }
-            if whole {
-                p.team.gather(&mut fields.energy_density, nodes);
-                let nine: Vec<_> = nodes.iter().map(|r| 9 * r.start..9 * r.end).collect();
-                p.team.gather(fields.stress.as_flattened_mut(), &nine);
-            }
-        }
+        self.frame_gathered(&mut fields, whole);
         // Kept while glibc's heap would keep its blocks anyway once a set-up is done (below the
         // mapping threshold): a larger body gives them back after each frame, as before, so
         // frames never raise a large run's resident memory.
@@ -1232,26 +1203,11 @@ impl Integrator {
     /// piece: the only ones it holds), find one process's bits. Collective on pieces.
     fn node_sums(&self, body: &Body, v: &Coords) -> [Real; 2] {
         let (g, c) = (self.loading.body_acceleration, self.damping);
-        let Some((t, pc)) = self
-            .team
-            .as_ref()
-            .and_then(|t| t.piece.as_ref().map(|p| (t, p)))
-        else {
-            return chunk_node_sums(body, v, g, c, 0..body.nodes())
-                .into_iter()
-                .fold([0.0; 2], |s, x| [s[0] + x[0], s[1] + x[1]]);
-        };
-        let piece = &pc.piece;
-        let mut sums = vec![0.0; 2 * piece.total.div_ceil(crate::kernel::CHUNK)];
-        let at = 2 * (piece.first / crate::kernel::CHUNK);
-        for (k, x) in chunk_node_sums(body, v, g, c, piece.own.clone())
-            .into_iter()
-            .enumerate()
-        {
-            sums[at + 2 * k..at + 2 * k + 2].copy_from_slice(&x);
+        if let Some(sums) = self.node_sums_on_piece(body, v) {
+            return sums;
         }
-        t.team.gather(&mut sums, &t.share.chunk_parts(2));
-        sums.chunks_exact(2)
+        chunk_node_sums(body, v, g, c, 0..body.nodes())
+            .into_iter()
             .fold([0.0; 2], |s, x| [s[0] + x[0], s[1] + x[1]])
     }
 
@@ -1308,42 +1264,9 @@ impl Integrator {
         let mut nodes: Vec<usize> = self.dofs.iter().map(|d| d.node).collect();
         nodes.sort_unstable();
         nodes.dedup();
-        let forces = match self.team.as_ref().filter(|t| t.piece.is_some()) {
-            None => law::forces_at(body, state, &nodes),
-            Some(t) => {
-                let piece = &t.piece.as_ref().expect("a piece").piece;
-                let mut pool = state.pool.clone();
-                let sp = state.springs(body);
-                law::pools_in(
-                    body,
-                    &state.u,
-                    sp,
-                    &state.norm,
-                    piece.own.clone(),
-                    &mut pool,
-                );
-                let size = t.team.size();
-                let (mut out, mut inp) = (vec![Vec::new(); size], vec![Vec::new(); size]);
-                crate::team::trade_halo(
-                    &*t.team,
-                    &piece.halo,
-                    &mut out,
-                    &mut inp,
-                    &mut [&mut pool[..]],
-                );
-                let mut f = Vec::new();
-                t.gather_special(&mut f, |i| {
-                    law::node_force(body, body.q, &state.u, sp, &pool, i)
-                });
-                nodes
-                    .iter()
-                    .map(|&i| {
-                        let k = t.special.partition_point(|&s| (s as usize) < i);
-                        [f[3 * k], f[3 * k + 1], f[3 * k + 2]]
-                    })
-                    .collect()
-            }
-        };
+        let forces = self
+            .forces_on_piece(body, state, &nodes)
+            .unwrap_or_else(|| law::forces_at(body, state, &nodes));
         let force =
             |i: usize, c: usize| forces[nodes.binary_search(&i).expect("a prescribed node")][c];
         // A prescribed DOF's full-step velocity is its prescribed one, the last DOF's where

@@ -173,67 +173,12 @@ impl Checkpoint {
                 body.springs()
             )));
         }
-        let fixed = 8 + 4 + 8 * 4 + 8 * 12 + 16 + 48 * n + springs;
-        let extra_len = if version >= 2 && body_bytes.len() >= fixed + 8 {
-            u64::from_le_bytes(body_bytes[fixed..fixed + 8].try_into().unwrap()) as usize
-        } else {
-            0
-        };
-        let mut expected = if version >= 2 {
-            fixed + 8 + 8 * extra_len
-        } else {
-            fixed
-        };
-        if version >= 3 && body_bytes.len() >= expected + 8 {
-            let w = u64::from_le_bytes(body_bytes[expected..expected + 8].try_into().unwrap());
-            if w != 0 && w as usize != springs {
-                return Err(bad(format!("{w} spring weights for {springs} springs")));
-            }
-            expected += 8 + 8 * w as usize;
-        }
-        if body_bytes.len() != expected {
-            return Err(bad(format!(
-                "{} bytes where {expected} were expected",
-                body_bytes.len()
-            )));
-        }
+        expected_length(body_bytes, version, n, springs).map_err(bad)?;
         let step = r.u64();
         let f: Vec<Real> = (0..12).map(|_| r.f64()).collect();
         let broken = r.u64();
         let released = r.f64();
-        let mut state = State::new(body);
-        for c in 0..3 {
-            for v in state.u.comp_mut(c) {
-                *v = r.f64();
-            }
-        }
-        for c in 0..3 {
-            for v in state.v.comp_mut(c) {
-                *v = r.f64();
-            }
-        }
-        let alive: Vec<bool> = (0..springs).map(|_| r.take(1)[0] != 0).collect();
-        // An intact body's state stays as `State::new` made it (the same normalisers), so a
-        // box resumed intact still reads its grid rather than building its rows.
-        if alive.iter().any(|&a| !a) {
-            state.set_alive(body, alive);
-        }
-        let extra = if version >= 2 {
-            let k = r.u64() as usize;
-            (0..k).map(|_| r.f64()).collect()
-        } else {
-            Vec::new()
-        };
-        if version >= 3 {
-            let w = r.u64() as usize;
-            if w > 0 {
-                let weights: Vec<Real> = (0..w).map(|_| r.f64()).collect();
-                if weights.iter().any(|v| !(0.0..=1.0).contains(v)) {
-                    return Err(bad("a spring weight outside [0, 1]".into()));
-                }
-                state.set_weights(body, &weights);
-            }
-        }
+        let (mut state, extra) = read_state(&mut r, body, version, springs).map_err(bad)?;
         state.step = step;
         state.time = f[0];
         let integrator = IntegratorCheckpoint {
@@ -262,6 +207,83 @@ impl Checkpoint {
             extra,
         })
     }
+}
+
+/// The state's part of a checkpoint, after its header: displacements, velocities, which
+/// springs are intact, the integrator's extra values (version 2) and the springs' weights
+/// (version 3).
+fn read_state(
+    r: &mut Reader<'_>,
+    body: &Body,
+    version: u32,
+    springs: usize,
+) -> Result<(State, Vec<Real>), String> {
+    let mut state = State::new(body);
+    for c in 0..3 {
+        for v in state.u.comp_mut(c) {
+            *v = r.f64();
+        }
+    }
+    for c in 0..3 {
+        for v in state.v.comp_mut(c) {
+            *v = r.f64();
+        }
+    }
+    let alive: Vec<bool> = (0..springs).map(|_| r.take(1)[0] != 0).collect();
+    // An intact body's state stays as `State::new` made it (the same normalisers), so a
+    // box resumed intact still reads its grid rather than building its rows.
+    if alive.iter().any(|&a| !a) {
+        state.set_alive(body, alive);
+    }
+    let extra = if version >= 2 {
+        let k = r.u64() as usize;
+        (0..k).map(|_| r.f64()).collect()
+    } else {
+        Vec::new()
+    };
+    if version >= 3 {
+        let w = r.u64() as usize;
+        if w > 0 {
+            let weights: Vec<Real> = (0..w).map(|_| r.f64()).collect();
+            if weights.iter().any(|v| !(0.0..=1.0).contains(v)) {
+                return Err("a spring weight outside [0, 1]".into());
+            }
+            state.set_weights(body, &weights);
+        }
+    }
+    Ok((state, extra))
+}
+
+/// Check that a checkpoint of `version` holding `n` nodes and `springs` springs has the
+/// length its counts give (`bytes`: the file before its checksum): the fixed part, the
+/// integrator's extra values (version 2) and the spring weights (version 3).
+fn expected_length(bytes: &[u8], version: u32, n: usize, springs: usize) -> Result<(), String> {
+    let count_at = |at: usize| u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap());
+    let fixed = 8 + 4 + 8 * 4 + 8 * 12 + 16 + 48 * n + springs;
+    let extra_len = if version >= 2 && bytes.len() >= fixed + 8 {
+        count_at(fixed) as usize
+    } else {
+        0
+    };
+    let mut expected = if version >= 2 {
+        fixed + 8 + 8 * extra_len
+    } else {
+        fixed
+    };
+    if version >= 3 && bytes.len() >= expected + 8 {
+        let w = count_at(expected);
+        if w != 0 && w as usize != springs {
+            return Err(format!("{w} spring weights for {springs} springs"));
+        }
+        expected += 8 + 8 * w as usize;
+    }
+    if bytes.len() != expected {
+        return Err(format!(
+            "{} bytes where {expected} were expected",
+            bytes.len()
+        ));
+    }
+    Ok(())
 }
 
 struct Reader<'a> {

@@ -10,6 +10,8 @@
 //! - [`bench`](mod@bench): the step benchmark's blocks and set-ups (alone, shared, from parts), the timed
 //!   steps with memory and traffic, contact's cost, and the dispersive law against plain
 //!   springs (`hooke bench`).
+//! - [`overhead`]: what a fracture criterion, a running crack, an output frame and the static
+//!   solver cost against a step (`hooke bench --fracture`, `--frame`, `--static`).
 //! - [`toughness`]: the fracture energy a lattice crack dissipates in a strip under fixed grips,
 //!   the strip's size per lattice, the mean over node sets, and the G_c calibration tables
 //!   (`hooke_fracture::stretch`, `energy`, `softening`).
@@ -17,6 +19,7 @@
 
 pub mod bench;
 pub mod moduli;
+pub mod overhead;
 pub mod toughness;
 
 /// An error in what the caller asked for (the command line exits with 2), as opposed to a

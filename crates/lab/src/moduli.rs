@@ -3,6 +3,7 @@
 //! `C_inf = (L C(L) - L' C(L')) / (L - L')`, the tensor statistics and the random lattices'
 //! calibration table. `hooke moduli` and `hooke.moduli` (Python) both call [`value`].
 
+use hooke_core::Designs;
 use std::time::Instant;
 
 use anyhow::{Context, Result};

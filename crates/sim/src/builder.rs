@@ -30,6 +30,7 @@ use hooke_core::loading::{Loading, Motion, Prescribed, TimeFunction};
 use hooke_core::material::{self, Elastic, PlaneModel};
 use hooke_core::random::anisotropic::Calibrated;
 use hooke_core::random::RandomSpec;
+use hooke_core::Designs;
 use hooke_core::{Anisotropic, Body, LatticeKind, Orthotropic, Real, State, Transverse, Vector};
 use hooke_fracture::{
     Crack, Criterion, CriticalStretch, FibreStretch, Fracture, Softening, SofteningShape,
@@ -833,26 +834,12 @@ impl Builder {
         fracture: &mut Option<Fracture>,
         pick: &Selector,
     ) -> Result<(Loading, Vec<u32>, Vec<Boundary>), BuildError> {
-        let dim = self.kind.dim();
         let mut loading = Loading {
             body_acceleration: Vector::from(self.gravity),
             ..Default::default()
         };
         let mut regions = vec![0u32; body.nodes()];
         let mut boundaries = Vec::new();
-        let axis_ok = |axis: usize, key: String| {
-            if axis < dim {
-                Ok(())
-            } else {
-                Err(BuildError::new(
-                    key,
-                    format!(
-                        "axis {axis} does not exist in a {dim}D body; use 0 (x), 1 (y){}",
-                        if dim == 3 { " or 2 (z)" } else { "" }
-                    ),
-                ))
-            }
-        };
         for (n, bc) in self.bcs.iter().enumerate() {
             let key = format!("boundary[{n}]");
             let nodes = (pick.select)(&bc.region);
@@ -876,52 +863,72 @@ impl Builder {
             for &i in &nodes {
                 regions[i as usize] = n as u32 + 1;
             }
-            for &axis in &bc.fixed {
-                axis_ok(axis, format!("{key}.fixed"))?;
-                loading.prescribed.push(Prescribed {
-                    nodes: nodes.clone(),
-                    axis,
-                    motion: Motion::Fixed,
-                });
-            }
-            for (j, (axis, m)) in bc.motions.iter().enumerate() {
-                axis_ok(*axis, format!("{key}.motion[{j}]"))?;
-                if let Motion::Velocity(f) | Motion::Displacement(f) = m {
-                    f.validate().map_err(|e| {
-                        BuildError::new(format!("{key}.motion[{j}]"), e.to_string())
-                    })?;
-                }
-                loading.prescribed.push(Prescribed {
-                    nodes: nodes.clone(),
-                    axis: *axis,
-                    motion: m.clone(),
-                });
-            }
-            for (j, (t, normal, scale)) in bc.tractions.iter().enumerate() {
-                axis_ok(*normal, format!("{key}.traction[{j}].normal"))?;
-                if self.turned() {
-                    // A turned lattice's faces are steps: no node stands for a known share of
-                    // a face's area, so a traction would be spread wrongly.
-                    return Err(BuildError::new(
-                        format!("{key}.traction[{j}]"),
-                        "a traction needs faces on node planes, and a lattice laid along a fibre or material axes (lattice.rotate_to, material.axes) has stepped faces; load it by a prescribed velocity or displacement of a box region instead",
-                    ));
-                }
-                loading.loads.extend(traction_loads(
-                    body,
-                    &nodes,
-                    *t,
-                    *normal,
-                    scale.clone(),
-                    weighted,
-                ));
-            }
+            self.conditions(&key, bc, &nodes, (body, weighted), &mut loading)?;
             if bc.no_fail {
                 if let Some(f) = fracture.as_mut() {
                     f.set_no_fail(&nodes);
                 }
             }
         }
+        self.initial_velocities(state, pick)?;
+        Ok((loading, regions, boundaries))
+    }
+
+    /// A boundary's fixed axes, prescribed motions and tractions on its `nodes`, into
+    /// `loading` (`weighted`: the body's nodes stand for their cells' shares of a face).
+    fn conditions(
+        &self,
+        key: &str,
+        bc: &Bc,
+        nodes: &[u32],
+        (body, weighted): (&Body, bool),
+        loading: &mut Loading,
+    ) -> Result<(), BuildError> {
+        let dim = self.kind.dim();
+        for &axis in &bc.fixed {
+            check_axis(dim, axis, format!("{key}.fixed"))?;
+            loading.prescribed.push(Prescribed {
+                nodes: nodes.to_vec(),
+                axis,
+                motion: Motion::Fixed,
+            });
+        }
+        for (j, (axis, m)) in bc.motions.iter().enumerate() {
+            check_axis(dim, *axis, format!("{key}.motion[{j}]"))?;
+            if let Motion::Velocity(f) | Motion::Displacement(f) = m {
+                f.validate()
+                    .map_err(|e| BuildError::new(format!("{key}.motion[{j}]"), e.to_string()))?;
+            }
+            loading.prescribed.push(Prescribed {
+                nodes: nodes.to_vec(),
+                axis: *axis,
+                motion: m.clone(),
+            });
+        }
+        for (j, (t, normal, scale)) in bc.tractions.iter().enumerate() {
+            check_axis(dim, *normal, format!("{key}.traction[{j}].normal"))?;
+            if self.turned() {
+                // A turned lattice's faces are steps: no node stands for a known share of
+                // a face's area, so a traction would be spread wrongly.
+                return Err(BuildError::new(
+                    format!("{key}.traction[{j}]"),
+                    "a traction needs faces on node planes, and a lattice laid along a fibre or material axes (lattice.rotate_to, material.axes) has stepped faces; load it by a prescribed velocity or displacement of a box region instead",
+                ));
+            }
+            loading.loads.extend(traction_loads(
+                body,
+                nodes,
+                *t,
+                *normal,
+                scale.clone(),
+                weighted,
+            ));
+        }
+        Ok(())
+    }
+
+    /// The initial velocities of their regions' nodes.
+    fn initial_velocities(&self, state: &mut State, pick: &Selector) -> Result<(), BuildError> {
         for (n, (region, v)) in self.initial.iter().enumerate() {
             let nodes = (pick.select)(region);
             if (pick.none)(&nodes) {
@@ -934,7 +941,7 @@ impl Builder {
                 state.v.set(i as usize, Vector::from(*v));
             }
         }
-        Ok((loading, regions, boundaries))
+        Ok(())
     }
 
     /// End time and the output intervals (s).
@@ -993,5 +1000,20 @@ impl Builder {
             ));
         }
         Ok((end_time, output_every, checkpoint_every, reactions_every))
+    }
+}
+
+/// Refuse an axis the body has not: `axis` of a `dim`-dimensional body, named by `key`.
+fn check_axis(dim: usize, axis: usize, key: String) -> Result<(), BuildError> {
+    if axis < dim {
+        Ok(())
+    } else {
+        Err(BuildError::new(
+            key,
+            format!(
+                "axis {axis} does not exist in a {dim}D body; use 0 (x), 1 (y){}",
+                if dim == 3 { " or 2 (z)" } else { "" }
+            ),
+        ))
     }
 }

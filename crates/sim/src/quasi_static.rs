@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use hooke_core::loading::Motion;
 use hooke_core::statics::{self, Constraints, StaticOptions};
-use hooke_core::{law, Coords, Real, State};
+use hooke_core::{law, Body, Coords, Real, State};
 use hooke_fracture::Fracture;
 
 use crate::error::{Error, Result};
@@ -185,42 +185,9 @@ fn drive(
             sim.state.u.comp_mut(c)[i] = prescribed_displacement(mo, u0[m], t);
         }
         external_forces(sim, t, &mut fext);
-        let body = &sim.body;
-        // Newton-CG first; where it cannot (a mechanism or a loose fragment after breaking,
-        // a buckling tangent), adaptive dynamic relaxation, which tolerates both.
-        let solve = |state: &mut State,
-                     peak: Real,
-                     fr: Option<&mut Fracture>,
-                     fext: &Coords|
-         -> Result<()> {
-            let opts = StaticOptions {
-                reference_force: Some((1e-6 * peak).max(1e-300)),
-                ..Default::default()
-            };
-            let before = state.u.clone();
-            match statics::solve(body, state, &cons, Some(fext), &opts) {
-                Ok(_) => Ok(()),
-                Err(newton) => {
-                    state.u.copy_from(&before);
-                    // Springs break while the body relaxes: an unstable crack runs through.
-                    let mut fr = fr;
-                    let mut hook = |s: &mut State| match fr.as_deref_mut() {
-                        Some(f) => f.break_alone(body, s).broken > 0,
-                        None => false,
-                    };
-                    let ropts = hooke_core::relax::RelaxOptions {
-                        tolerance: 1e-4,
-                        max_iterations: 100_000,
-                        reference_force: Some((1e-3 * peak).max(1e-300)),
-                    };
-                    hooke_core::relax::relax_with(body, state, &cons, Some(fext), &ropts, &mut hook)
-                            .map(|_| ())
-                            .map_err(|e| Error::Failed(format!("load step {k} of {steps} (t = {t:e} s): Newton-CG failed ({newton}) and dynamic relaxation did not converge either: {e}")))
-                }
-            }
-        };
+        let at = LoadStep { k, steps, t, peak };
         // The load increment first, elastically (no spring breaks).
-        solve(&mut sim.state, peak, None, &fext)?;
+        equilibrate(&sim.body, &mut sim.state, &cons, &fext, None, at)?;
         add_work(
             (&mut w_ext, &mut w_bc),
             (&fext_prev, &fext),
@@ -228,26 +195,7 @@ fn drive(
             &dofs,
             &reactions_prev,
         );
-        // Then breaking rounds at fixed supports and loads (see the module's docs).
-        let potential = |state: &State| potential_energy(body, state, &fext);
-        for _ in 0..10_000 {
-            let Some(fr) = sim.fracture.as_mut() else {
-                break;
-            };
-            if fr.break_alone(body, &mut sim.state).broken == 0 {
-                break;
-            }
-            let before = potential(&sim.state);
-            let released_before = fr.released_total;
-            solve(&mut sim.state, peak, sim.fracture.as_mut(), &fext)?;
-            // Springs that break inside the solve (dynamic relaxation with breaking) booked
-            // their own release.
-            let released_during = sim
-                .fracture
-                .as_ref()
-                .map_or(0.0, |f| f.released_total - released_before);
-            dissipated += before - potential(&sim.state) - released_during;
-        }
+        break_rounds(sim, &cons, &fext, at, &mut dissipated)?;
         for (m, &(i, c, _)) in dofs.iter().enumerate() {
             let r = -sim.state.f.comp(c)[i] - fext.comp(c)[i];
             reactions_prev[m] = r;
@@ -295,6 +243,88 @@ fn drive(
         outputs: sinks.iter().filter_map(|s| s.describe()).collect(),
         reactions,
     })
+}
+
+/// Where a quasi-static run stands: load step `k` of `steps`, at time `t`, with the largest
+/// reaction so far `peak` (the solvers' force scale).
+#[derive(Clone, Copy)]
+struct LoadStep {
+    k: usize,
+    steps: usize,
+    t: Real,
+    peak: Real,
+}
+
+/// Equilibrium at fixed supports and loads: Newton-CG first; where it cannot (a mechanism or a
+/// loose fragment after breaking, a buckling tangent), adaptive dynamic relaxation, which
+/// tolerates both, with springs breaking (through `fr`) while the body relaxes, so that an
+/// unstable crack runs through.
+fn equilibrate(
+    body: &Body,
+    state: &mut State,
+    cons: &Constraints,
+    fext: &Coords,
+    fr: Option<&mut Fracture>,
+    at: LoadStep,
+) -> Result<()> {
+    let LoadStep { k, steps, t, peak } = at;
+    let opts = StaticOptions {
+        reference_force: Some((1e-6 * peak).max(1e-300)),
+        ..Default::default()
+    };
+    let before = state.u.clone();
+    match statics::solve(body, state, cons, Some(fext), &opts) {
+        Ok(_) => Ok(()),
+        Err(newton) => {
+            state.u.copy_from(&before);
+            let mut fr = fr;
+            let mut hook = |s: &mut State| match fr.as_deref_mut() {
+                Some(f) => f.break_alone(body, s).broken > 0,
+                None => false,
+            };
+            let ropts = hooke_core::relax::RelaxOptions {
+                tolerance: 1e-4,
+                max_iterations: 100_000,
+                reference_force: Some((1e-3 * peak).max(1e-300)),
+            };
+            hooke_core::relax::relax_with(body, state, cons, Some(fext), &ropts, &mut hook)
+                .map(|_| ())
+                .map_err(|e| Error::Failed(format!("load step {k} of {steps} (t = {t:e} s): Newton-CG failed ({newton}) and dynamic relaxation did not converge either: {e}")))
+        }
+    }
+}
+
+/// Breaking rounds at fixed supports and loads (see the module's docs): break, re-solve,
+/// until no spring breaks. Adds to `dissipated` the energy each round dissipates beyond what
+/// its broken springs released (J), round by round.
+fn break_rounds(
+    sim: &mut Simulation,
+    cons: &Constraints,
+    fext: &Coords,
+    at: LoadStep,
+    dissipated: &mut Real,
+) -> Result<()> {
+    let body = &sim.body;
+    let potential = |state: &State| potential_energy(body, state, fext);
+    for _ in 0..10_000 {
+        let Some(fr) = sim.fracture.as_mut() else {
+            break;
+        };
+        if fr.break_alone(body, &mut sim.state).broken == 0 {
+            break;
+        }
+        let before = potential(&sim.state);
+        let released_before = fr.released_total;
+        equilibrate(body, &mut sim.state, cons, fext, sim.fracture.as_mut(), at)?;
+        // Springs that break inside the solve (dynamic relaxation with breaking) booked
+        // their own release.
+        let released_during = sim
+            .fracture
+            .as_ref()
+            .map_or(0.0, |f| f.released_total - released_before);
+        *dissipated += before - potential(&sim.state) - released_during;
+    }
+    Ok(())
 }
 
 /// Body force and loads at time `t` into `fext`.

@@ -616,6 +616,51 @@ struct ReportEnergy {
     cost: std::time::Duration,
 }
 
+/// The run's integrator: on the pieces a simulation set up from parts holds, fresh (sharing
+/// its stable-step estimate with the team and coming back distributed), or resumed from a
+/// whole checkpoint (`resume_here`: the checkpoint is read here, not by each piece later).
+fn integrator(sim: &mut Simulation, opts: &RunOptions, resume_here: bool) -> Result<Integrator> {
+    // A fresh integrator shares its stable-step estimate with the team and comes back
+    // distributed; a resumed one takes its step from the checkpoint.
+    let resume_whole = opts.resume.as_ref().filter(|_| resume_here);
+    // A simulation set up from parts is on its pieces already.
+    let from_parts = sim.from_parts.take();
+    if from_parts.is_some() {
+        let why = match (opts.on_pieces(), resume_whole) {
+            (None, _) => Some("it was set up from parts: run it on the team that set it up, with pieces (RunOptions::pieces, team)"),
+            (_, Some(_)) => Some("a run set up from parts resumes from its processes' own checkpoints (NAME.rankR-of-N.ckpt), on as many processes as wrote them"),
+            _ => None,
+        };
+        if opts.anyone(why.is_some()) {
+            return Err(why.map_or_else(|| elsewhere(true), |w| Error::Input(w.into())));
+        }
+    }
+    Ok(match (from_parts, resume_whole) {
+        (Some(parts), _) => {
+            let team = opts.team.clone().expect("a team");
+            Integrator::on_piece(
+                &sim.body,
+                &mut sim.state,
+                sim.loading.clone(),
+                parts.piece,
+                parts.share,
+                team,
+                &sim.options,
+            )
+            .map_err(|e| Error::Input(e.to_string()))?
+        }
+        (None, None) => Integrator::new_shared(
+            &sim.body,
+            &mut sim.state,
+            sim.loading.clone(),
+            &sim.options,
+            opts.team.clone(),
+        )
+        .map_err(|e| Error::Input(e.to_string()))?,
+        (None, Some(path)) => resume_from_whole(sim, opts, path)?,
+    })
+}
+
 impl Run {
     /// Check the folder, open the outputs, prepare the integrator (or load the checkpoint to
     /// resume from) and write the first frame. Quasi-static simulations run through [`run`].
@@ -645,45 +690,7 @@ impl Run {
             }
             _ => None,
         };
-        // A fresh integrator shares its stable-step estimate with the team and comes back
-        // distributed; a resumed one takes its step from the checkpoint.
-        let resume_whole = opts.resume.as_ref().filter(|_| piece_resume.is_none());
-        // A simulation set up from parts is on its pieces already.
-        let from_parts = sim.from_parts.take();
-        if from_parts.is_some() {
-            let why = match (opts.on_pieces(), resume_whole) {
-                (None, _) => Some("it was set up from parts: run it on the team that set it up, with pieces (RunOptions::pieces, team)"),
-                (_, Some(_)) => Some("a run set up from parts resumes from its processes' own checkpoints (NAME.rankR-of-N.ckpt), on as many processes as wrote them"),
-                _ => None,
-            };
-            if opts.anyone(why.is_some()) {
-                return Err(why.map_or_else(|| elsewhere(true), |w| Error::Input(w.into())));
-            }
-        }
-        let it = match (from_parts, resume_whole) {
-            (Some(parts), _) => {
-                let team = opts.team.clone().expect("a team");
-                Integrator::on_piece(
-                    &sim.body,
-                    &mut sim.state,
-                    sim.loading.clone(),
-                    parts.piece,
-                    parts.share,
-                    team,
-                    &sim.options,
-                )
-                .map_err(|e| Error::Input(e.to_string()))?
-            }
-            (None, None) => Integrator::new_shared(
-                &sim.body,
-                &mut sim.state,
-                sim.loading.clone(),
-                &sim.options,
-                opts.team.clone(),
-            )
-            .map_err(|e| Error::Input(e.to_string()))?,
-            (None, Some(path)) => resume_from_whole(&mut sim, &opts, path)?,
-        };
+        let it = integrator(&mut sim, &opts, piece_resume.is_none())?;
         let mut it = it;
         let on_parts = sim.held.is_some();
         if let Some(team) = &opts.team {

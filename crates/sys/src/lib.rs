@@ -1,10 +1,10 @@
 //! hooke-sys: the system calls and the allocator, the one place outside the kernels where hooke
 //! needs `unsafe`.
 //!
-//! Elsewhere `unsafe` sits only in `hooke_core::kernel` (the SIMD kernels), the MPI transport
-//! of the binary (`hooke_cli`'s `mpi` module: a communicator shared between threads) and the
-//! Python bindings (numpy views over the simulation's arrays); every other crate has
-//! `#![forbid(unsafe_code)]` and reaches the system through here:
+//! Elsewhere `unsafe` sits only in `hooke-kernel` (the SIMD kernels), the MPI transport of
+//! the binary (`hooke_cli`'s `mpi` module: a communicator shared between threads) and the
+//! Python bindings (`hooke-py`'s `views` module: numpy views over the simulation's arrays);
+//! every other crate has `#![forbid(unsafe_code)]` and reaches the system through here:
 //!
 //! - [`alloc`]: the global allocator [`alloc::Staggered`] (large blocks on staggered cache
 //!   lines), glibc's tuning ([`alloc::map_large_blocks`], [`alloc::release_free_memory`]) and

@@ -26,7 +26,8 @@ use crate::law::spring_geometry;
 use crate::math::Real;
 use crate::state::State;
 
-use super::{Integrator, Pools, Shared};
+use super::partition::Shared;
+use super::{Integrator, Pools};
 
 /// What one round of decisions did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -132,11 +133,7 @@ impl Integrator {
         state: &mut State,
         breaker: &mut dyn Breaker,
     ) -> BreakReport {
-        let nodes = match (&self.team, self.piece()) {
-            (_, Some(p)) => p.own.clone(),
-            (Some(t), None) => t.share.mine(),
-            (None, None) => 0..body.nodes(),
-        };
+        let nodes = self.partition.own(body.nodes());
         let mut decided = std::mem::take(&mut self.breaks.decided);
         decided.clear();
         breaker.decide(body, state, Candidates::Rows, nodes, &mut decided);
@@ -164,7 +161,7 @@ impl Integrator {
         let pieced = self.piece().is_some();
         let mut hot = std::mem::take(&mut self.breaks.hot);
         self.kernel.hot_springs(body, state, &mut hot);
-        if self.team.is_some() && !pieced && state.hot.iter().any(|&h| h) {
+        if self.partition.is_shared() && !pieced && state.hot.iter().any(|&h| h) {
             // Every rank decides every flagged spring, and reads both of its ends, wherever
             // they are.
             self.current_at_ends(body, state, &hot, true, Pools::IfStale);
@@ -186,12 +183,16 @@ impl Integrator {
             return (false, report);
         }
         let killed = std::mem::take(&mut self.killed);
-        self.kernel
-            .repair_shared(body, state, &killed, self.team.as_ref().map(Shared::sweeps));
+        self.kernel.repair_shared(
+            body,
+            state,
+            &killed,
+            self.partition.shared().map(Shared::sweeps),
+        );
         if pieced {
             // On pieces the owners' repaired pools reach the ghosts through the halo, on
             // every rank alike when any rank's springs changed.
-            let t = self.team.as_mut().expect("shared");
+            let t = self.partition.shared_mut().expect("shared");
             if std::mem::take(&mut t.broke) {
                 t.trade(&mut [&mut state.pool[..]]);
             }
@@ -240,7 +241,7 @@ impl Integrator {
         let bonds = &*body.lattice.bonds;
         let mut touched = std::mem::take(&mut self.breaks.touched);
         touched_nodes(body, decided, &mut touched);
-        if self.team.is_some() {
+        if self.partition.is_shared() {
             // The released energy reads the touched nodes and their neighbours, displacements
             // and velocities (a shared run keeps only its own and its ghosts' state current
             // between outputs): those are taken from their owners, not the whole state.
@@ -406,7 +407,7 @@ impl Integrator {
     /// it owns: on return every rank holds every rank's, in rank order, which is one process's
     /// order. Two all-gathers (the count, then the pairs; a spring index is exact as a `Real`).
     fn gather_pairs(&mut self, decided: &mut Vec<(u32, Real)>) {
-        let Some(t) = self.team.as_mut() else {
+        let Some(t) = self.partition.shared_mut() else {
             return;
         };
         let mut mine = std::mem::take(&mut t.springs_flat);
@@ -424,7 +425,7 @@ impl Integrator {
     /// one process's decisions in its order. Two all-gathers (the counts, then the entries;
     /// indices are exact as reals). Collective.
     fn gather_decisions(&mut self, list: &mut Vec<(u32, Real, [u32; 2])>) {
-        let Some(t) = self.team.as_mut().filter(|t| t.piece.is_some()) else {
+        let Some(t) = self.partition.shared_mut().filter(|t| t.piece.is_some()) else {
             return;
         };
         let mut mine = std::mem::take(&mut t.springs_flat);
@@ -448,7 +449,7 @@ impl Integrator {
     /// released energy of breaks reads at a touched node's neighbours). Collective.
     fn trade_velocities(&mut self, state: &mut State) {
         let dims = if self.plane { 2 } else { 3 };
-        if let Some(t) = self.team.as_mut().filter(|t| t.piece.is_some()) {
+        if let Some(t) = self.partition.shared_mut().filter(|t| t.piece.is_some()) {
             let mut v = state.v.xyz_mut();
             t.trade(&mut v[..dims]);
         }

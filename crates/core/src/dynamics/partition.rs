@@ -27,8 +27,8 @@ use crate::stability::{self, StableStep};
 use crate::state::State;
 use crate::team::{Piece, Share, Team};
 
+use super::{chunk_node_sums, EnergyBalance, Interaction, Reads};
 use super::{estimate, new_displacements, step_size, Integrator, IntegratorOptions, UNSTABLE_HINT};
-use super::{Interaction, Reads};
 
 /// Which pools a gather from their owners takes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -38,6 +38,74 @@ pub(super) enum Pools {
     IfStale,
     /// Always: a repair after breaks changed them on their owners only.
     Repaired,
+}
+
+/// How an integrator's work is split between processes. Running alone is the trivial case:
+/// every operation of this module then does nothing, and the step reads as one process's.
+#[derive(Debug, Default)]
+pub(super) enum Partition {
+    /// One process does all.
+    #[default]
+    Alone,
+    /// A team shares the sweeps ([`Integrator::distribute`]); this process's share, and its
+    /// piece where it holds only that ([`Integrator::cut`]).
+    Shared(Box<Shared>),
+}
+
+impl Partition {
+    /// The team's state, where a team shares the run.
+    pub(super) fn shared(&self) -> Option<&Shared> {
+        match self {
+            Partition::Alone => None,
+            Partition::Shared(t) => Some(t),
+        }
+    }
+
+    pub(super) fn shared_mut(&mut self) -> Option<&mut Shared> {
+        match self {
+            Partition::Alone => None,
+            Partition::Shared(t) => Some(t),
+        }
+    }
+
+    pub(super) fn is_shared(&self) -> bool {
+        matches!(self, Partition::Shared(_))
+    }
+
+    /// Whether this process holds only its piece of the body.
+    pub(super) fn is_pieced(&self) -> bool {
+        self.pieced().is_some()
+    }
+
+    /// The team and the piece, where this process holds only its piece.
+    pub(super) fn pieced(&self) -> Option<(&Shared, &Pieced)> {
+        self.shared()
+            .and_then(|t| t.piece.as_deref().map(|p| (t, p)))
+    }
+
+    /// The nodes this process's kernel sweeps, in what it holds (`None`: every node).
+    pub(super) fn swept(&self) -> Option<std::ops::Range<usize>> {
+        self.shared().map(|t| t.sweeps().mine())
+    }
+
+    /// The nodes this process owns, in what it holds: its piece's own nodes, its share of the
+    /// body, or all `n` alone.
+    pub(super) fn own(&self, n: usize) -> std::ops::Range<usize> {
+        match (self.shared(), self.pieced()) {
+            (_, Some((_, p))) => p.piece.own.clone(),
+            (Some(t), None) => t.share.mine(),
+            (None, None) => 0..n,
+        }
+    }
+
+    /// One rank's part of a frame of the whole body (`None` alone, or on a piece, whose frame
+    /// is [`Integrator::piece_fields`]).
+    pub(super) fn frame_part(&self) -> Option<law::FramePart<'_>> {
+        self.shared().map(|t| law::FramePart {
+            team: &*t.team,
+            share: &t.share,
+        })
+    }
 }
 
 /// What a shared integrator keeps besides its share (see [`Integrator::distribute`]).
@@ -87,6 +155,52 @@ pub(super) struct Pieced {
     pub(super) sweeps: Share,
     /// The partial sums of every chunk of the body, for their all-gather.
     pub(super) partials: Vec<crate::kernel::SweepSums>,
+}
+
+/// The checks of a piece's inputs (body, loading, damping), on every rank before the first
+/// collective, refused on all alike: a rank returning alone would leave the others waiting.
+fn refuse_together(
+    body: &Body,
+    loading: &Loading,
+    opts: &IntegratorOptions,
+    team: &dyn Team,
+) -> Result<()> {
+    let checked = body
+        .validate()
+        .and_then(|_| loading.validate(body.nodes()))
+        .and_then(|_| {
+            if opts.damping.is_finite() && opts.damping >= 0.0 {
+                Ok(())
+            } else {
+                Err(Error::OutOfRange {
+                    what: "damping coefficient c (1/s)",
+                    value: opts.damping,
+                    why: "it must be zero or positive".into(),
+                })
+            }
+        });
+    let mut failed = [checked.is_err()];
+    team.any(&mut failed);
+    checked?;
+    if failed[0] {
+        return Err(Error::InvalidInput {
+            what: "a piece set up from parts",
+            why: "another process refused its piece (its message says why)".into(),
+        });
+    }
+    Ok(())
+}
+
+/// The damage-proof step's bound over every rank's piece (collective).
+fn damage_bound_over(body: &Body, team: &dyn Team) -> Real {
+    // Ghosts' rows are partial and dummies have none, so their ratios are no larger than
+    // their owners': the ranks' maxima's maximum is the body's.
+    let size = team.size();
+    let mut all = vec![0.0; size];
+    all[team.rank()] = stability::damage_bound(body);
+    let singles: Vec<_> = (0..size).map(|r| r..r + 1).collect();
+    team.gather(&mut all, &singles);
+    all.into_iter().fold(0.0, Real::max)
 }
 
 /// The loaded and prescribed nodes of `loading`, ascending, each once: a shared run's
@@ -180,14 +294,16 @@ impl Integrator {
         team: std::sync::Arc<dyn Team>,
         share: Option<Share>,
     ) {
-        self.team = (team.size() > 1).then(|| {
+        self.partition = if team.size() > 1 {
             let special = special_nodes(&self.loading);
             let share =
                 share.unwrap_or_else(|| Share::new(body, team.size(), team.rank(), &special));
-            self.shared(team, share, special)
-        });
+            Partition::Shared(Box::new(self.shared(team, share, special)))
+        } else {
+            Partition::Alone
+        };
         // From here on this rank sweeps its own nodes only.
-        if let Some(t) = &self.team {
+        if let Some(t) = self.partition.shared() {
             self.kernel.keep_rows(t.share.mine());
         }
     }
@@ -250,7 +366,7 @@ impl Integrator {
     /// sweeps by rows (a random lattice; not a box of a regular lattice, whose stencil kernel
     /// needs the whole box), the integrator distributed, and `state` current.
     pub fn cut(&mut self, body: &Body, state: &State) -> Result<(Body, State)> {
-        let Some(t) = self.team.as_mut() else {
+        let Some(t) = self.partition.shared_mut() else {
             return Err(Error::InvalidInput {
                 what: "a piece of the body",
                 why: "the integrator is not shared between processes: there is nothing to cut"
@@ -324,31 +440,7 @@ impl Integrator {
         team: std::sync::Arc<dyn Team>,
         opts: &IntegratorOptions,
     ) -> Result<Self> {
-        // Checked on every rank before the first collective, and refused on all alike (a
-        // rank returning alone would leave the others waiting).
-        let checked = body
-            .validate()
-            .and_then(|_| loading.validate(body.nodes()))
-            .and_then(|_| {
-                if opts.damping.is_finite() && opts.damping >= 0.0 {
-                    Ok(())
-                } else {
-                    Err(Error::OutOfRange {
-                        what: "damping coefficient c (1/s)",
-                        value: opts.damping,
-                        why: "it must be zero or positive".into(),
-                    })
-                }
-            });
-        let mut failed = [checked.is_err()];
-        team.any(&mut failed);
-        checked?;
-        if failed[0] {
-            return Err(Error::InvalidInput {
-                what: "a piece set up from parts",
-                why: "another process refused its piece (its message says why)".into(),
-            });
-        }
+        refuse_together(body, &loading, opts, &*team)?;
         let deformed = |state: &State| {
             let mut d = [state.u.as_flat().iter().any(|&x| x != 0.0)];
             team.any(&mut d);
@@ -366,14 +458,7 @@ impl Integrator {
             Kernel::for_body_in(body, state, Some(piece.own.clone()))
         };
         opts.choose_lanes(&mut kernel);
-        // Ghosts' rows are partial and dummies have none, so their ratios are no larger than
-        // their owners': the ranks' maxima's maximum is the body's.
-        let size = team.size();
-        let mut all = vec![0.0; size];
-        all[team.rank()] = stability::damage_bound(body);
-        let singles: Vec<_> = (0..size).map(|r| r..r + 1).collect();
-        team.gather(&mut all, &singles);
-        let bound = all.into_iter().fold(0.0, Real::max);
+        let bound = damage_bound_over(body, &*team);
         // The estimate on the piece, as `new_shared` makes it on the body: the piece's own
         // sweeps, its halo traded, the partial sums gathered in the body's chunks.
         let mut sweeps = piece.share(body);
@@ -448,7 +533,7 @@ impl Integrator {
                 .local(*s as usize)
                 .expect("a special node of the piece") as u32;
         }
-        it.team = Some(shared);
+        it.partition = Partition::Shared(Box::new(shared));
         it.attach(piece, body, state, sweeps, true);
         // The energy at the start and the power there, summed as one process sums them.
         let v0 = state.v.clone();
@@ -493,7 +578,7 @@ impl Integrator {
         self.partials = vec![Default::default(); piece_body.nodes().div_ceil(crate::kernel::CHUNK)];
         self.synced = piece_state.breaks();
         let chunks = piece.total.div_ceil(crate::kernel::CHUNK);
-        let t = self.team.as_mut().expect("a shared integrator");
+        let t = self.partition.shared_mut().expect("a shared integrator");
         t.piece = Some(Box::new(Pieced {
             piece,
             sweeps,
@@ -509,7 +594,7 @@ impl Integrator {
     /// different numbers of ranks can be compared without writing their states.
     pub fn state_digest(&mut self, state: &State) -> u64 {
         let chunk = crate::kernel::CHUNK;
-        let (own, first, total) = match &self.team {
+        let (own, first, total) = match self.partition.shared() {
             None => (0..state.u.len(), 0, state.u.len()),
             Some(t) => match &t.piece {
                 Some(p) => (p.piece.own.clone(), p.piece.first, p.piece.total),
@@ -536,7 +621,7 @@ impl Integrator {
             // Carried as a real's bits: the all-gather copies bytes.
             digests[first / chunk + k] = Real::from_bits(h);
         }
-        if let Some(t) = &self.team {
+        if let Some(t) = self.partition.shared() {
             t.team.gather(&mut digests, &t.share.chunk_parts(1));
         }
         digests.iter().fold(basis, |h, d| fnv(h, d.to_bits()))
@@ -544,19 +629,19 @@ impl Integrator {
 
     /// Panics on a piece ([`Integrator::cut`]): `what` reads the whole state.
     pub(super) fn whole(&self, what: &str) {
-        if let Some(t) = &self.team {
+        if let Some(t) = self.partition.shared() {
             t.whole(what);
         }
     }
 
     /// The piece this rank steps, if it was cut ([`Integrator::cut`]).
     pub fn piece(&self) -> Option<&Piece> {
-        self.team.as_ref()?.piece.as_ref().map(|p| &p.piece)
+        self.partition.shared()?.piece.as_ref().map(|p| &p.piece)
     }
 
     /// The team this integrator shares its steps with, if any.
     pub fn team(&self) -> Option<&dyn Team> {
-        self.team.as_ref().map(|t| &*t.team)
+        self.partition.shared().map(|t| &*t.team)
     }
 
     /// Collective operations per step of a shared run without contact and without springs
@@ -564,14 +649,14 @@ impl Integrator {
     /// velocities (if any) and of the prescribed nodes' forces (if any); a screened fracture
     /// criterion adds a logical or of the screen flags. Zero alone.
     pub fn collectives_per_step(&self) -> usize {
-        self.team.as_ref().map_or(0, |t| {
+        self.partition.shared().map_or(0, |t| {
             1 + usize::from(!t.special.is_empty()) + usize::from(!self.dofs.is_empty())
         })
     }
 
     /// This process's share of the steps, if shared.
     pub fn share(&self) -> Option<&Share> {
-        self.team.as_ref().map(|t| &t.share)
+        self.partition.shared().map(|t| &t.share)
     }
 
     /// Make every node's displacement, pool and velocity current on this process (a shared
@@ -599,7 +684,7 @@ impl Integrator {
         let dims = if self.plane { 2 } else { 3 };
         // A piece holds no other ranks' nodes but its ghosts, whose displacements and pools
         // each step keeps current: there is nothing to gather.
-        let Some(t) = self.team.as_mut().filter(|t| t.piece.is_none()) else {
+        let Some(t) = self.partition.shared_mut().filter(|t| t.piece.is_none()) else {
             return;
         };
         if u && t.stale_u {
@@ -631,7 +716,7 @@ impl Integrator {
         v: bool,
     ) {
         let dims = if self.plane { 2 } else { 3 };
-        let Some(t) = self.team.as_mut() else {
+        let Some(t) = self.partition.shared_mut() else {
             return;
         };
         let pool = match pool {
@@ -710,7 +795,7 @@ impl Integrator {
         u: bool,
         pool: Pools,
     ) {
-        let Some(t) = self.team.as_mut() else {
+        let Some(t) = self.partition.shared_mut() else {
             return;
         };
         let mut ends = std::mem::take(&mut t.ends);
@@ -723,13 +808,13 @@ impl Integrator {
         ends.sort_unstable();
         ends.dedup();
         self.current_at(state, &ends, u, pool, false);
-        self.team.as_mut().expect("shared").ends = ends;
+        self.partition.shared_mut().expect("shared").ends = ends;
     }
 
     /// Sweep 1 on this process's share, then the pools its peers read traded (and with a
     /// screen, the screen flags or-ed everywhere).
     pub(super) fn pools_everywhere(&mut self, body: &Body, state: &mut State, screen: Real) {
-        match &mut self.team {
+        match self.partition.shared_mut() {
             None => self.kernel.pools_screened(body, state, screen),
             Some(t) => {
                 self.kernel
@@ -767,9 +852,9 @@ impl Integrator {
             params,
             (!in_place).then_some(&mut self.u_next),
             &mut self.partials,
-            self.team.as_ref().map(Shared::sweeps),
+            self.partition.shared().map(Shared::sweeps),
         );
-        let Some(t) = self.team.as_mut() else {
+        let Some(t) = self.partition.shared_mut() else {
             return own;
         };
         if let Some(pc) = &mut t.piece {
@@ -809,10 +894,10 @@ impl Integrator {
     /// so that every member finds the same first node and reports it alike (before, every
     /// member gathered and checked the whole body). Collective. Alone: [`Integrator::check`].
     pub fn check_shared(&mut self, body: &Body, state: &mut State) -> Result<()> {
-        if let Some(t) = self.team.as_ref().filter(|t| t.piece.is_some()) {
+        if let Some(t) = self.partition.shared().filter(|t| t.piece.is_some()) {
             return Self::check_piece(t, body, state);
         }
-        if let Some(t) = &self.team {
+        if let Some(t) = self.partition.shared() {
             let mine = t.share.nodes[t.share.rank].clone();
             let mut failed = [Self::check_nodes(body, state, mine).is_err()];
             t.team.any(&mut failed);
@@ -866,7 +951,7 @@ impl Integrator {
         state: &mut State,
         scratch: &mut law::FrameScratch,
     ) -> Option<law::FrameFields> {
-        let t = self.team.as_ref()?;
+        let t = self.partition.shared()?;
         let pc = t.piece.as_ref()?;
         let fields = law::frame_fields_piece(
             body,
@@ -894,7 +979,7 @@ impl Integrator {
         state: &mut State,
         interaction: &mut dyn Interaction,
     ) {
-        let Some(t) = self.team.as_ref() else {
+        let Some(t) = self.partition.shared() else {
             return;
         };
         match interaction.reads(body, state, &t.share.nodes) {
@@ -908,7 +993,7 @@ impl Integrator {
     /// After sweep 2: the velocities the step's bookkeeping reads (the loaded and prescribed
     /// nodes' and those contact pushed), whichever rank swept them. Alone: nothing.
     pub(super) fn swept_velocities_current(&mut self, state: &mut State) {
-        let Some(t) = self.team.as_mut() else {
+        let Some(t) = self.partition.shared_mut() else {
             return;
         };
         let mut nodes = std::mem::take(&mut t.ends);
@@ -921,13 +1006,13 @@ impl Integrator {
         nodes.sort_unstable();
         nodes.dedup();
         self.current_at(state, &nodes, false, Pools::No, true);
-        self.team.as_mut().expect("shared").ends = nodes;
+        self.partition.shared_mut().expect("shared").ends = nodes;
     }
     /// The internal force at u(t) on every prescribed node, into `f_before` (their reactions'
     /// work): alone computed here; in a team each rank has current neighbours for its own
     /// nodes only, so owners compute the forces and everyone gathers them.
     pub(super) fn prescribed_forces_everywhere(&mut self, force: &dyn Fn(usize) -> [Real; 3]) {
-        match self.team.as_mut() {
+        match self.partition.shared_mut() {
             None => self
                 .f_before
                 .extend(self.dofs.iter().map(|d| force(d.node))),
@@ -957,19 +1042,131 @@ impl Integrator {
         terms: &[Real],
         in_place: bool,
     ) {
-        let t = self.team.as_mut().expect("shared");
+        let t = self.partition.shared_mut().expect("shared");
         let mut all = std::mem::take(&mut t.listed);
         crate::team::gather_runs(&*t.team, terms, &mut all, &mut t.listed_parts);
         for term in all.chunks_exact(3) {
             super::book_contact(&mut self.ledger, [term[0], term[1], term[2]]);
         }
         let pushed = !all.is_empty();
-        let t = self.team.as_mut().expect("shared");
+        let t = self.partition.shared_mut().expect("shared");
         t.listed = all;
         if pushed {
             let dims = params.dims(body.lattice.dim());
             let mut u = new_displacements(&mut self.u_next, &mut state.u, in_place).xyz_mut();
             t.trade(&mut u[..dims]);
         }
+    }
+
+    /// A piece's frame ([`Integrator::frame_view`]): its own nodes' fields (a VTK piece), the
+    /// velocity and the energy balance; `None` where this process holds the whole body.
+    pub(super) fn frame_on_piece(
+        &mut self,
+        body: &Body,
+        state: &mut State,
+        whole: bool,
+    ) -> Option<(Coords, EnergyBalance, law::FrameFields)> {
+        self.partition.pieced()?;
+        // Whole frames are written from a whole state.
+        assert!(
+            !whole,
+            "a whole frame reads the whole state, which a rank stepping its piece does not hold"
+        );
+        let mut scratch = std::mem::take(&mut self.frame_scratch);
+        let fields = self
+            .piece_fields(body, state, &mut scratch)
+            .expect("a piece");
+        if scratch.bytes() <= hooke_sys::alloc::KEPT_BLOCK {
+            self.frame_scratch = scratch;
+        }
+        let v = self.velocity_from_forces(body, state);
+        let b = self.balance(body, state, &v, fields.strain);
+        Some((v, b, fields))
+    }
+
+    /// After each rank computed the frame of its own nodes ([`Partition::frame_part`]): the
+    /// forces gathered whole on every rank (the velocity, the reactions and a checkpoint read
+    /// them), and with `whole` the energy densities and stresses too. Nothing alone.
+    pub(super) fn frame_gathered(&self, fields: &mut law::FrameFields, whole: bool) {
+        let Some(p) = self.partition.frame_part() else {
+            return;
+        };
+        let nodes = &p.share.nodes;
+        let dims = if self.plane { 2 } else { 3 };
+        for c in fields.force.xyz_mut().into_iter().take(dims) {
+            p.team.gather(c, nodes);
+        }
+        if whole {
+            p.team.gather(&mut fields.energy_density, nodes);
+            let nine: Vec<_> = nodes.iter().map(|r| 9 * r.start..9 * r.end).collect();
+            p.team.gather(fields.stress.as_flattened_mut(), &nine);
+        }
+    }
+
+    /// [`Integrator::node_sums`] on a piece: each rank sums the chunks it holds, and the
+    /// chunks' sums are all-gathered and added in chunk order (collective); `None` where this
+    /// process holds the whole body.
+    pub(super) fn node_sums_on_piece(&self, body: &Body, v: &Coords) -> Option<[Real; 2]> {
+        let (t, pc) = self.partition.pieced()?;
+        let (g, c) = (self.loading.body_acceleration, self.damping);
+        let piece = &pc.piece;
+        let mut sums = vec![0.0; 2 * piece.total.div_ceil(crate::kernel::CHUNK)];
+        let at = 2 * (piece.first / crate::kernel::CHUNK);
+        for (k, x) in chunk_node_sums(body, v, g, c, piece.own.clone())
+            .into_iter()
+            .enumerate()
+        {
+            sums[at + 2 * k..at + 2 * k + 2].copy_from_slice(&x);
+        }
+        t.team.gather(&mut sums, &t.share.chunk_parts(2));
+        Some(
+            sums.chunks_exact(2)
+                .fold([0.0; 2], |s, x| [s[0] + x[0], s[1] + x[1]]),
+        )
+    }
+
+    /// The forces at `nodes` (prescribed ones, ascending) on a piece: each owner computes its
+    /// nodes' forces from its own nodes' pools and its ghosts' traded (a halo trade and an
+    /// all-gather: collective); `None` where this process holds the whole body.
+    pub(super) fn forces_on_piece(
+        &self,
+        body: &Body,
+        state: &State,
+        nodes: &[usize],
+    ) -> Option<Vec<[Real; 3]>> {
+        let (t, pc) = self.partition.pieced()?;
+        let piece = &pc.piece;
+        let mut pool = state.pool.clone();
+        let sp = state.springs(body);
+        law::pools_in(
+            body,
+            &state.u,
+            sp,
+            &state.norm,
+            piece.own.clone(),
+            &mut pool,
+        );
+        let size = t.team.size();
+        let (mut out, mut inp) = (vec![Vec::new(); size], vec![Vec::new(); size]);
+        crate::team::trade_halo(
+            &*t.team,
+            &piece.halo,
+            &mut out,
+            &mut inp,
+            &mut [&mut pool[..]],
+        );
+        let mut f = Vec::new();
+        t.gather_special(&mut f, |i| {
+            law::node_force(body, body.q, &state.u, sp, &pool, i)
+        });
+        Some(
+            nodes
+                .iter()
+                .map(|&i| {
+                    let k = t.special.partition_point(|&s| (s as usize) < i);
+                    [f[3 * k], f[3 * k + 1], f[3 * k + 2]]
+                })
+                .collect(),
+        )
     }
 }

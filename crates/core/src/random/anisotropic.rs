@@ -50,16 +50,18 @@
 //! shear stiffening that grows with |q|) and the network relaxes non-affinely (a softening of
 //! about 7 %). As the isotropic tables do ([`crate::random::calibration`]), the design is
 //! corrected by measurement, here by a fixed point on the target: design for `C_d`, measure the
-//! ensemble's relaxed stiffness `C_m` on cubes ([`crate::moduli::relax_cube`], its inner cube),
+//! ensemble's relaxed stiffness `C_m` on cubes ([`crate::cube::relax_cube`], its inner cube),
 //! set `C_d <- C_d + (C - C_m)` on the orthotropic entries, repeat. [`calibrate`] states the
 //! residual it reached.
 
-use crate::anisotropy::{rank_one, rotate, Unreachable, Q_MIN};
+use crate::anisotropy::VOIGT;
+use crate::anisotropy::{rank_one, rotate, Anisotropic, Unreachable, Q_MIN};
 use crate::body::Body;
+use crate::cube::relax_cube;
 use crate::error::{Error, Result};
 use crate::lattice::Lattice;
+use crate::material::PlaneModel;
 use crate::math::Real;
-use crate::moduli::{relax_cube, VOIGT};
 use crate::random::{RandomSpec, Sampler};
 use crate::statics::StaticOptions;
 use rayon::prelude::*;
@@ -482,15 +484,7 @@ impl RandomDesign {
     }
 }
 
-/// Which entries of a stiffness in the material axes are tied by the material's symmetry
-/// (averaged when the calibration corrects the design, to halve the ensemble's noise).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Symmetry {
-    /// Nine independent entries.
-    Orthotropic,
-    /// Fibre along the third axis: C11 = C22, C13 = C23, C44 = C55.
-    Transverse,
-}
+pub use crate::anisotropy::Symmetry;
 
 /// How [`calibrate`] measures.
 #[derive(Clone, Debug)]
@@ -1072,6 +1066,131 @@ fn on_disk(
         }
     };
     Ok(cal)
+}
+
+/// An anisotropic material's body on any lattice: on the Ladd lattice its spring families
+/// ([`Body::transverse`], [`Body::orthotropic`]), on a random lattice the direction functions
+/// [`calibrate`] measures for it. Measuring needs the static solver, so these methods live
+/// here, with the calibration, and not on [`Anisotropic`] in `hooke-model`.
+pub trait Designs {
+    /// The body of this material on `lattice` (a random2d plate in plane stress,
+    /// [`Designs::body_in`] for plane strain).
+    fn body(&self, lattice: Lattice) -> Result<Body>;
+    /// [`Designs::body`], a 2D lattice standing for the material by `plane`.
+    fn body_in(&self, lattice: Lattice, plane: PlaneModel) -> Result<Body>;
+    /// The calibrated direction functions for a random lattice of `dim` dimensions: a plate's
+    /// ([`Designs::random_design_plane`], standing for the material by `plane`) in 2D, the
+    /// material's own ([`Designs::random_design`]) in 3D, where `plane` is not read.
+    fn random_design_for(
+        &self,
+        dim: usize,
+        sampler: Sampler,
+        plane: PlaneModel,
+    ) -> Result<Calibrated>;
+    /// The direction functions that give this material on random3d lattices scattered by
+    /// `sampler`, calibrated on cubes ([`calibrate`], default options: 4 cubes of 20 spacings,
+    /// seeds 1001 to 1004; about half a minute).
+    fn random_design(&self, sampler: Sampler) -> Result<Calibrated>;
+    /// [`Designs::random_design`] with the calibration's options.
+    fn random_design_with(&self, opts: &CalibrationOptions) -> Result<Calibrated>;
+    /// The direction functions that give this material on random2d plates scattered by
+    /// `sampler` (`plane`: how the plate stands for the material), calibrated on squares
+    /// ([`CalibrationOptions::plane`]: 4 squares of 40 spacings, seeds 1001 to 1004; a few
+    /// seconds).
+    fn random_design_plane(&self, sampler: Sampler, plane: PlaneModel) -> Result<Calibrated>;
+    /// [`Designs::random_design_plane`] with the calibration's options (`opts.dim` is 2).
+    fn random_design_plane_with(
+        &self,
+        opts: &CalibrationOptions,
+        plane: PlaneModel,
+    ) -> Result<Calibrated>;
+}
+
+impl Designs for Anisotropic {
+    fn body(&self, lattice: Lattice) -> Result<Body> {
+        self.body_in(lattice, crate::material::PlaneModel::Stress)
+    }
+
+    fn body_in(&self, lattice: Lattice, plane: crate::material::PlaneModel) -> Result<Body> {
+        if lattice.kind.is_random() {
+            let sampler = lattice
+                .cells
+                .as_ref()
+                .map_or(crate::random::Sampler::Poisson, |c| c.sampler);
+            return self
+                .random_design_for(lattice.dim(), sampler, plane)?
+                .design
+                .body(lattice, self.density());
+        }
+        match self {
+            Anisotropic::Transverse(t) => Body::transverse(lattice, t),
+            Anisotropic::Orthotropic(o) => Body::orthotropic(lattice, o),
+        }
+    }
+
+    fn random_design_for(
+        &self,
+        dim: usize,
+        sampler: crate::random::Sampler,
+        plane: crate::material::PlaneModel,
+    ) -> Result<Calibrated> {
+        if dim == 2 {
+            self.random_design_plane(sampler, plane)
+        } else {
+            self.random_design(sampler)
+        }
+    }
+
+    fn random_design(&self, sampler: crate::random::Sampler) -> Result<Calibrated> {
+        self.random_design_with(&CalibrationOptions {
+            sampler,
+            ..Default::default()
+        })
+    }
+
+    fn random_design_with(&self, opts: &CalibrationOptions) -> Result<Calibrated> {
+        use {calibrate, Symmetry};
+        match self {
+            Anisotropic::Transverse(t) => {
+                t.validate()?;
+                calibrate(&t.local_stiffness(), t.frame()?, Symmetry::Transverse, opts)
+            }
+            Anisotropic::Orthotropic(o) => {
+                calibrate(&o.local_stiffness()?, o.axes, Symmetry::Orthotropic, opts)
+            }
+        }
+    }
+
+    fn random_design_plane(
+        &self,
+        sampler: crate::random::Sampler,
+        plane: crate::material::PlaneModel,
+    ) -> Result<Calibrated> {
+        self.random_design_plane_with(
+            &CalibrationOptions {
+                sampler,
+                ..CalibrationOptions::plane()
+            },
+            plane,
+        )
+    }
+
+    fn random_design_plane_with(
+        &self,
+        opts: &CalibrationOptions,
+        plane: crate::material::PlaneModel,
+    ) -> Result<Calibrated> {
+        if let Anisotropic::Transverse(t) = self {
+            t.validate()?;
+        }
+        let (axes, sym) = self.plane_axes()?;
+        let target = self.plane_local_stiffness(plane)?;
+        let opts = CalibrationOptions {
+            dim: 2,
+            ..opts.clone()
+        };
+        calibrate(&target, axes, sym, &opts)
+    }
 }
 
 #[cfg(test)]

@@ -1,8 +1,7 @@
-//! Random lattices: their geometry is [`hooke_lattice::random`] (re-exported here); this
-//! module adds what depends on the model: the calibration of the spring constants against the
-//! target moduli ([`calibration`]) and of anisotropic materials ([`anisotropic`]).
+//! Random lattices: their geometry is [`hooke_lattice::random`] and their calibration tables
+//! [`calibration`] (`hooke-model`), both re-exported here; this module adds the calibration of
+//! anisotropic materials by measurement ([`anisotropic`]), which needs the static solver.
 
-pub use hooke_lattice::random::*;
+pub use hooke_model::random::*;
 
 pub mod anisotropic;
-pub mod calibration;

@@ -54,36 +54,8 @@ pub fn assemble(team: &dyn Team, body: &Sampling, margin: Real) -> Result<(Piece
         });
     }
     // 2. Boundaries on whole chunks, and their keys.
-    let mut split = vec![0usize; size + 1];
-    split[size] = total;
-    for r in 1..size {
-        let at = (offsets[r] + CHUNK / 2) / CHUNK * CHUNK;
-        split[r] = at.min(total).max(split[r - 1]);
-    }
-    let mut keys = vec![0.0; size + 1];
-    keys[size] = Real::from_bits(KEY_END);
-    // The boundary keys rank q finds: those of the boundaries inside its trial range.
-    let finder = |s: usize| (0..size).find(|&q| offsets[q] <= s && s < offsets[q + 1]);
-    let mut parts = vec![0..0; size];
-    for r in 1..size {
-        match finder(split[r]) {
-            Some(q) => {
-                if parts[q].is_empty() {
-                    parts[q] = r..r + 1;
-                } else {
-                    parts[q].end = r + 1;
-                }
-            }
-            None => keys[r] = Real::from_bits(KEY_END),
-        }
-    }
-    for r in parts[rank].clone() {
-        keys[r] = Real::from_bits(trial[split[r] - offsets[rank]]);
-    }
+    let (split, keys) = split_keys(team, &trial, &offsets);
     drop(trial);
-    fill_gaps(&mut parts);
-    team.gather(&mut keys, &parts);
-    let keys: Vec<u64> = keys.iter().map(|k| k.to_bits()).collect();
     let part = all_ok(team, body.part(keys[rank]..keys[rank + 1], margin))?;
     let want = split[rank + 1] - split[rank];
     let mut wrong = [part.own.len() != want];
@@ -145,16 +117,7 @@ pub fn assemble(team: &dyn Team, body: &Sampling, margin: Real) -> Result<(Piece
     }
     node[own.clone()].copy_from_slice(&part.volume);
     surface[own.clone()].copy_from_slice(&part.surface);
-    // The body's volume per node: per-chunk sums of the own chunks, in chunk order.
-    let chunks = total.div_ceil(CHUNK);
-    let mut partial = vec![0.0; chunks];
-    for (k, c) in part.volume.chunks(CHUNK).enumerate() {
-        partial[split[rank] / CHUNK + k] = c.iter().sum();
-    }
-    let nodes: Vec<Range<usize>> = (0..size).map(|r| split[r]..split[r + 1]).collect();
-    let chunk_parts: Vec<Range<usize>> = nodes.iter().map(crate::kernel::chunks_of).collect();
-    team.gather(&mut partial, &chunk_parts);
-    let volume: Real = partial.iter().sum();
+    let (nodes, volume) = body_volume(team, &part.volume, &split);
     let cell_volume = volume / total as Real;
     // A dummy stands for no material, but a body built from the cells gives every node its
     // volume's mass, and a node needs a positive one: the mean.
@@ -183,6 +146,60 @@ pub fn assemble(team: &dyn Team, body: &Sampling, margin: Real) -> Result<(Piece
         halo,
     };
     Ok((piece, lattice, share))
+}
+
+/// Where the body is split: rank r's nodes start at `split[r]` (whole chunks, near the trial
+/// counts' `offsets`), and the Morton keys there, each found by the rank whose trial range
+/// (`trial`, its sorted keys) holds the boundary (collective).
+fn split_keys(team: &dyn Team, trial: &[u64], offsets: &[usize]) -> (Vec<usize>, Vec<u64>) {
+    let (rank, size) = (team.rank(), team.size());
+    let total = offsets[size];
+    let mut split = vec![0usize; size + 1];
+    split[size] = total;
+    for r in 1..size {
+        let at = (offsets[r] + CHUNK / 2) / CHUNK * CHUNK;
+        split[r] = at.min(total).max(split[r - 1]);
+    }
+    let mut keys = vec![0.0; size + 1];
+    keys[size] = Real::from_bits(KEY_END);
+    // The boundary keys rank q finds: those of the boundaries inside its trial range.
+    let finder = |s: usize| (0..size).find(|&q| offsets[q] <= s && s < offsets[q + 1]);
+    let mut parts = vec![0..0; size];
+    for r in 1..size {
+        match finder(split[r]) {
+            Some(q) => {
+                if parts[q].is_empty() {
+                    parts[q] = r..r + 1;
+                } else {
+                    parts[q].end = r + 1;
+                }
+            }
+            None => keys[r] = Real::from_bits(KEY_END),
+        }
+    }
+    for r in parts[rank].clone() {
+        keys[r] = Real::from_bits(trial[split[r] - offsets[rank]]);
+    }
+    fill_gaps(&mut parts);
+    team.gather(&mut keys, &parts);
+    let keys: Vec<u64> = keys.iter().map(|k| k.to_bits()).collect();
+    (split, keys)
+}
+
+/// Every rank's nodes of the body split at `split`, and the body's volume: per-chunk sums of
+/// each rank's own chunks (`volume`, its nodes' volumes), added in chunk order (collective).
+fn body_volume(team: &dyn Team, volume: &[Real], split: &[usize]) -> (Vec<Range<usize>>, Real) {
+    let (rank, size) = (team.rank(), team.size());
+    let total = split[size];
+    let chunks = total.div_ceil(CHUNK);
+    let mut partial = vec![0.0; chunks];
+    for (k, c) in volume.chunks(CHUNK).enumerate() {
+        partial[split[rank] / CHUNK + k] = c.iter().sum();
+    }
+    let nodes: Vec<Range<usize>> = (0..size).map(|r| split[r]..split[r + 1]).collect();
+    let chunk_parts: Vec<Range<usize>> = nodes.iter().map(crate::kernel::chunks_of).collect();
+    team.gather(&mut partial, &chunk_parts);
+    (nodes, partial.iter().sum())
 }
 
 /// The part's ghosts (its nodes that other ranks own, ascending), what their owners answer for

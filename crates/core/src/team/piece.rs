@@ -219,46 +219,7 @@ impl Piece {
     /// The piece's state cut out of the whole body's `state` (`piece_body` as [`Piece::cut`]
     /// gave it): every value at the piece's nodes and springs.
     pub fn state(&self, piece_body: &Body, state: &State) -> State {
-        let mut s = State::new(piece_body);
-        let pick = |dst: &mut [Real], src: &[Real]| {
-            for (d, &g) in dst.iter_mut().zip(&self.global) {
-                if g != PAD {
-                    *d = src[g as usize];
-                }
-            }
-        };
-        for (a, b) in [
-            (&mut s.u, &state.u),
-            (&mut s.v, &state.v),
-            (&mut s.f, &state.f),
-        ] {
-            for (c, dst) in a.xyz_mut().into_iter().enumerate() {
-                pick(dst, b.comp(c));
-            }
-        }
-        pick(&mut s.pool, &state.pool);
-        pick(&mut s.norm, &state.norm);
-        s.alive = self
-            .springs
-            .iter()
-            .map(|&b| state.alive[b as usize])
-            .collect();
-        if !state.weight.is_empty() {
-            s.weight = self
-                .springs
-                .iter()
-                .map(|&b| state.weight[b as usize])
-                .collect();
-            s.k_eff = self
-                .springs
-                .iter()
-                .map(|&b| state.k_eff[b as usize])
-                .collect();
-        }
-        s.time = state.time;
-        s.step = state.step;
-        s.set_breaks(state.breaks());
-        s
+        state.cut(piece_body, &self.global, PAD, &self.springs)
     }
 }
 

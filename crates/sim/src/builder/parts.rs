@@ -17,7 +17,7 @@ use std::sync::Arc;
 use hooke_core::random::part::Sampling;
 use hooke_core::random::Sampler;
 use hooke_core::team::parts::{assemble, everyone, gather_ids, sum_counts};
-use hooke_core::team::{Team, PAD};
+use hooke_core::team::{Piece, Team, PAD};
 use hooke_core::{Lattice, Real, State, Vector};
 
 use super::{BuildError, Builder, Selector};
@@ -101,32 +101,7 @@ impl Builder {
         let extreme = |f: Face| extremes[f.axis][usize::from(f.high)];
         // The loaded and prescribed nodes this process owns, then every process's in every
         // piece.
-        let mine = {
-            let global = |i: u32| Some(piece.global[i as usize]).filter(|&g| g != PAD);
-            let own = piece.own.clone();
-            let surface = &lattice.cells.as_ref().expect("a random lattice").surface;
-            let mut mine = Vec::new();
-            for bc in &self.bcs {
-                let moved = !bc.fixed.is_empty() || !bc.motions.is_empty();
-                if !moved && bc.tractions.is_empty() {
-                    continue;
-                }
-                for i in bc.region.select_where(&lattice, &extreme, &global) {
-                    let i = i as usize;
-                    // A traction loads the nodes with a share of the face (`traction_loads`).
-                    let loaded = bc
-                        .tractions
-                        .iter()
-                        .any(|&(_, normal, _)| normal < 3 && surface[i][normal].abs() > 0.0);
-                    if own.contains(&i) && (moved || loaded) {
-                        mine.push(piece.global[i]);
-                    }
-                }
-            }
-            mine.sort_unstable();
-            mine.dedup();
-            mine
-        };
+        let mine = self.loaded_owned(&piece, &lattice, &extreme);
         let (piece, lattice, share, _) = everyone(&*team, piece, lattice, share, &mine)
             .map_err(|e| BuildError::new("boundary", e.to_string()))?;
         let (body, k, design) = self.material_body(lattice)?;
@@ -160,22 +135,7 @@ impl Builder {
         };
         let (loading, regions, boundaries) =
             self.loading(&body, false, &mut state, &mut fracture, &pick)?;
-        let contact = match &self.contact {
-            None => None,
-            Some((spec, bodies)) => {
-                let shortest = min_over(&*team, body.lattice.shortest());
-                let global = |i: usize| piece.global[i] as usize;
-                let nearest = |n| nearest_over(&*team, n);
-                let whole = crate::rigid::Across {
-                    shortest,
-                    nodes: piece.total,
-                    scan: own.clone(),
-                    global: &global,
-                    nearest: &nearest,
-                };
-                Some(crate::rigid::contact_across(&body, spec, bodies, &whole)?)
-            }
-        };
+        let contact = self.contact_on_piece(&*team, &body, &piece)?;
         // The springs pre-cracks cut, each counted by the owner of its lower end.
         let cut = state
             .alive()
@@ -200,6 +160,66 @@ impl Builder {
         });
         sim.from_parts = Some(FromParts { piece, share });
         Ok(sim)
+    }
+
+    /// This process's own nodes that a boundary loads or moves, in the body's numbering,
+    /// ascending (`extreme`: the body's extreme coordinate of a face).
+    fn loaded_owned(
+        &self,
+        piece: &Piece,
+        lattice: &Lattice,
+        extreme: &dyn Fn(Face) -> Real,
+    ) -> Vec<u32> {
+        let global = |i: u32| Some(piece.global[i as usize]).filter(|&g| g != PAD);
+        let own = piece.own.clone();
+        let surface = &lattice.cells.as_ref().expect("a random lattice").surface;
+        let mut mine = Vec::new();
+        for bc in &self.bcs {
+            let moved = !bc.fixed.is_empty() || !bc.motions.is_empty();
+            if !moved && bc.tractions.is_empty() {
+                continue;
+            }
+            for i in bc.region.select_where(lattice, &extreme, &global) {
+                let i = i as usize;
+                // A traction loads the nodes with a share of the face (`traction_loads`).
+                let loaded = bc
+                    .tractions
+                    .iter()
+                    .any(|&(_, normal, _)| normal < 3 && surface[i][normal].abs() > 0.0);
+                if own.contains(&i) && (moved || loaded) {
+                    mine.push(piece.global[i]);
+                }
+            }
+        }
+        mine.sort_unstable();
+        mine.dedup();
+        mine
+    }
+
+    /// The contact of a simulation on pieces: rigid bodies placed against the whole body,
+    /// which every process scans on its own nodes.
+    fn contact_on_piece(
+        &self,
+        team: &dyn Team,
+        body: &hooke_core::Body,
+        piece: &Piece,
+    ) -> Result<Option<hooke_contact::Contact>, BuildError> {
+        Ok(match &self.contact {
+            None => None,
+            Some((spec, bodies)) => {
+                let shortest = min_over(team, body.lattice.shortest());
+                let global = |i: usize| piece.global[i] as usize;
+                let nearest = |n| nearest_over(team, n);
+                let whole = crate::rigid::Across {
+                    shortest,
+                    nodes: piece.total,
+                    scan: piece.own.clone(),
+                    global: &global,
+                    nearest: &nearest,
+                };
+                Some(crate::rigid::contact_across(body, spec, bodies, &whole)?)
+            }
+        })
     }
 }
 

@@ -26,7 +26,6 @@
 
 use crate::error::{Error, Result};
 use crate::lattice::LatticeKind;
-use crate::material::SpringConstants;
 use crate::math::Real;
 use crate::random::Sampler;
 
@@ -246,17 +245,15 @@ pub fn q_for_nu_for(kind: LatticeKind, sampler: Sampler, nu: Real) -> Result<Rea
     Ok(0.5 * (lo + hi))
 }
 
-/// kappa and q for a random lattice of the sampler that has the lattice-level moduli
-/// (`e_lattice`: Pa in 3D, N/m in 2D; `nu`: the lattice's own ratio).
+/// `(kappa, q)` for a random lattice of the sampler that has the lattice-level moduli
+/// (`e_lattice`: Pa in 3D, N/m in 2D; `nu`: the lattice's own ratio); the material's
+/// `constants_for_lattice` makes them its spring constants.
 pub fn constants(
     kind: LatticeKind,
     sampler: Sampler,
     e_lattice: Real,
     nu: Real,
-) -> Result<SpringConstants> {
+) -> Result<(Real, Real)> {
     let q = q_for_nu_for(kind, sampler, nu)?;
-    Ok(SpringConstants {
-        k: e_lattice / youngs_for(kind, sampler, 1.0, q),
-        q,
-    })
+    Ok((e_lattice / youngs_for(kind, sampler, 1.0, q), q))
 }

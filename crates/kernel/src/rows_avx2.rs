@@ -13,7 +13,7 @@ use std::arch::x86_64::*;
 use super::super::{StepParams, SweepSums};
 use super::avx::{group_nodes, prefetch, Window};
 use super::{RowKernel, Src, WINDOW};
-use crate::math::{Coords, Real};
+use hooke_model::math::{Coords, Real};
 
 /// Components 0..4 of four rows `a`, transposed: vector c holds component c of each row.
 ///

@@ -24,10 +24,10 @@ use super::stencil::{simd_lanes, Factors, Lanes, Src, Stencil};
 use super::{StepParams, SweepSums};
 use rayon::prelude::*;
 
-use crate::body::{Body, GridStiffness};
-use crate::lattice::LatticeKind;
-use crate::math::{Coords, Real};
-use crate::state::State;
+use hooke_model::body::{Body, GridStiffness};
+use hooke_model::lattice::LatticeKind;
+use hooke_model::math::{Coords, Real};
+use hooke_model::state::State;
 
 /// Nodes per flag of the break screen.
 pub const SCREEN: usize = super::stencil::SCREEN;
@@ -118,9 +118,9 @@ pub struct CubicStencil {
 pub(crate) mod wave;
 
 impl CubicStencil {
-    /// Heap memory by part (see [`crate::memory::Footprint`]).
-    pub fn footprint(&self) -> crate::memory::Footprint {
-        use crate::memory::bytes;
+    /// Heap memory by part (see [`hooke_model::memory::Footprint`]).
+    pub fn footprint(&self) -> hooke_model::memory::Footprint {
+        use hooke_model::memory::bytes;
         vec![
             (
                 "stencil masks and normalisers",
@@ -494,7 +494,7 @@ mod avx512 {
     use std::arch::x86_64::*;
 
     use super::{CubicStencil, StepParams, SweepSums, CLASS_SHIFT};
-    use crate::math::{Coords, Real};
+    use hooke_model::math::{Coords, Real};
 
     /// Current vectors of the springs in direction `d` of the block at `i`, and their squared
     /// lengths.
@@ -758,7 +758,7 @@ mod avx2 {
 
     use super::super::stencil::avx2::{classes, factors, lanes};
     use super::{CubicStencil, StepParams, SweepSums, CLASS_SHIFT};
-    use crate::math::{Coords, Real};
+    use hooke_model::math::{Coords, Real};
 
     /// The 4 nodes' displacements and mask words (one 64-bit lane per node).
     ///

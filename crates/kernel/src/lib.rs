@@ -1,4 +1,8 @@
-//! Explicit-step kernels: the two sweeps of a leapfrog (velocity Verlet) step.
+//! # hooke-kernel
+//!
+//! The explicit step's kernels: the two sweeps of a leapfrog (velocity Verlet) step over a
+//! body ([`hooke_model`]), and every `unsafe` block of hooke's physics (the SIMD paths and the
+//! disjoint writes of parallel sweeps; each with its SAFETY comment).
 //!
 //! Sweep 1 ([`Kernel::pools`]): `p_n = Pi_n / S_n` from the displacements `u`.
 //! Sweep 2 ([`Kernel::force_kick_drift`]): for each node, its force `f_n` from `u` and the pools,
@@ -18,20 +22,37 @@
 //! [`Kernel::Hex`] are stencil kernels for box-shaped Ladd and hexagonal lattices: no neighbour
 //! indices at all, x/y/z in separate arrays, AVX-512 where the processor has it.
 
+//!
+//! Modules: [`csr`] (any lattice, through its CSR rows), [`rows`] (the row kernel: slot-major
+//! groups of 8 nodes, AVX-512 or AVX2), [`cubic`] and [`hex`] (stencils of box-shaped Ladd and
+//! hexagonal lattices), `stencil` (what the stencils share), [`share`] (the part of a body one
+//! process's sweeps cover when several share a run).
+
+// Checks are written `!(x > 0.0)` on purpose: a NaN fails them.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod csr;
 pub mod cubic;
 pub mod hex;
 pub mod rows;
+pub mod share;
 mod stencil;
 
 use std::ops::Range;
 
-use crate::body::Body;
-use crate::math::{Coords, Real};
-use crate::state::State;
+use hooke_model::body::Body;
+use hooke_model::math::{Coords, Real};
+use hooke_model::state::State;
 
 /// Nodes per parallel task and per partial sum ([`hooke_lattice::CHUNK`]).
 pub use hooke_lattice::CHUNK;
+
+/// Springs per block of the CSR kernel's sweep 1 (a share's springs are whole blocks): a block's geometry is gathered first (scalar: the ends are
+/// arbitrary nodes), then its square roots and divisions run as one loop over contiguous
+/// arrays, which the compiler turns into vector instructions (two or four springs at once).
+/// Those two operations are most of a spring's cost, and they are not pipelined: one spring
+/// at a time they would wait on each other.
+pub(crate) const BLOCK: usize = 32;
 
 /// Length of the scratch that [`Kernel::force_kick_drift`] needs for `n` nodes (one partial sum
 /// per chunk; the caller owns it, so that a step allocates nothing).
@@ -66,7 +87,7 @@ pub struct StepParams {
     /// Body acceleration g (m/s^2).
     pub accel: [Real; 3],
     /// The body is a plate whose z components stay exact zeros (nothing acts along z: see
-    /// [`crate::dynamics::Integrator`]): sweep 2 then neither reads nor writes the z components
+    /// `hooke_core::dynamics::Integrator`): sweep 2 then neither reads nor writes the z components
     /// of v and u', which would only ever hold the zeros they hold. A third less memory
     /// traffic; the same bits (the z lanes of a plate compute +0 from +0). Ignored in 3D.
     pub plane: bool,
@@ -163,14 +184,14 @@ impl Kernel {
     /// periods `period` (0: not periodic): on a periodic lattice, or where the vector paths are
     /// unavailable (neither AVX-512 nor AVX2, or [`Simd::Portable`]), since a stencil body that softens moves to
     /// a general kernel. Only then is the rows' neighbour array built
-    /// ([`crate::lattice::Bonds::keep_neighbours`]; the CSR kernel also runs without it, with
+    /// ([`hooke_model::lattice::Bonds::keep_neighbours`]; the CSR kernel also runs without it, with
     /// one more indirection per row entry).
     pub fn csr_may_run(period: [Real; 3]) -> bool {
-        crate::lattice::csr_may_run(period)
+        hooke_model::lattice::csr_may_run(period)
     }
 
-    /// The kernel's heap memory by part (see [`crate::memory::Footprint`]).
-    pub fn footprint(&self) -> crate::memory::Footprint {
+    /// The kernel's heap memory by part (see [`hooke_model::memory::Footprint`]).
+    pub fn footprint(&self) -> hooke_model::memory::Footprint {
         match self {
             Kernel::Csr { .. } => Vec::new(),
             Kernel::Cubic(s) => s.footprint(),
@@ -249,7 +270,7 @@ impl Kernel {
         self.pools_shared(body, state, screen, None);
     }
 
-    /// Sweep 1 of one rank's share of a distributed run ([`crate::team`]): the pools of its
+    /// Sweep 1 of one rank's share of a distributed run (`hooke_core::team`): the pools of its
     /// nodes (and the CSR records of its springs); every other screen flag cleared. `None`:
     /// the whole body.
     pub fn pools_shared(
@@ -257,7 +278,7 @@ impl Kernel {
         body: &Body,
         state: &mut State,
         screen: Real,
-        share: Option<&crate::team::Share>,
+        share: Option<&crate::share::Share>,
     ) {
         match self {
             Kernel::Csr { plain } => csr::pools(body, state, *plain, screen, share),
@@ -318,7 +339,7 @@ impl Kernel {
         body: &Body,
         state: &mut State,
         killed: &[u32],
-        share: Option<&crate::team::Share>,
+        share: Option<&crate::share::Share>,
     ) {
         if killed.is_empty() {
             return;
@@ -347,7 +368,7 @@ impl Kernel {
         self.force_kick_drift_shared(body, state, inv_mass, p, Some(u_next), partials, None)
     }
 
-    /// Sweep 2 over one rank's share of a distributed run ([`crate::team`]; `None`: the whole
+    /// Sweep 2 over one rank's share of a distributed run (`hooke_core::team`; `None`: the whole
     /// body): its nodes' velocities, next displacements and partial sums; returns the sum of
     /// those partials. The next displacements go into `u_next`, or with `None` into
     /// `state.u` in place, which only a kernel that [`Kernel::drifts_in_place`] allows.
@@ -360,7 +381,7 @@ impl Kernel {
         p: &StepParams,
         u_next: Option<&mut Coords>,
         partials: &mut [SweepSums],
-        share: Option<&crate::team::Share>,
+        share: Option<&crate::share::Share>,
     ) -> SweepSums {
         let chunks = self
             .chunks_for(share)
@@ -393,7 +414,7 @@ impl Kernel {
     /// The node chunks a sweep covers: a rank's share, or for a row kernel that holds one
     /// share's rows those chunks even when called without the share (it may sweep no other);
     /// `None`: every chunk.
-    fn chunks_for(&self, share: Option<&crate::team::Share>) -> Option<std::ops::Range<usize>> {
+    fn chunks_for(&self, share: Option<&crate::share::Share>) -> Option<std::ops::Range<usize>> {
         share.map(|s| s.chunks()).or_else(|| match self {
             Kernel::Rows(r) => r.own_chunks(),
             _ => None,

@@ -10,9 +10,9 @@
 use rayon::prelude::*;
 
 use super::{sweep_chunks, StepParams, SweepSums, CHUNK};
-use crate::body::Body;
-use crate::math::{Coords, Real};
-use crate::state::State;
+use hooke_model::body::Body;
+use hooke_model::math::{Coords, Real};
+use hooke_model::state::State;
 
 /// What a sweep reads of the state: the displacements (through `Deref`, as a [`Coords`]), and
 /// for the row kernel the nodes' records and normalisers.
@@ -404,7 +404,7 @@ pub(crate) mod avx512 {
     use std::arch::x86_64::*;
 
     use super::{StepParams, SweepSums};
-    use crate::math::{Coords, Real};
+    use hooke_model::math::{Coords, Real};
 
     /// Kick and drift of the 8 nodes from `i` with forces `f` (the first `dims` components):
     /// the scalar [`super::super::kick_drift`]'s operations lane by lane (no fused
@@ -493,7 +493,7 @@ pub(crate) mod avx2 {
     use std::arch::x86_64::*;
 
     use super::{Factors, StepParams, SweepSums};
-    use crate::math::{Coords, Real};
+    use hooke_model::math::{Coords, Real};
 
     /// All ones in the lanes whose spring in direction `d` is intact (bit d of their mask
     /// words, one 64-bit lane per node).

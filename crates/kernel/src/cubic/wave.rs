@@ -41,10 +41,10 @@ use std::sync::Mutex;
 use rayon::prelude::*;
 
 use super::CubicStencil;
-use crate::kernel::stencil::{pools_span, SCREEN};
-use crate::kernel::{sweep_parts, ChunkOut, StepParams, SweepSums, CHUNK};
-use crate::math::{Coords, Real};
-use crate::state::State;
+use crate::stencil::{pools_span, SCREEN};
+use crate::{sweep_parts, ChunkOut, StepParams, SweepSums, CHUNK};
+use hooke_model::math::{Coords, Real};
+use hooke_model::state::State;
 
 /// One part's ring (see the module docs): 9 rows of `R + 8` values, and the node up to which
 /// it holds the forward values of every node the sweep passed (`usize::MAX`: none yet).
@@ -114,7 +114,7 @@ fn lead_in(s: &CubicStencil, i: usize) -> impl Iterator<Item = usize> {
     ((i - s.reach) / 8 * 8..i).step_by(8)
 }
 
-/// Sweep 1 ([`crate::kernel::stencil::pools`]) on the wavefront path: the same pools and
+/// Sweep 1 ([`crate::stencil::pools`]) on the wavefront path: the same pools and
 /// screen flags.
 pub(crate) fn pools(
     s: &CubicStencil,
@@ -186,7 +186,7 @@ fn pool_part(
     }
 }
 
-/// Sweep 2 ([`crate::kernel::stencil::force_kick_drift`]) on the wavefront path over the node
+/// Sweep 2 ([`crate::stencil::force_kick_drift`]) on the wavefront path over the node
 /// chunks `chunks`, the new displacements into `u_next`: the same bits, the same partial sums.
 pub(crate) fn force_kick_drift(
     s: &CubicStencil,
@@ -247,7 +247,7 @@ fn force_chunk(
                     }
                 }
                 let f = avx512::forces8(s, u, pool, i, ring);
-                crate::kernel::stencil::avx512::kick_drift8(
+                crate::stencil::avx512::kick_drift8(
                     3,
                     f,
                     Some(u),
@@ -263,7 +263,7 @@ fn force_chunk(
             k += 8;
             continue;
         }
-        // The gather sweep's scalar step (crate::kernel::stencil::force_kick_drift).
+        // The gather sweep's scalar step (crate::stencil::force_kick_drift).
         let f = s.force_scalar(u, pool, i);
         let u_old = [u.x()[i], u.y()[i], u.z()[i]];
         o.kick_drift(k, dims, f, inv_mass[i], p, u_old, &mut sums);
@@ -280,7 +280,7 @@ mod avx512 {
         add_share, add_terms, classes, extension, factor, lanes, load_block, vector8,
     };
     use super::{CubicStencil, Ring, FORWARD, ROW};
-    use crate::math::{Coords, Real};
+    use hooke_model::math::{Coords, Real};
 
     /// Store a forward direction's 8 values of the block in slots `at..at + 8` of its ring
     /// row `row` (and in the mirror slots when `at` is 0).
@@ -520,9 +520,9 @@ mod avx512 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::body::Body;
-    use crate::kernel::Kernel;
-    use crate::lattice::Lattice;
+    use crate::Kernel;
+    use hooke_model::body::Body;
+    use hooke_model::lattice::Lattice;
 
     /// Pools, screen flags, velocities, next displacements and partial sums of one step.
     type Step = (Vec<Real>, Vec<bool>, Coords, Coords, Vec<(Real, Real)>);
@@ -538,7 +538,7 @@ mod tests {
             plane: false,
         };
         let mut u_next = Coords::zeros(n);
-        let mut partials = vec![SweepSums::default(); crate::kernel::partials_len(n)];
+        let mut partials = vec![SweepSums::default(); crate::partials_len(n)];
         kernel.pools_screened(body, &mut s, 2e-3);
         kernel.force_kick_drift(body, &mut s, &inv, &p, &mut u_next, &mut partials);
         let sums = partials
@@ -561,9 +561,8 @@ mod tests {
         let mut state = State::new(&body);
         let hash =
             |k: u64| (k.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 11) as Real / (1u64 << 53) as Real;
-        for (b, alive) in state.alive.iter_mut().enumerate() {
-            *alive = hash(b as u64) > 0.1;
-        }
+        let alive = (0..body.springs()).map(|b| hash(b as u64) > 0.1).collect();
+        state.set_alive(&body, alive);
         for c in 0..3 {
             for (i, x) in state.u.comp_mut(c).iter_mut().enumerate() {
                 // Strains past the screen near nodes 4000..4100 only.

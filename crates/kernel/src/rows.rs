@@ -44,19 +44,18 @@ use rayon::prelude::*;
 use super::csr::geometry;
 use super::stencil::{simd_lanes, Lanes, Src, Stencil};
 use super::{StepParams, SweepSums, CHUNK};
-use crate::body::Body;
-use crate::math::Real;
-use crate::state::State;
-use crate::team::Share;
+use crate::share::Share;
+use hooke_model::body::Body;
+use hooke_model::math::Real;
+use hooke_model::state::State;
 
 /// Nodes in a block of the vector path: a window whose nodes are dealt to 8 groups of lanes
 /// (see [`deal`]).
 const WINDOW: usize = 64;
 
-/// One node's record: reference position, displacement, pool, padding (a cache line).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-#[repr(C, align(64))]
-pub struct Record(pub [Real; 8]);
+/// One node's record: reference position, displacement, pool, padding (a cache line). It is
+/// part of the state's scratch, so the model defines it.
+pub use hooke_model::state::Record;
 
 /// The rows of a body in slot-major groups of 8 nodes, with each slot's spring constants.
 #[derive(Clone, Debug)]
@@ -109,9 +108,9 @@ pub struct RowKernel {
 }
 
 impl RowKernel {
-    /// Heap memory by part (see [`crate::memory::Footprint`]).
-    pub fn footprint(&self) -> crate::memory::Footprint {
-        use crate::memory::bytes;
+    /// Heap memory by part (see [`hooke_model::memory::Footprint`]).
+    pub fn footprint(&self) -> hooke_model::memory::Footprint {
+        use hooke_model::memory::bytes;
         let s = &self.slots;
         vec![
             ("row slots: neighbours", bytes(&s.j)),
@@ -312,7 +311,7 @@ impl RowKernel {
     }
 
     /// Keep only the rows of the nodes `own` (whole windows of 64 nodes; one rank's share of
-    /// a distributed run, [`crate::team`]): every other row becomes empty. A rank sweeps its
+    /// a distributed run, `hooke_core::team`): every other row becomes empty. A rank sweeps its
     /// own nodes only, so the other ranks' rows, three quarters of a random3d body's kernel
     /// memory on four ranks, would never be read. Entries keep their order and values, so
     /// the kept rows give the same bits. Afterwards only nodes in `own` may be swept, and a
@@ -595,12 +594,12 @@ fn deal(n: usize, len: impl Fn(usize) -> usize) -> (Vec<u8>, Vec<u8>) {
     (lanes, at)
 }
 
-/// The rest length from the reference vector, in [`crate::lattice::Bonds::from_pairs`]'s
+/// The rest length from the reference vector, in [`hooke_model::lattice::Bonds::from_pairs`]'s
 /// operations (in 2D the z term is an exact zero and is left out).
 #[inline(always)]
 fn rest_of<const D: usize>(big: [Real; 3]) -> Real {
     if D == 3 {
-        crate::lattice::reference_length(big)
+        hooke_model::lattice::reference_length(big)
     } else {
         (big[0] * big[0] + big[1] * big[1]).sqrt()
     }
@@ -833,7 +832,7 @@ mod avx {
     use std::arch::x86_64::*;
 
     use super::{RowKernel, Src, WINDOW};
-    use crate::math::Real;
+    use hooke_model::math::Real;
 
     /// The records of the 8 nodes `js`, transposed: component c of each lane's record in
     /// vector c (the padding component is not needed).
@@ -1107,13 +1106,15 @@ mod avx {
 
 #[cfg(test)]
 mod tests {
-    use crate::body::Body;
-    use crate::dynamics::{Integrator, IntegratorOptions, TimeStep};
-    use crate::lattice::Lattice;
-    use crate::loading::Loading;
-    use crate::math::Real;
-    use crate::random::RandomSpec;
-    use crate::state::State;
+    use hooke_model::body::Body;
+    // The integrator keeps the kernel in step with broken and softened springs: these tests
+    // step through it (hooke-core, a dev-dependency only).
+    use hooke_core::dynamics::{Integrator, IntegratorOptions, TimeStep};
+    use hooke_model::lattice::Lattice;
+    use hooke_model::loading::Loading;
+    use hooke_model::math::Real;
+    use hooke_model::random::RandomSpec;
+    use hooke_model::state::State;
 
     #[derive(Clone, Copy, PartialEq, Debug)]
     enum Path {
@@ -1283,9 +1284,9 @@ mod tests {
     /// lattice stretched by half) gets its records rebuilt: the forces are the CSR kernel's.
     #[test]
     fn records_follow_the_body() {
-        use crate::kernel::{partials_len, Kernel, StepParams};
-        use crate::lattice::Bonds;
-        use crate::math::Coords;
+        use crate::{partials_len, Kernel, StepParams};
+        use hooke_model::lattice::Bonds;
+        use hooke_model::math::Coords;
         let a = body_with(3, 0.3, false, false);
         let mut b = a.clone();
         let mut pos = b.lattice.pos.clone();
@@ -1390,10 +1391,22 @@ mod tests {
     /// share give the whole kernel's bits there, with a fraction of the slots.
     #[test]
     fn a_share_keeps_its_own_rows_only() {
-        use crate::kernel::{partials_len, Kernel, StepParams};
-        use crate::math::Coords;
-        use crate::team::Share;
-        let body = crate::team::tests::block([32.0, 28.0, 26.0]);
+        use crate::share::Share;
+        use crate::{partials_len, Kernel, StepParams};
+        use hooke_model::math::Coords;
+        // A random3d block of more than three chunks of nodes (a share of three ranks).
+        let lat = Lattice::random(
+            3,
+            [0.0; 3],
+            [32.0, 28.0, 26.0],
+            1.0,
+            1.0,
+            RandomSpec::default(),
+            &|_| true,
+        )
+        .unwrap();
+        let body = Body::uniform(lat, 1.0, 0.3, 1.0);
+        assert!(body.nodes() > 3 * crate::CHUNK);
         let n = body.nodes();
         let mut state = State::new(&body);
         for i in 0..n {

@@ -14,7 +14,7 @@
 //! intact) with its weight class in bits `CLASS_SHIFT`.. of the same word (`Factors`), and
 //! its `1/S_n`. A spring's current vector is `D_d + w` with `D_d` the direction's
 //! constant reference vector and `w = u_j - u_n`; its extension is the cancellation-free
-//! `dL = (2 D_d.w + w.w) / (l + L)` of the reference law ([`crate::law::spring_geometry`]), so
+//! `dL = (2 D_d.w + w.w) / (l + L)` of the reference law ([`hooke_model::law::spring_geometry`]), so
 //! a body at rest has exactly zero force and small strains keep their digits.
 //!
 //! On processors with AVX-512F, blocks of 8 consecutive nodes of one row are processed in one
@@ -26,10 +26,10 @@
 
 use super::stencil::{simd_lanes, Factors, Lanes, Src, Stencil};
 use super::{StepParams, SweepSums};
-use crate::body::Body;
-use crate::lattice::LatticeKind;
-use crate::math::{Coords, Real};
-use crate::state::State;
+use hooke_model::body::Body;
+use hooke_model::lattice::LatticeKind;
+use hooke_model::math::{Coords, Real};
+use hooke_model::state::State;
 
 /// Nodes per flag of the break screen (the cubic stencil's blocks, so
 /// [`super::Kernel::hot_springs`] reads both alike).
@@ -69,9 +69,9 @@ pub struct HexStencil {
 }
 
 impl HexStencil {
-    /// Heap memory by part (see [`crate::memory::Footprint`]).
-    pub fn footprint(&self) -> crate::memory::Footprint {
-        use crate::memory::bytes;
+    /// Heap memory by part (see [`hooke_model::memory::Footprint`]).
+    pub fn footprint(&self) -> hooke_model::memory::Footprint {
+        use hooke_model::memory::bytes;
         vec![(
             "stencil masks and normalisers",
             bytes(&self.mask) + bytes(&self.inv_norm),
@@ -418,7 +418,7 @@ mod avx512 {
     use std::arch::x86_64::*;
 
     use super::{HexStencil, StepParams, SweepSums, CLASS_SHIFT, DIRS};
-    use crate::math::{Coords, Real};
+    use hooke_model::math::{Coords, Real};
 
     /// The block's displacements, intact-spring masks (one 64-bit lane per node) and row
     /// parity.
@@ -628,7 +628,7 @@ mod avx2 {
 
     use super::super::stencil::avx2::{classes, factors, lanes};
     use super::{HexStencil, StepParams, SweepSums, CLASS_SHIFT, DIRS};
-    use crate::math::{Coords, Real};
+    use hooke_model::math::{Coords, Real};
 
     /// The 4 nodes' displacements and mask words (one 64-bit lane per node).
     ///

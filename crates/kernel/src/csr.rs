@@ -3,7 +3,7 @@
 //! Sweep 1 runs over the springs (in parallel over fixed chunks of springs; each spring is
 //! written by its own task). For each intact spring `s` from its lower end `i` to its upper
 //! end `j` it forms the current vector `d_s`, length `l_s` and extension `dL_s` once
-//! ([`crate::law::spring_geometry`]'s cancellation-free form), and stores what the two ends
+//! ([`hooke_model::law::spring_geometry`]'s cancellation-free form), and stores what the two ends
 //! need:
 //!
 //! ```text
@@ -23,7 +23,7 @@
 //! costs one square root and two divisions in all, and the force sweep reads no position at all:
 //! only the records, the neighbours' pools and the row.
 //!
-//! Against the reference law ([`crate::law::node_force`], which divides `T_s` by `l_s` at each
+//! Against the reference law ([`hooke_model::law::node_force`], which divides `T_s` by `l_s` at each
 //! end) the forces agree to round-off (tested to 1e-12 of the largest force, with broken
 //! springs, on every lattice kind). Both ends of a spring read the same record and the same sum
 //! `p_i + p_j`, so the two forces are exact opposites and momentum is conserved to round-off.
@@ -34,12 +34,12 @@
 
 use rayon::prelude::*;
 
-use super::{sweep_chunks, StepParams, SweepSums, CHUNK};
-use crate::body::Body;
-use crate::lattice::{reference_vector, Lattice};
-use crate::math::{Coords, Real};
-use crate::state::State;
-use crate::team::Share;
+use super::{sweep_chunks, StepParams, SweepSums, BLOCK, CHUNK};
+use crate::share::Share;
+use hooke_model::body::Body;
+use hooke_model::lattice::{reference_vector, Lattice};
+use hooke_model::math::{Coords, Real};
+use hooke_model::state::State;
 
 /// Reals per spring record: `k dL`, `q k L`, and the unit vector's `D` components.
 pub(crate) const fn stride(dim: usize) -> usize {
@@ -51,7 +51,7 @@ pub(crate) const fn stride(dim: usize) -> usize {
 /// intact spring with `dL > s L` in `state.hot` (the fracture check then looks at those blocks
 /// only); pass infinity for no screen.
 ///
-/// With a `share` (a rank's part of a distributed run, [`crate::team`]), only the records of
+/// With a `share` (a rank's part of a distributed run, `hooke_core::team`), only the records of
 /// its springs and the pools of its nodes are computed, and the screen flags of all other
 /// blocks are cleared (the ranks then combine them).
 pub fn pools(body: &Body, state: &mut State, plain: bool, screen: Real, share: Option<&Share>) {
@@ -64,13 +64,6 @@ pub fn pools(body: &Body, state: &mut State, plain: bool, screen: Real, share: O
         (_, true) => pools_impl::<3, true>(body, state, q, screen, share),
     }
 }
-
-/// Springs per block of sweep 1: a block's geometry is gathered first (scalar: the ends are
-/// arbitrary nodes), then its square roots and divisions run as one loop over contiguous
-/// arrays, which the compiler turns into vector instructions (two or four springs at once).
-/// Those two operations are most of a spring's cost, and they are not pipelined: one spring
-/// at a time they would wait on each other.
-pub(crate) const BLOCK: usize = 32;
 
 fn pools_impl<const D: usize, const P: bool>(
     body: &Body,
@@ -92,7 +85,7 @@ fn pools_impl<const D: usize, const P: bool>(
     }
     let (u, alive) = (&state.u, &state.alive);
     // The current stiffnesses: the body's, or those a softening material left.
-    let kk = crate::state::Springs::of(body, alive, &state.k_eff).k;
+    let kk = hooke_model::state::Springs::of(body, alive, &state.k_eff).k;
     let levers = body.levers();
     let lat = &body.lattice;
     let wide = wide_available();
@@ -162,8 +155,8 @@ fn spring_one<const D: usize, const P: bool>(
     u: &Coords,
     q: Real,
     k: Real,
-    bonds: &crate::lattice::Bonds,
-    lev: crate::body::Levers,
+    bonds: &hooke_model::lattice::Bonds,
+    lev: hooke_model::body::Levers,
     alive: bool,
     b: usize,
     rec: &mut [Real],
@@ -220,7 +213,7 @@ pub(crate) fn repair(body: &Body, state: &mut State, plain: bool, changed: &[u32
     }
     let q = if plain { 0.0 } else { body.q };
     let (u, alive) = (&state.u, &state.alive);
-    let kk = crate::state::Springs::of(body, alive, &state.k_eff).k;
+    let kk = hooke_model::state::Springs::of(body, alive, &state.k_eff).k;
     let levers = body.levers();
     let bonds = &*lat.bonds;
     for &b in changed {
@@ -346,7 +339,7 @@ fn spring_chunk<const D: usize, const P: bool>(
                 // Shed only where nothing is periodic (`Lattice::shed_setup`).
                 None => {
                     let [i, j] = ends[s].map(|v| v as usize);
-                    crate::lattice::reference_length([0, 1, 2].map(|c| pos[c][j] - pos[c][i]))
+                    hooke_model::lattice::reference_length([0, 1, 2].map(|c| pos[c][j] - pos[c][i]))
                 }
             };
             lever[s] = blever.map_or(rest[s], |l| l[s]);
@@ -411,7 +404,7 @@ fn vector_open<const D: usize>(
 }
 
 /// From the reference vector `big` and the displacement difference `w`: the current vector `d`,
-/// `|d|^2` and the numerator `2 D.w + w.w` of the extension ([`crate::law::spring_geometry`]'s
+/// `|d|^2` and the numerator `2 D.w + w.w` of the extension ([`hooke_model::law::spring_geometry`]'s
 /// operations in its order; in 2D its z terms are exact zeros and are left out).
 #[inline(always)]
 pub(crate) fn geometry<const D: usize>(big: [Real; 3], w: [Real; 3]) -> ([Real; 3], Real, Real) {
@@ -433,7 +426,7 @@ pub(crate) fn geometry<const D: usize>(big: [Real; 3], w: [Real; 3]) -> ([Real; 
 }
 
 /// The current vector `d` from `i` to `j`, `|d|^2` and the numerator `2 D.w + w.w` of the
-/// extension, `D` dimensions, `P` with the periodic wrap: [`crate::law::spring_geometry`] (the
+/// extension, `D` dimensions, `P` with the periodic wrap: [`hooke_model::law::spring_geometry`] (the
 /// same operations in the same order; in 2D its z terms are exact zeros and are left out).
 #[inline(always)]
 fn vector<const D: usize, const P: bool>(
@@ -530,7 +523,7 @@ fn fkd<const D: usize, const W: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::random::RandomSpec;
+    use hooke_model::random::RandomSpec;
 
     /// The AVX build of sweep 1 and the portable one give the same bits (the portable one is what
     /// runs where AVX is missing or the portable paths are forced), on plates and solids with broken
@@ -545,9 +538,7 @@ mod tests {
             let dim = lat.dim();
             let body = Body::uniform(lat, 1.0, 0.3, 1.0);
             let mut state = State::new(&body);
-            for (b, a) in state.alive.iter_mut().enumerate() {
-                *a = b % 5 != 3;
-            }
+            state.set_alive(&body, (0..body.springs()).map(|b| b % 5 != 3).collect());
             for i in 0..body.nodes() {
                 let x = body.lattice.pos.get(i);
                 state.u.x_mut()[i] = 0.01 * (1.3 * x.y).sin();
@@ -568,7 +559,7 @@ mod tests {
                 .map(|b| {
                     let [i, j] = body.lattice.bonds.ends[b].map(|v| v as usize);
                     let rest = body.lattice.rest(b);
-                    crate::law::spring_geometry(&body.lattice, &state.u, i, j, rest).dl
+                    hooke_model::law::spring_geometry(&body.lattice, &state.u, i, j, rest).dl
                 })
                 .collect();
             // A screen that only the most stretched springs pass.

@@ -187,7 +187,8 @@ pub fn constants_for_lattice(
         (m.youngs, m.poisson)
     };
     check_lattice_nu(lattice.kind, nu)?;
-    calibration::constants(lattice.kind, cells.sampler, e, nu)
+    let (k, q) = calibration::constants(lattice.kind, cells.sampler, e, nu)?;
+    Ok(SpringConstants { k, q })
 }
 
 /// Refuse a material the model cannot represent, with the reason and the fix.

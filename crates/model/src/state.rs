@@ -6,6 +6,26 @@ use rayon::prelude::*;
 use crate::body::Body;
 use crate::math::{Coords, Real, Vector};
 
+/// A field of [`State`] that every crate reads and only this one changes: the spring masks,
+/// damage weights and normalisers, which [`State`]'s methods keep consistent with each other.
+/// It reads as the value it holds (`Deref`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Kept<T>(T);
+
+impl<T> std::ops::Deref for Kept<T> {
+    type Target = T;
+    #[inline]
+    fn deref(&self) -> &T {
+        &self.0
+    }
+}
+
+/// One node's record of the row kernel (`hooke_kernel::rows`): reference position,
+/// displacement, pool, padding (a cache line).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, align(64))]
+pub struct Record(pub [Real; 8]);
+
 /// Everything that changes during a run.
 ///
 /// Which springs are intact and the normalisers that follow from them are kept consistent by
@@ -23,17 +43,17 @@ pub struct State {
     /// Internal forces of the last evaluation (N).
     pub f: Coords,
     /// Whether each spring is intact.
-    pub(crate) alive: Vec<bool>,
+    pub alive: Kept<Vec<bool>>,
     /// Damage weight `w_t` in (0, 1] of each intact spring of a softening material: the spring
     /// acts with stiffness `w_t k_t` everywhere (its force, its pool share, its node's
     /// normaliser). Empty while no spring has softened (every weight 1), so brittle runs keep
     /// neither this nor `k_eff`.
-    pub(crate) weight: Vec<Real>,
+    pub weight: Kept<Vec<Real>>,
     /// `w_t k_t` per spring (N/m), kept with `weight` (empty with it): what the kernels read.
-    pub(crate) k_eff: Vec<Real>,
+    pub k_eff: Kept<Vec<Real>>,
     /// Normaliser `S_n = sum_t k_t L_t^2` over node n's intact springs (N m). Kept in step with
     /// `alive` by [`State::kill_bond`].
-    pub(crate) norm: Vec<Real>,
+    pub norm: Kept<Vec<Real>>,
     /// Pool ratio `p_n = Pi_n / S_n` of the last evaluation (dimensionless strain-like measure:
     /// `tr(eps)/d` under uniform strain).
     pub pool: Vec<Real>,
@@ -46,15 +66,15 @@ pub struct State {
     /// Scratch of the CSR kernel (`kernel::csr`): each spring's record and pool share, computed
     /// once per spring in its first sweep and read by both of its ends (not state: not compared,
     /// not checkpointed).
-    pub(crate) spring: Vec<Real>,
-    pub(crate) spring_pi: Vec<Real>,
-    /// Break screen of the last screened sweep 1 ([`crate::kernel::Kernel::pools_screened`]):
+    pub spring: Vec<Real>,
+    pub spring_pi: Vec<Real>,
+    /// Break screen of the last screened sweep 1 (`hooke_kernel::Kernel::pools_screened`):
     /// one flag per block of springs (CSR) or nodes (stencil) holding a spring stretched past
     /// the screen. Scratch like `spring`.
-    pub(crate) hot: Vec<bool>,
+    pub hot: Vec<bool>,
     /// Scratch of the row kernel (`kernel::rows`): each node's reference position,
     /// displacement and pool in one cache line, refreshed before each sweep.
-    pub(crate) rec: Vec<crate::kernel::rows::Record>,
+    pub rec: Vec<Record>,
 }
 
 impl Clone for State {
@@ -63,10 +83,10 @@ impl Clone for State {
             u: Coords::default(),
             v: Coords::default(),
             f: Coords::default(),
-            alive: Vec::new(),
-            weight: Vec::new(),
-            k_eff: Vec::new(),
-            norm: Vec::new(),
+            alive: Kept(Vec::new()),
+            weight: Kept(Vec::new()),
+            k_eff: Kept(Vec::new()),
+            norm: Kept(Vec::new()),
             pool: Vec::new(),
             time: 0.0,
             step: 0,
@@ -86,10 +106,10 @@ impl Clone for State {
         self.u.clone_from(&o.u);
         self.v.clone_from(&o.v);
         self.f.clone_from(&o.f);
-        self.alive.clone_from(&o.alive);
-        self.weight.clone_from(&o.weight);
-        self.k_eff.clone_from(&o.k_eff);
-        self.norm.clone_from(&o.norm);
+        self.alive.0.clone_from(&o.alive.0);
+        self.weight.0.clone_from(&o.weight.0);
+        self.k_eff.0.clone_from(&o.k_eff.0);
+        self.norm.0.clone_from(&o.norm.0);
         self.pool.clone_from(&o.pool);
         self.time = o.time;
         self.step = o.step;
@@ -147,10 +167,10 @@ impl State {
             u: Coords::zeros(n),
             v: Coords::zeros(n),
             f: Coords::zeros(n),
-            alive: vec![true; body.springs()],
-            weight: Vec::new(),
-            k_eff: Vec::new(),
-            norm: vec![0.0; n],
+            alive: Kept(vec![true; body.springs()]),
+            weight: Kept(Vec::new()),
+            k_eff: Kept(Vec::new()),
+            norm: Kept(vec![0.0; n]),
             pool: vec![0.0; n],
             time: 0.0,
             step: 0,
@@ -167,6 +187,7 @@ impl State {
             // the rows.
             let star = g.star();
             s.norm
+                .0
                 .par_iter_mut()
                 .with_min_len(1 << 12)
                 .enumerate()
@@ -179,6 +200,7 @@ impl State {
         }
         let springs = Springs::of(body, &s.alive, &s.k_eff);
         s.norm
+            .0
             .par_iter_mut()
             .with_min_len(1 << 12)
             .enumerate()
@@ -229,15 +251,15 @@ impl State {
             return self.kill_bond(body, b);
         }
         if self.weight.is_empty() {
-            self.weight = vec![1.0; self.alive.len()];
-            self.k_eff = body.k.to_vec();
+            self.weight.0 = vec![1.0; self.alive.len()];
+            self.k_eff.0 = body.k.to_vec();
         }
-        self.weight[b] = w;
-        self.k_eff[b] = w * body.k[b];
+        self.weight.0[b] = w;
+        self.k_eff.0[b] = w * body.k[b];
         self.breaks += 1;
         for n in body.lattice.bonds.ends[b] {
             let n = n as usize;
-            self.norm[n] = node_norm(body, self.springs(body), n);
+            self.norm.0[n] = node_norm(body, self.springs(body), n);
         }
         true
     }
@@ -246,16 +268,16 @@ impl State {
     /// normaliser. All ones leaves the state without weights.
     pub fn set_weights(&mut self, body: &Body, weights: &[Real]) {
         assert_eq!(weights.len(), body.springs(), "one weight per spring");
-        self.alive = weights.iter().map(|&w| w > 0.0).collect();
+        self.alive.0 = weights.iter().map(|&w| w > 0.0).collect();
         if weights.iter().all(|&w| w == 0.0 || w == 1.0) {
-            self.weight.clear();
-            self.k_eff.clear();
+            self.weight.0.clear();
+            self.k_eff.0.clear();
         } else {
-            self.weight = weights
+            self.weight.0 = weights
                 .iter()
                 .map(|&w| if w > 0.0 { w } else { 1.0 })
                 .collect();
-            self.k_eff = self
+            self.k_eff.0 = self
                 .weight
                 .iter()
                 .zip(body.k.iter())
@@ -263,7 +285,7 @@ impl State {
                 .collect();
         }
         for n in 0..body.nodes() {
-            self.norm[n] = node_norm(body, self.springs(body), n);
+            self.norm.0[n] = node_norm(body, self.springs(body), n);
         }
         self.breaks += 1;
     }
@@ -287,13 +309,13 @@ impl State {
         if !self.alive[b] {
             return false;
         }
-        self.alive[b] = false;
+        self.alive.0[b] = false;
         self.breaks += 1;
         for n in body.lattice.bonds.ends[b] {
             let n = n as usize;
             // Recomputed from scratch rather than decremented: the sum then does not depend on
             // the order in which springs broke, which keeps runs bit-reproducible.
-            self.norm[n] = node_norm(body, self.springs(body), n);
+            self.norm.0[n] = node_norm(body, self.springs(body), n);
         }
         true
     }
@@ -321,18 +343,48 @@ impl State {
         self.breaks
     }
 
-    /// Carry another state's counter of changes (a piece cut out of a whole state: see
-    /// [`crate::team::Piece::state`]).
-    pub(crate) fn set_breaks(&mut self, breaks: u64) {
-        self.breaks = breaks;
+    /// The state of a piece cut out of this one (`piece` the piece's body; `hooke_core`'s
+    /// `team::Piece::state`): the piece's node `p` takes this state's node `nodes[p]` (none
+    /// where that is `pad`), its spring `t` this state's spring `springs[t]`. The normalisers
+    /// are copied, not recomputed, so that they keep their bits; the counter of changes is
+    /// carried over.
+    pub fn cut(&self, piece: &Body, nodes: &[u32], pad: u32, springs: &[u32]) -> State {
+        let mut s = State::new(piece);
+        let pick = |dst: &mut [Real], src: &[Real]| {
+            for (d, &g) in dst.iter_mut().zip(nodes) {
+                if g != pad {
+                    *d = src[g as usize];
+                }
+            }
+        };
+        for (a, b) in [
+            (&mut s.u, &self.u),
+            (&mut s.v, &self.v),
+            (&mut s.f, &self.f),
+        ] {
+            for (c, dst) in a.xyz_mut().into_iter().enumerate() {
+                pick(dst, b.comp(c));
+            }
+        }
+        pick(&mut s.pool, &self.pool);
+        pick(&mut s.norm.0, &self.norm);
+        s.alive.0 = springs.iter().map(|&b| self.alive[b as usize]).collect();
+        if !self.weight.is_empty() {
+            s.weight.0 = springs.iter().map(|&b| self.weight[b as usize]).collect();
+            s.k_eff.0 = springs.iter().map(|&b| self.k_eff[b as usize]).collect();
+        }
+        s.time = self.time;
+        s.step = self.step;
+        s.breaks = self.breaks;
+        s
     }
 
     /// Set which springs are intact (e.g. from a checkpoint) and recompute every normaliser.
     pub fn set_alive(&mut self, body: &Body, alive: Vec<bool>) {
         assert_eq!(alive.len(), body.springs(), "one flag per spring");
-        self.alive = alive;
+        self.alive.0 = alive;
         for n in 0..body.nodes() {
-            self.norm[n] = node_norm(body, self.springs(body), n);
+            self.norm.0[n] = node_norm(body, self.springs(body), n);
         }
         self.breaks += 1;
     }
@@ -385,7 +437,7 @@ impl<'a> Springs<'a> {
 
     /// From a state's fields (for borrows that keep the state's other fields free).
     #[inline]
-    pub(crate) fn of(body: &'a Body, alive: &'a [bool], k_eff: &'a [Real]) -> Self {
+    pub fn of(body: &'a Body, alive: &'a [bool], k_eff: &'a [Real]) -> Self {
         Springs {
             alive,
             k: if k_eff.is_empty() { &body.k } else { k_eff },
