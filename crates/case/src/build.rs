@@ -161,74 +161,32 @@ fn random_spec(ctx: &Ctx, l: &RawLattice, kind: LatticeKind) -> Result<RandomSpe
     Ok(RandomSpec { sampler, seed })
 }
 
-fn shape(ctx: &Ctx, sh: &Spanned<RawShape>, key: &str, dim: usize) -> Result<Shape, CaseError> {
-    let s = sh.get_ref();
-    let given = [
-        s.bbox.is_some(),
-        s.sphere.is_some(),
-        s.circle.is_some(),
-        s.cylinder.is_some(),
-        s.polygon.is_some(),
-        s.mesh.is_some(),
-    ]
-    .iter()
-    .filter(|&&b| b)
-    .count();
-    if given != 1 {
+/// A mesh file named by a case (`key.mesh`), beside the case file, scaled to metres.
+fn load_mesh(ctx: &Ctx, m: &RawMesh, key: &str) -> Result<MeshShape, CaseError> {
+    let scale = match &m.scale {
+        Some(v) => ctx.positive(v, &format!("{key}.mesh.scale"), "(m per file unit)")?,
+        None => 1.0,
+    };
+    let base = ctx.file.parent().unwrap_or(Path::new("."));
+    MeshShape::load(&base.join(m.file.get_ref()), scale)
+        .map_err(|e| ctx.err(m.file.span(), format!("{key}.mesh.file"), e.to_string()))
+}
+
+/// A closed triangle mesh (STL or OBJ, beside the case file) bounding a 3D body.
+fn mesh_shape(ctx: &Ctx, m: &RawMesh, key: &str, dim: usize) -> Result<Shape, CaseError> {
+    if dim != 3 {
         return Err(ctx.err(
-            sh.span(),
-            key,
-            "give exactly one of box, sphere (circle in 2D), cylinder, polygon or mesh",
+            m.file.span(),
+            format!("{key}.mesh"),
+            "a triangle mesh bounds a 3D body; 2D bodies take a polygon",
         ));
     }
-    if let Some(m) = &s.mesh {
-        if dim != 3 {
-            return Err(ctx.err(
-                m.file.span(),
-                format!("{key}.mesh"),
-                "a triangle mesh bounds a 3D body; 2D bodies take a polygon",
-            ));
-        }
-        let scale = match &m.scale {
-            Some(v) => ctx.positive(v, &format!("{key}.mesh.scale"), "(m per file unit)")?,
-            None => 1.0,
-        };
-        let base = ctx.file.parent().unwrap_or(Path::new("."));
-        let path = base.join(m.file.get_ref());
-        let mesh = MeshShape::load(&path, scale)
-            .map_err(|e| ctx.err(m.file.span(), format!("{key}.mesh.file"), e.to_string()))?;
-        return Ok(Shape::Mesh(std::sync::Arc::new(mesh)));
-    }
-    if let Some(b) = &s.bbox {
-        let (lo, hi) = (
-            ctx.point(&b.min, &format!("{key}.box.min"), dim)?,
-            ctx.point(&b.max, &format!("{key}.box.max"), dim)?,
-        );
-        if (0..dim).any(|c| hi[c] <= lo[c]) {
-            return Err(ctx.err(
-                b.max.span(),
-                key,
-                "the box is empty: every max coordinate must exceed its min",
-            ));
-        }
-        return Ok(Shape::Box { lo, hi });
-    }
-    if let Some(b) = s.sphere.as_ref().or(s.circle.as_ref()) {
-        return Ok(Shape::Ball {
-            c: ctx.point(&b.center, &format!("{key}.center"), dim)?,
-            r: ctx.positive(&b.radius, &format!("{key}.radius"), "m")?,
-        });
-    }
-    if let Some(c) = &s.cylinder {
-        let axis = axis_index(ctx, &c.axis, &format!("{key}.axis"), 3)?;
-        return Ok(Shape::Cylinder {
-            c: ctx.point(&c.center, &format!("{key}.center"), dim)?,
-            axis,
-            r: ctx.positive(&c.radius, &format!("{key}.radius"), "m")?,
-            half: 0.5 * ctx.positive(&c.length, &format!("{key}.length"), "m")?,
-        });
-    }
-    let p = s.polygon.as_ref().expect("one shape is given");
+    let mesh = load_mesh(ctx, m, key)?;
+    Ok(Shape::Mesh(std::sync::Arc::new(mesh)))
+}
+
+/// A polygon in the x-y plane (extruded along z in a 3D body).
+fn polygon_shape(ctx: &Ctx, p: &RawPolygon, key: &str, dim: usize) -> Result<Shape, CaseError> {
     let pts = p.points.get_ref();
     if pts.len() < 3
         || pts
@@ -273,6 +231,66 @@ fn shape(ctx: &Ctx, sh: &Spanned<RawShape>, key: &str, dim: usize) -> Result<Sha
         pts: pts.iter().map(|q| (q[0], q[1])).collect(),
         z,
     })
+}
+
+fn shape(ctx: &Ctx, sh: &Spanned<RawShape>, key: &str, dim: usize) -> Result<Shape, CaseError> {
+    let s = sh.get_ref();
+    let given = [
+        s.bbox.is_some(),
+        s.sphere.is_some(),
+        s.circle.is_some(),
+        s.cylinder.is_some(),
+        s.polygon.is_some(),
+        s.mesh.is_some(),
+    ]
+    .iter()
+    .filter(|&&b| b)
+    .count();
+    if given != 1 {
+        return Err(ctx.err(
+            sh.span(),
+            key,
+            "give exactly one of box, sphere (circle in 2D), cylinder, polygon or mesh",
+        ));
+    }
+    if let Some(m) = &s.mesh {
+        return mesh_shape(ctx, m, key, dim);
+    }
+    if let Some(b) = &s.bbox {
+        let (lo, hi) = (
+            ctx.point(&b.min, &format!("{key}.box.min"), dim)?,
+            ctx.point(&b.max, &format!("{key}.box.max"), dim)?,
+        );
+        if (0..dim).any(|c| hi[c] <= lo[c]) {
+            return Err(ctx.err(
+                b.max.span(),
+                key,
+                "the box is empty: every max coordinate must exceed its min",
+            ));
+        }
+        return Ok(Shape::Box { lo, hi });
+    }
+    if let Some(b) = s.sphere.as_ref().or(s.circle.as_ref()) {
+        return Ok(Shape::Ball {
+            c: ctx.point(&b.center, &format!("{key}.center"), dim)?,
+            r: ctx.positive(&b.radius, &format!("{key}.radius"), "m")?,
+        });
+    }
+    if let Some(c) = &s.cylinder {
+        let axis = axis_index(ctx, &c.axis, &format!("{key}.axis"), 3)?;
+        return Ok(Shape::Cylinder {
+            c: ctx.point(&c.center, &format!("{key}.center"), dim)?,
+            axis,
+            r: ctx.positive(&c.radius, &format!("{key}.radius"), "m")?,
+            half: 0.5 * ctx.positive(&c.length, &format!("{key}.length"), "m")?,
+        });
+    }
+    polygon_shape(
+        ctx,
+        s.polygon.as_ref().expect("one shape is given"),
+        key,
+        dim,
+    )
 }
 
 /// Where each key handed to the builder stands in the file, so that the builder's errors (which
@@ -1099,11 +1117,9 @@ fn boundaries(
     Ok(builder)
 }
 
-/// `[solver]` and `[output]`: time stepping, damping, quasi-static load steps, what to write.
-fn schedule(ctx: &Ctx, raw: &RawCase, b: Builder, spans: &mut Spans) -> Result<Builder, CaseError> {
-    let s = &raw.solver;
-    let end_time = ctx.positive(&s.end_time, "solver.end_time", "s")?;
-    let time_step = match (&s.dt, &s.safety) {
+/// `solver.dt` (a fixed step) or `solver.safety` (a fraction of the stable step), one of them.
+fn time_step(ctx: &Ctx, s: &RawSolver) -> Result<TimeStep, CaseError> {
+    Ok(match (&s.dt, &s.safety) {
         (Some(dt), None) => TimeStep::Fixed {
             dt: ctx.positive(dt, "solver.dt", "s")?,
             force: false,
@@ -1123,7 +1139,44 @@ fn schedule(ctx: &Ctx, raw: &RawCase, b: Builder, spans: &mut Spans) -> Result<B
         (Some(dt), Some(_)) => {
             return Err(ctx.err(dt.span(), "solver.dt", "give dt or safety, not both"))
         }
-    };
+    })
+}
+
+/// `output.format`: which of VTK and HDF5 a run writes (VTK alone by default).
+fn formats(ctx: &Ctx, o: &RawOutput, spans: &mut Spans) -> Result<(bool, bool), CaseError> {
+    let (mut vtk, mut hdf5) = (true, false);
+    if let Some(f) = &o.format {
+        spans.at("output.format", f.span());
+        (vtk, hdf5) = (false, false);
+        for name in f.get_ref() {
+            match name.as_str() {
+                "vtk" => vtk = true,
+                "hdf5" => hdf5 = true,
+                other => {
+                    return Err(ctx.err(
+                        f.span(),
+                        "output.format",
+                        format!("unknown format \"{other}\"; use \"vtk\" and/or \"hdf5\""),
+                    ))
+                }
+            }
+        }
+        if !vtk && !hdf5 {
+            return Err(ctx.err(
+                f.span(),
+                "output.format",
+                "give at least one format: [\"vtk\"], [\"hdf5\"] or both",
+            ));
+        }
+    }
+    Ok((vtk, hdf5))
+}
+
+/// `[solver]` and `[output]`: time stepping, damping, quasi-static load steps, what to write.
+fn schedule(ctx: &Ctx, raw: &RawCase, b: Builder, spans: &mut Spans) -> Result<Builder, CaseError> {
+    let s = &raw.solver;
+    let end_time = ctx.positive(&s.end_time, "solver.end_time", "s")?;
+    let time_step = time_step(ctx, s)?;
     let damping = match &s.damping {
         Some(d) if !(d.get_ref().is_finite() && *d.get_ref() >= 0.0) => {
             return Err(ctx.err(
@@ -1178,31 +1231,7 @@ fn schedule(ctx: &Ctx, raw: &RawCase, b: Builder, spans: &mut Spans) -> Result<B
             ))
         }
     }
-    let (mut vtk, mut hdf5) = (true, false);
-    if let Some(f) = &o.format {
-        spans.at("output.format", f.span());
-        (vtk, hdf5) = (false, false);
-        for name in f.get_ref() {
-            match name.as_str() {
-                "vtk" => vtk = true,
-                "hdf5" => hdf5 = true,
-                other => {
-                    return Err(ctx.err(
-                        f.span(),
-                        "output.format",
-                        format!("unknown format \"{other}\"; use \"vtk\" and/or \"hdf5\""),
-                    ))
-                }
-            }
-        }
-        if !vtk && !hdf5 {
-            return Err(ctx.err(
-                f.span(),
-                "output.format",
-                "give at least one format: [\"vtk\"], [\"hdf5\"] or both",
-            ));
-        }
-    }
+    let (vtk, hdf5) = formats(ctx, o, spans)?;
     let mut fields = hooke_io::FieldSet::ALL;
     if let Some(f) = &o.fields {
         spans.at("output.fields", f.span());
@@ -1584,34 +1613,22 @@ fn rigid_geometry(ctx: &Ctx, raw: &RawRigid, key: &str, dim: usize) -> Result<Ge
                 "a mesh body is 3D; use a convex polygon in 2D",
             ));
         }
-        let scale = match &m.scale {
-            Some(v) => ctx.positive(v, &format!("{skey}.mesh.scale"), "(m per file unit)")?,
-            None => 1.0,
-        };
-        let base = ctx.file.parent().unwrap_or(Path::new("."));
-        let mesh = MeshShape::load(&base.join(m.file.get_ref()), scale)
-            .map_err(|e| ctx.err(m.file.span(), format!("{skey}.mesh.file"), e.to_string()))?;
-        Geometry::mesh(&mesh)
+        Geometry::mesh(&load_mesh(ctx, m, &skey)?)
     })
 }
 
-fn rigid(
+/// A rigid body's motion: kinematic at `velocity`, or dynamic with its mass (given, or from
+/// its density and `geometry`; `h` a plate's thickness).
+fn rigid_motion(
     ctx: &Ctx,
     r: &Spanned<RawRigid>,
-    k: usize,
-    dim: usize,
+    key: &str,
+    (geometry, velocity): (&hooke_contact::Geometry, Vector),
     h: Real,
-) -> Result<RigidBody, CaseError> {
-    let key = format!("rigid[{k}]");
+) -> Result<hooke_contact::Motion, CaseError> {
     let raw = r.get_ref();
-    let geometry = rigid_geometry(ctx, raw, &key, dim)?;
     let span = raw.shape.span();
     let unbounded = geometry.is_unbounded();
-    let position = ctx.point(&raw.position, &format!("{key}.position"), dim)?;
-    let velocity = match &raw.velocity {
-        Some(v) => ctx.point(v, &format!("{key}.velocity"), dim)?,
-        None => Vector::zeros(),
-    };
     let kinematic = match raw.motion.as_ref().map(|m| (m.get_ref().as_str(), m.span())) {
         None | Some(("dynamic", _)) => false,
         Some(("kinematic", _)) => true,
@@ -1619,7 +1636,7 @@ fn rigid(
             return Err(ctx.err(sp, format!("{key}.motion"), format!("unknown motion \"{other}\"; use \"dynamic\" (moved by contact) or \"kinematic\" (prescribed velocity)")))
         }
     };
-    let motion = if kinematic {
+    Ok(if kinematic {
         if let Some(m) = raw.mass.as_ref().or(raw.density.as_ref()) {
             return Err(ctx.err(
                 m.span(),
@@ -1661,7 +1678,26 @@ fn rigid(
             }
         };
         hooke_contact::Motion::Dynamic { mass }
+    })
+}
+
+fn rigid(
+    ctx: &Ctx,
+    r: &Spanned<RawRigid>,
+    k: usize,
+    dim: usize,
+    h: Real,
+) -> Result<RigidBody, CaseError> {
+    let key = format!("rigid[{k}]");
+    let raw = r.get_ref();
+    let geometry = rigid_geometry(ctx, raw, &key, dim)?;
+    let span = raw.shape.span();
+    let position = ctx.point(&raw.position, &format!("{key}.position"), dim)?;
+    let velocity = match &raw.velocity {
+        Some(v) => ctx.point(v, &format!("{key}.velocity"), dim)?,
+        None => Vector::zeros(),
     };
+    let motion = rigid_motion(ctx, r, &key, (&geometry, velocity), h)?;
     let friction = match &raw.friction {
         None => 0.0,
         Some(f) => {

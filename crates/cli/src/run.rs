@@ -416,26 +416,7 @@ fn run_in(args: RunArgs, team: Option<Arc<dyn hooke_core::team::Team>>) -> Resul
         Ok(s) => s,
         Err(e) => {
             obs.bar.abandon();
-            return Err(match e {
-                hooke_sim::Error::Interrupted {
-                    checkpoint: Some(ref ck),
-                    ..
-                } => Interrupted(format!(
-                    "{e}: continue with\n  hooke run {} --resume {}{}",
-                    args.case.display(),
-                    ck.display(),
-                    if args.out.is_some() {
-                        format!(" --out {}", out.display())
-                    } else {
-                        String::new()
-                    }
-                ))
-                .into(),
-                hooke_sim::Error::Interrupted { .. } => Interrupted(e.to_string()).into(),
-                e if e.is_input() => InputError(format!("{}: {e}", args.case.display())).into(),
-                e => anyhow::Error::new(e)
-                    .context(format!("{}: the run failed", args.case.display())),
-            });
+            return Err(run_error(&args, &out, e));
         }
     };
     obs.bar.finish_and_clear();
@@ -460,6 +441,30 @@ fn run_in(args: RunArgs, team: Option<Arc<dyn hooke_core::team::Team>>) -> Resul
         println!("  peak memory {:.0} MiB", b as f64 / (1 << 20) as f64);
     }
     Ok(())
+}
+
+/// A failed run's error for the user: an interruption with the command that continues it,
+/// a mistake in the case naming the case, or the run's failure with its cause.
+fn run_error(args: &RunArgs, out: &Path, e: hooke_sim::Error) -> anyhow::Error {
+    match e {
+        hooke_sim::Error::Interrupted {
+            checkpoint: Some(ref ck),
+            ..
+        } => Interrupted(format!(
+            "{e}: continue with\n  hooke run {} --resume {}{}",
+            args.case.display(),
+            ck.display(),
+            if args.out.is_some() {
+                format!(" --out {}", out.display())
+            } else {
+                String::new()
+            }
+        ))
+        .into(),
+        hooke_sim::Error::Interrupted { .. } => Interrupted(e.to_string()).into(),
+        e if e.is_input() => InputError(format!("{}: {e}", args.case.display())).into(),
+        e => anyhow::Error::new(e).context(format!("{}: the run failed", args.case.display())),
+    }
 }
 
 fn print_summary(case: &Path, s: &hooke_sim::Summary) {

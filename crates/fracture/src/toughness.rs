@@ -603,7 +603,6 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
     for &i in &grip {
         breakable[i] = false;
     }
-    let grown = |tip: Real, b: usize| crack_front(t, &body, (yc, top), tip, b);
     let per_length = if t.kind == LatticeKind::Random3d {
         slab_release_per_length(&body, &cons, (&grip, &sign), (t, yc, top), (x1, x2))?
     } else {
@@ -623,90 +622,171 @@ pub fn strip_test(t: &StripTest) -> Result<StripResult, FractureError> {
     for (&i, &s) in grip.iter().zip(&sign) {
         state.u.y_mut()[i] = s * 0.5 * eps0 * top;
     }
-    let mut eps = eps0;
     solve(&body, &mut state, &cons)?;
-    let mut solves = 1;
-    let mut work = stored(&body, &state); // the grips did the work of the first opening
-    let (mut broken, mut off_plane) = (0, 0);
-    let mut tip = tip0;
-    // (tip, dissipated, eps) after each round of breaks.
-    let mut history: Vec<(Real, Real, Real)> = Vec::new();
+    let mut run = Running {
+        tip: tip0,
+        eps: eps0,
+        // The grips did the work of the first opening.
+        work: stored(&body, &state),
+        broken: 0,
+        off_plane: 0,
+        solves: 1,
+        history: Vec::new(),
+    };
+    let strip = Strip {
+        t,
+        body: &body,
+        cons: &cons,
+        grip: (&grip, &sign),
+        rows: (yc, top),
+        breakable: &breakable,
+    };
     if let Some((shape, peak_fraction)) = t.softening {
-        // Softening springs: a sequence of secant equilibria. At fixed weights the strip is
-        // linear; at each equilibrium the weights are lowered to the envelope of the stretch
-        // each spring has reached, and the strip is solved again at the same grips, until the
-        // weights hold; then the grips open (scaled to bring the most stretched spring to its
-        // peak while all are elastic, by `load_step` after). The work of the grips is exact
-        // (linear between the solves), the stored energy is the secant one, and W - U is what
-        // the softening took.
-        // Weight changes below 1 % wait for the next load step, and the grips open by 1 % a
-        // step past the peak: halving both moves G by under 2 % (hex, nu_2D = 0.25).
-        let (tol, load_step) = (1e-2, 1e-2);
-        let law = Softening::from_strength(1.0, peak_fraction * t.s_c, t.s_c, shape)?;
-        let mut changes: Vec<(usize, Real)> = Vec::new();
-        while tip < x2 {
-            if solves >= t.max_solves {
-                return Err(FractureError::Experiment(format!(
-                    "strip: {} solves without the crack crossing the strip (tip at {tip:.1})",
-                    t.max_solves
-                )));
-            }
-            let worst = softening_changes(&body, &state, &breakable, &law, tol, &mut changes);
-            if changes.is_empty() {
-                let f = if worst < 1.0 {
-                    (1.0 + 1e-6) / worst.max(1e-300)
-                } else {
-                    1.0 + load_step
-                };
-                work += open_grips(&body, &mut state, &cons, (&grip, &sign), top, f, &mut eps)?;
-                solves += 1;
-                continue;
-            }
-            for &(b, w) in &changes {
-                state.soften(&body, b, w);
-                if state.alive()[b] {
-                    continue;
-                }
-                broken += 1;
-                match grown(tip, b) {
-                    Some(t) => tip = t,
-                    None => off_plane += 1,
-                }
-            }
-            solve(&body, &mut state, &cons)?;
-            solves += 1;
-            history.push((tip, work - stored(&body, &state), eps));
-        }
+        soften_across(&strip, &mut state, &mut run, x2, (shape, peak_fraction))?;
     }
-    while tip < x2 {
-        if solves >= t.max_solves {
+    break_across(&strip, &mut state, &mut run, x2, w_c)?;
+    let Running {
+        history,
+        broken,
+        off_plane,
+        solves,
+        ..
+    } = run;
+    strip_result(t, &history, x1, w, per_length, (broken, off_plane, solves))
+}
+
+/// The strip as the crack runs across it: the body held by its grips (`grip`: the gripped
+/// nodes and the sign of their opening), its rows (`yc`, `top`) and which springs may break.
+struct Strip<'a> {
+    t: &'a StripTest,
+    body: &'a Body,
+    cons: &'a Constraints,
+    grip: (&'a [usize], &'a [Real]),
+    rows: (Real, Real),
+    breakable: &'a [bool],
+}
+
+/// How far the crack has run: its tip, the grips' opening strain `eps` and the work they did,
+/// the springs broken (and those off the crack plane), the solves taken, and `(tip,
+/// dissipated, eps)` after each round of breaks.
+struct Running {
+    tip: Real,
+    eps: Real,
+    work: Real,
+    broken: usize,
+    off_plane: usize,
+    solves: usize,
+    history: Vec<(Real, Real, Real)>,
+}
+
+impl Running {
+    /// Refuse a strip whose crack has not crossed it within the solves allowed.
+    fn within(&self, t: &StripTest) -> Result<(), FractureError> {
+        if self.solves >= t.max_solves {
             return Err(FractureError::Experiment(format!(
-                "strip: {} solves without the crack crossing the strip (tip at {tip:.1})",
-                t.max_solves
+                "strip: {} solves without the crack crossing the strip (tip at {:.1})",
+                t.max_solves, self.tip
             )));
         }
-        let (worst, over) = most_loaded(t, &body, &state, &breakable, w_c);
+        Ok(())
+    }
+
+    /// Spring `b` broke: the tip moves with it, or it broke off the crack plane.
+    fn broke(&mut self, s: &Strip<'_>, b: usize) {
+        self.broken += 1;
+        match crack_front(s.t, s.body, s.rows, self.tip, b) {
+            Some(x) => self.tip = x,
+            None => self.off_plane += 1,
+        }
+    }
+
+    /// Solve at the present grips and note what the round dissipated.
+    fn settle(&mut self, s: &Strip<'_>, state: &mut State) -> Result<(), FractureError> {
+        solve(s.body, state, s.cons)?;
+        self.solves += 1;
+        self.history
+            .push((self.tip, self.work - stored(s.body, state), self.eps));
+        Ok(())
+    }
+
+    /// Open the grips by the factor `f` and solve.
+    fn open(&mut self, s: &Strip<'_>, state: &mut State, f: Real) -> Result<(), FractureError> {
+        let top = s.rows.1;
+        self.work += open_grips(s.body, state, s.cons, s.grip, top, f, &mut self.eps)?;
+        self.solves += 1;
+        Ok(())
+    }
+}
+
+/// Softening springs: a sequence of secant equilibria until the tip passes `x2`. At fixed
+/// weights the strip is linear; at each equilibrium the weights are lowered to the envelope of
+/// the stretch each spring has reached, and the strip is solved again at the same grips, until
+/// the weights hold; then the grips open (scaled to bring the most stretched spring to its peak
+/// while all are elastic, by `load_step` after). The work of the grips is exact (linear
+/// between the solves), the stored energy is the secant one, and W - U is what the softening
+/// took.
+fn soften_across(
+    s: &Strip<'_>,
+    state: &mut State,
+    run: &mut Running,
+    x2: Real,
+    (shape, peak_fraction): (SofteningShape, Real),
+) -> Result<(), FractureError> {
+    let t = s.t;
+    // Weight changes below 1 % wait for the next load step, and the grips open by 1 % a step
+    // past the peak: halving both moves G by under 2 % (hex, nu_2D = 0.25).
+    let (tol, load_step) = (1e-2, 1e-2);
+    let law = Softening::from_strength(1.0, peak_fraction * t.s_c, t.s_c, shape)?;
+    let mut changes: Vec<(usize, Real)> = Vec::new();
+    while run.tip < x2 {
+        run.within(t)?;
+        let worst = softening_changes(s.body, state, s.breakable, &law, tol, &mut changes);
+        if changes.is_empty() {
+            let f = if worst < 1.0 {
+                (1.0 + 1e-6) / worst.max(1e-300)
+            } else {
+                1.0 + load_step
+            };
+            run.open(s, state, f)?;
+            continue;
+        }
+        for &(b, w) in &changes {
+            state.soften(s.body, b, w);
+            if !state.alive()[b] {
+                run.broke(s, b);
+            }
+        }
+        run.settle(s, state)?;
+    }
+    Ok(())
+}
+
+/// Brittle springs (and softening ones once the tip has passed, where none is left): break
+/// every spring past the criterion (`w_c`, the energy criterion's unit spring), solve, and
+/// where none is past it open the grips until one just is, until the tip passes `x2`.
+fn break_across(
+    s: &Strip<'_>,
+    state: &mut State,
+    run: &mut Running,
+    x2: Real,
+    w_c: Real,
+) -> Result<(), FractureError> {
+    while run.tip < x2 {
+        run.within(s.t)?;
+        let (worst, over) = most_loaded(s.t, s.body, state, s.breakable, w_c);
         if over.is_empty() {
             // Scale the opening (and, as the initial guess, the whole field) so that the most
             // stretched spring just passes the criterion.
-            let f = (1.0 + 1e-6) / worst.max(1e-300);
-            work += open_grips(&body, &mut state, &cons, (&grip, &sign), top, f, &mut eps)?;
-            solves += 1;
+            run.open(s, state, (1.0 + 1e-6) / worst.max(1e-300))?;
             continue;
         }
         for &(b, _) in &over {
-            state.kill_bond(&body, b);
-            broken += 1;
-            match grown(tip, b) {
-                Some(t) => tip = t,
-                None => off_plane += 1,
-            }
+            state.kill_bond(s.body, b);
+            run.broke(s, b);
         }
-        solve(&body, &mut state, &cons)?;
-        solves += 1;
-        history.push((tip, work - stored(&body, &state), eps));
+        run.settle(s, state)?;
     }
-    strip_result(t, &history, x1, w, per_length, (broken, off_plane, solves))
+    Ok(())
 }
 
 #[cfg(test)]

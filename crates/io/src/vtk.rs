@@ -528,43 +528,16 @@ pub fn frame_vtk_nodes(
     frame_vtk_piece(body, state, extras, springs, nodes, first)
 }
 
-/// [`frame_vtk_nodes`] with the nodes' `node_id` counted from `first_id` (a piece of a body
-/// renumbered: [`VtkSeries::set_piece_nodes`]).
-fn frame_vtk_piece(
+/// A frame's point data at `nodes` (the first with id `first_id`): the fields the run asked
+/// for, derived ones computed here, and each node's id.
+fn point_data(
     body: &Body,
     state: &State,
     extras: FrameExtras,
-    springs: bool,
     nodes: std::ops::Range<usize>,
     first_id: usize,
-) -> Vtk {
+) -> Vec<Attribute> {
     let n = nodes.len();
-    let first = nodes.start;
-    // `X + u`, the bits of `State::positions`, without its whole copy of the positions.
-    let (x, u) = (&body.lattice.pos, &state.u);
-    let mut points = Vec::with_capacity(3 * n);
-    for i in nodes.clone() {
-        points.extend([
-            x.x()[i] + u.x()[i],
-            x.y()[i] + u.y()[i],
-            x.z()[i] + u.z()[i],
-        ]);
-    }
-    // One vertex cell per node, so that every reader shows the nodes; intact springs as lines
-    // on request (for small models: they double the file size per 9 springs per node).
-    let mut connectivity: Vec<u64> = (0..n as u64).collect();
-    let mut offsets: Vec<u64> = (1..=n as u64).collect();
-    let mut types = vec![CellType::Vertex; n];
-    if springs {
-        for (b, &[i, j]) in body.lattice.bonds.ends.iter().enumerate() {
-            let inside = nodes.contains(&(i as usize)) && nodes.contains(&(j as usize));
-            if state.alive()[b] && inside {
-                connectivity.extend([(i as usize - first) as u64, (j as usize - first) as u64]);
-                offsets.push(connectivity.len() as u64);
-                types.push(CellType::Line);
-            }
-        }
-    }
     let fields = extras.fields;
     let part = |v: &[Real]| v[nodes.clone()].to_vec();
     let mut point = Vec::new();
@@ -624,6 +597,47 @@ fn frame_vtk_piece(
             data: r[nodes.clone()].to_vec().into(),
         }));
     }
+    point
+}
+
+/// [`frame_vtk_nodes`] with the nodes' `node_id` counted from `first_id` (a piece of a body
+/// renumbered: [`VtkSeries::set_piece_nodes`]).
+fn frame_vtk_piece(
+    body: &Body,
+    state: &State,
+    extras: FrameExtras,
+    springs: bool,
+    nodes: std::ops::Range<usize>,
+    first_id: usize,
+) -> Vtk {
+    let n = nodes.len();
+    let first = nodes.start;
+    // `X + u`, the bits of `State::positions`, without its whole copy of the positions.
+    let (x, u) = (&body.lattice.pos, &state.u);
+    let mut points = Vec::with_capacity(3 * n);
+    for i in nodes.clone() {
+        points.extend([
+            x.x()[i] + u.x()[i],
+            x.y()[i] + u.y()[i],
+            x.z()[i] + u.z()[i],
+        ]);
+    }
+    // One vertex cell per node, so that every reader shows the nodes; intact springs as lines
+    // on request (for small models: they double the file size per 9 springs per node).
+    let mut connectivity: Vec<u64> = (0..n as u64).collect();
+    let mut offsets: Vec<u64> = (1..=n as u64).collect();
+    let mut types = vec![CellType::Vertex; n];
+    if springs {
+        for (b, &[i, j]) in body.lattice.bonds.ends.iter().enumerate() {
+            let inside = nodes.contains(&(i as usize)) && nodes.contains(&(j as usize));
+            if state.alive()[b] && inside {
+                connectivity.extend([(i as usize - first) as u64, (j as usize - first) as u64]);
+                offsets.push(connectivity.len() as u64);
+                types.push(CellType::Line);
+            }
+        }
+    }
+    let point = point_data(body, state, extras, nodes, first_id);
     unstructured(
         format!("hooke frame, step {}, t = {:e} s", state.step, state.time),
         points,

@@ -1005,6 +1005,47 @@ fn random_bulk(args: &ModuliOptions, nu: Real) -> Result<serde_json::Value> {
     }))
 }
 
+/// A 6x6 stiffness in Voigt order (Pa).
+type Stiffness = [[Real; 6]; 6];
+
+/// An anisotropic material's target stiffness (in the body's frame; a plate's in 2D) and the
+/// material's axes.
+fn target_and_frame(
+    m: &Anisotropic,
+    dim: usize,
+    plane: hooke_core::material::PlaneModel,
+) -> Result<(Stiffness, [[Real; 3]; 3])> {
+    Ok(if dim == 2 {
+        (m.plane_stiffness(plane)?, m.plane_axes()?.0)
+    } else {
+        let frame = match m {
+            Anisotropic::Transverse(t) => t.frame()?,
+            Anisotropic::Orthotropic(o) => o.axes,
+        };
+        (m.stiffness()?, frame)
+    })
+}
+
+/// The calibration behind a random design, as `--json` reports it.
+fn calibration_json(
+    cal: &hooke_core::random::anisotropic::Calibrated,
+    dim: usize,
+) -> serde_json::Value {
+    let opts = if dim == 2 {
+        hooke_core::random::anisotropic::CalibrationOptions::plane()
+    } else {
+        Default::default()
+    };
+    serde_json::json!({
+        "residuals": cal.residuals, "held_out": cal.held_out, "seconds": cal.seconds,
+        "cube_spacings": opts.size, "samples": opts.samples,
+        "seeds": [opts.seed, opts.seed + opts.samples as u64 - 1],
+        "cache_file": cal.cache.file().map(|p| p.display().to_string()),
+        "from_cache": matches!(cal.cache, Cached::Read(_)),
+        "cache_note": cal.cache.note(),
+    })
+}
+
 /// `--bulk --lattice random3d` (or `random2d`) with an anisotropic material: calibrate the
 /// direction functions on cubes (squares) of their own seeds
 /// ([`hooke_core::random::anisotropic::calibrate`], seeds 1001 on), then measure the design on
@@ -1052,15 +1093,7 @@ fn random_anisotropic_bulk(
     let spread = hooke_core::random::anisotropic::spread(&runs, &measured);
     // In the material axes every orthotropic entry is sizeable, so each can be held to a
     // relative tolerance (turned into the body's frame, small entries carry the noise).
-    let (target, frame) = if dim == 2 {
-        (m.plane_stiffness(plane)?, m.plane_axes()?.0)
-    } else {
-        let frame = match m {
-            Anisotropic::Transverse(t) => t.frame()?,
-            Anisotropic::Orthotropic(o) => o.axes,
-        };
-        (m.stiffness()?, frame)
-    };
+    let (target, frame) = target_and_frame(m, dim, plane)?;
     let relative = entry_relative_difference(&measured, &target);
     let d = &cal.design;
     let local = hooke_core::random::anisotropic::to_material(&measured, &frame);
@@ -1072,11 +1105,6 @@ fn random_anisotropic_bulk(
     let name = match m {
         Anisotropic::Transverse(_) => "transverse",
         Anisotropic::Orthotropic(_) => "orthotropic",
-    };
-    let opts = if dim == 2 {
-        hooke_core::random::anisotropic::CalibrationOptions::plane()
-    } else {
-        Default::default()
     };
     let material_entries: Vec<String> = orthotropic_entries(dim)
         .iter()
@@ -1090,14 +1118,7 @@ fn random_anisotropic_bulk(
             "kappa": d.kappa, "kappa_terms": ["xx", "yy", "zz", "yz", "xz", "xy"],
             "alpha": d.alpha, "q": d.q, "axes": d.axes, "sharpness": d.sharpness,
         },
-        "calibration": {
-            "residuals": cal.residuals, "held_out": cal.held_out, "seconds": cal.seconds,
-            "cube_spacings": opts.size, "samples": opts.samples,
-            "seeds": [opts.seed, opts.seed + opts.samples as u64 - 1],
-            "cache_file": cal.cache.file().map(|p| p.display().to_string()),
-            "from_cache": matches!(cal.cache, Cached::Read(_)),
-            "cache_note": cal.cache.note(),
-        },
+        "calibration": calibration_json(&cal, dim),
         "units": if dim == 2 { "Pa (times the thickness: N/m)" } else { "Pa" },
         "voigt": ["xx", "yy", "zz", "yz", "xz", "xy"],
         "C_target": target, "C_measured": measured, "C_spread": spread,

@@ -717,20 +717,19 @@ impl Builder {
         Ok((body, k))
     }
 
-    /// The breaking rule and the pre-cracks: the fracture state and the springs cut.
-    fn fracture(
+    /// The breaking rule's criterion, calibrated for this lattice (`q` its dispersion, `k` its
+    /// stiffness, `h` a plate's thickness); none without a rule.
+    fn criterion(
         &self,
-        body: &Body,
-        state: &mut State,
+        q: Real,
         k: Real,
         h: Real,
-        cuts_nothing: &dyn Fn(bool) -> bool,
-    ) -> Result<(Option<Fracture>, usize), BuildError> {
-        let (kind, a, q) = (self.kind, self.spacing, body.q);
+    ) -> Result<Option<Box<dyn Criterion>>, BuildError> {
+        let (kind, a) = (self.kind, self.spacing);
         let fr = |key: &'static str| {
             move |e: hooke_fracture::FractureError| BuildError::new(key, e.to_string())
         };
-        let criterion: Option<Box<dyn Criterion>> = match self.breaking {
+        Ok(match self.breaking {
             None => None,
             Some(BreakRule::FractureEnergy(g)) => Some(Box::new(
                 CriticalStretch::from_fracture_energy(kind, k, a, q, h, g)
@@ -800,7 +799,19 @@ impl Builder {
             Some(BreakRule::SofteningStretch { peak, last, shape }) => Some(Box::new(
                 Softening::new(peak, last, shape).map_err(fr("material.final_stretch"))?,
             )),
-        };
+        })
+    }
+
+    /// The breaking rule and the pre-cracks: the fracture state and the springs cut.
+    fn fracture(
+        &self,
+        body: &Body,
+        state: &mut State,
+        k: Real,
+        h: Real,
+        cuts_nothing: &dyn Fn(bool) -> bool,
+    ) -> Result<(Option<Fracture>, usize), BuildError> {
+        let criterion = self.criterion(body.q, k, h)?;
         let mut fracture = criterion.map(|c| Fracture::new(body, c));
         let mut precracked = 0;
         for (n, c) in self.cracks.iter().enumerate() {
