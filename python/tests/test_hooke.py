@@ -312,11 +312,17 @@ def test_bad_input_raises_and_never_crashes(tmp_path):
 def test_ctrl_c_interrupts_cleanly(tmp_path):
     # Long enough (tens of seconds) that the interrupt arrives mid-run.
     sim = hooke.load_case(CASE, scale=0.5, set={"solver.end_time": 5e-3}, out=tmp_path / "k")
+    # A process started in the background by a non-interactive shell inherits SIGINT ignored,
+    # and Python then leaves it so: give the test Python's own handler, as a terminal has it.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
     timer.start()
-    with pytest.raises(KeyboardInterrupt):
-        sim.run()
-    timer.cancel()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            sim.run()
+    finally:
+        timer.cancel()
+        signal.signal(signal.SIGINT, previous)
     t = sim.time
     assert 0.0 < t < sim.end_time
     sim.step(3)
