@@ -6,11 +6,12 @@
 use std::time::Instant;
 
 use anyhow::Result;
-use hooke_core::dynamics::Integrator;
+use hooke_core::dynamics::{Integrator, IntegratorOptions};
 use hooke_core::loading::Loading;
 use hooke_core::material::q_from_nu;
 use hooke_core::moduli::{block_test, BlockTest};
-use hooke_core::{LatticeKind, Real};
+use hooke_core::{Body, LatticeKind, Real, State};
+use hooke_fracture::Fracture;
 use hooke_sim::{Run, RunOptions, Simulation};
 use serde::{Deserialize, Serialize};
 
@@ -74,30 +75,9 @@ pub fn fracture(
     let (body, mut state, mut it) = moving(args, lattice, q)?;
     let mut fr =
         hooke_fracture::Fracture::new(&body, Box::new(hooke_fracture::CriticalStretch::new(1.0)?));
-    let mut plain_state = state.clone();
-    let mut plain_it = Integrator::resume(
-        &body,
-        &plain_state,
-        Loading::default(),
-        &integrator_options(args),
-        &it.checkpoint(),
-    )?;
     let steps = args.steps;
-    let (with, without) = alternate(
-        args.repeats,
-        || {
-            for _ in 0..steps {
-                fr.step(&body, &mut state, &mut it, None);
-            }
-            Ok(())
-        },
-        || {
-            for _ in 0..steps {
-                plain_it.step(&body, &mut plain_state);
-            }
-            Ok(())
-        },
-    )?;
+    let plain = (Loading::default(), integrator_options(args));
+    let (with, without) = against_intact(&body, (&mut state, &mut it, &mut fr), &plain, args)?;
     if fr.broken_total > 0 {
         anyhow::bail!("{} springs broke in the intact benchmark", fr.broken_total);
     }
@@ -140,29 +120,8 @@ fn running_crack(
         fr.step(body, &mut state, &mut it, None);
     }
     let before = fr.broken_total;
-    let mut plain_state = state.clone();
-    let mut plain_it = Integrator::resume(
-        body,
-        &plain_state,
-        sim.loading.clone(),
-        &sim.options,
-        &it.checkpoint(),
-    )?;
-    let (with, without) = alternate(
-        args.repeats,
-        || {
-            for _ in 0..steps {
-                fr.step(body, &mut state, &mut it, None);
-            }
-            Ok(())
-        },
-        || {
-            for _ in 0..steps {
-                plain_it.step(body, &mut plain_state);
-            }
-            Ok(())
-        },
-    )?;
+    let plain = (sim.loading.clone(), sim.options.clone());
+    let (with, without) = against_intact(body, (&mut state, &mut it, &mut fr), &plain, args)?;
     Ok(RunningCrack {
         case: name.into(),
         case_nodes: body.nodes(),
@@ -173,6 +132,41 @@ fn running_crack(
         case_fracture_seconds_per_step: with / steps as f64,
         running_crack_overhead: with / without,
     })
+}
+
+/// Medians of alternating windows of `args.steps` steps: the fracture step from `state` and
+/// `it` against a copy of the same state and integrator (resumed from its checkpoint, with
+/// `plain`'s loading and options) stepped without breaking.
+fn against_intact(
+    body: &Body,
+    (state, it, fr): (&mut State, &mut Integrator, &mut Fracture),
+    plain: &(Loading, IntegratorOptions),
+    args: &BenchOptions,
+) -> Result<(f64, f64)> {
+    let mut plain_state = state.clone();
+    let mut plain_it = Integrator::resume(
+        body,
+        &plain_state,
+        plain.0.clone(),
+        &plain.1,
+        &it.checkpoint(),
+    )?;
+    let steps = args.steps;
+    alternate(
+        args.repeats,
+        || {
+            for _ in 0..steps {
+                fr.step(body, state, it, None);
+            }
+            Ok(())
+        },
+        || {
+            for _ in 0..steps {
+                plain_it.step(body, &mut plain_state);
+            }
+            Ok(())
+        },
+    )
 }
 
 /// One static solve of the paper's block (`hooke bench --static --json`'s rows).
