@@ -23,9 +23,11 @@ rm -rf "$work" && mkdir -p "$work"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 mpirun="mpirun --oversubscribe --bind-to none"
 
-cargo build --release -q -p hooke-cli
+# Built for the whole workspace, as the test command builds it (a build of one package resolves
+# the dependencies' features otherwise, and rebuilds most of the tree).
+cargo build --release -q --workspace --bins
 cp target/release/hooke "$work/hooke"
-cargo build --release -q -p hooke-cli --features mpi
+cargo build --release -q --workspace --bins --features hooke-cli/mpi
 cp target/release/hooke "$work/hooke-mpi"
 
 extra=() # further arguments of both runs

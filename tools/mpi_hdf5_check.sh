@@ -10,7 +10,7 @@ rm -rf "$work" && mkdir -p "$work"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 mpirun="mpirun --oversubscribe --bind-to none"
 
-cargo build --release -q -p hooke-cli --features mpi,hdf5
+cargo build --release -q --workspace --bins --features hooke-cli/mpi,hooke-cli/hdf5
 cp target/release/hooke "$work/hooke"
 args=(run cases/kalthoff_winkler.toml --scale 0.3 --set solver.end_time=10e-6
   --set 'output.format=["vtk", "hdf5"]')

@@ -31,14 +31,15 @@ use crate::loading::{Loading, Motion};
 use crate::math::{Coords, Real, Vector};
 use crate::stability::{self, StableStep, DEFAULT_SAFETY};
 use crate::state::State;
-use crate::team::{Share, Team};
+use crate::team::Team;
 
 mod breaks;
 mod partition;
 
 pub use breaks::{commit_alone, node_dispersive_energy, BreakReport, Breaker, Candidates};
+#[cfg(test)]
 pub(crate) use partition::special_nodes;
-use partition::{Partition, Pools};
+use partition::{Partition, Plan, Pools};
 
 /// How the time step is chosen.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -395,7 +396,6 @@ impl Integrator {
         opts: &IntegratorOptions,
         team: Option<std::sync::Arc<dyn Team>>,
     ) -> Result<Self> {
-        let team = team.filter(|t| t.size() > 1);
         body.validate()?;
         loading.validate(body.nodes())?;
         if !(opts.damping.is_finite() && opts.damping >= 0.0) {
@@ -405,15 +405,12 @@ impl Integrator {
                 why: "it must be zero or positive".into(),
             });
         }
-        // The run's share, found once: the estimate trades its sweeps' halo (the loaded and
-        // prescribed nodes in it, which the steps' bookkeeping reads, are traded too).
-        let share = team
-            .as_ref()
-            .map(|t| Share::new(body, t.size(), t.rank(), &special_nodes(&loading)));
+        // The run's split, found once: the estimate trades its sweeps' halo as the steps will.
+        let plan = Plan::new(body, &loading, team);
         let mut kernel = if opts.force_csr {
             Kernel::Csr { plain: false }
         } else {
-            Kernel::for_body_in(body, state, share.as_ref().map(Share::mine))
+            Kernel::for_body_in(body, state, plan.swept())
         };
         opts.choose_lanes(&mut kernel);
         // The damage-proof step needs only the plain law's estimate: (1 + 2 max(q, 0)) times
@@ -426,10 +423,7 @@ impl Integrator {
         // The estimate's unit masses become the inverse masses afterwards (one array fewer to
         // first-touch).
         let mut inv_mass = Vec::new();
-        let mut split = team
-            .as_ref()
-            .zip(share.as_ref())
-            .map(|(t, s)| stability::Split::new(&**t, s));
+        let mut split = plan.split();
         let stable = estimate(
             body,
             state,
@@ -472,9 +466,7 @@ impl Integrator {
         let v0 = state.v.clone();
         it.initial_power = it.power(body, state, &v0);
         it.back_half_step(body, state);
-        if let Some(t) = team {
-            it.distribute_with(body, t, share);
-        }
+        plan.distribute(&mut it, body);
         Ok(it)
     }
 

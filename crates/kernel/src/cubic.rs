@@ -438,13 +438,8 @@ impl Stencil for CubicStencil {
         // SAFETY: by the caller's contract, the vector path is on (so the processor has its instructions) and
         // the block and its neighbours are in bounds.
         unsafe {
-            if self.simd == Some(Lanes::Avx2) {
-                let (a, b) = out.split_at_mut(4);
-                let hot = avx2::pools4(self, u, i, a, screen);
-                avx2::pools4(self, u, i + 4, b, screen) | hot
-            } else {
-                avx512::pools8(self, u, i, out, screen)
-            }
+            let avx2 = self.simd == Some(Lanes::Avx2);
+            crate::stencil::vector::pools8(self, avx2, u, i, out, screen)
         }
     }
 
@@ -465,259 +460,212 @@ impl Stencil for CubicStencil {
     ) {
         // SAFETY: by the caller's contract, as for `pool_block`.
         unsafe {
-            if self.simd == Some(Lanes::Avx2) {
-                let [vx, vy, vz] = v;
-                let [nx, ny, nz] = un;
-                for h in [0, 4] {
-                    let r = h..h + 4;
-                    avx2::force_kick_drift4(
-                        self,
-                        u,
-                        pool,
-                        inv_mass,
-                        p,
-                        i + h,
-                        [&mut vx[r.clone()], &mut vy[r.clone()], &mut vz[r.clone()]],
-                        [&mut nx[r.clone()], &mut ny[r.clone()], &mut nz[r.clone()]],
-                        sums,
-                    );
-                }
-            } else {
-                avx512::force_kick_drift8(self, u, pool, inv_mass, p, i, v, un, sums)
-            }
+            let avx2 = self.simd == Some(Lanes::Avx2);
+            crate::stencil::vector::force_kick_drift8(
+                self, avx2, u, pool, inv_mass, p, i, v, un, sums,
+            )
         }
     }
 }
 
+/// The vector path, one source for AVX-512 (8 nodes to a vector) and AVX2 (4 nodes, a block
+/// of 8 as two halves) through [`crate::wide`]: the scalar path's operations lane by lane.
 #[cfg(target_arch = "x86_64")]
-mod avx512 {
-    use std::arch::x86_64::*;
-
+mod vector {
     use super::{CubicStencil, StepParams, SweepSums, CLASS_SHIFT};
+    use crate::stencil::vector::{kick_drift, Lanewise};
+    use crate::wide::Wide;
     use hooke_model::math::{Coords, Real};
 
-    /// Current vectors of the springs in direction `d` of the block at `i`, and their squared
-    /// lengths.
+    /// The N nodes' displacements from `i` and their mask words (one 64-bit lane per node).
     ///
     /// # Safety
-    /// The processor has the function's target feature, and the block at `i` is inside the
-    /// body's box, so that its neighbours in direction `d` are nodes (`vector_block`).
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    pub(super) unsafe fn vector8(
+    /// The block's nodes from `i` are in bounds of `u` and of the stencil's mask words.
+    #[inline(always)]
+    pub(super) unsafe fn load_block<W: Wide>(
+        w: W,
         s: &CubicStencil,
         u: &Coords,
         i: usize,
-        d: usize,
-        ui: [__m512d; 3],
-    ) -> ([__m512d; 3], __m512d) {
-        let j = (i as isize + s.off[d]) as usize;
-        let dv = s.dvec[d];
-        let comp = |c: &[Real], k: usize| {
-            // SAFETY: by the caller's contract, j..j+8 is in bounds because the block is inside.
-            unsafe {
-                _mm512_add_pd(
-                    _mm512_set1_pd(dv[k]),
-                    _mm512_sub_pd(_mm512_loadu_pd(c.as_ptr().add(j)), ui[k]),
-                )
-            }
-        };
-        let (x, y, z) = (comp(u.x(), 0), comp(u.y(), 1), comp(u.z(), 2));
-        // ((x x + y y) + z z), as the scalar path adds them.
-        (
-            [x, y, z],
-            _mm512_add_pd(
-                _mm512_add_pd(_mm512_mul_pd(x, x), _mm512_mul_pd(y, y)),
-                _mm512_mul_pd(z, z),
-            ),
-        )
-    }
-
-    /// # Safety
-    /// The processor has the function's target feature, and the block's nodes from `i` are in
-    /// bounds of `u` and of the stencil's mask words.
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    pub(super) unsafe fn load_block(
-        s: &CubicStencil,
-        u: &Coords,
-        i: usize,
-    ) -> ([__m512d; 3], __m256i) {
-        // SAFETY: by the caller's contract, i..i+8 is in bounds.
+    ) -> ([W::F; 3], W::I) {
+        // SAFETY: by the caller's contract, i..i+N is in bounds.
         unsafe {
             (
                 [
-                    _mm512_loadu_pd(u.x().as_ptr().add(i)),
-                    _mm512_loadu_pd(u.y().as_ptr().add(i)),
-                    _mm512_loadu_pd(u.z().as_ptr().add(i)),
+                    w.load(u.x().as_ptr().add(i)),
+                    w.load(u.y().as_ptr().add(i)),
+                    w.load(u.z().as_ptr().add(i)),
                 ],
-                _mm256_loadu_si256(s.mask.as_ptr().add(i) as *const __m256i),
+                w.words32(s.mask.as_ptr().add(i)),
             )
         }
     }
 
     /// The block's weight classes (one 64-bit lane per node), if one of its nodes has factors
-    /// other than 1: then each direction's factors are `classes` permuting that direction's
+    /// other than 1: then each direction's factors are the classes' entries of that direction's
     /// row of [`super::Factors`] (multiplying by 1 is exact, so the other blocks skip it).
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    pub(super) fn classes(s: &CubicStencil, mask: __m256i) -> Option<__m512i> {
+    #[inline(always)]
+    pub(super) fn classes<W: Wide>(w: W, s: &CubicStencil, mask: W::I) -> Option<W::I> {
         if !s.factors.on {
             return None;
         }
-        let c = _mm512_srli_epi64::<CLASS_SHIFT>(_mm512_cvtepu32_epi64(mask));
-        (_mm512_test_epi64_mask(c, c) != 0).then_some(c)
+        w.classes(mask, CLASS_SHIFT)
     }
 
-    /// The factors of direction `d` for the lanes' classes.
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    pub(super) fn factors(s: &CubicStencil, c: __m512i, d: usize) -> __m512d {
-        // SAFETY: a row of the table is CLASSES = 8 doubles, the load's width.
-        unsafe { _mm512_permutexvar_pd(c, _mm512_loadu_pd(s.factors.w[d].as_ptr())) }
-    }
-
-    /// Lanes whose spring in direction `d` is intact.
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    pub(super) fn lanes(mask: __m256i, d: usize) -> __mmask8 {
-        let bits = _mm512_cvtepu32_epi64(mask);
-        _mm512_test_epi64_mask(bits, _mm512_set1_epi64(1 << d))
+    /// Current vectors of the springs in direction `d` of the block at `i`, and their squared
+    /// lengths.
+    ///
+    /// # Safety
+    /// The block at `i` is inside the body's box, so that its neighbours in direction `d` are
+    /// nodes (`vector_block`).
+    #[inline(always)]
+    pub(super) unsafe fn vector<W: Wide>(
+        w: W,
+        s: &CubicStencil,
+        u: &Coords,
+        i: usize,
+        d: usize,
+        ui: [W::F; 3],
+    ) -> ([W::F; 3], W::F) {
+        let j = (i as isize + s.off[d]) as usize;
+        let dv = s.dvec[d];
+        // SAFETY: by the caller's contract, j..j+N is in bounds because the block is inside.
+        let (x, y, z) = unsafe {
+            (
+                w.splat(dv[0]) + (w.load(u.x().as_ptr().add(j)) - ui[0]),
+                w.splat(dv[1]) + (w.load(u.y().as_ptr().add(j)) - ui[1]),
+                w.splat(dv[2]) + (w.load(u.z().as_ptr().add(j)) - ui[2]),
+            )
+        };
+        // ((x x + y y) + z z), as the scalar path adds them.
+        ([x, y, z], (x * x + y * y) + z * z)
     }
 
     /// `dL = l - L` of the block at `i`'s springs in direction `d`: one square root.
     ///
     /// # Safety
-    /// The processor has the function's target feature, and the block at `i` is inside the
-    /// body's box, so that its neighbours in direction `d` are nodes (`vector_block`).
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    pub(super) unsafe fn extension(
+    /// As [`vector`].
+    #[inline(always)]
+    pub(super) unsafe fn extension<W: Wide>(
+        w: W,
         s: &CubicStencil,
         u: &Coords,
         i: usize,
         d: usize,
-        ui: [__m512d; 3],
-    ) -> __m512d {
+        ui: [W::F; 3],
+    ) -> W::F {
         // SAFETY: by the caller's contract, the block is inside.
-        let (_, ss) = unsafe { vector8(s, u, i, d, ui) };
-        _mm512_sub_pd(_mm512_sqrt_pd(ss), _mm512_set1_pd(s.rest[d]))
+        let (_, ss) = unsafe { vector(w, s, u, i, d, ui) };
+        w.sqrt(ss) - w.splat(s.rest[d])
     }
 
     /// The vectors `x` of the block at `i`'s springs in direction `d` and their force factors
     /// `s = T / l`, `T = (k dL + q k L (p_i + p_j)) w` (the force on node i is `s x`).
     ///
     /// # Safety
-    /// The processor has the function's target feature, and the block at `i` is inside the
-    /// body's box, so that its neighbours in direction `d` are nodes (`vector_block`).
-    #[inline]
-    #[target_feature(enable = "avx512f")]
+    /// As [`vector`].
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub(super) unsafe fn factor(
+    pub(super) unsafe fn factor<W: Wide>(
+        w: W,
         s: &CubicStencil,
         u: &Coords,
         pool: &[Real],
         i: usize,
         d: usize,
-        ui: [__m512d; 3],
-        pi: __m512d,
-        cls: Option<__m512i>,
-    ) -> ([__m512d; 3], __m512d) {
+        ui: [W::F; 3],
+        pi: W::F,
+        cls: Option<W::I>,
+    ) -> ([W::F; 3], W::F) {
         let j = (i as isize + s.off[d]) as usize;
-        // SAFETY: by the caller's contract, the block is inside, so j..j+8 is in bounds.
-        let (x, ss) = unsafe { vector8(s, u, i, d, ui) };
-        let l = _mm512_sqrt_pd(ss);
-        let dl = _mm512_sub_pd(l, _mm512_set1_pd(s.rest[d]));
-        // SAFETY: j.. is the block's neighbours in direction d: nodes, as the block is inside (this fn's contract).
-        let pj = unsafe { _mm512_loadu_pd(pool.as_ptr().add(j)) };
-        let mut t = _mm512_add_pd(
-            _mm512_mul_pd(_mm512_set1_pd(s.k), dl),
-            _mm512_mul_pd(_mm512_set1_pd(s.q * s.k * s.rest[d]), _mm512_add_pd(pi, pj)),
-        );
+        // SAFETY: by the caller's contract, the block is inside, so j..j+N is in bounds.
+        let ((x, ss), pj) = unsafe { (vector(w, s, u, i, d, ui), w.load(pool.as_ptr().add(j))) };
+        let l = w.sqrt(ss);
+        let dl = l - w.splat(s.rest[d]);
+        let mut t = w.splat(s.k) * dl + w.splat(s.q * s.k * s.rest[d]) * (pi + pj);
         if let Some(c) = cls {
-            t = _mm512_mul_pd(t, factors(s, c, d));
+            t = t * w.factors(&s.factors.w[d], c);
         }
-        (x, _mm512_div_pd(t, l))
+        (x, t / l)
     }
 
     /// Add the terms `s x` of the lanes `m` to the forces `f`.
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    pub(super) fn add_terms(f: &mut [__m512d; 3], m: __mmask8, sc: __m512d, x: [__m512d; 3]) {
+    #[inline(always)]
+    pub(super) fn add_terms<W: Wide>(w: W, f: &mut [W::F; 3], m: W::M, sc: W::F, x: [W::F; 3]) {
         for c in 0..3 {
-            f[c] = _mm512_mask_add_pd(f[c], m, f[c], _mm512_mul_pd(sc, x[c]));
+            f[c] = w.add_where(f[c], m, sc * x[c]);
         }
     }
 
     /// Add the pool shares `k L dL w` of the lanes `m` to `acc`, and flag those past the screen.
-    #[inline]
-    #[target_feature(enable = "avx512f")]
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn add_share(
+    pub(super) fn add_share<W: Wide>(
+        w: W,
         s: &CubicStencil,
         d: usize,
-        m: __mmask8,
-        dl: __m512d,
-        cls: Option<__m512i>,
+        m: W::M,
+        dl: W::F,
+        cls: Option<W::I>,
         screen: Real,
-        acc: &mut __m512d,
-        hot: &mut __mmask8,
+        acc: &mut W::F,
+        hot: &mut W::M,
     ) {
-        let mut share = _mm512_mul_pd(_mm512_set1_pd(s.k * s.rest[d]), dl);
+        let mut share = w.splat(s.k * s.rest[d]) * dl;
         if let Some(c) = cls {
-            share = _mm512_mul_pd(share, factors(s, c, d));
+            share = share * w.factors(&s.factors.w[d], c);
         }
-        *acc = _mm512_mask_add_pd(*acc, m, *acc, share);
-        *hot |= _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m, dl, _mm512_set1_pd(screen * s.rest[d]));
+        *acc = w.add_where(*acc, m, share);
+        *hot = *hot | w.gt_where(m, dl, w.splat(screen * s.rest[d]));
     }
 
-    /// Sweep 1 for the 8 nodes at `i`. The loop over the directions is unrolled (a tenth off
+    /// Sweep 1 for the N nodes at `i`. The loop over the directions is unrolled (a tenth off
     /// the sweep: their constants become immediate offsets, and the loop's branches go).
     ///
     /// # Safety
-    /// The processor has the function's target feature; the block at the given node is inside
-    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
-    /// its entries.
-    #[target_feature(enable = "avx512f")]
-    pub(super) unsafe fn pools8(
+    /// The block at `i` is inside the body's box (`vector_block`), and `out` holds its N
+    /// entries.
+    #[inline(always)]
+    unsafe fn pools<W: Wide>(
+        w: W,
         s: &CubicStencil,
         u: &Coords,
         i: usize,
         out: &mut [Real],
         screen: Real,
     ) -> bool {
-        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
-        let (ui, mask) = unsafe { load_block(s, u, i) };
-        let cls = classes(s, mask);
-        let mut acc = _mm512_setzero_pd();
-        let mut hot: __mmask8 = 0;
+        // SAFETY: the block at this index is in bounds (this fn's contract).
+        let (ui, mask) = unsafe { load_block(w, s, u, i) };
+        let cls = classes(w, s, mask);
+        let mut acc = w.zero();
+        let mut hot = w.no_lanes();
         macro_rules! directions { ($($d:literal)*) => { $( {
-            let m = lanes(mask, $d);
-            if m != 0 {
+            let m = w.bit(mask, $d);
+            if w.any(m) {
                 // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
-                let dl = unsafe { extension(s, u, i, $d, ui) };
-                add_share(s, $d, m, dl, cls, screen, &mut acc, &mut hot);
+                let dl = unsafe { extension(w, s, u, i, $d, ui) };
+                add_share(w, s, $d, m, dl, cls, screen, &mut acc, &mut hot);
             }
         } )* } }
         directions!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17);
-        // SAFETY: out has 8 entries; inv_norm[i..i+8] is in bounds.
+        // SAFETY: out has N entries; inv_norm[i..i+N] is in bounds.
         unsafe {
-            let inv = _mm512_loadu_pd(s.inv_norm.as_ptr().add(i));
-            _mm512_storeu_pd(out.as_mut_ptr(), _mm512_mul_pd(acc, inv));
+            let inv = w.load(s.inv_norm.as_ptr().add(i));
+            w.store(out.as_mut_ptr(), acc * inv);
         }
-        hot != 0
+        w.any(hot)
     }
 
-    /// Sweep 2 for the 8 nodes at `i`: force, kick, drift (the directions unrolled, as in
+    /// Sweep 2 for the N nodes at `i`: force, kick, drift (the directions unrolled, as in
     /// sweep 1).
     ///
     /// # Safety
-    /// The processor has the function's target feature; the block at the given node is inside
-    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
-    /// its entries.
+    /// The block at `i` is inside the body's box (`vector_block`), and `v` and `un` hold its N
+    /// entries.
     #[allow(clippy::too_many_arguments)]
-    #[target_feature(enable = "avx512f")]
-    pub(super) unsafe fn force_kick_drift8(
+    #[inline(always)]
+    unsafe fn force_kick_drift<W: Wide>(
+        w: W,
         s: &CubicStencil,
         u: &Coords,
         pool: &[Real],
@@ -728,195 +676,52 @@ mod avx512 {
         un: [&mut [Real]; 3],
         sums: &mut SweepSums,
     ) {
-        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
-        let (ui, mask) = unsafe { load_block(s, u, i) };
-        let cls = classes(s, mask);
-        // SAFETY: the block's nodes are in bounds of the pools (this fn's contract).
-        let pi = unsafe { _mm512_loadu_pd(pool.as_ptr().add(i)) };
-        let mut f = [_mm512_setzero_pd(); 3];
+        // SAFETY: the block at this index is in bounds (this fn's contract).
+        let ((ui, mask), pi) = unsafe { (load_block(w, s, u, i), w.load(pool.as_ptr().add(i))) };
+        let cls = classes(w, s, mask);
+        let mut f = [w.zero(); 3];
         macro_rules! directions { ($($d:literal)*) => { $( {
-            let m = lanes(mask, $d);
-            if m != 0 {
+            let m = w.bit(mask, $d);
+            if w.any(m) {
                 // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
-                let (x, sc) = unsafe { factor(s, u, pool, i, $d, ui, pi, cls) };
-                add_terms(&mut f, m, sc, x);
+                let (x, sc) = unsafe { factor(w, s, u, pool, i, $d, ui, pi, cls) };
+                add_terms(w, &mut f, m, sc, x);
             }
         } )* } }
         directions!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17);
         // SAFETY: by the caller's contract, the block is in bounds.
-        unsafe {
-            super::super::stencil::avx512::kick_drift8(3, f, Some(u), inv_mass, p, i, v, un, sums)
-        }
-    }
-}
-
-/// The vector path on AVX2: 4 nodes to a vector, a block of 8 as two halves; a masked-off
-/// lane keeps its sum by a blend, as the AVX-512 path's masked add does: the same bits.
-#[cfg(target_arch = "x86_64")]
-mod avx2 {
-    use std::arch::x86_64::*;
-
-    use super::super::stencil::avx2::{classes, factors, lanes};
-    use super::{CubicStencil, StepParams, SweepSums, CLASS_SHIFT};
-    use hooke_model::math::{Coords, Real};
-
-    /// The 4 nodes' displacements and mask words (one 64-bit lane per node).
-    ///
-    /// # Safety
-    /// The processor has the function's target feature, and the block's nodes from `i` are in
-    /// bounds of `u` and of the stencil's mask words.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn load_block(s: &CubicStencil, u: &Coords, i: usize) -> ([__m256d; 3], __m256i) {
-        // SAFETY: by the caller's contract, i..i+4 is in bounds.
-        unsafe {
-            let m = _mm_loadu_si128(s.mask.as_ptr().add(i) as *const __m128i);
-            (
-                [
-                    _mm256_loadu_pd(u.x().as_ptr().add(i)),
-                    _mm256_loadu_pd(u.y().as_ptr().add(i)),
-                    _mm256_loadu_pd(u.z().as_ptr().add(i)),
-                ],
-                _mm256_cvtepu32_epi64(m),
-            )
-        }
+        unsafe { kick_drift(w, 3, f, Some(u), inv_mass, p, i, v, un, sums) }
     }
 
-    /// Current vectors of the springs in direction `d` of the 4 nodes at `i`, and their
-    /// squared lengths.
-    ///
-    /// # Safety
-    /// The processor has the function's target feature, and the block at `i` is inside the
-    /// body's box, so that its neighbours in direction `d` are nodes (`vector_block`).
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn vector4(
-        s: &CubicStencil,
-        u: &Coords,
-        i: usize,
-        d: usize,
-        ui: [__m256d; 3],
-    ) -> ([__m256d; 3], __m256d) {
-        let j = (i as isize + s.off[d]) as usize;
-        let dv = s.dvec[d];
-        let comp = |c: &[Real], k: usize| {
-            // SAFETY: by the caller's contract, j..j+4 is in bounds because the block is inside.
-            unsafe {
-                _mm256_add_pd(
-                    _mm256_set1_pd(dv[k]),
-                    _mm256_sub_pd(_mm256_loadu_pd(c.as_ptr().add(j)), ui[k]),
-                )
-            }
-        };
-        let (x, y, z) = (comp(u.x(), 0), comp(u.y(), 1), comp(u.z(), 2));
-        (
-            [x, y, z],
-            _mm256_add_pd(
-                _mm256_add_pd(_mm256_mul_pd(x, x), _mm256_mul_pd(y, y)),
-                _mm256_mul_pd(z, z),
-            ),
-        )
-    }
+    impl Lanewise for CubicStencil {
+        #[inline(always)]
+        unsafe fn pools<W: Wide>(
+            &self,
+            w: W,
+            u: &Coords,
+            i: usize,
+            out: &mut [Real],
+            screen: Real,
+        ) -> bool {
+            // SAFETY: the trait's contract is this one's.
+            unsafe { pools(w, self, u, i, out, screen) }
+        }
 
-    /// Sweep 1 for the 4 nodes at `i`.
-    ///
-    /// # Safety
-    /// The processor has the function's target feature; the block at the given node is inside
-    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
-    /// its entries.
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn pools4(
-        s: &CubicStencil,
-        u: &Coords,
-        i: usize,
-        out: &mut [Real],
-        screen: Real,
-    ) -> bool {
-        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
-        let (ui, mask) = unsafe { load_block(s, u, i) };
-        let cls = classes::<{ CLASS_SHIFT as i32 }, 18>(&s.factors, mask);
-        let mut acc = _mm256_setzero_pd();
-        let mut hot = _mm256_setzero_pd();
-        for d in 0..18 {
-            let m = lanes(mask, d);
-            if _mm256_movemask_pd(m) == 0 {
-                continue;
-            }
-            // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
-            let (_, ss) = unsafe { vector4(s, u, i, d, ui) };
-            let l = _mm256_sqrt_pd(ss);
-            let dl = _mm256_sub_pd(l, _mm256_set1_pd(s.rest[d]));
-            let mut share = _mm256_mul_pd(_mm256_set1_pd(s.k * s.rest[d]), dl);
-            if let Some(c) = cls {
-                // SAFETY: the classes come from the nodes' mask words, each below CLASSES (the stencil's set-up), so the gather stays in the row.
-                share = _mm256_mul_pd(share, unsafe { factors(&s.factors, c, d) });
-            }
-            acc = _mm256_blendv_pd(acc, _mm256_add_pd(acc, share), m);
-            let past = _mm256_cmp_pd::<_CMP_GT_OQ>(dl, _mm256_set1_pd(screen * s.rest[d]));
-            hot = _mm256_or_pd(hot, _mm256_and_pd(m, past));
-        }
-        // SAFETY: out has 4 entries; inv_norm[i..i+4] is in bounds.
-        unsafe {
-            let inv = _mm256_loadu_pd(s.inv_norm.as_ptr().add(i));
-            _mm256_storeu_pd(out.as_mut_ptr(), _mm256_mul_pd(acc, inv));
-        }
-        _mm256_movemask_pd(hot) != 0
-    }
-
-    /// Sweep 2 for the 4 nodes at `i`: force, kick, drift.
-    ///
-    /// # Safety
-    /// The processor has the function's target feature; the block at the given node is inside
-    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
-    /// its entries.
-    #[allow(clippy::too_many_arguments)]
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn force_kick_drift4(
-        s: &CubicStencil,
-        u: &Coords,
-        pool: &[Real],
-        inv_mass: &[Real],
-        p: &StepParams,
-        i: usize,
-        v: [&mut [Real]; 3],
-        un: [&mut [Real]; 3],
-        sums: &mut SweepSums,
-    ) {
-        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
-        let (ui, mask) = unsafe { load_block(s, u, i) };
-        let cls = classes::<{ CLASS_SHIFT as i32 }, 18>(&s.factors, mask);
-        // SAFETY: the block's nodes are in bounds of the pools (this fn's contract).
-        let pi = unsafe { _mm256_loadu_pd(pool.as_ptr().add(i)) };
-        let kv = _mm256_set1_pd(s.k);
-        let mut f = [_mm256_setzero_pd(); 3];
-        for d in 0..18 {
-            let m = lanes(mask, d);
-            if _mm256_movemask_pd(m) == 0 {
-                continue;
-            }
-            let j = (i as isize + s.off[d]) as usize;
-            // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
-            let (x, ss) = unsafe { vector4(s, u, i, d, ui) };
-            let l = _mm256_sqrt_pd(ss);
-            let dl = _mm256_sub_pd(l, _mm256_set1_pd(s.rest[d]));
-            // SAFETY: j.. is the block's neighbours in direction d: nodes, as the block is inside (this fn's contract).
-            let pj = unsafe { _mm256_loadu_pd(pool.as_ptr().add(j)) };
-            let mut t = _mm256_add_pd(
-                _mm256_mul_pd(kv, dl),
-                _mm256_mul_pd(_mm256_set1_pd(s.q * s.k * s.rest[d]), _mm256_add_pd(pi, pj)),
-            );
-            if let Some(c) = cls {
-                // SAFETY: the classes come from the nodes' mask words, each below CLASSES (the stencil's set-up), so the gather stays in the row.
-                t = _mm256_mul_pd(t, unsafe { factors(&s.factors, c, d) });
-            }
-            let sc = _mm256_div_pd(t, l);
-            for c in 0..3 {
-                f[c] = _mm256_blendv_pd(f[c], _mm256_add_pd(f[c], _mm256_mul_pd(sc, x[c])), m);
-            }
-        }
-        // SAFETY: by the caller's contract, the block is in bounds.
-        unsafe {
-            super::super::stencil::avx2::kick_drift4(3, f, Some(u), inv_mass, p, i, v, un, sums)
+        #[inline(always)]
+        unsafe fn force_kick_drift<W: Wide>(
+            &self,
+            w: W,
+            u: &Coords,
+            pool: &[Real],
+            inv_mass: &[Real],
+            p: &StepParams,
+            i: usize,
+            v: [&mut [Real]; 3],
+            un: [&mut [Real]; 3],
+            sums: &mut SweepSums,
+        ) {
+            // SAFETY: the trait's contract is this one's.
+            unsafe { force_kick_drift(w, self, u, pool, inv_mass, p, i, v, un, sums) }
         }
     }
 }

@@ -362,13 +362,8 @@ impl Stencil for HexStencil {
         // SAFETY: by the caller's contract, the vector path is on (so the processor has its instructions) and
         // the block and its neighbours are in bounds.
         unsafe {
-            if self.simd == Some(Lanes::Avx2) {
-                let (a, b) = out.split_at_mut(4);
-                let hot = avx2::pools4(self, u, i, a, screen);
-                avx2::pools4(self, u, i + 4, b, screen) | hot
-            } else {
-                avx512::pools8(self, u, i, out, screen)
-            }
+            let avx2 = self.simd == Some(Lanes::Avx2);
+            crate::stencil::vector::pools8(self, avx2, u, i, out, screen)
         }
     }
 
@@ -389,416 +384,167 @@ impl Stencil for HexStencil {
     ) {
         // SAFETY: by the caller's contract, as for `pool_block`.
         unsafe {
-            if self.simd == Some(Lanes::Avx2) {
-                let [vx, vy, vz] = v;
-                let [nx, ny, nz] = un;
-                for h in [0, 4] {
-                    let r = h..h + 4;
-                    avx2::force_kick_drift4(
-                        self,
-                        u,
-                        pool,
-                        inv_mass,
-                        p,
-                        i + h,
-                        [&mut vx[r.clone()], &mut vy[r.clone()], &mut vz[r.clone()]],
-                        [&mut nx[r.clone()], &mut ny[r.clone()], &mut nz[r.clone()]],
-                        sums,
-                    );
-                }
-            } else {
-                avx512::force_kick_drift8(self, u, pool, inv_mass, p, i, v, un, sums)
-            }
+            let avx2 = self.simd == Some(Lanes::Avx2);
+            crate::stencil::vector::force_kick_drift8(
+                self, avx2, u, pool, inv_mass, p, i, v, un, sums,
+            )
         }
     }
 }
 
+/// The vector path, one source for AVX-512 (8 nodes to a vector) and AVX2 (4 nodes, a block
+/// of 8, one row, as two halves) through [`crate::wide`]: the scalar path's operations lane by
+/// lane.
 #[cfg(target_arch = "x86_64")]
-mod avx512 {
-    use std::arch::x86_64::*;
-
+mod vector {
     use super::{HexStencil, StepParams, SweepSums, CLASS_SHIFT, DIRS};
+    use crate::stencil::vector::{kick_drift, Lanewise};
+    use crate::wide::Wide;
     use hooke_model::math::{Coords, Real};
 
-    /// The block's displacements, intact-spring masks (one 64-bit lane per node) and row
-    /// parity.
+    /// The N nodes' displacements from `i` and their mask words (one 64-bit lane per node).
     ///
     /// # Safety
-    /// The processor has the function's target feature, and the block's nodes from `i` are in
-    /// bounds of `u` and of the stencil's mask words.
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    unsafe fn load_block(s: &HexStencil, u: &Coords, i: usize) -> ([__m512d; 2], __m512i) {
-        // SAFETY: by the caller's contract, i..i+8 is in bounds.
+    /// The block's nodes from `i` are in bounds of `u` and of the stencil's mask words.
+    #[inline(always)]
+    unsafe fn load_block<W: Wide>(w: W, s: &HexStencil, u: &Coords, i: usize) -> ([W::F; 2], W::I) {
+        // SAFETY: by the caller's contract, i..i+N is in bounds.
         unsafe {
-            let m = _mm_loadu_si128(s.mask.as_ptr().add(i) as *const __m128i);
             (
-                [
-                    _mm512_loadu_pd(u.x().as_ptr().add(i)),
-                    _mm512_loadu_pd(u.y().as_ptr().add(i)),
-                ],
-                _mm512_cvtepu16_epi64(m),
+                [w.load(u.x().as_ptr().add(i)), w.load(u.y().as_ptr().add(i))],
+                w.words16(s.mask.as_ptr().add(i)),
             )
         }
     }
 
     /// The block's weight classes, if one of its nodes has factors other than 1 (as the cubic
     /// stencil's).
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    fn classes(s: &HexStencil, mask: __m512i) -> Option<__m512i> {
+    #[inline(always)]
+    fn classes<W: Wide>(w: W, s: &HexStencil, mask: W::I) -> Option<W::I> {
         if !s.factors.on {
             return None;
         }
-        let c = _mm512_srli_epi64::<CLASS_SHIFT>(mask);
-        (_mm512_test_epi64_mask(c, c) != 0).then_some(c)
-    }
-
-    /// The factors of direction `d` for the lanes' classes.
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    fn factors(s: &HexStencil, c: __m512i, d: usize) -> __m512d {
-        // SAFETY: a row of the table is CLASSES = 8 doubles, the load's width.
-        unsafe { _mm512_permutexvar_pd(c, _mm512_loadu_pd(s.factors.w[d].as_ptr())) }
+        w.classes(mask, CLASS_SHIFT)
     }
 
     /// Spring vector, squared length and extension numerator of direction `d` for the block at
     /// `i` (the scalar path's operations, lane by lane).
     ///
     /// # Safety
-    /// The processor has the function's target feature, and the block at `i` is inside the
-    /// body's box, so that its neighbours in direction `d` are nodes (`vector_block`).
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    unsafe fn spring8(
+    /// The block at `i` is inside the body's box, so that its neighbours in direction `d` are
+    /// nodes (`vector_block`).
+    #[inline(always)]
+    unsafe fn spring<W: Wide>(
+        w: W,
         s: &HexStencil,
         u: &Coords,
         i: usize,
         d: usize,
-        ui: [__m512d; 2],
-    ) -> (usize, [__m512d; 2], __m512d, __m512d) {
+        ui: [W::F; 2],
+    ) -> (usize, [W::F; 2], W::F, W::F) {
         let j = (i as isize + s.offset(i, d)) as usize;
         let big = s.dvec[d];
-        // SAFETY: by the caller's contract, j..j+8 is in bounds because the block is inside.
+        // SAFETY: by the caller's contract, j..j+N is in bounds because the block is inside.
         let (wx, wy) = unsafe {
             (
-                _mm512_sub_pd(_mm512_loadu_pd(u.x().as_ptr().add(j)), ui[0]),
-                _mm512_sub_pd(_mm512_loadu_pd(u.y().as_ptr().add(j)), ui[1]),
+                w.load(u.x().as_ptr().add(j)) - ui[0],
+                w.load(u.y().as_ptr().add(j)) - ui[1],
             )
         };
-        let (bx, by) = (_mm512_set1_pd(big[0]), _mm512_set1_pd(big[1]));
-        let x = [_mm512_add_pd(bx, wx), _mm512_add_pd(by, wy)];
-        let d2 = _mm512_add_pd(_mm512_mul_pd(x[0], x[0]), _mm512_mul_pd(x[1], x[1]));
-        let bw = _mm512_add_pd(_mm512_mul_pd(bx, wx), _mm512_mul_pd(by, wy));
-        let ww = _mm512_add_pd(_mm512_mul_pd(wx, wx), _mm512_mul_pd(wy, wy));
-        let num = _mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(2.0), bw), ww);
+        let (bx, by) = (w.splat(big[0]), w.splat(big[1]));
+        let x = [bx + wx, by + wy];
+        let d2 = x[0] * x[0] + x[1] * x[1];
+        let bw = bx * wx + by * wy;
+        let ww = wx * wx + wy * wy;
+        let num = w.splat(2.0) * bw + ww;
         (j, x, d2, num)
     }
 
-    /// Lanes whose spring in direction `d` is intact.
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    fn lanes(mask: __m512i, d: usize) -> __mmask8 {
-        _mm512_test_epi64_mask(mask, _mm512_set1_epi64(1 << d))
-    }
-
-    /// Sweep 1 for the 8 nodes at `i`.
-    ///
-    /// # Safety
-    /// The processor has the function's target feature; the block at the given node is inside
-    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
-    /// its entries.
-    #[target_feature(enable = "avx512f")]
-    pub(super) unsafe fn pools8(
-        s: &HexStencil,
-        u: &Coords,
-        i: usize,
-        out: &mut [Real],
-        screen: Real,
-    ) -> bool {
-        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
-        let (ui, mask) = unsafe { load_block(s, u, i) };
-        let cls = classes(s, mask);
-        let kl = _mm512_set1_pd(s.k * s.rest);
-        let rest = _mm512_set1_pd(s.rest);
-        let lim = _mm512_set1_pd(screen * s.rest);
-        let mut acc = _mm512_setzero_pd();
-        let mut hot: __mmask8 = 0;
-        for d in 0..DIRS {
-            let m = lanes(mask, d);
-            if m == 0 {
-                continue;
+    impl Lanewise for HexStencil {
+        #[inline(always)]
+        unsafe fn pools<W: Wide>(
+            &self,
+            w: W,
+            u: &Coords,
+            i: usize,
+            out: &mut [Real],
+            screen: Real,
+        ) -> bool {
+            let s = self;
+            // SAFETY: the block at this index is in bounds (this fn's contract).
+            let (ui, mask) = unsafe { load_block(w, s, u, i) };
+            let cls = classes(w, s, mask);
+            let kl = w.splat(s.k * s.rest);
+            let rest = w.splat(s.rest);
+            let lim = w.splat(screen * s.rest);
+            let mut acc = w.zero();
+            let mut hot = w.no_lanes();
+            for d in 0..DIRS {
+                let m = w.bit(mask, d);
+                if !w.any(m) {
+                    continue;
+                }
+                // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
+                let (_, _, d2, num) = unsafe { spring(w, s, u, i, d, ui) };
+                let dl = num / (w.sqrt(d2) + rest);
+                let mut share = kl * dl;
+                if let Some(c) = cls {
+                    share = share * w.factors(&s.factors.w[d], c);
+                }
+                acc = w.add_where(acc, m, share);
+                hot = hot | w.gt_where(m, dl, lim);
             }
-            // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
-            let (_, _, d2, num) = unsafe { spring8(s, u, i, d, ui) };
-            let dl = _mm512_div_pd(num, _mm512_add_pd(_mm512_sqrt_pd(d2), rest));
-            let mut share = _mm512_mul_pd(kl, dl);
-            if let Some(c) = cls {
-                share = _mm512_mul_pd(share, factors(s, c, d));
+            // SAFETY: out has N entries; inv_norm[i..i+N] is in bounds.
+            unsafe {
+                let inv = w.load(s.inv_norm.as_ptr().add(i));
+                w.store(out.as_mut_ptr(), acc * inv);
             }
-            acc = _mm512_mask_add_pd(acc, m, acc, share);
-            hot |= _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m, dl, lim);
+            w.any(hot)
         }
-        // SAFETY: out has 8 entries; inv_norm[i..i+8] is in bounds.
-        unsafe {
-            let inv = _mm512_loadu_pd(s.inv_norm.as_ptr().add(i));
-            _mm512_storeu_pd(out.as_mut_ptr(), _mm512_mul_pd(acc, inv));
-        }
-        hot != 0
-    }
 
-    /// Sweep 2 for the 8 nodes at `i`: force, kick, drift (the scalar `kick_drift`'s operations
-    /// lane by lane; the sums added node by node in index order).
-    ///
-    /// # Safety
-    /// The processor has the function's target feature; the block at the given node is inside
-    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
-    /// its entries.
-    #[allow(clippy::too_many_arguments)]
-    #[target_feature(enable = "avx512f")]
-    pub(super) unsafe fn force_kick_drift8(
-        s: &HexStencil,
-        u: &Coords,
-        pool: &[Real],
-        inv_mass: &[Real],
-        p: &StepParams,
-        i: usize,
-        v: [&mut [Real]; 3],
-        un: [&mut [Real]; 3],
-        sums: &mut SweepSums,
-    ) {
-        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
-        let (ui, mask) = unsafe { load_block(s, u, i) };
-        let cls = classes(s, mask);
-        // SAFETY: the block's nodes are in bounds of the pools (this fn's contract).
-        let pi = unsafe { _mm512_loadu_pd(pool.as_ptr().add(i)) };
-        let (kv, qkl, rest) = (
-            _mm512_set1_pd(s.k),
-            _mm512_set1_pd(s.q * s.k * s.rest),
-            _mm512_set1_pd(s.rest),
-        );
-        let mut f = [_mm512_setzero_pd(); 2];
-        for d in 0..DIRS {
-            let m = lanes(mask, d);
-            if m == 0 {
-                continue;
+        #[inline(always)]
+        unsafe fn force_kick_drift<W: Wide>(
+            &self,
+            w: W,
+            u: &Coords,
+            pool: &[Real],
+            inv_mass: &[Real],
+            p: &StepParams,
+            i: usize,
+            v: [&mut [Real]; 3],
+            un: [&mut [Real]; 3],
+            sums: &mut SweepSums,
+        ) {
+            let s = self;
+            // SAFETY: the block at this index is in bounds (this fn's contract).
+            let ((ui, mask), pi) =
+                unsafe { (load_block(w, s, u, i), w.load(pool.as_ptr().add(i))) };
+            let cls = classes(w, s, mask);
+            let (kv, qkl, rest) = (w.splat(s.k), w.splat(s.q * s.k * s.rest), w.splat(s.rest));
+            let mut f = [w.zero(); 2];
+            for d in 0..DIRS {
+                let m = w.bit(mask, d);
+                if !w.any(m) {
+                    continue;
+                }
+                // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
+                let (j, x, d2, num) = unsafe { spring(w, s, u, i, d, ui) };
+                let l = w.sqrt(d2);
+                let dl = num / (l + rest);
+                // SAFETY: j.. is the block's neighbours in direction d: nodes, as the block is inside (this fn's contract).
+                let pj = unsafe { w.load(pool.as_ptr().add(j)) };
+                let mut t = kv * dl + qkl * (pi + pj);
+                if let Some(c) = cls {
+                    t = t * w.factors(&s.factors.w[d], c);
+                }
+                let sc = t / l;
+                for c in 0..2 {
+                    f[c] = w.add_where(f[c], m, sc * x[c]);
+                }
             }
-            // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
-            let (j, x, d2, num) = unsafe { spring8(s, u, i, d, ui) };
-            let l = _mm512_sqrt_pd(d2);
-            let dl = _mm512_div_pd(num, _mm512_add_pd(l, rest));
-            // SAFETY: j.. is the block's neighbours in direction d: nodes, as the block is inside (this fn's contract).
-            let pj = unsafe { _mm512_loadu_pd(pool.as_ptr().add(j)) };
-            let mut t = _mm512_add_pd(
-                _mm512_mul_pd(kv, dl),
-                _mm512_mul_pd(qkl, _mm512_add_pd(pi, pj)),
-            );
-            if let Some(c) = cls {
-                t = _mm512_mul_pd(t, factors(s, c, d));
-            }
-            let sc = _mm512_div_pd(t, l);
-            for c in 0..2 {
-                f[c] = _mm512_mask_add_pd(f[c], m, f[c], _mm512_mul_pd(sc, x[c]));
-            }
-        }
-        let fz = _mm512_setzero_pd();
-        // SAFETY: by the caller's contract, the block is in bounds.
-        unsafe {
-            super::super::stencil::avx512::kick_drift8(
-                p.dims(2),
-                [f[0], f[1], fz],
-                Some(u),
-                inv_mass,
-                p,
-                i,
-                v,
-                un,
-                sums,
-            )
-        }
-    }
-}
-
-/// The vector path on AVX2: 4 nodes to a vector, a block of 8 (one row) as two halves; a
-/// masked-off lane keeps its sum by a blend, as the AVX-512 path's masked add does: the same
-/// bits.
-#[cfg(target_arch = "x86_64")]
-mod avx2 {
-    use std::arch::x86_64::*;
-
-    use super::super::stencil::avx2::{classes, factors, lanes};
-    use super::{HexStencil, StepParams, SweepSums, CLASS_SHIFT, DIRS};
-    use hooke_model::math::{Coords, Real};
-
-    /// The 4 nodes' displacements and mask words (one 64-bit lane per node).
-    ///
-    /// # Safety
-    /// The processor has the function's target feature, and the block's nodes from `i` are in
-    /// bounds of `u` and of the stencil's mask words.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn load_block(s: &HexStencil, u: &Coords, i: usize) -> ([__m256d; 2], __m256i) {
-        // SAFETY: by the caller's contract, i..i+4 is in bounds.
-        unsafe {
-            let m = _mm_loadl_epi64(s.mask.as_ptr().add(i) as *const __m128i);
-            (
-                [
-                    _mm256_loadu_pd(u.x().as_ptr().add(i)),
-                    _mm256_loadu_pd(u.y().as_ptr().add(i)),
-                ],
-                _mm256_cvtepu16_epi64(m),
-            )
-        }
-    }
-
-    /// Spring vector, squared length and extension numerator of direction `d` for the 4
-    /// nodes at `i` (the scalar path's operations, lane by lane).
-    ///
-    /// # Safety
-    /// The processor has the function's target feature, and the block at `i` is inside the
-    /// body's box, so that its neighbours in direction `d` are nodes (`vector_block`).
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn spring4(
-        s: &HexStencil,
-        u: &Coords,
-        i: usize,
-        d: usize,
-        ui: [__m256d; 2],
-    ) -> (usize, [__m256d; 2], __m256d, __m256d) {
-        let j = (i as isize + s.offset(i, d)) as usize;
-        let big = s.dvec[d];
-        // SAFETY: by the caller's contract, j..j+4 is in bounds because the block is inside.
-        let (wx, wy) = unsafe {
-            (
-                _mm256_sub_pd(_mm256_loadu_pd(u.x().as_ptr().add(j)), ui[0]),
-                _mm256_sub_pd(_mm256_loadu_pd(u.y().as_ptr().add(j)), ui[1]),
-            )
-        };
-        let (bx, by) = (_mm256_set1_pd(big[0]), _mm256_set1_pd(big[1]));
-        let x = [_mm256_add_pd(bx, wx), _mm256_add_pd(by, wy)];
-        let d2 = _mm256_add_pd(_mm256_mul_pd(x[0], x[0]), _mm256_mul_pd(x[1], x[1]));
-        let bw = _mm256_add_pd(_mm256_mul_pd(bx, wx), _mm256_mul_pd(by, wy));
-        let ww = _mm256_add_pd(_mm256_mul_pd(wx, wx), _mm256_mul_pd(wy, wy));
-        let num = _mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(2.0), bw), ww);
-        (j, x, d2, num)
-    }
-
-    /// Sweep 1 for the 4 nodes at `i`.
-    ///
-    /// # Safety
-    /// The processor has the function's target feature; the block at the given node is inside
-    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
-    /// its entries.
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn pools4(
-        s: &HexStencil,
-        u: &Coords,
-        i: usize,
-        out: &mut [Real],
-        screen: Real,
-    ) -> bool {
-        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
-        let (ui, mask) = unsafe { load_block(s, u, i) };
-        let cls = classes::<{ CLASS_SHIFT as i32 }, DIRS>(&s.factors, mask);
-        let kl = _mm256_set1_pd(s.k * s.rest);
-        let rest = _mm256_set1_pd(s.rest);
-        let lim = _mm256_set1_pd(screen * s.rest);
-        let mut acc = _mm256_setzero_pd();
-        let mut hot = _mm256_setzero_pd();
-        for d in 0..DIRS {
-            let m = lanes(mask, d);
-            if _mm256_movemask_pd(m) == 0 {
-                continue;
-            }
-            // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
-            let (_, _, d2, num) = unsafe { spring4(s, u, i, d, ui) };
-            let dl = _mm256_div_pd(num, _mm256_add_pd(_mm256_sqrt_pd(d2), rest));
-            let mut share = _mm256_mul_pd(kl, dl);
-            if let Some(c) = cls {
-                // SAFETY: the classes come from the nodes' mask words, each below CLASSES (the stencil's set-up), so the gather stays in the row.
-                share = _mm256_mul_pd(share, unsafe { factors(&s.factors, c, d) });
-            }
-            acc = _mm256_blendv_pd(acc, _mm256_add_pd(acc, share), m);
-            let past = _mm256_cmp_pd::<_CMP_GT_OQ>(dl, lim);
-            hot = _mm256_or_pd(hot, _mm256_and_pd(m, past));
-        }
-        // SAFETY: out has 4 entries; inv_norm[i..i+4] is in bounds.
-        unsafe {
-            let inv = _mm256_loadu_pd(s.inv_norm.as_ptr().add(i));
-            _mm256_storeu_pd(out.as_mut_ptr(), _mm256_mul_pd(acc, inv));
-        }
-        _mm256_movemask_pd(hot) != 0
-    }
-
-    /// Sweep 2 for the 4 nodes at `i`: force, kick, drift.
-    ///
-    /// # Safety
-    /// The processor has the function's target feature; the block at the given node is inside
-    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
-    /// its entries.
-    #[allow(clippy::too_many_arguments)]
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn force_kick_drift4(
-        s: &HexStencil,
-        u: &Coords,
-        pool: &[Real],
-        inv_mass: &[Real],
-        p: &StepParams,
-        i: usize,
-        v: [&mut [Real]; 3],
-        un: [&mut [Real]; 3],
-        sums: &mut SweepSums,
-    ) {
-        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
-        let (ui, mask) = unsafe { load_block(s, u, i) };
-        let cls = classes::<{ CLASS_SHIFT as i32 }, DIRS>(&s.factors, mask);
-        // SAFETY: the block's nodes are in bounds of the pools (this fn's contract).
-        let pi = unsafe { _mm256_loadu_pd(pool.as_ptr().add(i)) };
-        let (kv, qkl, rest) = (
-            _mm256_set1_pd(s.k),
-            _mm256_set1_pd(s.q * s.k * s.rest),
-            _mm256_set1_pd(s.rest),
-        );
-        let mut f = [_mm256_setzero_pd(); 2];
-        for d in 0..DIRS {
-            let m = lanes(mask, d);
-            if _mm256_movemask_pd(m) == 0 {
-                continue;
-            }
-            // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
-            let (j, x, d2, num) = unsafe { spring4(s, u, i, d, ui) };
-            let l = _mm256_sqrt_pd(d2);
-            let dl = _mm256_div_pd(num, _mm256_add_pd(l, rest));
-            // SAFETY: j.. is the block's neighbours in direction d: nodes, as the block is inside (this fn's contract).
-            let pj = unsafe { _mm256_loadu_pd(pool.as_ptr().add(j)) };
-            let mut t = _mm256_add_pd(
-                _mm256_mul_pd(kv, dl),
-                _mm256_mul_pd(qkl, _mm256_add_pd(pi, pj)),
-            );
-            if let Some(c) = cls {
-                // SAFETY: the classes come from the nodes' mask words, each below CLASSES (the stencil's set-up), so the gather stays in the row.
-                t = _mm256_mul_pd(t, unsafe { factors(&s.factors, c, d) });
-            }
-            let sc = _mm256_div_pd(t, l);
-            for c in 0..2 {
-                f[c] = _mm256_blendv_pd(f[c], _mm256_add_pd(f[c], _mm256_mul_pd(sc, x[c])), m);
-            }
-        }
-        let fz = _mm256_setzero_pd();
-        // SAFETY: by the caller's contract, the block is in bounds.
-        unsafe {
-            super::super::stencil::avx2::kick_drift4(
-                p.dims(2),
-                [f[0], f[1], fz],
-                Some(u),
-                inv_mass,
-                p,
-                i,
-                v,
-                un,
-                sums,
-            )
+            let f = [f[0], f[1], w.zero()];
+            // SAFETY: by the caller's contract, the block is in bounds.
+            unsafe { kick_drift(w, p.dims(2), f, Some(u), inv_mass, p, i, v, un, sums) }
         }
     }
 }

@@ -25,7 +25,8 @@
 //!
 //! Modules: [`csr`] (any lattice, through its CSR rows), [`rows`] (the row kernel: slot-major
 //! groups of 8 nodes, AVX-512 or AVX2), [`cubic`] and [`hex`] (stencils of box-shaped Ladd and
-//! hexagonal lattices), `stencil` (what the stencils share), [`share`] (the part of a body one
+//! hexagonal lattices), `stencil` (what the stencils share), `wide` (the lane widths, AVX-512
+//! and AVX2, that the vector paths are written over once), [`share`] (the part of a body one
 //! process's sweeps cover when several share a run).
 
 // Checks are written `!(x > 0.0)` on purpose: a NaN fails them.
@@ -37,6 +38,8 @@ pub mod hex;
 pub mod rows;
 pub mod share;
 mod stencil;
+#[cfg(target_arch = "x86_64")]
+mod wide;
 
 use std::ops::Range;
 

@@ -29,7 +29,7 @@
 //! +0 unchanged. The rest length `L` is recomputed as `|X_j - X_i|` in the operations that
 //! built it (checked for every spring at set-up; otherwise it is streamed). The scalar path (the
 //! last, incomplete group of 8; the whole body after `set_simd(false)`) performs the same
-//! operations one lane at a time. Without AVX-512, the AVX2 path (`rows_avx2.rs`) walks each
+//! operations one lane at a time. Without AVX-512, the AVX2 path (the same source, `mod vector`) walks each
 //! group as two halves of 4 lanes; without either, `Kernel::for_body` takes the CSR kernel
 //! itself. Tested bit for bit against the CSR kernel, with broken and softened springs,
 //! dispersion levers and stored or recomputed rest lengths, in 2D and 3D.
@@ -751,9 +751,9 @@ impl Stencil for RowKernel {
         // i..i+64 are nodes.
         unsafe {
             if self.simd == Some(Lanes::Avx2) {
-                return by_shape!(self, avx2::pools, self, u, i, out, screen);
+                return by_shape!(self, vector::pools256, self, u, i, out, screen);
             }
-            by_shape!(self, avx::pools, self, u, i, out, screen)
+            by_shape!(self, vector::pools512, self, u, i, out, screen)
         }
     }
 
@@ -772,172 +772,95 @@ impl Stencil for RowKernel {
         un: [&mut [Real]; 3],
         sums: &mut SweepSums,
     ) {
-        // The window's forces in node order (its groups hold its nodes in another order).
-        let mut f = avx::Window([[0.0; WINDOW]; 3]);
-        let dims = p.dims(self.dim);
-        let [vx, vy, vz] = v;
-        let [nx, ny, nz] = un;
-        if self.simd == Some(Lanes::Avx2) {
-            // SAFETY: by the caller's contract, as for `pool_block`.
-            unsafe { by_shape!(self, avx2::forces, self, u, i, &mut f) }
-            // SAFETY: by the caller's contract, as for `pool_block`.
-            unsafe {
-                avx2::kick_drift(
-                    dims,
-                    &f,
-                    u.old_u(),
-                    inv_mass,
-                    p,
-                    i,
-                    [vx, vy, vz],
-                    [nx, ny, nz],
-                    sums,
-                )
-            };
-            return;
-        }
+        let consts = (inv_mass, p, p.dims(self.dim));
         // SAFETY: by the caller's contract, as for `pool_block`.
-        unsafe { by_shape!(self, avx::forces, self, u, i, &mut f) }
-        // Kick and drift 8 nodes at a time, in node order (the sums' order).
-        for b in 0..WINDOW / 8 {
-            let r = 8 * b..8 * b + 8;
-            // SAFETY: as above; `v`, `un` hold the window's entries.
-            unsafe {
-                let fb = [0, 1, 2]
-                    .map(|c| std::arch::x86_64::_mm512_loadu_pd(f.0[c][r.start..].as_ptr()));
-                super::stencil::avx512::kick_drift8(
-                    dims,
-                    fb,
-                    u.old_u(),
-                    inv_mass,
-                    p,
-                    i + 8 * b,
-                    [&mut vx[r.clone()], &mut vy[r.clone()], &mut vz[r.clone()]],
-                    [&mut nx[r.clone()], &mut ny[r.clone()], &mut nz[r.clone()]],
-                    sums,
-                )
-            };
+        unsafe {
+            if self.simd == Some(Lanes::Avx2) {
+                by_shape!(self, vector::step256, self, u, i, consts, v, un, sums)
+            } else {
+                by_shape!(self, vector::step512, self, u, i, consts, v, un, sums)
+            }
         }
     }
 }
 
-/// The AVX2 vector path.
+/// The vector path, one source for AVX-512 and AVX2 ([`crate::wide`]): the 8 nodes of a group
+/// in the lanes, their rows slot by slot. AVX2 holds 4 doubles to a vector, so it walks each
+/// group as two halves of 4 lanes side by side in the same slot loop (two independent chains
+/// of square roots and divisions for the processor to overlap). Every operation is the scalar
+/// path's lane by lane, with no fused multiply-adds: the same bits.
 #[cfg(target_arch = "x86_64")]
-#[path = "rows_avx2.rs"]
-mod avx2;
+mod vector {
+    use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
 
-/// The vector path: 8 nodes in the lanes, their rows slot by slot.
-#[cfg(target_arch = "x86_64")]
-mod avx {
-    use std::arch::x86_64::*;
+    use super::{RowKernel, Src, StepParams, SweepSums, WINDOW};
+    use crate::stencil::vector::kick_drift;
+    use crate::wide::{Wide, W4, W8};
+    use hooke_model::math::{Coords, Real};
 
-    use super::{RowKernel, Src, WINDOW};
-    use hooke_model::math::Real;
+    /// What sweep 1 and sweep 2 share for one slot of N lanes: the current vector, `|d|^2`,
+    /// the numerator of dL (the scalar path's operations lane by lane), the records of the
+    /// neighbours, the slot's stiffness, rest length and lever, and the real lanes.
+    struct Slot<W: Wide> {
+        d: [W::F; 3],
+        d2: W::F,
+        num: W::F,
+        k: W::F,
+        rest: W::F,
+        lever: W::F,
+        real: W::M,
+        nb: [W::F; 7],
+    }
 
-    /// The records of the 8 nodes `js`, transposed: component c of each lane's record in
-    /// vector c (the padding component is not needed).
-    ///
-    /// # Safety
-    /// The processor has the function's target feature; `base` points to the records and every
-    /// index in `js` names one of them (a 64-byte aligned record of 8 reals).
+    /// `a . b` over the first `D` components, added as the scalar path adds them.
     #[inline(always)]
-    unsafe fn records(base: *const Real, js: &[u32; 8]) -> [__m512d; 7] {
-        // SAFETY: by the caller's contract, every js[l] indexes a record (64-byte aligned, 8 reals).
-        unsafe {
-            let r = js.map(|j| _mm512_load_pd(base.wrapping_add(8 * j as usize)));
-            let a = [
-                _mm512_unpacklo_pd(r[0], r[1]),
-                _mm512_unpackhi_pd(r[0], r[1]),
-                _mm512_unpacklo_pd(r[2], r[3]),
-                _mm512_unpackhi_pd(r[2], r[3]),
-                _mm512_unpacklo_pd(r[4], r[5]),
-                _mm512_unpackhi_pd(r[4], r[5]),
-                _mm512_unpacklo_pd(r[6], r[7]),
-                _mm512_unpackhi_pd(r[6], r[7]),
-            ];
-            // Components c and c + 4 of four lanes at a time, then the two halves joined.
-            let lo = _mm512_set_epi64(13, 12, 5, 4, 9, 8, 1, 0);
-            let hi = _mm512_set_epi64(15, 14, 7, 6, 11, 10, 3, 2);
-            let b0 = _mm512_permutex2var_pd(a[0], lo, a[2]);
-            let b2 = _mm512_permutex2var_pd(a[0], hi, a[2]);
-            let b1 = _mm512_permutex2var_pd(a[1], lo, a[3]);
-            let b3 = _mm512_permutex2var_pd(a[1], hi, a[3]);
-            let b4 = _mm512_permutex2var_pd(a[4], lo, a[6]);
-            let b6 = _mm512_permutex2var_pd(a[4], hi, a[6]);
-            let b5 = _mm512_permutex2var_pd(a[5], lo, a[7]);
-            let b7 = _mm512_permutex2var_pd(a[5], hi, a[7]);
-            let l2 = _mm512_set_epi64(11, 10, 9, 8, 3, 2, 1, 0);
-            let h2 = _mm512_set_epi64(15, 14, 13, 12, 7, 6, 5, 4);
-            [
-                _mm512_permutex2var_pd(b0, l2, b4),
-                _mm512_permutex2var_pd(b1, l2, b5),
-                _mm512_permutex2var_pd(b2, l2, b6),
-                _mm512_permutex2var_pd(b3, l2, b7),
-                _mm512_permutex2var_pd(b0, h2, b4),
-                _mm512_permutex2var_pd(b1, h2, b5),
-                _mm512_permutex2var_pd(b2, h2, b6),
-            ]
+    fn dot<W: Wide, const D: usize>(a: [W::F; 3], b: [W::F; 3]) -> W::F {
+        let s = a[0] * b[0] + a[1] * b[1];
+        if D == 3 {
+            s + a[2] * b[2]
+        } else {
+            s
         }
     }
 
-    /// What sweep 1 and sweep 2 share for one slot of group `g`'s lanes: the current vector,
-    /// `|d|^2`, the numerator of dL (the scalar path's operations lane by lane), the records
-    /// of the neighbours, the slot's stiffness, rest length and lever, and the real lanes.
-    struct Slot {
-        d: [__m512d; 3],
-        d2: __m512d,
-        num: __m512d,
-        k: __m512d,
-        rest: __m512d,
-        lever: __m512d,
-        real: __mmask8,
-        nb: [__m512d; 7],
-    }
-
-    /// The operations of one slot.
+    /// The operations of the N entries from `e` (a slot's, or a half of one).
     ///
     /// # Safety
-    /// AVX-512F; `e` is the first entry of a slot; `me` the group's own records transposed.
+    /// The N entries are in bounds of every slot array; `me` the lanes' own records
+    /// transposed; `base` points to the records.
     #[inline(always)]
-    unsafe fn slot_at<const D: usize, const LEVER: bool, const STORED: bool>(
+    unsafe fn slot_at<W: Wide, const D: usize, const LEVER: bool, const STORED: bool>(
+        w: W,
         rk: &RowKernel,
         base: *const Real,
-        me: &[__m512d; 7],
+        me: &[W::F; 7],
         e: usize,
-    ) -> Slot {
+    ) -> Slot<W> {
         let s = &rk.slots;
-        // SAFETY: by the caller's contract, the slot's 8 entries are in bounds of every slot array.
+        // SAFETY: by the caller's contract, the N entries are in bounds of every slot array,
+        // and each names a record (a neighbour's or the dummy's).
         unsafe {
-            let js: [u32; 8] = *(s.j.as_ptr().add(e) as *const [u32; 8]);
-            let jv = _mm256_loadu_si256(s.j.as_ptr().add(e) as *const __m256i);
-            let real = _mm256_cmpneq_epu32_mask(jv, _mm256_set1_epi32(rk.dummy() as i32));
-            let nb = records(base, &js);
-            let z = _mm512_setzero_pd();
+            let js = std::slice::from_raw_parts(s.j.as_ptr().add(e), W::N);
+            let real = w.real(js.as_ptr(), rk.dummy() as u32);
+            let nb = w.records(base, js);
+            let z = w.zero();
             let mut big = [z; 3];
-            let mut w = [z; 3];
+            let mut wv = [z; 3];
             for c in 0..D {
-                big[c] = _mm512_sub_pd(nb[c], me[c]);
-                w[c] = _mm512_sub_pd(nb[3 + c], me[3 + c]);
+                big[c] = nb[c] - me[c];
+                wv[c] = nb[3 + c] - me[3 + c];
             }
-            let d = [0, 1, 2].map(|c| _mm512_add_pd(big[c], w[c]));
-            let sq = |a: [__m512d; 3], b: [__m512d; 3]| {
-                let s = _mm512_add_pd(_mm512_mul_pd(a[0], b[0]), _mm512_mul_pd(a[1], b[1]));
-                if D == 3 {
-                    _mm512_add_pd(s, _mm512_mul_pd(a[2], b[2]))
-                } else {
-                    s
-                }
-            };
-            let d2 = sq(d, d);
-            let num = _mm512_add_pd(_mm512_mul_pd(_mm512_set1_pd(2.0), sq(big, w)), sq(w, w));
-            let k = _mm512_loadu_pd(s.k.as_ptr().add(e));
+            let d = [big[0] + wv[0], big[1] + wv[1], big[2] + wv[2]];
+            let d2 = dot::<W, D>(d, d);
+            let num = w.splat(2.0) * dot::<W, D>(big, wv) + dot::<W, D>(wv, wv);
+            let k = w.load(s.k.as_ptr().add(e));
             let rest = if STORED {
-                _mm512_loadu_pd(s.rest.as_ptr().add(e))
+                w.load(s.rest.as_ptr().add(e))
             } else {
-                _mm512_sqrt_pd(sq(big, big))
+                w.sqrt(dot::<W, D>(big, big))
             };
             let lever = if LEVER {
-                _mm512_loadu_pd(s.lever.as_ptr().add(e))
+                w.load(s.lever.as_ptr().add(e))
             } else {
                 rest
             };
@@ -958,11 +881,10 @@ mod avx {
     /// stream (the hardware fetches those itself).
     ///
     /// # Safety
-    /// The processor has AVX-512; `base` points to the records and group `g` is one of the
-    /// kernel's (a prefetch of an address outside them would be harmless, but the index
-    /// arithmetic assumes it).
+    /// `base` points to the records and group `g` is one of the kernel's (a prefetch of an
+    /// address outside them would be harmless, but the index arithmetic assumes it).
     #[inline(always)]
-    pub(super) unsafe fn prefetch(rk: &RowKernel, base: *const Real, g: usize) {
+    unsafe fn prefetch(rk: &RowKernel, base: *const Real, g: usize) {
         let s = &rk.slots;
         if g + 1 < s.start.len() {
             for e in 8 * s.start[g] as usize..8 * s.start[g + 1] as usize {
@@ -979,35 +901,46 @@ mod avx {
     #[repr(C, align(64))]
     pub(super) struct Window(pub [[Real; WINDOW]; 3]);
 
-    /// Lane `l` of `v` into `out[js[l] - i]`: a group's values into its window's node order.
-    ///
-    /// # Safety
-    /// The processor has the function's target feature, and every `js[l] - i` is below
-    /// `WINDOW` (the rows' neighbours lie in the window).
+    /// Lane `l` of `v` into `out[js[l] - i]`: N lanes of a group into its window's node
+    /// order. Every `js[l] - i` is below `WINDOW` (the rows' nodes lie in the window).
     #[inline(always)]
-    unsafe fn scatter(v: __m512d, js: &[u32; 8], i: usize, out: &mut [Real; WINDOW]) {
-        let mut lane = [0.0; 8];
-        // SAFETY: by the caller's contract, AVX-512F.
-        unsafe { _mm512_storeu_pd(lane.as_mut_ptr(), v) };
-        for l in 0..8 {
+    fn scatter<W: Wide>(w: W, v: W::F, js: &[u32], i: usize, out: &mut [Real; WINDOW]) {
+        let lane = w.lanes(v);
+        for l in 0..W::N {
             out[js[l] as usize - i] = lane[l];
         }
     }
 
     /// The nodes of group `g`'s lanes.
     #[inline(always)]
-    pub(super) fn group_nodes(rk: &RowKernel, g: usize) -> [u32; 8] {
+    fn group_nodes(rk: &RowKernel, g: usize) -> [u32; 8] {
         let lanes = &rk.slots.lanes[8 * g..8 * g + 8];
         std::array::from_fn(|l| (WINDOW * (8 * g / WINDOW) + lanes[l] as usize) as u32)
+    }
+
+    /// The records of group `g`'s lanes `js`, transposed: one vector set per N lanes (the
+    /// second unused on AVX-512).
+    ///
+    /// # Safety
+    /// `base` points to the records, which `js` name.
+    #[inline(always)]
+    unsafe fn own_records<W: Wide>(w: W, base: *const Real, js: &[u32; 8]) -> [[W::F; 7]; 2] {
+        let mut me = [[w.zero(); 7]; 2];
+        for h in 0..8 / W::N {
+            // SAFETY: by the caller's contract.
+            me[h] = unsafe { w.records(base, &js[h * W::N..]) };
+        }
+        me
     }
 
     /// Pools of the window of nodes i..i+64 into `out`; whether a real spring is past the
     /// screen.
     ///
     /// # Safety
-    /// AVX-512F; i a multiple of 64 with i + 64 <= n; records refreshed.
-    #[target_feature(enable = "avx512f,avx512vl")]
-    pub(super) unsafe fn pools<const D: usize, const LEVER: bool, const STORED: bool>(
+    /// i a multiple of 64 with i + 64 <= n; records refreshed.
+    #[inline(always)]
+    unsafe fn pools<W: Wide, const D: usize, const LEVER: bool, const STORED: bool>(
+        w: W,
         rk: &RowKernel,
         src: &Src,
         i: usize,
@@ -1016,49 +949,50 @@ mod avx {
     ) -> bool {
         let base = rk.base(src.rec);
         let s = &rk.slots;
-        let sv = _mm512_set1_pd(screen);
+        let sv = w.splat(screen);
         // The sums in node order.
         let mut sums = Window([[0.0; WINDOW]; 3]);
-        let mut hot: __mmask8 = 0;
+        let mut hot = w.no_lanes();
         // SAFETY: by the caller's contract, in bounds as stated.
         unsafe {
             for g in i / 8..(i + WINDOW) / 8 {
                 prefetch(rk, base, g + 2);
                 let js = group_nodes(rk, g);
-                let me = records(base, &js);
-                let mut acc = _mm512_setzero_pd();
+                let me = own_records(w, base, &js);
+                let mut acc = [w.zero(); 2];
                 for slot in s.start[g] as usize..s.start[g + 1] as usize {
-                    let t = slot_at::<D, LEVER, STORED>(rk, base, &me, 8 * slot);
-                    let l = _mm512_sqrt_pd(t.d2);
-                    let dl = _mm512_div_pd(t.num, _mm512_add_pd(l, t.rest));
-                    hot |= _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(
-                        t.real,
-                        dl,
-                        _mm512_mul_pd(sv, t.rest),
-                    );
-                    acc = _mm512_add_pd(acc, _mm512_mul_pd(_mm512_mul_pd(t.k, t.lever), dl));
+                    for h in 0..8 / W::N {
+                        let e = 8 * slot + W::N * h;
+                        let t = slot_at::<W, D, LEVER, STORED>(w, rk, base, &me[h], e);
+                        let l = w.sqrt(t.d2);
+                        let dl = t.num / (l + t.rest);
+                        hot = hot | w.gt_where(t.real, dl, sv * t.rest);
+                        acc[h] = acc[h] + (t.k * t.lever) * dl;
+                    }
                 }
-                scatter(acc, &js, i, &mut sums.0[0]);
+                for h in 0..8 / W::N {
+                    scatter(w, acc[h], &js[h * W::N..], i, &mut sums.0[0]);
+                }
             }
-            for b in 0..WINDOW / 8 {
-                let acc = _mm512_load_pd(sums.0[0].as_ptr().add(8 * b));
-                let sn = _mm512_loadu_pd(src.norm.as_ptr().add(i + 8 * b));
-                let pos = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(sn, _mm512_setzero_pd());
-                _mm512_storeu_pd(
-                    out.as_mut_ptr().add(8 * b),
-                    _mm512_maskz_div_pd(pos, acc, sn),
+            for b in 0..WINDOW / W::N {
+                let acc = w.load(sums.0[0].as_ptr().add(W::N * b));
+                let sn = w.load(src.norm.as_ptr().add(i + W::N * b));
+                w.store(
+                    out.as_mut_ptr().add(W::N * b),
+                    w.div_where_positive(acc, sn),
                 );
             }
         }
-        hot != 0
+        w.any(hot)
     }
 
     /// Forces on the window of nodes i..i+64 into `f`, in node order.
     ///
     /// # Safety
     /// As [`pools`], with the pools in the records.
-    #[target_feature(enable = "avx512f,avx512vl")]
-    pub(super) unsafe fn forces<const D: usize, const LEVER: bool, const STORED: bool>(
+    #[inline(always)]
+    unsafe fn forces<W: Wide, const D: usize, const LEVER: bool, const STORED: bool>(
+        w: W,
         rk: &RowKernel,
         src: &Src,
         i: usize,
@@ -1066,41 +1000,162 @@ mod avx {
     ) {
         let base = rk.base(src.rec);
         let s = &rk.slots;
-        let q = _mm512_set1_pd(rk.q);
-        let one = _mm512_set1_pd(1.0);
+        let q = w.splat(rk.q);
+        let one = w.splat(1.0);
         let plain = rk.q == 0.0;
+        let z = w.zero();
         // SAFETY: by the caller's contract, in bounds as stated.
         unsafe {
             for g in i / 8..(i + WINDOW) / 8 {
                 prefetch(rk, base, g + 2);
                 let js = group_nodes(rk, g);
-                let me = records(base, &js);
-                let z = _mm512_setzero_pd();
+                let me = own_records(w, base, &js);
                 // The plain law's pools are all +0: it reads none (the records may hold
                 // another law's, and need no refresh).
-                let pi = if plain { z } else { me[6] };
-                let mut acc = [z; 3];
+                let pi = if plain { [z; 2] } else { [me[0][6], me[1][6]] };
+                let mut acc = [[z; 3]; 2];
                 for slot in s.start[g] as usize..s.start[g + 1] as usize {
-                    let t = slot_at::<D, LEVER, STORED>(rk, base, &me, 8 * slot);
-                    let l = _mm512_sqrt_pd(t.d2);
-                    let inv = _mm512_div_pd(one, l);
-                    let dl = _mm512_div_pd(t.num, _mm512_add_pd(l, t.rest));
-                    let r1 = _mm512_mul_pd(_mm512_mul_pd(q, t.k), t.lever);
-                    let pj = if plain { z } else { t.nb[6] };
-                    let tt = _mm512_add_pd(
-                        _mm512_mul_pd(t.k, dl),
-                        _mm512_mul_pd(r1, _mm512_add_pd(pi, pj)),
-                    );
-                    for c in 0..D {
-                        acc[c] =
-                            _mm512_add_pd(acc[c], _mm512_mul_pd(tt, _mm512_mul_pd(t.d[c], inv)));
+                    for h in 0..8 / W::N {
+                        let e = 8 * slot + W::N * h;
+                        let t = slot_at::<W, D, LEVER, STORED>(w, rk, base, &me[h], e);
+                        let l = w.sqrt(t.d2);
+                        let inv = one / l;
+                        let dl = t.num / (l + t.rest);
+                        let r1 = (q * t.k) * t.lever;
+                        let pj = if plain { z } else { t.nb[6] };
+                        let tt = t.k * dl + r1 * (pi[h] + pj);
+                        for c in 0..D {
+                            acc[h][c] = acc[h][c] + tt * (t.d[c] * inv);
+                        }
                     }
                 }
                 for c in 0..D {
-                    scatter(acc[c], &js, i, &mut f.0[c]);
+                    for h in 0..8 / W::N {
+                        scatter(w, acc[h][c], &js[h * W::N..], i, &mut f.0[c]);
+                    }
                 }
             }
         }
+    }
+
+    /// Forces on the window of nodes i..i+64, then its kick and drift N nodes at a time in
+    /// node order (the sums' order).
+    ///
+    /// # Safety
+    /// As [`forces`]; `u` and `inv_mass` hold the window's nodes, `v` and `un` its 64
+    /// entries.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    unsafe fn step<W: Wide, const D: usize, const LEVER: bool, const STORED: bool>(
+        w: W,
+        rk: &RowKernel,
+        src: &Src,
+        i: usize,
+        (inv_mass, p, dims): (&[Real], &StepParams, usize),
+        v: [&mut [Real]; 3],
+        un: [&mut [Real]; 3],
+        sums: &mut SweepSums,
+    ) {
+        // The window's forces in node order (its groups hold its nodes in another order).
+        let mut f = Window([[0.0; WINDOW]; 3]);
+        // SAFETY: by the caller's contract.
+        unsafe { forces::<W, D, LEVER, STORED>(w, rk, src, i, &mut f) };
+        let u: Option<&Coords> = src.old_u();
+        let [vx, vy, vz] = v;
+        let [nx, ny, nz] = un;
+        for b in 0..WINDOW / W::N {
+            let r = W::N * b..W::N * (b + 1);
+            // SAFETY: by the caller's contract, in bounds as stated.
+            unsafe {
+                let fb = [
+                    w.load(f.0[0][r.start..].as_ptr()),
+                    w.load(f.0[1][r.start..].as_ptr()),
+                    w.load(f.0[2][r.start..].as_ptr()),
+                ];
+                kick_drift(
+                    w,
+                    dims,
+                    fb,
+                    u,
+                    inv_mass,
+                    p,
+                    i + r.start,
+                    [&mut vx[r.clone()], &mut vy[r.clone()], &mut vz[r.clone()]],
+                    [&mut nx[r.clone()], &mut ny[r.clone()], &mut nz[r.clone()]],
+                    sums,
+                )
+            };
+        }
+    }
+
+    /// [`pools`] on AVX-512.
+    ///
+    /// # Safety
+    /// AVX-512F and AVX-512VL; as [`pools`].
+    #[target_feature(enable = "avx512f,avx512vl")]
+    pub(super) unsafe fn pools512<const D: usize, const LEVER: bool, const STORED: bool>(
+        rk: &RowKernel,
+        src: &Src,
+        i: usize,
+        out: &mut [Real],
+        screen: Real,
+    ) -> bool {
+        // SAFETY: the processor has the instructions, and the rest is this fn's contract.
+        unsafe { pools::<W8, D, LEVER, STORED>(W8::new(), rk, src, i, out, screen) }
+    }
+
+    /// [`pools`] on AVX2.
+    ///
+    /// # Safety
+    /// AVX2; as [`pools`].
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn pools256<const D: usize, const LEVER: bool, const STORED: bool>(
+        rk: &RowKernel,
+        src: &Src,
+        i: usize,
+        out: &mut [Real],
+        screen: Real,
+    ) -> bool {
+        // SAFETY: the processor has the instructions, and the rest is this fn's contract.
+        unsafe { pools::<W4, D, LEVER, STORED>(W4::new(), rk, src, i, out, screen) }
+    }
+
+    /// [`step`] on AVX-512.
+    ///
+    /// # Safety
+    /// AVX-512F and AVX-512VL; as [`step`].
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx512f,avx512vl")]
+    pub(super) unsafe fn step512<const D: usize, const LEVER: bool, const STORED: bool>(
+        rk: &RowKernel,
+        src: &Src,
+        i: usize,
+        consts: (&[Real], &StepParams, usize),
+        v: [&mut [Real]; 3],
+        un: [&mut [Real]; 3],
+        sums: &mut SweepSums,
+    ) {
+        // SAFETY: the processor has the instructions, and the rest is this fn's contract.
+        unsafe { step::<W8, D, LEVER, STORED>(W8::new(), rk, src, i, consts, v, un, sums) }
+    }
+
+    /// [`step`] on AVX2.
+    ///
+    /// # Safety
+    /// AVX2; as [`step`].
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn step256<const D: usize, const LEVER: bool, const STORED: bool>(
+        rk: &RowKernel,
+        src: &Src,
+        i: usize,
+        consts: (&[Real], &StepParams, usize),
+        v: [&mut [Real]; 3],
+        un: [&mut [Real]; 3],
+        sums: &mut SweepSums,
+    ) {
+        // SAFETY: the processor has the instructions, and the rest is this fn's contract.
+        unsafe { step::<W4, D, LEVER, STORED>(W4::new(), rk, src, i, consts, v, un, sums) }
     }
 }
 

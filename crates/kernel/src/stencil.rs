@@ -398,27 +398,274 @@ pub(crate) fn force_kick_drift<S: Stencil>(
     })
 }
 
-/// The vector paths' shared kick and drift.
+/// The vector paths' kick and drift, one source for both widths ([`crate::wide`]).
 #[cfg(target_arch = "x86_64")]
-pub(crate) mod avx512 {
-    use std::arch::x86_64::*;
-
+pub(crate) mod vector {
     use super::{StepParams, SweepSums};
+    use crate::wide::{Wide, W4, W8};
     use hooke_model::math::{Coords, Real};
 
-    /// Kick and drift of the 8 nodes from `i` with forces `f` (the first `dims` components):
+    /// Kick and drift of the N nodes from `i` with forces `f` (the first `dims` components):
     /// the scalar [`super::super::kick_drift`]'s operations lane by lane (no fused
     /// multiply-adds), each node's shares of the sums added to `sums` in index order, so the
     /// bits are those of the portable path.
     ///
     /// # Safety
-    /// The processor has AVX-512F; `u` and `inv_mass` hold nodes `i..i + 8`; `v` and `un`
-    /// hold the block's 8 entries per component.
+    /// `u` and `inv_mass` hold nodes `i..i + N`; `v` and `un` hold the block's N entries per
+    /// component.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(crate) unsafe fn kick_drift<W: Wide>(
+        w: W,
+        dims: usize,
+        f: [W::F; 3],
+        u: Option<&Coords>,
+        inv_mass: &[Real],
+        p: &StepParams,
+        i: usize,
+        v: [&mut [Real]; 3],
+        un: [&mut [Real]; 3],
+        sums: &mut SweepSums,
+    ) {
+        let h = 0.5 * p.damping * p.dt;
+        let shrink = w.splat(1.0 - h);
+        let grow = w.splat(1.0 / (1.0 + h));
+        let dt = w.splat(p.dt);
+        let half = w.splat(0.5);
+        // SAFETY: by the caller's contract, i..i+N is in bounds of every array read or written here.
+        let im = unsafe { w.load(inv_mass.as_ptr().add(i)) };
+        let mut v2 = w.zero();
+        let mut gw = w.zero();
+        let [vx, vy, vz] = v;
+        let [nx, ny, nz] = un;
+        // In place (`u` None), `un` holds the old displacements until it is written.
+        let comps = [
+            (vx, nx, u.map(|u| u.x())),
+            (vy, ny, u.map(|u| u.y())),
+            (vz, nz, u.map(|u| u.z())),
+        ];
+        for (c, (vs, ns, uc)) in comps.into_iter().enumerate().take(dims) {
+            let g = w.splat(p.accel[c]);
+            // SAFETY: by this fn's contract, the block's entries of `v`, `un` and `u` are in bounds of the loads and stores.
+            unsafe {
+                let old = w.load(vs.as_ptr());
+                let acc = f[c] * im + g;
+                let new = (shrink * old + dt * acc) * grow;
+                w.store(vs.as_mut_ptr(), new);
+                let ui = w.load(match uc {
+                    Some(uc) => uc.as_ptr().add(i),
+                    None => ns.as_ptr(),
+                });
+                w.store(ns.as_mut_ptr(), ui + dt * new);
+                let mid = half * (old + new);
+                v2 = v2 + mid * mid;
+                gw = gw + g * mid;
+            }
+        }
+        if p.damping == 0.0 && p.accel == [0.0; 3] {
+            // Every node's shares are +0, which would leave the sums' bits as they are.
+            return;
+        }
+        let (lane_v2, lane_gw, lane_im) = (w.lanes(v2), w.lanes(gw), w.lanes(im));
+        for l in 0..W::N {
+            let m = if lane_im[l] > 0.0 {
+                1.0 / lane_im[l]
+            } else {
+                0.0
+            };
+            sums.dissipated += p.damping * m * lane_v2[l] * p.dt;
+            sums.body_work += m * lane_gw[l] * p.dt;
+        }
+    }
+
+    /// A stencil's block operations, written once over the width.
+    pub(crate) trait Lanewise: Sync {
+        /// Sweep 1 for the N nodes at `i`: their pools into `out`, and whether one of their
+        /// springs is past the screen.
+        ///
+        /// # Safety
+        /// The block at `i` is inside the body's box (`vector_block`), and `out` holds its N
+        /// entries.
+        unsafe fn pools<W: Wide>(
+            &self,
+            w: W,
+            u: &Coords,
+            i: usize,
+            out: &mut [Real],
+            screen: Real,
+        ) -> bool;
+
+        /// Sweep 2 for the N nodes at `i`: force, kick, drift.
+        ///
+        /// # Safety
+        /// The block at `i` is inside the body's box (`vector_block`), and `v` and `un` hold
+        /// its N entries.
+        #[allow(clippy::too_many_arguments)]
+        unsafe fn force_kick_drift<W: Wide>(
+            &self,
+            w: W,
+            u: &Coords,
+            pool: &[Real],
+            inv_mass: &[Real],
+            p: &StepParams,
+            i: usize,
+            v: [&mut [Real]; 3],
+            un: [&mut [Real]; 3],
+            sums: &mut SweepSums,
+        );
+    }
+
+    /// Sweep 1 for the 8 nodes at `i`: AVX-512 (`avx2` false) or AVX2 (two halves of 4).
+    ///
+    /// # Safety
+    /// The processor has the instructions of the path taken; otherwise as
+    /// [`Lanewise::pools`] for 8 nodes.
+    #[inline(always)]
+    pub(crate) unsafe fn pools8<S: Lanewise>(
+        s: &S,
+        avx2: bool,
+        u: &Coords,
+        i: usize,
+        out: &mut [Real],
+        screen: Real,
+    ) -> bool {
+        // SAFETY: the caller's contract.
+        unsafe {
+            if avx2 {
+                pools_avx2(s, u, i, out, screen)
+            } else {
+                pools_avx512(s, u, i, out, screen)
+            }
+        }
+    }
+
+    /// # Safety
+    /// AVX-512F; as [`Lanewise::pools`] for 8 nodes.
+    #[target_feature(enable = "avx512f")]
+    unsafe fn pools_avx512<S: Lanewise>(
+        s: &S,
+        u: &Coords,
+        i: usize,
+        out: &mut [Real],
+        screen: Real,
+    ) -> bool {
+        // SAFETY: the processor has AVX-512F, and the rest is this fn's contract.
+        unsafe { s.pools(W8::new(), u, i, out, screen) }
+    }
+
+    /// # Safety
+    /// AVX2; as [`Lanewise::pools`] for 8 nodes.
+    #[target_feature(enable = "avx2")]
+    unsafe fn pools_avx2<S: Lanewise>(
+        s: &S,
+        u: &Coords,
+        i: usize,
+        out: &mut [Real],
+        screen: Real,
+    ) -> bool {
+        let (a, b) = out.split_at_mut(4);
+        // SAFETY: the processor has AVX2, and the rest is this fn's contract.
+        unsafe {
+            let w = W4::new();
+            let hot = s.pools(w, u, i, a, screen);
+            s.pools(w, u, i + 4, b, screen) | hot
+        }
+    }
+
+    /// Sweep 2 for the 8 nodes at `i`: AVX-512 (`avx2` false) or AVX2 (two halves of 4, in
+    /// node order).
+    ///
+    /// # Safety
+    /// The processor has the instructions of the path taken; otherwise as
+    /// [`Lanewise::force_kick_drift`] for 8 nodes.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(crate) unsafe fn force_kick_drift8<S: Lanewise>(
+        s: &S,
+        avx2: bool,
+        u: &Coords,
+        pool: &[Real],
+        inv_mass: &[Real],
+        p: &StepParams,
+        i: usize,
+        v: [&mut [Real]; 3],
+        un: [&mut [Real]; 3],
+        sums: &mut SweepSums,
+    ) {
+        // SAFETY: the caller's contract.
+        unsafe {
+            if avx2 {
+                force_kick_drift_avx2(s, u, pool, inv_mass, p, i, v, un, sums)
+            } else {
+                force_kick_drift_avx512(s, u, pool, inv_mass, p, i, v, un, sums)
+            }
+        }
+    }
+
+    /// # Safety
+    /// AVX-512F; as [`Lanewise::force_kick_drift`] for 8 nodes.
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn force_kick_drift_avx512<S: Lanewise>(
+        s: &S,
+        u: &Coords,
+        pool: &[Real],
+        inv_mass: &[Real],
+        p: &StepParams,
+        i: usize,
+        v: [&mut [Real]; 3],
+        un: [&mut [Real]; 3],
+        sums: &mut SweepSums,
+    ) {
+        // SAFETY: the processor has AVX-512F, and the rest is this fn's contract.
+        unsafe { s.force_kick_drift(W8::new(), u, pool, inv_mass, p, i, v, un, sums) }
+    }
+
+    /// # Safety
+    /// AVX2; as [`Lanewise::force_kick_drift`] for 8 nodes.
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx2")]
+    unsafe fn force_kick_drift_avx2<S: Lanewise>(
+        s: &S,
+        u: &Coords,
+        pool: &[Real],
+        inv_mass: &[Real],
+        p: &StepParams,
+        i: usize,
+        v: [&mut [Real]; 3],
+        un: [&mut [Real]; 3],
+        sums: &mut SweepSums,
+    ) {
+        let [vx, vy, vz] = v;
+        let [nx, ny, nz] = un;
+        let ([vx0, vx1], [vy0, vy1], [vz0, vz1]) = (halves(vx), halves(vy), halves(vz));
+        let ([nx0, nx1], [ny0, ny1], [nz0, nz1]) = (halves(nx), halves(ny), halves(nz));
+        // SAFETY: the processor has AVX2, and the rest is this fn's contract.
+        unsafe {
+            let w = W4::new();
+            let (v0, n0) = ([vx0, vy0, vz0], [nx0, ny0, nz0]);
+            s.force_kick_drift(w, u, pool, inv_mass, p, i, v0, n0, sums);
+            let (v1, n1) = ([vx1, vy1, vz1], [nx1, ny1, nz1]);
+            s.force_kick_drift(w, u, pool, inv_mass, p, i + 4, v1, n1, sums);
+        }
+    }
+
+    /// The two halves of a block's 8 entries.
+    #[inline(always)]
+    fn halves(x: &mut [Real]) -> [&mut [Real]; 2] {
+        let (a, b) = x.split_at_mut(4);
+        [a, &mut b[..4]]
+    }
+
+    /// [`kick_drift`] of 8 nodes on AVX-512, for callers outside a vector entry.
+    ///
+    /// # Safety
+    /// The processor has AVX-512F; otherwise as [`kick_drift`].
     #[allow(clippy::too_many_arguments)]
     #[target_feature(enable = "avx512f")]
     pub(crate) unsafe fn kick_drift8(
         dims: usize,
-        f: [__m512d; 3],
+        f: [<W8 as Wide>::F; 3],
         u: Option<&Coords>,
         inv_mass: &[Real],
         p: &StepParams,
@@ -427,185 +674,7 @@ pub(crate) mod avx512 {
         un: [&mut [Real]; 3],
         sums: &mut SweepSums,
     ) {
-        let h = 0.5 * p.damping * p.dt;
-        let shrink = _mm512_set1_pd(1.0 - h);
-        let grow = _mm512_set1_pd(1.0 / (1.0 + h));
-        let dt = _mm512_set1_pd(p.dt);
-        let half = _mm512_set1_pd(0.5);
-        // SAFETY: by the caller's contract, i..i+8 is in bounds of every array read or written here.
-        let im = unsafe { _mm512_loadu_pd(inv_mass.as_ptr().add(i)) };
-        let mut v2 = _mm512_setzero_pd();
-        let mut gw = _mm512_setzero_pd();
-        let [vx, vy, vz] = v;
-        let [nx, ny, nz] = un;
-        // In place (`u` None), `un` holds the old displacements until it is written.
-        let comps = [
-            (vx, nx, u.map(|u| u.x())),
-            (vy, ny, u.map(|u| u.y())),
-            (vz, nz, u.map(|u| u.z())),
-        ];
-        for (c, (vs, ns, uc)) in comps.into_iter().enumerate().take(dims) {
-            let g = _mm512_set1_pd(p.accel[c]);
-            // SAFETY: by this fn's contract, the block's entries of `v`, `un` and `u` are in bounds of the loads and stores.
-            unsafe {
-                let old = _mm512_loadu_pd(vs.as_ptr());
-                let acc = _mm512_add_pd(_mm512_mul_pd(f[c], im), g);
-                let new = _mm512_mul_pd(
-                    _mm512_add_pd(_mm512_mul_pd(shrink, old), _mm512_mul_pd(dt, acc)),
-                    grow,
-                );
-                _mm512_storeu_pd(vs.as_mut_ptr(), new);
-                let ui = _mm512_loadu_pd(uc.map_or(ns.as_ptr(), |uc| uc.as_ptr().add(i)));
-                _mm512_storeu_pd(ns.as_mut_ptr(), _mm512_add_pd(ui, _mm512_mul_pd(dt, new)));
-                let mid = _mm512_mul_pd(half, _mm512_add_pd(old, new));
-                v2 = _mm512_add_pd(v2, _mm512_mul_pd(mid, mid));
-                gw = _mm512_add_pd(gw, _mm512_mul_pd(g, mid));
-            }
-        }
-        if p.damping == 0.0 && p.accel == [0.0; 3] {
-            // Every node's shares are +0, which would leave the sums' bits as they are.
-            return;
-        }
-        let mut lane_v2 = [0.0; 8];
-        let mut lane_gw = [0.0; 8];
-        let mut lane_im = [0.0; 8];
-        // SAFETY: the lane arrays hold 8 doubles, the stores' width.
-        unsafe {
-            _mm512_storeu_pd(lane_v2.as_mut_ptr(), v2);
-            _mm512_storeu_pd(lane_gw.as_mut_ptr(), gw);
-            _mm512_storeu_pd(lane_im.as_mut_ptr(), im);
-        }
-        for l in 0..8 {
-            let m = if lane_im[l] > 0.0 {
-                1.0 / lane_im[l]
-            } else {
-                0.0
-            };
-            sums.dissipated += p.damping * m * lane_v2[l] * p.dt;
-            sums.body_work += m * lane_gw[l] * p.dt;
-        }
-    }
-}
-
-/// The AVX2 paths' shared kick and drift.
-#[cfg(target_arch = "x86_64")]
-pub(crate) mod avx2 {
-    use std::arch::x86_64::*;
-
-    use super::{Factors, StepParams, SweepSums};
-    use hooke_model::math::{Coords, Real};
-
-    /// All ones in the lanes whose spring in direction `d` is intact (bit d of their mask
-    /// words, one 64-bit lane per node).
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub(crate) fn lanes(mask: __m256i, d: usize) -> __m256d {
-        let bit = _mm256_set1_epi64x(1 << d);
-        _mm256_castsi256_pd(_mm256_cmpeq_epi64(_mm256_and_si256(mask, bit), bit))
-    }
-
-    /// The lanes' weight classes (bits `SHIFT`.. of their mask words), if one of them has
-    /// factors other than 1 (multiplying by 1 is exact, so the other blocks skip it).
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub(crate) fn classes<const SHIFT: i32, const D: usize>(
-        f: &Factors<D>,
-        mask: __m256i,
-    ) -> Option<__m256i> {
-        if !f.on {
-            return None;
-        }
-        let c = _mm256_srli_epi64::<SHIFT>(mask);
-        (_mm256_testz_si256(c, c) == 0).then_some(c)
-    }
-
-    /// The factors of direction `d` for the lanes' classes `c`.
-    ///
-    /// # Safety
-    /// AVX2; `c` from [`classes`] (each below [`super::CLASSES`]).
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub(crate) unsafe fn factors<const D: usize>(f: &Factors<D>, c: __m256i, d: usize) -> __m256d {
-        // SAFETY: by the caller's contract, the classes index the row of CLASSES doubles.
-        unsafe { _mm256_i64gather_pd::<8>(f.w[d].as_ptr(), c) }
-    }
-
-    /// Kick and drift of the 4 nodes from `i` with forces `f`: [`super::avx512::kick_drift8`]
-    /// on 4 lanes, the scalar [`super::super::kick_drift`]'s operations lane by lane, each
-    /// node's shares of the sums added to `sums` in index order.
-    ///
-    /// # Safety
-    /// The processor has AVX2; `u` and `inv_mass` hold nodes `i..i + 4`; `v` and `un` hold
-    /// the block's 4 entries per component.
-    #[allow(clippy::too_many_arguments)]
-    #[target_feature(enable = "avx2")]
-    pub(crate) unsafe fn kick_drift4(
-        dims: usize,
-        f: [__m256d; 3],
-        u: Option<&Coords>,
-        inv_mass: &[Real],
-        p: &StepParams,
-        i: usize,
-        v: [&mut [Real]; 3],
-        un: [&mut [Real]; 3],
-        sums: &mut SweepSums,
-    ) {
-        let h = 0.5 * p.damping * p.dt;
-        let shrink = _mm256_set1_pd(1.0 - h);
-        let grow = _mm256_set1_pd(1.0 / (1.0 + h));
-        let dt = _mm256_set1_pd(p.dt);
-        let half = _mm256_set1_pd(0.5);
-        // SAFETY: by the caller's contract, i..i+4 is in bounds of every array read or written here.
-        let im = unsafe { _mm256_loadu_pd(inv_mass.as_ptr().add(i)) };
-        let mut v2 = _mm256_setzero_pd();
-        let mut gw = _mm256_setzero_pd();
-        let [vx, vy, vz] = v;
-        let [nx, ny, nz] = un;
-        // In place (`u` None), `un` holds the old displacements until it is written.
-        let comps = [
-            (vx, nx, u.map(|u| u.x())),
-            (vy, ny, u.map(|u| u.y())),
-            (vz, nz, u.map(|u| u.z())),
-        ];
-        for (c, (vs, ns, uc)) in comps.into_iter().enumerate().take(dims) {
-            let g = _mm256_set1_pd(p.accel[c]);
-            // SAFETY: by this fn's contract, the block's entries of `v`, `un` and `u` are in bounds of the loads and stores.
-            unsafe {
-                let old = _mm256_loadu_pd(vs.as_ptr());
-                let acc = _mm256_add_pd(_mm256_mul_pd(f[c], im), g);
-                let new = _mm256_mul_pd(
-                    _mm256_add_pd(_mm256_mul_pd(shrink, old), _mm256_mul_pd(dt, acc)),
-                    grow,
-                );
-                _mm256_storeu_pd(vs.as_mut_ptr(), new);
-                let ui = _mm256_loadu_pd(uc.map_or(ns.as_ptr(), |uc| uc.as_ptr().add(i)));
-                _mm256_storeu_pd(ns.as_mut_ptr(), _mm256_add_pd(ui, _mm256_mul_pd(dt, new)));
-                let mid = _mm256_mul_pd(half, _mm256_add_pd(old, new));
-                v2 = _mm256_add_pd(v2, _mm256_mul_pd(mid, mid));
-                gw = _mm256_add_pd(gw, _mm256_mul_pd(g, mid));
-            }
-        }
-        if p.damping == 0.0 && p.accel == [0.0; 3] {
-            // Every node's shares are +0, which would leave the sums' bits as they are.
-            return;
-        }
-        let mut lane_v2 = [0.0; 4];
-        let mut lane_gw = [0.0; 4];
-        let mut lane_im = [0.0; 4];
-        // SAFETY: the lane arrays hold 4 doubles, the stores' width.
-        unsafe {
-            _mm256_storeu_pd(lane_v2.as_mut_ptr(), v2);
-            _mm256_storeu_pd(lane_gw.as_mut_ptr(), gw);
-            _mm256_storeu_pd(lane_im.as_mut_ptr(), im);
-        }
-        for l in 0..4 {
-            let m = if lane_im[l] > 0.0 {
-                1.0 / lane_im[l]
-            } else {
-                0.0
-            };
-            sums.dissipated += p.damping * m * lane_v2[l] * p.dt;
-            sums.body_work += m * lane_gw[l] * p.dt;
-        }
+        // SAFETY: the processor has AVX-512F, and the rest is the caller's contract.
+        unsafe { kick_drift(W8::new(), dims, f, u, inv_mass, p, i, v, un, sums) }
     }
 }

@@ -108,6 +108,59 @@ impl Partition {
     }
 }
 
+/// The split an integrator is set up on, before it exists: alone, or this member's share of a
+/// team's, found once. The set-up reads it where the split matters (the kernel's rows, the
+/// stable-step estimate's shared sweeps) and ends by turning it into the [`Partition`].
+pub(super) enum Plan {
+    Alone,
+    Shared {
+        team: std::sync::Arc<dyn Team>,
+        share: Share,
+    },
+}
+
+impl Plan {
+    /// Alone without a team or with a team of one; else this member's share of `body` (the
+    /// loaded and prescribed nodes of `loading`, which the steps' bookkeeping reads, traded
+    /// with the halo).
+    pub(super) fn new(
+        body: &Body,
+        loading: &Loading,
+        team: Option<std::sync::Arc<dyn Team>>,
+    ) -> Plan {
+        match team.filter(|t| t.size() > 1) {
+            None => Plan::Alone,
+            Some(team) => {
+                let share = Share::new(body, team.size(), team.rank(), &special_nodes(loading));
+                Plan::Shared { team, share }
+            }
+        }
+    }
+
+    /// The nodes this member's kernel sweeps (`None`: every node).
+    pub(super) fn swept(&self) -> Option<std::ops::Range<usize>> {
+        match self {
+            Plan::Alone => None,
+            Plan::Shared { share, .. } => Some(share.mine()),
+        }
+    }
+
+    /// The stable-step estimate's split of its sweeps (`None` alone).
+    pub(super) fn split(&self) -> Option<stability::Split<'_>> {
+        match self {
+            Plan::Alone => None,
+            Plan::Shared { team, share } => Some(stability::Split::new(&**team, share)),
+        }
+    }
+
+    /// Distribute `it` as planned (alone, nothing).
+    pub(super) fn distribute(self, it: &mut Integrator, body: &Body) {
+        if let Plan::Shared { team, share } = self {
+            it.distribute_with(body, team, Some(share));
+        }
+    }
+}
+
 /// What a shared integrator keeps besides its share (see [`Integrator::distribute`]).
 #[derive(Debug)]
 pub(super) struct Shared {

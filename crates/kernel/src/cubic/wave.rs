@@ -247,7 +247,7 @@ fn force_chunk(
                     }
                 }
                 let f = avx512::forces8(s, u, pool, i, ring);
-                crate::stencil::avx512::kick_drift8(
+                crate::stencil::vector::kick_drift8(
                     3,
                     f,
                     Some(u),
@@ -274,13 +274,16 @@ fn force_chunk(
 
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
-    use std::arch::x86_64::*;
-
-    use super::super::avx512::{
-        add_share, add_terms, classes, extension, factor, lanes, load_block, vector8,
+    use super::super::vector::{
+        add_share, add_terms, classes, extension, factor, load_block, vector,
     };
     use super::{CubicStencil, Ring, FORWARD, ROW};
+    use crate::wide::{Wide, W8};
     use hooke_model::math::{Coords, Real};
+
+    type V = <W8 as Wide>::F;
+    type M = <W8 as Wide>::M;
+    type I = <W8 as Wide>::I;
 
     /// Store a forward direction's 8 values of the block in slots `at..at + 8` of its ring
     /// row `row` (and in the mirror slots when `at` is 0).
@@ -288,16 +291,15 @@ mod avx512 {
     /// # Safety
     /// The processor has AVX-512F, `row` is a ring row and `at + 8` is at most the ring's
     /// length (a block's slot: a multiple of 8).
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    unsafe fn keep(s: &CubicStencil, ring: &mut Ring, row: usize, at: usize, x: __m512d) {
+    #[inline(always)]
+    unsafe fn keep(w: W8, s: &CubicStencil, ring: &mut Ring, row: usize, at: usize, x: V) {
         let r = s.ring_len;
         // SAFETY: by the caller's contract, `at + 8 <= r` (a block's slot is a multiple of 8), within the row.
         unsafe {
             let base = ring.buf.as_mut_ptr().add(row * (r + 8));
-            _mm512_storeu_pd(base.add(at), x);
+            w.store(base.add(at), x);
             if at == 0 {
-                _mm512_storeu_pd(base.add(r), x);
+                w.store(base.add(r), x);
             }
         }
     }
@@ -308,15 +310,14 @@ mod avx512 {
     /// # Safety
     /// The processor has AVX-512F, `row` is a ring row, and `at + off` lies within the
     /// row's reach (`-reach <= off < 0`), its 8 values kept by an earlier `keep`.
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    unsafe fn recall(s: &CubicStencil, ring: &Ring, row: usize, at: usize, off: isize) -> __m512d {
+    #[inline(always)]
+    unsafe fn recall(w: W8, s: &CubicStencil, ring: &Ring, row: usize, at: usize, off: isize) -> V {
         let r = s.ring_len;
         // The slot of node `i + off`, `(at + off) mod r`, without a division.
         let back = at as isize + off;
         let slot = if back < 0 { back + r as isize } else { back } as usize;
         // SAFETY: `slot + 8 <= r + 8`, within the row and its mirror.
-        unsafe { _mm512_loadu_pd(ring.buf.as_ptr().add(row * (r + 8) + slot)) }
+        unsafe { w.load(ring.buf.as_ptr().add(row * (r + 8) + slot)) }
     }
 
     /// Fill the ring with the forward springs' `dL` of the block at `m` (a lead-in block).
@@ -327,12 +328,21 @@ mod avx512 {
     /// its entries.
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn forward_lengths8(s: &CubicStencil, u: &Coords, m: usize, ring: &mut Ring) {
-        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
-        let (ui, mask) = unsafe { load_block(s, u, m) };
+        // SAFETY: the processor has the feature and the block at this index is in bounds (this fn's contract).
+        let (w, (ui, mask)) = unsafe { (W8::new(), load_block(W8::new(), s, u, m)) };
         for d in FORWARD {
-            if lanes(mask, d) != 0 {
+            if w.any(w.bit(mask, d)) {
                 // SAFETY: the block at m is inside (this fn's contract), so its neighbours and its ring slot (m is a multiple of 8) are in bounds.
-                unsafe { keep(s, ring, ROW[d], m % s.ring_len, extension(s, u, m, d, ui)) };
+                unsafe {
+                    keep(
+                        w,
+                        s,
+                        ring,
+                        ROW[d],
+                        m % s.ring_len,
+                        extension(w, s, u, m, d, ui),
+                    )
+                };
             }
         }
     }
@@ -340,38 +350,36 @@ mod avx512 {
     /// Direction `D`'s term of sweep 1 for the block at `i` (slot `at`).
     ///
     /// # Safety
-    /// The processor has the function's target feature; the block at the given node is inside
-    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
-    /// its entries.
+    /// The block at the given node is inside the body's box (`vector_block`), and the ring
+    /// holds its lead-in.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     unsafe fn pool_term<const D: usize>(
+        w: W8,
         s: &CubicStencil,
         u: &Coords,
         i: usize,
-        ui: [__m512d; 3],
-        mask: __m256i,
-        cls: Option<__m512i>,
+        (ui, mask, cls): ([V; 3], I, Option<I>),
         screen: Real,
         ring: &mut Ring,
         at: usize,
-        acc: &mut __m512d,
-        hot: &mut __mmask8,
+        acc: &mut V,
+        hot: &mut M,
     ) {
-        // SAFETY: by the caller's contract, AVX-512F, the block is inside and the ring holds its lead-in.
+        // SAFETY: by the caller's contract, the block is inside and the ring holds its lead-in.
         unsafe {
-            let m = lanes(mask, D);
-            if m == 0 {
+            let m = w.bit(mask, D);
+            if !w.any(m) {
                 return;
             }
             let dl = if const { super::is_forward(D) } {
-                let dl = extension(s, u, i, D, ui);
-                keep(s, ring, ROW[D], at, dl);
+                let dl = extension(w, s, u, i, D, ui);
+                keep(w, s, ring, ROW[D], at, dl);
                 dl
             } else {
-                recall(s, ring, ROW[D], at, s.off[D])
+                recall(w, s, ring, ROW[D], at, s.off[D])
             };
-            add_share(s, D, m, dl, cls, screen, acc, hot);
+            add_share(w, s, D, m, dl, cls, screen, acc, hot);
         }
     }
 
@@ -380,8 +388,7 @@ mod avx512 {
     ///
     /// # Safety
     /// The processor has the function's target feature; the block at the given node is inside
-    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
-    /// its entries.
+    /// the body's box (`vector_block`), and `out` and the ring hold its entries.
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn pools8(
         s: &CubicStencil,
@@ -391,27 +398,27 @@ mod avx512 {
         screen: Real,
         ring: &mut Ring,
     ) -> bool {
-        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
-        let (ui, mask) = unsafe { load_block(s, u, i) };
-        let cls = classes(s, mask);
+        // SAFETY: the processor has the feature and the block at this index is in bounds (this fn's contract).
+        let (w, (ui, mask)) = unsafe { (W8::new(), load_block(W8::new(), s, u, i)) };
+        let block = (ui, mask, classes(w, s, mask));
         let at = i % s.ring_len;
-        let mut acc = _mm512_setzero_pd();
-        let mut hot: __mmask8 = 0;
+        let mut acc = w.zero();
+        let mut hot = w.no_lanes();
         // Each direction's term, the loop unrolled (a tenth off the sweep: the directions'
         // constants become immediate offsets and the branches go).
         macro_rules! directions { ($($d:literal)*) => { $(
             // SAFETY: the block is inside (this fn's contract), so its neighbours in every
             // direction are nodes, and `at` is its ring slot.
             unsafe {
-            pool_term::<$d>(s, u, i, ui, mask, cls, screen, ring, at, &mut acc, &mut hot)
+            pool_term::<$d>(w, s, u, i, block, screen, ring, at, &mut acc, &mut hot)
         }; )* } }
         directions!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17);
         // SAFETY: out has 8 entries; inv_norm[i..i+8] is in bounds.
         unsafe {
-            let inv = _mm512_loadu_pd(s.inv_norm.as_ptr().add(i));
-            _mm512_storeu_pd(out.as_mut_ptr(), _mm512_mul_pd(acc, inv));
+            let inv = w.load(s.inv_norm.as_ptr().add(i));
+            w.store(out.as_mut_ptr(), acc * inv);
         }
-        hot != 0
+        w.any(hot)
     }
 
     /// Fill the ring with the forward springs' force factors of the block at `m` (a lead-in
@@ -419,8 +426,7 @@ mod avx512 {
     ///
     /// # Safety
     /// The processor has the function's target feature; the block at the given node is inside
-    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
-    /// its entries.
+    /// the body's box (`vector_block`), and the ring holds its entries.
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn forward_factors8(
         s: &CubicStencil,
@@ -429,17 +435,17 @@ mod avx512 {
         m: usize,
         ring: &mut Ring,
     ) {
-        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
-        let (ui, mask) = unsafe { load_block(s, u, m) };
-        let cls = classes(s, mask);
+        // SAFETY: the processor has the feature and the block at this index is in bounds (this fn's contract).
+        let (w, (ui, mask)) = unsafe { (W8::new(), load_block(W8::new(), s, u, m)) };
+        let cls = classes(w, s, mask);
         // SAFETY: the block's nodes are in bounds of the pools (this fn's contract).
-        let pi = unsafe { _mm512_loadu_pd(pool.as_ptr().add(m)) };
+        let pi = unsafe { w.load(pool.as_ptr().add(m)) };
         for d in FORWARD {
-            if lanes(mask, d) != 0 {
+            if w.any(w.bit(mask, d)) {
                 // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
-                let (_, sc) = unsafe { factor(s, u, pool, m, d, ui, pi, cls) };
+                let (_, sc) = unsafe { factor(w, s, u, pool, m, d, ui, pi, cls) };
                 // SAFETY: m is a block start, a multiple of 8, so its slot lies within the ring row.
-                unsafe { keep(s, ring, ROW[d], m % s.ring_len, sc) };
+                unsafe { keep(w, s, ring, ROW[d], m % s.ring_len, sc) };
             }
         }
     }
@@ -449,8 +455,7 @@ mod avx512 {
     ///
     /// # Safety
     /// The processor has the function's target feature; the block at the given node is inside
-    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
-    /// its entries.
+    /// the body's box (`vector_block`), and the ring holds its entries.
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn forces8(
         s: &CubicStencil,
@@ -458,19 +463,19 @@ mod avx512 {
         pool: &[Real],
         i: usize,
         ring: &mut Ring,
-    ) -> [__m512d; 3] {
-        // SAFETY: the block at this index is in bounds and the processor has the feature (this fn's contract).
-        let (ui, mask) = unsafe { load_block(s, u, i) };
-        let cls = classes(s, mask);
+    ) -> [V; 3] {
+        // SAFETY: the processor has the feature and the block at this index is in bounds (this fn's contract).
+        let (w, (ui, mask)) = unsafe { (W8::new(), load_block(W8::new(), s, u, i)) };
+        let block = (ui, mask, classes(w, s, mask));
         // SAFETY: the block's nodes are in bounds of the pools (this fn's contract).
-        let pi = unsafe { _mm512_loadu_pd(pool.as_ptr().add(i)) };
+        let pi = unsafe { w.load(pool.as_ptr().add(i)) };
         let at = i % s.ring_len;
-        let mut f = [_mm512_setzero_pd(); 3];
+        let mut f = [w.zero(); 3];
         macro_rules! directions { ($($d:literal)*) => { $(
             // SAFETY: the block is inside (this fn's contract), so its neighbours in every
             // direction are nodes, and `at` is its ring slot.
             unsafe {
-            force_term::<$d>(s, u, pool, i, ui, mask, cls, pi, ring, at, &mut f)
+            force_term::<$d>(w, s, u, pool, i, block, pi, ring, at, &mut f)
         }; )* } }
         directions!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17);
         f
@@ -479,40 +484,38 @@ mod avx512 {
     /// Direction `D`'s term of the forces on the block at `i` (slot `at`).
     ///
     /// # Safety
-    /// The processor has the function's target feature; the block at the given node is inside
-    /// the body's box (`vector_block`), and `out`, `v`, `un` and the ring (where taken) hold
-    /// its entries.
+    /// The block at the given node is inside the body's box (`vector_block`), and the ring
+    /// holds its lead-in.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     unsafe fn force_term<const D: usize>(
+        w: W8,
         s: &CubicStencil,
         u: &Coords,
         pool: &[Real],
         i: usize,
-        ui: [__m512d; 3],
-        mask: __m256i,
-        cls: Option<__m512i>,
-        pi: __m512d,
+        (ui, mask, cls): ([V; 3], I, Option<I>),
+        pi: V,
         ring: &mut Ring,
         at: usize,
-        f: &mut [__m512d; 3],
+        f: &mut [V; 3],
     ) {
-        // SAFETY: by the caller's contract, AVX-512F, the block is inside and the ring holds its lead-in.
+        // SAFETY: by the caller's contract, the block is inside and the ring holds its lead-in.
         unsafe {
-            let m = lanes(mask, D);
-            if m == 0 {
+            let m = w.bit(mask, D);
+            if !w.any(m) {
                 return;
             }
             let (x, sc) = if const { super::is_forward(D) } {
-                let (x, sc) = factor(s, u, pool, i, D, ui, pi, cls);
-                keep(s, ring, ROW[D], at, sc);
+                let (x, sc) = factor(w, s, u, pool, i, D, ui, pi, cls);
+                keep(w, s, ring, ROW[D], at, sc);
                 (x, sc)
             } else {
                 // The square length is left unused (and not computed).
-                let (x, _) = vector8(s, u, i, D, ui);
-                (x, recall(s, ring, ROW[D], at, s.off[D]))
+                let (x, _) = vector(w, s, u, i, D, ui);
+                (x, recall(w, s, ring, ROW[D], at, s.off[D]))
             };
-            add_terms(f, m, sc, x);
+            add_terms(w, f, m, sc, x);
         }
     }
 }
