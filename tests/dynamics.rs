@@ -9,7 +9,10 @@ use hooke_core::relax::{relax, RelaxOptions};
 use hooke_core::stability;
 use hooke_core::statics::{self, Constraints, StaticOptions};
 use hooke_core::{Body, Coords, Error, Lattice, LatticeKind, Real, State, Tangent, Vector};
-use hooke_tests::{dofs, kernel_forces, kill_random, random_displacement, Rng};
+use hooke_tests::{
+    dofs, kernel_forces, kill_random, random_displacement, relative_drift, shadow_energies,
+    simd_from_env, Rng,
+};
 use nalgebra::DMatrix;
 
 fn cube(n: usize, nu: Real) -> Body {
@@ -48,15 +51,6 @@ fn smooth_field(body: &Body, amp: Real) -> Coords {
 /// the motion; for a start from the rest position with velocity v, `omega^2 = v.K.v / v.M.v`.
 /// The body starts undeformed with a smooth velocity field, so no surface tractions kick the
 /// highest modes.
-/// The kernels' paths as the environment asks (`HOOKE_NO_SIMD=1`: the portable ones, how CI
-/// runs the kernel tests a second time; `HOOKE_SIMD=avx2`), as the `hooke` binary maps them.
-/// Every test that runs kernels calls it first (the setting is the process's; all set the same).
-fn simd_from_env() {
-    hooke_core::kernel::set_simd(hooke_core::kernel::Simd::from_env_values(
-        std::env::var_os("HOOKE_NO_SIMD").is_some(),
-        std::env::var("HOOKE_SIMD").ok().as_deref(),
-    ));
-}
 
 #[test]
 fn free_vibration_conserves_energy() {
@@ -82,32 +76,9 @@ fn free_vibration_conserves_energy() {
         assert!(matches!(it.kernel(), Kernel::Cubic(_)));
         let b0 = it.energy(&body, &mut state);
         let e0 = b0.kinetic + b0.strain.total();
-        let mut energies = Vec::new();
-        let mut shadow = Vec::new();
-        for _ in 0..1000 {
-            it.run(&body, &mut state, 9).unwrap();
-            let (v_before, u_before) = (state.v.clone(), state.u.clone());
-            it.step(&body, &mut state);
-            let kin: Real = (0..body.nodes())
-                .map(|i| 0.5 * body.mass[i] * v_before.get(i).dot(&state.v.get(i)))
-                .sum();
-            shadow.push(
-                kin + hooke_core::law::energy(&body, &u_before, state.springs(&body), state.norm())
-                    .total(),
-            );
-            let b = it.energy(&body, &mut state);
-            energies.push(b.kinetic + b.strain.total());
-        }
-        // Least-squares line through (k, H_k); drift = slope times the run's length.
+        let (shadow, energies) = shadow_energies(&mut it, &body, &mut state, 1000);
         let n = shadow.len() as Real;
-        let km = (n - 1.0) / 2.0;
-        let hm = shadow.iter().sum::<Real>() / n;
-        let (mut sxy, mut sxx) = (0.0, 0.0);
-        for (k, h) in shadow.iter().enumerate() {
-            sxy += (k as Real - km) * (h - hm);
-            sxx += (k as Real - km).powi(2);
-        }
-        let drift = (sxy / sxx * n).abs() / e0;
+        let drift = relative_drift(&shadow, e0);
         let (lo, hi) = energies
             .iter()
             .fold((Real::INFINITY, Real::NEG_INFINITY), |(lo, hi), &e| {

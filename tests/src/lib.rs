@@ -237,3 +237,54 @@ pub fn assert_tangent_is_force_jacobian(
         kv.norm()
     );
 }
+
+/// The kernels' paths as the environment asks (`HOOKE_NO_SIMD=1`: the portable ones, how CI
+/// runs the kernel tests a second time; `HOOKE_SIMD=avx2`), as the `hooke` binary maps them.
+/// Every test that runs kernels calls it first (the setting is the process's; all set the same).
+pub fn simd_from_env() {
+    hooke_core::kernel::set_simd(hooke_core::kernel::Simd::from_env_values(
+        std::env::var_os("HOOKE_NO_SIMD").is_some(),
+        std::env::var("HOOKE_SIMD").ok().as_deref(),
+    ));
+}
+
+/// Free vibration sampled every 10 steps, `rounds` times: the leapfrog's shadow energy `H =
+/// 1/2 sum m v(t-dt/2).v(t+dt/2) + U(u(t))` (exactly conserved for a linear system) and the
+/// ordinary `K + U` (full-step velocity) at each sample.
+pub fn shadow_energies(
+    it: &mut hooke_core::dynamics::Integrator,
+    body: &Body,
+    state: &mut State,
+    rounds: usize,
+) -> (Vec<Real>, Vec<Real>) {
+    let (mut shadow, mut energies) = (Vec::new(), Vec::new());
+    for _ in 0..rounds {
+        it.run(body, state, 9).unwrap();
+        let (v_before, u_before) = (state.v.clone(), state.u.clone());
+        it.step(body, state);
+        let kin: Real = (0..body.nodes())
+            .map(|i| 0.5 * body.mass[i] * v_before.get(i).dot(&state.v.get(i)))
+            .sum();
+        shadow.push(
+            kin + hooke_core::law::energy(body, &u_before, state.springs(body), state.norm())
+                .total(),
+        );
+        let b = it.energy(body, state);
+        energies.push(b.kinetic + b.strain.total());
+    }
+    (shadow, energies)
+}
+
+/// The drift of a series over its length relative to `e0`: the least-squares line's slope
+/// through `(k, h_k)` times the number of samples.
+pub fn relative_drift(series: &[Real], e0: Real) -> Real {
+    let n = series.len() as Real;
+    let km = (n - 1.0) / 2.0;
+    let hm = series.iter().sum::<Real>() / n;
+    let (mut sxy, mut sxx) = (0.0, 0.0);
+    for (k, h) in series.iter().enumerate() {
+        sxy += (k as Real - km) * (h - hm);
+        sxx += (k as Real - km).powi(2);
+    }
+    (sxy / sxx * n).abs() / e0
+}

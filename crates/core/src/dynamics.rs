@@ -270,7 +270,7 @@ fn estimate(
     if opts.damage_proof {
         let plain =
             stability::estimate_using(body, state, &kernel.plain(), 40, 1e-3, u_next, ones, split);
-        let lambda = (1.0 + 2.0 * body.q.max(0.0)) * plain.lambda_max;
+        let lambda = (1.0 + 2.0 * body.q_bound()) * plain.lambda_max;
         StableStep {
             lambda_max: lambda,
             dt_critical: 2.0 / lambda.sqrt(),

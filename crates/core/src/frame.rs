@@ -312,7 +312,7 @@ pub fn frame_fields_piece(
         0.0
     } else {
         let disp = |i: usize| {
-            if norm[i] > 0.0 {
+            if norm[i] != 0.0 {
                 0.5 * q * pi[i] * pi[i] / norm[i]
             } else {
                 0.0
@@ -598,7 +598,7 @@ fn node_density_stress(
     i: usize,
     m: [Real; 6],
 ) -> (Real, [Real; 9]) {
-    let disp = if norm[i] > 0.0 {
+    let disp = if norm[i] != 0.0 {
         0.5 * body.q * pi[i] * pi[i] / norm[i]
     } else {
         0.0
@@ -628,7 +628,7 @@ fn dispersive_sum(
         return 0.0;
     }
     let disp = |i: usize| {
-        if norm[i] > 0.0 {
+        if norm[i] != 0.0 {
             0.5 * q * pi[i] * pi[i] / norm[i]
         } else {
             0.0

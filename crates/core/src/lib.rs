@@ -32,7 +32,7 @@
 
 pub use hooke_kernel as kernel;
 pub use hooke_lattice::{error, lattice, math, memory};
-pub use hooke_model::{anisotropy, body, loading, material, state, tangent};
+pub use hooke_model::{anisotropy, body, loading, material, phases, state, tangent};
 
 pub mod cube;
 pub mod dynamics;

@@ -94,7 +94,7 @@ fn fictitious_mass(body: &Body, state: &State) -> Vec<Real> {
                 direct += kk[b] + (t / g.l).abs();
                 disp += kk[b] * lever.get(b) * a[j] * inv_s(j);
             }
-            let row = 2.0 * (3.0 as Real).sqrt() * (direct + body.q.abs() * disp);
+            let row = 2.0 * (3.0 as Real).sqrt() * (direct + body.q_abs_max() * disp);
             // A node with no intact spring gets a unit mass: it has no stiffness to bound.
             if row > 0.0 {
                 0.25 * row

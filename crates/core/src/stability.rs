@@ -748,7 +748,7 @@ pub fn damage_bound(body: &Body) -> Real {
         .with_min_len(BLOCK)
         .map(|n| 2.0 * sum_k(n) / body.mass[n])
         .reduce(|| 0.0, Real::max);
-    (1.0 + 2.0 * body.q.max(0.0)) * worst
+    (1.0 + 2.0 * body.q_bound()) * worst
 }
 
 #[cfg(test)]

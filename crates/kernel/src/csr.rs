@@ -189,7 +189,8 @@ fn spring_one<const D: usize, const P: bool>(
 fn node_pool(body: &Body, norm: &[Real], pis: &[Real], n: usize) -> Real {
     let bonds = &*body.lattice.bonds;
     let s = norm[n];
-    if s > 0.0 {
+    // Negative at a node of negative q_n (Body::q_node); 0 only without springs.
+    if s != 0.0 {
         let mut sum = 0.0;
         for &b in &bonds.bond[bonds.row(n)] {
             sum += pis[b as usize];

@@ -165,11 +165,16 @@ impl Kernel {
     /// [`Kernel::for_body`] for a rank that sweeps only the nodes `own` (whole chunks; `None`:
     /// every node): a row kernel then holds only their rows ([`Kernel::keep_rows`]).
     pub fn for_body_in(body: &Body, state: &State, own: Option<std::ops::Range<usize>>) -> Kernel {
-        if let Some(s) = cubic::CubicStencil::new(body, state) {
-            return Kernel::Cubic(s);
-        }
-        if let Some(s) = hex::HexStencil::new(body, state) {
-            return Kernel::Hex(s);
+        // A stencil keeps one normaliser rule for the whole box; a body of several materials
+        // (its normalisers `S_n / q_n`, `Body::q_node`) takes the row or CSR kernel, which read
+        // the state's.
+        if body.q_node.is_none() {
+            if let Some(s) = cubic::CubicStencil::new(body, state) {
+                return Kernel::Cubic(s);
+            }
+            if let Some(s) = hex::HexStencil::new(body, state) {
+                return Kernel::Hex(s);
+            }
         }
         // Without vector instructions (AVX-512 or AVX2) the row kernel's scalar path would be
         // slower than the CSR kernel, which gives the same bits.

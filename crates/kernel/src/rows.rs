@@ -665,7 +665,8 @@ impl RowKernel {
             sum += s.k[e] * self.lever_at(e, rest) * dl;
         });
         let sn = src.norm[i];
-        (if sn > 0.0 { sum / sn } else { 0.0 }, hot)
+        // Negative at a node of negative q_n (Body::q_node); 0 only without springs.
+        (if sn != 0.0 { sum / sn } else { 0.0 }, hot)
     }
 
     fn force_scalar<const D: usize>(&self, src: &Src, pool: &[Real], i: usize) -> [Real; 3] {
@@ -977,10 +978,7 @@ mod vector {
             for b in 0..WINDOW / W::N {
                 let acc = w.load(sums.0[0].as_ptr().add(W::N * b));
                 let sn = w.load(src.norm.as_ptr().add(i + W::N * b));
-                w.store(
-                    out.as_mut_ptr().add(W::N * b),
-                    w.div_where_positive(acc, sn),
-                );
+                w.store(out.as_mut_ptr().add(W::N * b), w.div_where_nonzero(acc, sn));
             }
         }
         w.any(hot)

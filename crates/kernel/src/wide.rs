@@ -49,8 +49,8 @@ pub(crate) trait Wide: Copy {
     fn add_where(self, acc: Self::F, m: Self::M, x: Self::F) -> Self::F;
     /// The lanes of `m` where `a > b` (ordered: a NaN is never greater).
     fn gt_where(self, m: Self::M, a: Self::F, b: Self::F) -> Self::M;
-    /// `a / b` where `b > 0`, +0 elsewhere.
-    fn div_where_positive(self, a: Self::F, b: Self::F) -> Self::F;
+    /// `a / b` where `b` is not zero, +0 where it is.
+    fn div_where_nonzero(self, a: Self::F, b: Self::F) -> Self::F;
     /// No lane.
     fn no_lanes(self) -> Self::M;
     /// Whether `m` holds a lane.
@@ -226,11 +226,11 @@ impl Wide for W8 {
         M8(unsafe { _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m.0, a.0, b.0) })
     }
     #[inline(always)]
-    fn div_where_positive(self, a: V8, b: V8) -> V8 {
+    fn div_where_nonzero(self, a: V8, b: V8) -> V8 {
         // SAFETY: the token.
         V8(unsafe {
-            let pos = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(b.0, _mm512_setzero_pd());
-            _mm512_maskz_div_pd(pos, a.0, b.0)
+            let some = _mm512_cmp_pd_mask::<_CMP_NEQ_OQ>(b.0, _mm512_setzero_pd());
+            _mm512_maskz_div_pd(some, a.0, b.0)
         })
     }
     #[inline(always)]
@@ -398,11 +398,11 @@ impl Wide for W4 {
         M4(unsafe { _mm256_and_pd(m.0, _mm256_cmp_pd::<_CMP_GT_OQ>(a.0, b.0)) })
     }
     #[inline(always)]
-    fn div_where_positive(self, a: V4, b: V4) -> V4 {
+    fn div_where_nonzero(self, a: V4, b: V4) -> V4 {
         // SAFETY: the token. The quotient's other lanes are masked away to +0.
         V4(unsafe {
-            let pos = _mm256_cmp_pd::<_CMP_GT_OQ>(b.0, _mm256_setzero_pd());
-            _mm256_and_pd(pos, _mm256_div_pd(a.0, b.0))
+            let some = _mm256_cmp_pd::<_CMP_NEQ_OQ>(b.0, _mm256_setzero_pd());
+            _mm256_and_pd(some, _mm256_div_pd(a.0, b.0))
         })
     }
     #[inline(always)]

@@ -750,6 +750,7 @@ impl Body {
             q,
             mass,
             lever: Some(lever),
+            q_node: None,
         };
         body.validate()?;
         Ok(body)

@@ -189,6 +189,13 @@ pub struct Body {
     /// `Pi_n = sum_t k_t lambda_t dL_t`, `S_n = sum_t k_t lambda_t^2` and
     /// `T_s = k_s dL_s + q k_s lambda_s (p_i + p_j)`; its extension still runs from `L_s`.
     pub lever: Option<Vec<Real>>,
+    /// Each node's own dispersion ratio `q_n`, in a body of several materials (`None`: every
+    /// node's is `q`). The law is then `U = 1/2 sum_s k_s dL_s^2 + 1/2 sum_n q_n Pi_n^2 / S_n`
+    /// and `T_s = k_s dL_s + k_s L_s (q_i p_i + q_j p_j)` (`docs/model.md`). Everything reads it
+    /// through the normalisers: the state keeps each node's as `S_n / q_n` and `q` is 1, so a
+    /// pool holds `q_n p_n` and every solver's law is the one-material law with `q = 1` (see
+    /// [`Body::with_node_q`]).
+    pub q_node: Option<Vec<Real>>,
 }
 
 impl Body {
@@ -212,6 +219,9 @@ impl Body {
         }
         if let Some(l) = &self.lever {
             parts.push(("levers", bytes(l)));
+        }
+        if let Some(q) = &self.q_node {
+            parts.push(("dispersion ratios", bytes(q)));
         }
         parts
     }
@@ -256,6 +266,7 @@ impl Body {
             q,
             mass,
             lever: None,
+            q_node: None,
         }
     }
 
@@ -276,6 +287,7 @@ impl Body {
             q,
             mass: fill(nn, node_mass),
             lever: None,
+            q_node: None,
         }
     }
 
@@ -351,8 +363,66 @@ impl Body {
         true
     }
 
+    /// This body with its own dispersion ratio `q_n` at each node (a body of several
+    /// materials): `q` becomes 1, and the normalisers a state keeps are `S_n / q_n`
+    /// ([`crate::state::node_norm`]). Refused with the reason where a ratio is not finite or
+    /// not above -1/2, or the count is not the body's.
+    pub fn with_node_q(mut self, q_node: Vec<Real>) -> Result<Self> {
+        if q_node.len() != self.nodes() {
+            return Err(Error::InvalidInput {
+                what: "dispersion ratios per node",
+                why: format!("{} ratios for {} nodes", q_node.len(), self.nodes()),
+            });
+        }
+        if let Some(n) = q_node.iter().position(|&q| !(q.is_finite() && q > -0.5)) {
+            return Err(Error::OutOfRange {
+                what: "dispersion ratio q of a node",
+                value: q_node[n],
+                why: format!("node {n}: the lattice is stable only for q > -1/2 (nu > -1)"),
+            });
+        }
+        self.q = 1.0;
+        self.q_node = Some(q_node);
+        Ok(self)
+    }
+
+    /// Node `n`'s dispersion ratio `q_n`.
+    pub fn q_at(&self, n: usize) -> Real {
+        self.q_node.as_ref().map_or(self.q, |q| q[n])
+    }
+
+    /// `max(q_n, 0)` over the nodes: the stability bound's `max(q, 0)` (a spring's stiffness
+    /// in spring space is at most `(1 + max(q_i, 0) + max(q_j, 0)) k_s`, `stability.rs`).
+    pub fn q_bound(&self) -> Real {
+        match &self.q_node {
+            None => self.q.max(0.0),
+            Some(q) => q.iter().fold(0.0, |m: Real, &x| m.max(x)),
+        }
+    }
+
+    /// `max |q_n|` over the nodes.
+    pub fn q_abs_max(&self) -> Real {
+        match &self.q_node {
+            None => self.q.abs(),
+            Some(q) => q.iter().fold(0.0, |m: Real, &x| m.max(x.abs())),
+        }
+    }
+
     /// Check the constants are usable (positive stiffness and mass, q above the stability limit).
     pub fn validate(&self) -> Result<()> {
+        if let Some(q) = &self.q_node {
+            if q.len() != self.nodes() || self.q != 1.0 {
+                return Err(Error::InvalidInput {
+                    what: "dispersion ratios per node",
+                    why: format!(
+                        "{} ratios for {} nodes with q = {} (Body::with_node_q sets q = 1)",
+                        q.len(),
+                        self.nodes(),
+                        self.q
+                    ),
+                });
+            }
+        }
         if !(self.q.is_finite() && self.q > -0.5) {
             return Err(Error::OutOfRange {
                 what: "dispersion ratio q",

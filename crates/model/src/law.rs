@@ -195,7 +195,9 @@ pub fn pools_in(
 /// plain law (`q = 0`, `pi` not evaluated) and where `S_n` is 0.
 #[inline]
 pub fn pool_ratio(q: Real, s: Real, pi: impl FnOnce() -> Real) -> Real {
-    if q != 0.0 && s > 0.0 {
+    // A normaliser is negative at a node of negative q_n in a body of several materials
+    // (Body::q_node), and 0 only where the node has no spring.
+    if q != 0.0 && s != 0.0 {
         pi() / s
     } else {
         0.0
@@ -343,7 +345,7 @@ pub fn energy(body: &Body, u: &Coords, sp: Springs<'_>, norm: &[Real]) -> Energy
     } else {
         ordered_sum(body.nodes(), |n| {
             let s = norm[n];
-            if s > 0.0 {
+            if s != 0.0 {
                 let pi = node_pool(body, u, sp, n);
                 0.5 * body.q * pi * pi / s
             } else {

@@ -15,6 +15,8 @@
 //! - [`random`]: the random lattices' geometry ([`hooke_lattice::random`], re-exported) with
 //!   their measured calibration tables ([`random::calibration`]);
 //! - [`body`]: a lattice with its constants (immutable during a run);
+//! - [`phases`]: bodies of several materials (a phase per node, the interface springs in
+//!   series, a dispersion ratio per node);
 //! - [`state`]: everything that changes, with the spring masks and normalisers kept
 //!   consistent, and the kernels' scratch;
 //! - [`loading`]: prescribed motion, tractions, body force;
@@ -37,6 +39,7 @@ pub mod body;
 pub mod law;
 pub mod loading;
 pub mod material;
+pub mod phases;
 pub mod state;
 pub mod tangent;
 

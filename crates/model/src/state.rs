@@ -395,7 +395,8 @@ impl State {
     }
 }
 
-/// `S_n` of node `n` over its intact springs, each with its current stiffness.
+/// `S_n` of node `n` over its intact springs, each with its current stiffness (`S_n / q_n` in
+/// a body of several materials, [`Body::q_node`]).
 pub fn node_norm(body: &Body, springs: Springs<'_>, n: usize) -> Real {
     let bonds = &*body.lattice.bonds;
     let mut s = 0.0;
@@ -407,7 +408,13 @@ pub fn node_norm(body: &Body, springs: Springs<'_>, n: usize) -> Real {
             s += springs.k[b] * l * l;
         }
     }
-    s
+    // A node of a body of several materials keeps `S_n / q_n` (Body::q_node): its pool is then
+    // `q_n p_n`, and the law reads as one material's with q = 1. A ratio of 0 gives an infinite
+    // normaliser, whose pool is 0; a negative one a negative normaliser.
+    match &body.q_node {
+        Some(q) if s != 0.0 => s / q[n],
+        _ => s,
+    }
 }
 
 /// The springs as the force law reads them: which are intact, and each one's current stiffness

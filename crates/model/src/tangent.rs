@@ -72,7 +72,7 @@ impl Tangent {
         let inv_norm = state
             .norm
             .iter()
-            .map(|&s| if s > 0.0 { 1.0 / s } else { 0.0 })
+            .map(|&s| if s != 0.0 { 1.0 / s } else { 0.0 })
             .collect();
         Tangent {
             q: body.q,

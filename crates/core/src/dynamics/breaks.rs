@@ -562,7 +562,7 @@ fn shifted_extension(body: &Body, state: &State, h: Real, i: usize, j: usize, re
 /// `q/2 Pi_n^2 / S_n` of node n at the displacements `u - h v`.
 fn shifted_dispersive_energy(body: &Body, state: &State, h: Real, n: usize) -> Real {
     let s = state.norm()[n];
-    if body.q == 0.0 || s <= 0.0 {
+    if body.q == 0.0 || s == 0.0 {
         return 0.0;
     }
     let bonds = &*body.lattice.bonds;

@@ -478,6 +478,7 @@ impl RandomDesign {
             q: self.q,
             mass,
             lever: Some(lever),
+            q_node: None,
         };
         body.validate()?;
         Ok(body)

@@ -164,6 +164,7 @@ impl Piece {
             q: body.q,
             mass: pick(&body.mass, 1.0),
             lever: body.lever.as_ref().map(|l| per_spring(l)),
+            q_node: body.q_node.as_ref().map(|q| pick(q, 1.0)),
         };
         let to_local = |list: &Vec<u32>| list.iter().map(|&g| local(g)).collect();
         let halo = Halo {
