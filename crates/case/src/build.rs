@@ -482,6 +482,7 @@ fn material(
     let m = &raw.material;
     spans.at("material.density", m.density.span());
     let b = elastic(ctx, m, b, spans)?;
+    let b = phases(ctx, raw, kind.dim(), b, spans)?;
     let softening = m
         .criterion
         .as_ref()
@@ -685,6 +686,55 @@ fn refuse_foreign_keys(
         ));
     }
     Ok(())
+}
+
+/// The `[[phases]]`: each names a material of `[materials]` and a shape. An unknown name is
+/// refused with the known ones listed; the builder refuses a shape that holds no node.
+fn phases(
+    ctx: &Ctx,
+    raw: &RawCase,
+    dim: usize,
+    mut b: Builder,
+    spans: &mut Spans,
+) -> Result<Builder, CaseError> {
+    for (p, phase) in raw.phases.iter().enumerate() {
+        let key = format!("phases[{p}]");
+        let ph = phase.get_ref();
+        let name = ph.material.get_ref();
+        let Some(m) = raw.materials.get(name) else {
+            let known: Vec<&str> = raw.materials.keys().map(String::as_str).collect();
+            let fix = if known.is_empty() {
+                "define it in a [materials.NAME] table (youngs, poisson, density)".to_string()
+            } else {
+                format!("the materials are {}", known.join(", "))
+            };
+            return Err(ctx.err(
+                ph.material.span(),
+                format!("{key}.material"),
+                format!("no material named \"{name}\": {fix}"),
+            ));
+        };
+        let shape = shape(ctx, &ph.shape, &format!("{key}.shape"), dim)?;
+        spans.at(key.clone(), phase.span());
+        spans.at(format!("{key}.material"), m.span());
+        let m = m.get_ref();
+        b = b.phase(
+            shape,
+            *m.youngs.get_ref(),
+            *m.poisson.get_ref(),
+            *m.density.get_ref(),
+        );
+    }
+    if raw.phases.is_empty() {
+        if let Some((name, m)) = raw.materials.iter().next() {
+            return Err(ctx.err(
+                m.span(),
+                format!("materials.{name}"),
+                "no [[phases]] assigns this material: add a phase (material and shape) or remove it",
+            ));
+        }
+    }
+    Ok(b)
 }
 
 /// `[material]`'s elastic part: `youngs` and `poisson` (the default, `kind = "isotropic"`);

@@ -27,6 +27,32 @@ pub struct RawCase {
     /// Rigid bodies: impactors, platens, supports.
     #[serde(default)]
     pub rigid: Vec<Spanned<RawRigid>>,
+    /// Named isotropic materials that `[[phases]]` assign (the `[material]` table is the
+    /// body's, which fills every node no phase takes).
+    #[serde(default)]
+    pub materials: std::collections::BTreeMap<String, Spanned<RawElastic>>,
+    /// Phases: the nodes inside each shape are of the named material (a later phase overrides
+    /// an earlier one).
+    #[serde(default)]
+    pub phases: Vec<Spanned<RawPhase>>,
+}
+
+/// An isotropic material of `[materials.NAME]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawElastic {
+    pub youngs: Spanned<Real>,
+    pub poisson: Spanned<Real>,
+    pub density: Spanned<Real>,
+}
+
+/// One phase: a material of `[materials]` in a shape (`shape.sphere = {...}`, any shape of
+/// `[[geometry.add]]`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawPhase {
+    pub material: Spanned<String>,
+    pub shape: Spanned<RawShape>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -28,6 +28,7 @@
 use hooke_core::dynamics::{IntegratorOptions, TimeStep};
 use hooke_core::loading::{Loading, Motion, Prescribed, TimeFunction};
 use hooke_core::material::{self, Elastic, PlaneModel};
+use hooke_core::phases::Phase;
 use hooke_core::random::anisotropic::Calibrated;
 use hooke_core::random::RandomSpec;
 use hooke_core::Designs;
@@ -37,7 +38,7 @@ use hooke_fracture::{
     SpringEnergy,
 };
 
-use crate::geometry::{fill_lattice, traction_loads, Region, Solid};
+use crate::geometry::{fill_lattice, traction_loads, Region, Shape, Solid};
 use crate::rigid::{ContactSpec, RigidSpec};
 use crate::simulation::{Boundary, Simulation};
 
@@ -175,6 +176,8 @@ pub struct Builder {
     random: RandomSpec,
     geometry: Solid,
     material: Option<Elastic>,
+    /// Phases of other materials: the nodes in each shape (the last that holds a node wins).
+    phases: Vec<(Shape, Elastic)>,
     anisotropic: Option<Anisotropic>,
     rotate_to: Option<[Real; 3]>,
     cell_weights: Option<bool>,
@@ -208,6 +211,7 @@ impl Builder {
             random: RandomSpec::default(),
             geometry: Solid::default(),
             material: None,
+            phases: Vec::new(),
             anisotropic: None,
             rotate_to: None,
             cell_weights: None,
@@ -257,6 +261,22 @@ impl Builder {
             poisson,
             density,
         });
+        self
+    }
+    /// A phase of another isotropic material: the nodes inside `shape` are of it (a later
+    /// phase overrides an earlier one where they overlap; the [`Builder::material`] fills the
+    /// rest). Springs between two materials take both in series (`hooke_core::phases`), and
+    /// each node its material's dispersion ratio. Fracture then takes a critical stretch (the
+    /// fracture-energy calibrations are one material's).
+    pub fn phase(mut self, shape: Shape, youngs: Real, poisson: Real, density: Real) -> Self {
+        self.phases.push((
+            shape,
+            Elastic {
+                youngs,
+                poisson,
+                density,
+            },
+        ));
         self
     }
     /// A transversely isotropic material instead of [`Builder::material`] (the cubic lattice,
@@ -442,7 +462,12 @@ impl Builder {
             ..Default::default()
         };
         Ok(Simulation {
-            q: body.q,
+            // A body of several materials has no one q (each node's is its material's).
+            q: if body.q_node.is_some() {
+                Real::NAN
+            } else {
+                body.q
+            },
             body,
             state,
             loading,
@@ -566,6 +591,12 @@ impl Builder {
     ) -> Result<(Body, Real, Option<Calibrated>), BuildError> {
         let kind = self.kind;
         if let Some(t) = &self.anisotropic {
+            if !self.phases.is_empty() {
+                return Err(BuildError::new(
+                    "phases",
+                    "phases take isotropic materials in a body of an isotropic material for now; the body's material is anisotropic",
+                ));
+            }
             if self.material.is_some() {
                 return Err(BuildError::new(
                     "material",
@@ -642,8 +673,60 @@ impl Builder {
             // No single k: the families differ (`hooke check` prints them).
             return Ok((body, Real::NAN, design));
         }
+        if !self.phases.is_empty() {
+            return Ok((self.phase_body(lattice)?, Real::NAN, None));
+        }
         let (body, k) = self.isotropic_body(lattice)?;
         Ok((body, k, None))
+    }
+
+    /// The body of the material and its phases on `lattice` (`hooke_core::phases`): each node
+    /// of the last phase whose shape holds it, else of the body's material.
+    fn phase_body(&self, lattice: hooke_core::Lattice) -> Result<Body, BuildError> {
+        if let Some(rule) = &self.breaking {
+            if !matches!(rule, BreakRule::Stretch(_)) {
+                return Err(BuildError::new(
+                    "material.critical_stretch",
+                    "a body of several materials breaks by a critical stretch for now (the fracture-energy calibrations, and the energy and softening criteria, are one material's): give critical_stretch",
+                ));
+            }
+        }
+        let dim = self.kind.dim();
+        let tol = 1e-9 * self.spacing;
+        let mut node_phase = vec![0u8; lattice.len()];
+        for (p, (shape, _)) in self.phases.iter().enumerate() {
+            let mut any = false;
+            for (i, np) in node_phase.iter_mut().enumerate() {
+                if shape.contains(lattice.pos.get(i), tol, dim) {
+                    *np = (p + 1) as u8;
+                    any = true;
+                }
+            }
+            if !any {
+                return Err(BuildError::new(
+                    format!("phases[{p}]"),
+                    "the phase's shape holds no node of the body: move it or make it larger",
+                ));
+            }
+        }
+        if self.phases.len() > 254 {
+            return Err(BuildError::new(
+                "phases",
+                format!("{} phases: give at most 254", self.phases.len()),
+            ));
+        }
+        let (body, _) = self.isotropic_body(lattice.clone())?;
+        let mut phases =
+            vec![Phase::of(body).map_err(|e| BuildError::new("material", e.to_string()))?];
+        for (p, (_, elastic)) in self.phases.iter().enumerate() {
+            let key = format!("phases[{p}].material");
+            let err = |e: hooke_core::Error| BuildError::new(key.clone(), e.to_string());
+            material::check_elastic(elastic).map_err(err)?;
+            let body = Body::new(lattice.clone(), elastic, self.plane).map_err(err)?;
+            phases.push(Phase::of(body).map_err(err)?);
+        }
+        hooke_core::phases::assemble(lattice, phases, &node_phase)
+            .map_err(|e| BuildError::new("phases", e.to_string()))
     }
 
     /// The lattice's spacing and the plate's thickness (1 in 3D), checked.

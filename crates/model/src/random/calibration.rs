@@ -163,6 +163,11 @@ pub fn youngs_affine(kind: LatticeKind, kappa: Real, q: Real) -> Real {
 /// Linear interpolation of column `col` of the table at q, held at the ends; `None` when there
 /// is no table.
 fn interp(kind: LatticeKind, sampler: Sampler, q: Real, col: usize) -> Option<Real> {
+    // No one q (a body of several materials reports NaN): no table row either, where the
+    // search below would find no bracket.
+    if q.is_nan() {
+        return None;
+    }
     let t = table(kind, sampler);
     let get = |r: &(Real, Real, Real)| {
         if col == 1 {
