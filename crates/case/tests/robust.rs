@@ -266,3 +266,35 @@ fn geometry_errors_name_the_shape() {
         assert!(e.contains(needle) && e.starts_with("case.toml:"), "{geom}: {e}");
     }
 }
+
+/// A boundary that both holds and moves its nodes along one axis is refused with its key and
+/// line: the two rules would fight over those nodes (and the energy ledger's boundary work).
+#[test]
+fn an_axis_prescribed_twice_is_refused() {
+    let text = r#"
+[lattice]
+kind = "hex"
+spacing = 1e-3
+thickness = 1e-3
+
+[material]
+youngs = 70e9
+poisson = 0.2
+density = 2440
+
+[geometry]
+box = { min = [0.0, 0.0], max = [10e-3, 8e-3] }
+
+[[boundary]]
+region = { face = "y-" }
+fixed = ["y"]
+velocity = [{ axis = "y", value = -1.0 }]
+
+[solver]
+end_time = 1e-6
+"#;
+    let e = hooke_case::load_str(std::path::Path::new("twice.toml"), text, 1.0).unwrap_err();
+    assert_eq!(e.key, "boundary[0]", "{e}");
+    assert_eq!(e.line, 16, "{e}"); // the boundary's region
+    assert!(e.message.contains("axis y is prescribed twice"), "{e}");
+}

@@ -979,6 +979,22 @@ impl Builder {
         loading: &mut Loading,
     ) -> Result<(), BuildError> {
         let dim = self.kind.dim();
+        // One motion per axis: a node held and moved along the same axis would be set by two
+        // rules (its displacement by one, its velocity by the other), and the ledger's
+        // boundary work would follow neither.
+        let axes = bc.fixed.iter().chain(bc.motions.iter().map(|(a, _)| a));
+        let mut seen = [false; 3];
+        for &axis in axes {
+            if axis < 3 && std::mem::replace(&mut seen[axis], true) {
+                return Err(BuildError::new(
+                    key,
+                    format!(
+                        "axis {} is prescribed twice (fixed, velocity or displacement): keep one",
+                        ["x", "y", "z"][axis]
+                    ),
+                ));
+            }
+        }
         for &axis in &bc.fixed {
             check_axis(dim, axis, format!("{key}.fixed"))?;
             loading.prescribed.push(Prescribed {
