@@ -106,6 +106,9 @@ check_pieces() { # name case scale end_time sizes... (the run alone is `check`'s
   done
 }
 check_pieces mode1_plate cases/mode1_plate.toml 1.0 60e-6 2 4
+# A body of several materials on pieces (each holds some of the materials only), and shared.
+check phases_plate crates/case/tests/data/phases_plate.toml 2.0 20e-6 2 3
+check_pieces phases_plate crates/case/tests/data/phases_plate.toml 2.0 20e-6 3
 check_pieces mode1_small cases/mode1_plate.toml 0.25 60e-6 2 4
 check_pieces glass_random_61 cases/glass_branching_random.toml 0.27 20e-6 2 3
 check_pieces glass_branching_random cases/glass_branching_random.toml 0.6 46e-6 3
@@ -152,6 +155,9 @@ check_pieces fibre_jitter cases/fibre_notch_plate.toml 1.0 90e-6 2
 # A rigid projectile placed by its start gap, fragment contact across the cracks; in 2D and 3D.
 check_pieces kw_jitter cases/kalthoff_winkler.toml 0.3 60e-6 2 4
 check_pieces kw3d_jitter cases/kalthoff_winkler_3d.toml 0.3 10e-6 2 3
+# A body of several materials: a rank's part holds some of them only, and the step (its
+# damage-proof bound over every material's q) is still the whole body's.
+check_pieces phases_jitter crates/case/tests/data/phases_plate.toml 2.0 20e-6 2 3
 extra=()
 check_pieces notched_bar_3d cases/notched_bar_3d.toml 1.0 20e-6 2 3 4
 $mpirun -np 3 "$work/hooke-mpi" run cases/notched_bar_3d.toml --set solver.end_time=10e-6 \

@@ -254,7 +254,8 @@ fn new_displacements<'a>(
 }
 
 /// The stable step of the integrator's options: the estimate with `kernel`, or with its plain
-/// copy times `1 + 2 max(q, 0)` for the damage-proof step (that bounds the dispersive law's
+/// copy times `1 + 2 max(q, 0)` (`q_bound`: over every node of the body, `Body::q_bound`, also
+/// where this process holds only its piece) for the damage-proof step (that bounds the dispersive law's
 /// lambda for the intact body as for any pattern of broken springs, stability.rs, so estimating
 /// the dispersive one too would only cost a second Lanczos run). `scratch` is the estimate's
 /// drift scratch and unit masses ([`stability::estimate_using`]).
@@ -264,13 +265,13 @@ fn estimate(
     kernel: &Kernel,
     opts: &IntegratorOptions,
     scratch: (&mut Coords, &mut Vec<Real>),
-    split: Option<&mut stability::Split>,
+    (split, q_bound): (Option<&mut stability::Split>, Real),
 ) -> StableStep {
     let (u_next, ones) = scratch;
     if opts.damage_proof {
         let plain =
             stability::estimate_using(body, state, &kernel.plain(), 40, 1e-3, u_next, ones, split);
-        let lambda = (1.0 + 2.0 * body.q_bound()) * plain.lambda_max;
+        let lambda = (1.0 + 2.0 * q_bound) * plain.lambda_max;
         StableStep {
             lambda_max: lambda,
             dt_critical: 2.0 / lambda.sqrt(),
@@ -430,7 +431,7 @@ impl Integrator {
             &kernel,
             opts,
             (&mut u_next, &mut inv_mass),
-            split.as_mut(),
+            (split.as_mut(), body.q_bound()),
         );
         drop(split);
         // The steps of a kernel that drifts in place write the new displacements over the old

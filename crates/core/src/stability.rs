@@ -721,8 +721,15 @@ fn largest_ritz(alpha: &[Real], beta: &[Real]) -> Real {
     t.symmetric_eigen().eigenvalues.max()
 }
 
-/// `(1 + 2 max(q,0)) max_n 2 sum_t k_t / m_n`: holds for any pattern of broken springs.
+/// `(1 + 2 max(q,0)) max_n 2 sum_t k_t / m_n`: holds for any pattern of broken springs (in a
+/// body of several materials, `max(q_n, 0)` over its nodes, `Body::q_bound`).
 pub fn damage_bound(body: &Body) -> Real {
+    damage_bound_with(body, body.q_bound())
+}
+
+/// [`damage_bound`] with `max(q_n, 0)` given (a process that holds a piece of a body of several
+/// materials takes the whole body's, so that every process finds the one-process bound).
+pub fn damage_bound_with(body: &Body, q_bound: Real) -> Real {
     // Each node's sum in row order; the maximum is exact in any order.
     let star = body.lattice.bonds.grid().map(|g| g.star());
     let sum_k = |n: usize| -> Real {
@@ -748,7 +755,7 @@ pub fn damage_bound(body: &Body) -> Real {
         .with_min_len(BLOCK)
         .map(|n| 2.0 * sum_k(n) / body.mass[n])
         .reduce(|| 0.0, Real::max);
-    (1.0 + 2.0 * body.q_bound()) * worst
+    (1.0 + 2.0 * q_bound) * worst
 }
 
 #[cfg(test)]

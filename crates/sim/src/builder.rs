@@ -578,7 +578,8 @@ impl Builder {
             }
             Some(r) => crate::geometry::fill_turned_cubic(a, &r, &self.geometry)?,
         };
-        let (body, k, design) = self.material_body(lattice)?;
+        let (body, k, design, held) = self.material_body(lattice)?;
+        Self::phases_hold(&held)?;
         Ok((body, k, h, design))
     }
 
@@ -588,7 +589,7 @@ impl Builder {
     fn material_body(
         &self,
         lattice: hooke_core::Lattice,
-    ) -> Result<(Body, Real, Option<Calibrated>), BuildError> {
+    ) -> Result<(Body, Real, Option<Calibrated>, Vec<bool>), BuildError> {
         let kind = self.kind;
         if let Some(t) = &self.anisotropic {
             if !self.phases.is_empty() {
@@ -671,18 +672,32 @@ impl Builder {
                 ));
             }
             // No single k: the families differ (`hooke check` prints them).
-            return Ok((body, Real::NAN, design));
+            return Ok((body, Real::NAN, design, Vec::new()));
         }
         if !self.phases.is_empty() {
-            return Ok((self.phase_body(lattice)?, Real::NAN, None));
+            let (body, held) = self.phase_body(lattice)?;
+            return Ok((body, Real::NAN, None, held));
         }
         let (body, k) = self.isotropic_body(lattice)?;
-        Ok((body, k, None))
+        Ok((body, k, None, Vec::new()))
+    }
+
+    /// Refuse a phase whose shape holds no node (`held[p]`: phase p holds one, over the whole
+    /// body; a process building its part ors its flags with the others' first).
+    fn phases_hold(held: &[bool]) -> Result<(), BuildError> {
+        match held.iter().position(|&h| !h) {
+            Some(p) => Err(BuildError::new(
+                format!("phases[{p}]"),
+                "the phase's shape holds no node of the body: move it or make it larger",
+            )),
+            None => Ok(()),
+        }
     }
 
     /// The body of the material and its phases on `lattice` (`hooke_core::phases`): each node
-    /// of the last phase whose shape holds it, else of the body's material.
-    fn phase_body(&self, lattice: hooke_core::Lattice) -> Result<Body, BuildError> {
+    /// of the last phase whose shape holds it, else of the body's material; and whether each
+    /// phase's shape holds a node of `lattice`.
+    fn phase_body(&self, lattice: hooke_core::Lattice) -> Result<(Body, Vec<bool>), BuildError> {
         if let Some(rule) = &self.breaking {
             if !matches!(rule, BreakRule::Stretch(_)) {
                 return Err(BuildError::new(
@@ -694,19 +709,13 @@ impl Builder {
         let dim = self.kind.dim();
         let tol = 1e-9 * self.spacing;
         let mut node_phase = vec![0u8; lattice.len()];
+        let mut held = vec![false; self.phases.len()];
         for (p, (shape, _)) in self.phases.iter().enumerate() {
-            let mut any = false;
             for (i, np) in node_phase.iter_mut().enumerate() {
                 if shape.contains(lattice.pos.get(i), tol, dim) {
                     *np = (p + 1) as u8;
-                    any = true;
+                    held[p] = true;
                 }
-            }
-            if !any {
-                return Err(BuildError::new(
-                    format!("phases[{p}]"),
-                    "the phase's shape holds no node of the body: move it or make it larger",
-                ));
             }
         }
         if self.phases.len() > 254 {
@@ -725,8 +734,9 @@ impl Builder {
             let body = Body::new(lattice.clone(), elastic, self.plane).map_err(err)?;
             phases.push(Phase::of(body).map_err(err)?);
         }
-        hooke_core::phases::assemble(lattice, phases, &node_phase)
-            .map_err(|e| BuildError::new("phases", e.to_string()))
+        let body = hooke_core::phases::assemble(lattice, phases, &node_phase)
+            .map_err(|e| BuildError::new("phases", e.to_string()))?;
+        Ok((body, held))
     }
 
     /// The lattice's spacing and the plate's thickness (1 in 3D), checked.

@@ -245,15 +245,21 @@ fn refuse_together(
 }
 
 /// The damage-proof step's bound over every rank's piece (collective).
-fn damage_bound_over(body: &Body, team: &dyn Team) -> Real {
+fn damage_bound_over(body: &Body, q_bound: Real, team: &dyn Team) -> Real {
     // Ghosts' rows are partial and dummies have none, so their ratios are no larger than
     // their owners': the ranks' maxima's maximum is the body's.
+    max_over(stability::damage_bound_with(body, q_bound), team)
+}
+
+/// The largest of every rank's `x` (collective; each rank's value gathered, the maximum the
+/// same on all).
+fn max_over(x: Real, team: &dyn Team) -> Real {
     let size = team.size();
     let mut all = vec![0.0; size];
-    all[team.rank()] = stability::damage_bound(body);
+    all[team.rank()] = x;
     let singles: Vec<_> = (0..size).map(|r| r..r + 1).collect();
     team.gather(&mut all, &singles);
-    all.into_iter().fold(0.0, Real::max)
+    all.into_iter().fold(Real::NEG_INFINITY, Real::max)
 }
 
 /// The loaded and prescribed nodes of `loading`, ascending, each once: a shared run's
@@ -511,7 +517,9 @@ impl Integrator {
             Kernel::for_body_in(body, state, Some(piece.own.clone()))
         };
         opts.choose_lanes(&mut kernel);
-        let bound = damage_bound_over(body, &*team);
+        // A piece holds some of the body's materials only: the bounds take the whole body's.
+        let q_bound = max_over(body.q_bound(), &*team);
+        let bound = damage_bound_over(body, q_bound, &*team);
         // The estimate on the piece, as `new_shared` makes it on the body: the piece's own
         // sweeps, its halo traded, the partial sums gathered in the body's chunks.
         let mut sweeps = piece.share(body);
@@ -533,7 +541,7 @@ impl Integrator {
                 &kernel,
                 opts,
                 (&mut u_next, &mut ones),
-                Some(&mut split),
+                (Some(&mut split), q_bound),
             );
             StableStep {
                 lambda_bound: bound,

@@ -104,7 +104,13 @@ impl Builder {
         let mine = self.loaded_owned(&piece, &lattice, &extreme);
         let (piece, lattice, share, _) = everyone(&*team, piece, lattice, share, &mine)
             .map_err(|e| BuildError::new("boundary", e.to_string()))?;
-        let (body, k, design) = self.material_body(lattice)?;
+        let (body, k, design, mut held) = self.material_body(lattice)?;
+        // A phase may hold nodes of other parts only: refused where it holds none of any.
+        // (Every process has the same phases, so all take the collective or none.)
+        if !held.is_empty() {
+            team.any(&mut held);
+        }
+        Self::phases_hold(&held)?;
         let mut state = State::new(&body);
         let cuts_nothing = |cut: bool| {
             let mut any = [cut];
