@@ -706,6 +706,12 @@ impl Builder {
                 ));
             }
         }
+        if self.phases.len() > 254 {
+            return Err(BuildError::new(
+                "phases",
+                format!("{} phases: give at most 254", self.phases.len()),
+            ));
+        }
         let dim = self.kind.dim();
         let tol = 1e-9 * self.spacing;
         let mut node_phase = vec![0u8; lattice.len()];
@@ -717,12 +723,6 @@ impl Builder {
                     held[p] = true;
                 }
             }
-        }
-        if self.phases.len() > 254 {
-            return Err(BuildError::new(
-                "phases",
-                format!("{} phases: give at most 254", self.phases.len()),
-            ));
         }
         let (body, _) = self.isotropic_body(lattice.clone())?;
         let mut phases =
