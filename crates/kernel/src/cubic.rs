@@ -619,80 +619,8 @@ mod vector {
         *hot = *hot | w.gt_where(m, dl, w.splat(screen * s.rest[d]));
     }
 
-    /// Sweep 1 for the N nodes at `i`. The loop over the directions is unrolled (a tenth off
-    /// the sweep: their constants become immediate offsets, and the loop's branches go).
-    ///
-    /// # Safety
-    /// The block at `i` is inside the body's box (`vector_block`), and `out` holds its N
-    /// entries.
-    #[inline(always)]
-    unsafe fn pools<W: Wide>(
-        w: W,
-        s: &CubicStencil,
-        u: &Coords,
-        i: usize,
-        out: &mut [Real],
-        screen: Real,
-    ) -> bool {
-        // SAFETY: the block at this index is in bounds (this fn's contract).
-        let (ui, mask) = unsafe { load_block(w, s, u, i) };
-        let cls = classes(w, s, mask);
-        let mut acc = w.zero();
-        let mut hot = w.no_lanes();
-        macro_rules! directions { ($($d:literal)*) => { $( {
-            let m = w.bit(mask, $d);
-            if w.any(m) {
-                // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
-                let dl = unsafe { extension(w, s, u, i, $d, ui) };
-                add_share(w, s, $d, m, dl, cls, screen, &mut acc, &mut hot);
-            }
-        } )* } }
-        directions!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17);
-        // SAFETY: out has N entries; inv_norm[i..i+N] is in bounds.
-        unsafe {
-            let inv = w.load(s.inv_norm.as_ptr().add(i));
-            w.store(out.as_mut_ptr(), acc * inv);
-        }
-        w.any(hot)
-    }
-
-    /// Sweep 2 for the N nodes at `i`: force, kick, drift (the directions unrolled, as in
-    /// sweep 1).
-    ///
-    /// # Safety
-    /// The block at `i` is inside the body's box (`vector_block`), and `v` and `un` hold its N
-    /// entries.
-    #[allow(clippy::too_many_arguments)]
-    #[inline(always)]
-    unsafe fn force_kick_drift<W: Wide>(
-        w: W,
-        s: &CubicStencil,
-        u: &Coords,
-        pool: &[Real],
-        inv_mass: &[Real],
-        p: &StepParams,
-        i: usize,
-        v: [&mut [Real]; 3],
-        un: [&mut [Real]; 3],
-        sums: &mut SweepSums,
-    ) {
-        // SAFETY: the block at this index is in bounds (this fn's contract).
-        let ((ui, mask), pi) = unsafe { (load_block(w, s, u, i), w.load(pool.as_ptr().add(i))) };
-        let cls = classes(w, s, mask);
-        let mut f = [w.zero(); 3];
-        macro_rules! directions { ($($d:literal)*) => { $( {
-            let m = w.bit(mask, $d);
-            if w.any(m) {
-                // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
-                let (x, sc) = unsafe { factor(w, s, u, pool, i, $d, ui, pi, cls) };
-                add_terms(w, &mut f, m, sc, x);
-            }
-        } )* } }
-        directions!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17);
-        // SAFETY: by the caller's contract, the block is in bounds.
-        unsafe { kick_drift(w, 3, f, Some(u), inv_mass, p, i, v, un, sums) }
-    }
-
+    /// The vector path's sweeps, each direction's term unrolled (a tenth off the sweep: the
+    /// directions' constants become immediate offsets, and the loop's branches go).
     impl Lanewise for CubicStencil {
         #[inline(always)]
         unsafe fn pools<W: Wide>(
@@ -703,8 +631,27 @@ mod vector {
             out: &mut [Real],
             screen: Real,
         ) -> bool {
-            // SAFETY: the trait's contract is this one's.
-            unsafe { pools(w, self, u, i, out, screen) }
+            let s = self;
+            // SAFETY: the block at this index is in bounds (this fn's contract).
+            let (ui, mask) = unsafe { load_block(w, s, u, i) };
+            let cls = classes(w, s, mask);
+            let mut acc = w.zero();
+            let mut hot = w.no_lanes();
+            macro_rules! directions { ($($d:literal)*) => { $( {
+                let m = w.bit(mask, $d);
+                if w.any(m) {
+                    // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
+                    let dl = unsafe { extension(w, s, u, i, $d, ui) };
+                    add_share(w, s, $d, m, dl, cls, screen, &mut acc, &mut hot);
+                }
+            } )* } }
+            directions!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17);
+            // SAFETY: out has N entries; inv_norm[i..i+N] is in bounds.
+            unsafe {
+                let inv = w.load(s.inv_norm.as_ptr().add(i));
+                w.store(out.as_mut_ptr(), acc * inv);
+            }
+            w.any(hot)
         }
 
         #[inline(always)]
@@ -720,8 +667,23 @@ mod vector {
             un: [&mut [Real]; 3],
             sums: &mut SweepSums,
         ) {
-            // SAFETY: the trait's contract is this one's.
-            unsafe { force_kick_drift(w, self, u, pool, inv_mass, p, i, v, un, sums) }
+            let s = self;
+            // SAFETY: the block at this index is in bounds (this fn's contract).
+            let ((ui, mask), pi) =
+                unsafe { (load_block(w, s, u, i), w.load(pool.as_ptr().add(i))) };
+            let cls = classes(w, s, mask);
+            let mut f = [w.zero(); 3];
+            macro_rules! directions { ($($d:literal)*) => { $( {
+                let m = w.bit(mask, $d);
+                if w.any(m) {
+                    // SAFETY: the block is inside (this fn's contract), so its neighbours in direction d are nodes.
+                    let (x, sc) = unsafe { factor(w, s, u, pool, i, $d, ui, pi, cls) };
+                    add_terms(w, &mut f, m, sc, x);
+                }
+            } )* } }
+            directions!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17);
+            // SAFETY: by the caller's contract, the block is in bounds.
+            unsafe { kick_drift(w, 3, f, Some(u), inv_mass, p, i, v, un, sums) }
         }
     }
 }
