@@ -42,7 +42,8 @@ def main(outdir):
             ref = np.asarray(m.points) - m.point_data["displacement"]
             # VTK stores current positions X + u: (X + u) - u recovers X only to rounding.
             check(np.allclose(ref, points, rtol=0.0, atol=1e-12 * np.abs(points).max()), f"frame {k}: reference positions differ")
-            for name in FIELDS:
+            # A body of several materials carries each node's phase too.
+            for name in FIELDS + (["material"] if "material" in m.point_data else []):
                 a = m.point_data[name].reshape(len(points), -1)
                 b = pd[name].reshape(len(points), -1)
                 c = np.asarray(pvm.point_data[name]).reshape(len(points), -1)

@@ -15,10 +15,17 @@
 #   - `bench --pieces` (each rank holding only its piece of a random block) steps with the bits
 #     of the build without MPI, and a rank's arrays shrink with N;
 #   - bad input stops every rank with one message and exit code 2.
-# Usage: tools/mpi_check.sh SCRATCH_DIR
+# Usage: tools/mpi_check.sh SCRATCH_DIR [--full]
+# CI runs the quick set (about 7 minutes here): every promise above on at least one case and
+# split. `--full` adds the larger cases and every process count (about 14 minutes on a 2-core
+# machine); run it before changing the team code.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-work=${1:?usage: tools/mpi_check.sh SCRATCH_DIR}
+work=${1:?usage: tools/mpi_check.sh SCRATCH_DIR [--full]}
+full=0
+[ "${2:-}" = "--full" ] && full=1
+# `sizes QUICK FULL`: the process counts of a check in this mode.
+sizes() { if [ "$full" = 1 ]; then echo "$2"; else echo "$1"; fi; }
 rm -rf "$work" && mkdir -p "$work"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 mpirun="mpirun --oversubscribe --bind-to none"
@@ -47,14 +54,16 @@ check() { # name case scale end_time sizes...
     echo "$name: -np $np bit-identical to the build without MPI (frames read by meshio piece by piece and by pyvista whole, histories, checkpoint)"
   done
 }
-check kalthoff_winkler cases/kalthoff_winkler.toml 0.3 20e-6 1 2 3 4
-check sphere_impact cases/sphere_impact_glass.toml 0.8 8e-6 2 3
+check kalthoff_winkler cases/kalthoff_winkler.toml 0.3 20e-6 $(sizes "1 3" "1 2 3 4")
+check sphere_impact cases/sphere_impact_glass.toml 0.8 8e-6 $(sizes "3" "2 3")
 check compression_block cases/compression_block.toml 1.0 10e-6 3
 # Without contact the ranks trade only their halos between outputs: the mode-I plate (pre-crack,
 # prescribed velocities, breaking; at 4 ranks two of them own no nodes and write no piece) and
 # the random glass plate (random lattice, branching cracks).
-check mode1_plate cases/mode1_plate.toml 1.0 60e-6 3 4
-check glass_branching_random cases/glass_branching_random.toml 0.6 46e-6 2 3
+check mode1_plate cases/mode1_plate.toml 1.0 60e-6 $(sizes "4" "3 4")
+if [ "$full" = 1 ]; then
+  check glass_branching_random cases/glass_branching_random.toml 0.6 46e-6 2 3
+fi
 # Every split runs: bodies so small or so sized that some ranks own no node (after the body's
 # short last chunk too), or fewer than 64 (one window of the vector paths). mode1_plate at
 # --scale 0.25 has 425 nodes (one chunk: at -np 3 and 4 ranks own nothing before and after it;
@@ -64,11 +73,11 @@ check mode1_small cases/mode1_plate.toml 0.25 60e-6 2 3 4 5
 check mode1_half cases/mode1_plate.toml 0.5 30e-6 3
 check glass_random_small cases/glass_branching_random.toml 0.25 20e-6 3
 check glass_random_61 cases/glass_branching_random.toml 0.27 20e-6 2 3
-check glass_random_39 cases/glass_branching_random.toml 0.38 20e-6 3 4
+check glass_random_39 cases/glass_branching_random.toml 0.38 20e-6 $(sizes "3" "3 4")
 # The spring-energy criterion has no stretch screen: each rank decides its own springs after
 # the step, and the ranks trade what they found.
 extra=(--set 'material.criterion="energy"')
-check glass_branching_energy cases/glass_branching.toml 0.5 30e-6 2 3
+check glass_branching_energy cases/glass_branching.toml 0.5 30e-6 $(sizes "3" "2 3")
 extra=()
 
 # Checkpointed with 2 ranks, resumed with 3.
@@ -105,28 +114,39 @@ check_pieces() { # name case scale end_time sizes... (the run alone is `check`'s
     echo "$name: -np $np $hold bit-identical to the build without MPI (frames, histories), a checkpoint per rank"
   done
 }
-check_pieces mode1_plate cases/mode1_plate.toml 1.0 60e-6 2 4
+check_pieces mode1_plate cases/mode1_plate.toml 1.0 60e-6 $(sizes "4" "2 4")
 # A body of several materials on pieces (each holds some of the materials only), and shared.
 check phases_plate crates/case/tests/data/phases_plate.toml 2.0 20e-6 2 3
 check_pieces phases_plate crates/case/tests/data/phases_plate.toml 2.0 20e-6 3
 check_pieces mode1_small cases/mode1_plate.toml 0.25 60e-6 2 4
 check_pieces glass_random_61 cases/glass_branching_random.toml 0.27 20e-6 2 3
-check_pieces glass_branching_random cases/glass_branching_random.toml 0.6 46e-6 3
-# Checkpointed on 3 ranks' pieces, resumed on them.
-$mpirun -np 3 "$work/hooke-mpi" run cases/glass_branching_random.toml --scale 0.6 --set solver.end_time=20e-6 \
-  --pieces --out "$work/resumed_pieces" > /dev/null
-$mpirun -np 3 "$work/hooke-mpi" run cases/glass_branching_random.toml --scale 0.6 --set solver.end_time=46e-6 \
-  --pieces --out "$work/resumed_pieces" --resume "$work/resumed_pieces/glass_branching_random.ckpt" > /dev/null
-python3 tools/compare_runs.py "$work/glass_branching_random.alone" "$work/resumed_pieces" | tail -1
+# Checkpointed on 3 ranks' pieces, resumed on them (the random glass plate; small in the quick
+# set).
+if [ "$full" = 1 ]; then
+  resume=(glass_branching_random 0.6 20e-6 46e-6)
+else
+  resume=(glass_random_61 0.27 10e-6 20e-6)
+fi
+if [ "$full" = 1 ]; then # (the quick set's ran above)
+  check_pieces "${resume[0]}" cases/glass_branching_random.toml "${resume[1]}" "${resume[3]}" 3
+fi
+$mpirun -np 3 "$work/hooke-mpi" run cases/glass_branching_random.toml --scale "${resume[1]}" \
+  --set solver.end_time="${resume[2]}" --pieces --out "$work/resumed_pieces" > /dev/null
+$mpirun -np 3 "$work/hooke-mpi" run cases/glass_branching_random.toml --scale "${resume[1]}" \
+  --set solver.end_time="${resume[3]}" --pieces --out "$work/resumed_pieces" \
+  --resume "$work/resumed_pieces/glass_branching_random.ckpt" > /dev/null
+python3 tools/compare_runs.py "$work/${resume[0]}.alone" "$work/resumed_pieces" | tail -1
 for r in 0 1 2; do
-  cmp "$work/glass_branching_random.pieces3/glass_branching_random.${r}of3.ckpt" \
+  cmp "$work/${resume[0]}.pieces3/glass_branching_random.${r}of3.ckpt" \
     "$work/resumed_pieces/glass_branching_random.${r}of3.ckpt"
 done
-echo "glass_branching_random: checkpointed on 3 ranks' pieces and resumed: bit-identical"
+echo "${resume[0]}: checkpointed on 3 ranks' pieces and resumed: bit-identical"
 # Kalthoff-Winkler on pieces, long enough for fragment contact across the cracks (pairs whose
 # nodes are on different ranks), and the L-panel (3D, an STL body, a rigid load).
-check_pieces kalthoff_winkler_60us cases/kalthoff_winkler.toml 0.3 60e-6 2 3 4
-check_pieces l_panel cases/l_panel.toml 0.5 12e-3 2 3
+check_pieces kalthoff_winkler_60us cases/kalthoff_winkler.toml 0.3 60e-6 $(sizes "3" "2 3 4")
+if [ "$full" = 1 ]; then
+  check_pieces l_panel cases/l_panel.toml 0.5 12e-3 2 3
+fi
 # `refused NAME WHAT ARGS...`: `mpirun -np 2 hooke run ARGS` must stop with exit 2 and one message.
 refused() {
   local name=$1 what=$2
@@ -149,17 +169,17 @@ refused hex_pieces "a hexagonal box with --pieces" cases/glass_branching.toml --
 # parts and resumed on them.
 hold=--parts
 extra=(--set 'lattice.sampler="jitter"')
-check_pieces mode1_jitter cases/mode1_plate.toml 1.0 60e-6 2 3
+check_pieces mode1_jitter cases/mode1_plate.toml 1.0 60e-6 $(sizes "2" "2 3")
 # An anisotropic plate: every rank calibrates (or reads the cache) alike.
 check_pieces fibre_jitter cases/fibre_notch_plate.toml 1.0 90e-6 2
 # A rigid projectile placed by its start gap, fragment contact across the cracks; in 2D and 3D.
-check_pieces kw_jitter cases/kalthoff_winkler.toml 0.3 60e-6 2 4
-check_pieces kw3d_jitter cases/kalthoff_winkler_3d.toml 0.3 10e-6 2 3
+check_pieces kw_jitter cases/kalthoff_winkler.toml 0.3 60e-6 $(sizes "2" "2 4")
+check_pieces kw3d_jitter cases/kalthoff_winkler_3d.toml 0.3 10e-6 $(sizes "2" "2 3")
 # A body of several materials: a rank's part holds some of them only, and the step (its
 # damage-proof bound over every material's q) is still the whole body's.
 check_pieces phases_jitter crates/case/tests/data/phases_plate.toml 2.0 20e-6 2 3
 extra=()
-check_pieces notched_bar_3d cases/notched_bar_3d.toml 1.0 20e-6 2 3 4
+check_pieces notched_bar_3d cases/notched_bar_3d.toml 1.0 20e-6 $(sizes "3" "2 3 4")
 $mpirun -np 3 "$work/hooke-mpi" run cases/notched_bar_3d.toml --set solver.end_time=10e-6 \
   --parts --out "$work/resumed_parts" > /dev/null
 $mpirun -np 3 "$work/hooke-mpi" run cases/notched_bar_3d.toml --set solver.end_time=20e-6 \
@@ -182,7 +202,7 @@ refused poisson_parts "a Poisson-disk body with --parts" cases/mode1_plate.toml 
 digest() { python3 -c 'import json,sys; d=json.load(sys.stdin); print(d["state_digest"], round(d["memory_bytes_per_node"]))'; }
 for lat in random3d random2d; do
   read -r want alone < <("$work/hooke" bench --lattice $lat --nodes 60000 --steps 20 --threads 1 --json | digest)
-  for np in 2 3 4; do
+  for np in $(sizes "3" "2 3 4"); do
     read -r got bytes < <($mpirun -np $np "$work/hooke-mpi" bench --lattice $lat --nodes 60000 --steps 20 \
       --threads 1 --pieces --json | digest)
     if [ "$got" != "$want" ]; then
@@ -201,7 +221,7 @@ done
 parts() { python3 -c 'import json,sys; d=json.load(sys.stdin); print(d["state_digest"], d["nodes"], d["piece_nodes"])'; }
 for lat in random3d random2d; do
   read -r want nodes _ < <("$work/hooke" bench --lattice $lat --parts --nodes 60000 --steps 20 --threads 1 --json | parts)
-  for np in 2 3 4; do
+  for np in $(sizes "3" "2 3 4"); do
     read -r got n held < <($mpirun -np $np "$work/hooke-mpi" bench --lattice $lat --parts --nodes 60000 \
       --steps 20 --threads 1 --json | parts)
     if [ "$got" != "$want" ] || [ "$n" != "$nodes" ] || [ "$held" -ge "$nodes" ]; then

@@ -600,6 +600,74 @@ class Builder:
         """E (Pa), nu (any value in (-1, 1/2)), rho (kg/m^3)."""
         return self._call("material", {"youngs": youngs, "poisson": poisson, "density": density})
 
+    def material_name(self, name: str) -> "Builder":
+        """The body's material's name (default ``"material"``): phase 0 of a body of several
+        materials, and what an ``interface`` calls it (``material.name`` in a case file)."""
+        return self._call("material_name", str(name))
+
+    def weibull(self, modulus: float, seed: int = 0) -> "Builder":
+        """Scatter the body's material's critical stretches: each spring's is the criterion's
+        times a Weibull draw of ``modulus`` (1 to 100) that follows the seed and the nodes the
+        spring joins (``material.weibull`` in a case file)."""
+        return self._call("weibull", {"modulus": float(modulus), "seed": int(seed)})
+
+    @staticmethod
+    def _phase_material(name: str, youngs: float, poisson: float, density: float,
+                        critical_stretch: Optional[float], fracture_energy: Optional[float],
+                        weibull: Optional[Tuple[float, int]]) -> Dict[str, Any]:
+        arg: Dict[str, Any] = {"name": str(name), "youngs": float(youngs),
+                               "poisson": float(poisson), "density": float(density)}
+        if critical_stretch is not None:
+            arg["critical_stretch"] = float(critical_stretch)
+        if fracture_energy is not None:
+            arg["fracture_energy"] = float(fracture_energy)
+        if weibull is not None:
+            arg["weibull"] = {"modulus": float(weibull[0]), "seed": int(weibull[1])}
+        return arg
+
+    def phase(self, shape: Any, name: str, youngs: float, poisson: float, density: float,
+              critical_stretch: Optional[float] = None, fracture_energy: Optional[float] = None,
+              weibull: Optional[Tuple[float, int]] = None) -> "Builder":
+        """The nodes inside ``shape`` are of the material ``name`` (a later phase overrides an
+        earlier one; the body's ``material`` fills the rest), as ``[[phases]]`` and
+        ``[materials.NAME]`` in a case file. Its springs may break at their own
+        ``critical_stretch`` or ``fracture_energy``, and scatter by ``weibull=(modulus, seed)``."""
+        arg = self._phase_material(name, youngs, poisson, density, critical_stretch,
+                                   fracture_energy, weibull)
+        arg["shape"] = _shape(shape)
+        return self._call("phase", arg)
+
+    def inclusions(self, name: str, youngs: float, poisson: float, density: float,
+                   d_min: float, d_max: float, fraction: float, grading: str = "fuller",
+                   gap: float = 0.0, seed: int = 0, fuller_exponent: float = 0.5,
+                   critical_stretch: Optional[float] = None,
+                   fracture_energy: Optional[float] = None,
+                   weibull: Optional[Tuple[float, int]] = None) -> "Builder":
+        """Random non-overlapping spheres (disks in 2D) of the material ``name``: diameters
+        from ``d_min`` to ``d_max`` (m) by ``grading`` (``"fuller"`` or ``"uniform"``), a volume
+        ``fraction`` of the body, at least ``gap`` (m) apart, from ``seed``; as
+        ``[[inclusions]]`` in a case file. A fraction beyond reach is refused at ``build`` with
+        the fraction reached."""
+        arg = self._phase_material(name, youngs, poisson, density, critical_stretch,
+                                   fracture_energy, weibull)
+        arg.update({"d_min": float(d_min), "d_max": float(d_max), "fraction": float(fraction),
+                    "grading": str(grading), "gap": float(gap), "seed": int(seed),
+                    "fuller_exponent": float(fuller_exponent)})
+        return self._call("inclusions", arg)
+
+    def interface(self, between: Any, critical_stretch: Optional[float] = None,
+                  fracture_energy: Optional[float] = None,
+                  stiffness_factor: float = 1.0) -> "Builder":
+        """The springs between two named materials take their own ``critical_stretch`` or
+        ``fracture_energy`` and a ``stiffness_factor``, as ``[[interfaces]]`` in a case file."""
+        arg: Dict[str, Any] = {"between": [str(m) for m in between],
+                               "stiffness_factor": float(stiffness_factor)}
+        if critical_stretch is not None:
+            arg["critical_stretch"] = float(critical_stretch)
+        if fracture_energy is not None:
+            arg["fracture_energy"] = float(fracture_energy)
+        return self._call("interface", arg)
+
     def transverse(self, youngs_plane: float, youngs_fibre: float, poisson_plane: float,
                    poisson_fibre: float, shear_fibre: float, fibre: Any,
                    density: float) -> "Builder":

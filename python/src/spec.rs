@@ -320,6 +320,90 @@ fn rigid_motion(
     Ok(motion)
 }
 
+/// `{"modulus": m, "seed": s}`: a Weibull scatter (checked by the library).
+fn weibull(a: &Value, key: &str) -> R<hooke_sim::Weibull> {
+    let seed = a.get("seed").and_then(Value::as_u64).unwrap_or(0);
+    hooke_sim::Weibull::new(num(field(a, "modulus", key)?, key)?, seed)
+        .map_err(|e| format!("{key}: {e}"))
+}
+
+/// A critical stretch or a fracture energy, if given (not both).
+fn toughness(a: &Value, key: &str) -> R<Option<hooke_sim::Toughness>> {
+    match (
+        optional_num(a, "critical_stretch", key)?,
+        optional_num(a, "fracture_energy", key)?,
+    ) {
+        (None, None) => Ok(None),
+        (Some(s), None) => Ok(Some(hooke_sim::Toughness::Stretch(s))),
+        (None, Some(g)) => Ok(Some(hooke_sim::Toughness::Energy(g))),
+        _ => Err(format!(
+            "{key}: give critical_stretch or fracture_energy, not both"
+        )),
+    }
+}
+
+/// The material of a `phase` or `inclusions` call: name, constants, own strength, scatter.
+fn phase_material(a: &Value, key: &str) -> R<hooke_sim::PhaseMaterial> {
+    let name = field(a, "name", key)?
+        .as_str()
+        .ok_or_else(|| format!("{key}: name: give the material's name"))?;
+    let mut m = hooke_sim::PhaseMaterial::new(
+        name,
+        num(field(a, "youngs", key)?, key)?,
+        num(field(a, "poisson", key)?, key)?,
+        num(field(a, "density", key)?, key)?,
+    );
+    m.toughness = toughness(a, key)?;
+    if let Some(w) = a.get("weibull").filter(|w| !w.is_null()) {
+        m.weibull = Some(weibull(w, key)?);
+    }
+    Ok(m)
+}
+
+/// The `inclusions` call's grading, sizes, fraction, gap and seed.
+fn inclusion_spec(a: &Value, key: &str) -> R<hooke_sim::inclusions::InclusionSpec> {
+    use hooke_sim::inclusions::Grading;
+    let grading = match a.get("grading").and_then(Value::as_str).unwrap_or("fuller") {
+        "fuller" => Grading::Fuller {
+            exponent: optional_num(a, "fuller_exponent", key)?.unwrap_or(0.5),
+        },
+        "uniform" => Grading::Uniform,
+        other => {
+            return Err(format!(
+                "{key}: grading \"{other}\": give \"fuller\" or \"uniform\""
+            ))
+        }
+    };
+    Ok(hooke_sim::inclusions::InclusionSpec {
+        grading,
+        d_min: num(field(a, "d_min", key)?, key)?,
+        d_max: num(field(a, "d_max", key)?, key)?,
+        fraction: num(field(a, "fraction", key)?, key)?,
+        gap: optional_num(a, "gap", key)?.unwrap_or(0.0),
+        seed: a.get("seed").and_then(Value::as_u64).unwrap_or(0),
+    })
+}
+
+/// The `interface` call: two material names, own strength, stiffness factor.
+fn interface(a: &Value, key: &str) -> R<hooke_sim::Interface> {
+    let between: Vec<String> = field(a, "between", key)?
+        .as_array()
+        .map(|v| {
+            v.iter()
+                .filter_map(|s| s.as_str().map(String::from))
+                .collect()
+        })
+        .unwrap_or_default();
+    let [x, y] = between.as_slice() else {
+        return Err(format!("{key}: between: give two material names"));
+    };
+    Ok(hooke_sim::Interface {
+        between: [x.clone(), y.clone()],
+        toughness: toughness(a, key)?,
+        stiffness: optional_num(a, "stiffness_factor", key)?.unwrap_or(1.0),
+    })
+}
+
 /// The `transverse` call's material.
 fn transverse(a: &Value, key: &str) -> R<hooke_core::Transverse> {
     let fibre = point(field(a, "fibre", key)?, key)?;
@@ -642,6 +726,16 @@ impl Pending {
                 num(field(a, "poisson", key)?, key)?,
                 num(field(a, "density", key)?, key)?,
             ),
+            "material_name" => {
+                b.material_name(a.as_str().ok_or_else(|| format!("{key}: give a name"))?)
+            }
+            "weibull" => b.weibull(weibull(a, key)?),
+            "phase" => b.phase_of(
+                shape(field(a, "shape", key)?, key)?,
+                phase_material(a, key)?,
+            ),
+            "inclusions" => b.inclusions(inclusion_spec(a, key)?, phase_material(a, key)?),
+            "interface" => b.interface(interface(a, key)?),
             "transverse" => b.transverse(transverse(a, key)?),
             "orthotropic" => b.orthotropic(orthotropic(a, key)?),
             "rotate_lattice" => b.rotate_lattice(point(a, key)?),

@@ -700,3 +700,103 @@ def test_loads_overrides_and_a_with_block_finish_the_run(tmp_path):
     assert same.end_time == sim.end_time
     with pytest.raises(hooke.CaseError, match="not both"):
         hooke.load_case(CASE, set={"solver.end_time": 1e-6}, overrides={"solver.end_time": 1e-6})
+
+
+PHASED_CASE = """
+[lattice]
+kind = "random2d"
+spacing = 1.0e-3
+thickness = 1.0e-3
+seed = 2
+
+[material]
+name = "matrix"
+youngs = 10e9
+poisson = 0.25
+density = 2000
+critical_stretch = 1.5e-3
+weibull = { modulus = 6, seed = 5 }
+
+[materials.grain]
+youngs = 60e9
+poisson = 0.3
+density = 2700
+critical_stretch = 3e-3
+
+[materials.soft]
+youngs = 4e9
+poisson = -0.3
+density = 1200
+
+[[inclusions]]
+material = "grain"
+d_min = 2e-3
+d_max = 5e-3
+fraction = 0.3
+gap = 0.5e-3
+seed = 9
+
+[[phases]]
+material = "soft"
+shape.box = { min = [0.0, 0.0], max = [4e-3, 20e-3] }
+
+[[interfaces]]
+between = ["matrix", "grain"]
+critical_stretch = 0.8e-3
+stiffness_factor = 0.7
+
+[geometry]
+box = { min = [0.0, 0.0], max = [30e-3, 20e-3] }
+
+[[precrack]]
+segment = [[0.0, 10e-3], [6e-3, 10e-3]]
+
+[[boundary]]
+region = { face = "y-" }
+velocity = [{ axis = "y", value = -1.0, ramp = 2e-6 }]
+
+[[boundary]]
+region = { face = "y+" }
+velocity = [{ axis = "y", value = 1.0, ramp = 2e-6 }]
+
+[solver]
+end_time = 10e-6
+
+[output]
+every = 5e-6
+"""
+
+
+def test_a_body_of_several_materials_built_in_python_is_the_case_file_bit_for_bit(tmp_path):
+    """Inclusions, a phase, an interface and Weibull scatter from the builder give the case
+    file's run bit for bit, frames' ``material`` field and run.json's names included."""
+    case = tmp_path / "phased.toml"
+    case.write_text(PHASED_CASE)
+    b = (hooke.Builder("random2d", spacing=1e-3).thickness(1e-3).random(seed=2)
+         .box([0.0, 0.0], [30e-3, 20e-3])
+         .material(10e9, 0.25, 2000.0).material_name("matrix").weibull(6, 5)
+         .breaking(stretch=1.5e-3)
+         .inclusions("grain", 60e9, 0.3, 2700.0, d_min=2e-3, d_max=5e-3, fraction=0.3,
+                     gap=0.5e-3, seed=9, critical_stretch=3e-3)
+         .phase(hooke.Box([0.0, 0.0], [4e-3, 20e-3]), "soft", 4e9, -0.3, 1200.0)
+         .interface(["matrix", "grain"], critical_stretch=0.8e-3, stiffness_factor=0.7)
+         .precrack([0.0, 10e-3], [6e-3, 10e-3])
+         .boundary({"face": "y-"}, velocity={"y": hooke.ramp(-1.0, 2e-6)})
+         .boundary({"face": "y+"}, velocity={"y": hooke.ramp(1.0, 2e-6)})
+         .end_time(10e-6).output_every(5e-6))
+    sim = b.build(tmp_path / "built", "phased")
+    sim.finish()
+    cli("run", str(case), "--out", str(tmp_path / "cli"))
+    subprocess.run([sys.executable, str(ROOT / "tools" / "compare_runs.py"), str(tmp_path / "built"),
+                    str(tmp_path / "cli")], check=True)
+    run = json.loads((tmp_path / "cli" / "run.json").read_text())
+    assert [m["name"] for m in run["constants"]["materials"]] == ["matrix", "grain", "soft"]
+    import meshio
+    frame = sorted((tmp_path / "cli").glob("*.vtu"))[-1]
+    material = meshio.read(frame).point_data["material"]
+    assert set(np.unique(material)) == {0, 1, 2}
+    with pytest.raises(hooke.CaseError, match="cannot be reached"):
+        (hooke.Builder("random2d", spacing=1e-3).thickness(1e-3).box([0.0, 0.0], [30e-3, 20e-3])
+         .material(10e9, 0.25, 2000.0)
+         .inclusions("grain", 60e9, 0.3, 2700.0, d_min=4e-3, d_max=4e-3, fraction=0.8)
+         .end_time(1e-6).build(tmp_path / "refused", "refused"))

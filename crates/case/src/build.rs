@@ -11,7 +11,10 @@ use hooke_core::random::{RandomSpec, Sampler};
 use hooke_core::{LatticeKind, Real, Vector};
 use hooke_fracture::{Crack, SofteningShape};
 use hooke_sim::geometry::{Face, Region, Shape, Solid};
-use hooke_sim::{Bc, BreakRule, BuildError, Builder, ContactSpec, RigidSpec, Strength};
+use hooke_sim::{
+    Bc, BreakRule, BuildError, Builder, ContactSpec, Interface, PhaseMaterial, RigidSpec, Strength,
+    Toughness, Weibull,
+};
 use toml::Spanned;
 
 use crate::error::{line_col, CaseError};
@@ -481,8 +484,33 @@ fn material(
 ) -> Result<Builder, CaseError> {
     let m = &raw.material;
     spans.at("material.density", m.density.span());
-    let b = elastic(ctx, m, b, spans)?;
+    let mut b = elastic(ctx, m, b, spans)?;
+    if let Some(name) = &m.name {
+        spans.at("material.name", name.span());
+        b = b.material_name(name.get_ref().clone());
+    }
+    if let Some(w) = &m.weibull {
+        b = b.weibull(weibull(ctx, w, "material.weibull")?);
+    }
+    if let Some(f) = &m.stiffness_field {
+        let r = f.get_ref();
+        let key = "material.stiffness_field";
+        spans.at(key, f.span());
+        spans.at(format!("{key}.cov"), r.cov.span());
+        spans.at(
+            format!("{key}.correlation_length"),
+            r.correlation_length.span(),
+        );
+        let seed = seed(ctx, &r.seed, key)?;
+        b = b.stiffness_field(hooke_sim::field::StiffnessField {
+            cov: *r.cov.get_ref(),
+            correlation_length: *r.correlation_length.get_ref(),
+            seed,
+        });
+    }
+    let b = inclusions(ctx, raw, b, spans)?;
     let b = phases(ctx, raw, kind.dim(), b, spans)?;
+    let b = interfaces(ctx, raw, b, spans)?;
     let softening = m
         .criterion
         .as_ref()
@@ -688,6 +716,105 @@ fn refuse_foreign_keys(
     Ok(())
 }
 
+/// The material of `[materials]` named at `name` (key `key`), as a phase's: refused with the
+/// known names where there is none.
+fn named_material(
+    ctx: &Ctx,
+    raw: &RawCase,
+    name: &Spanned<String>,
+    key: &str,
+    spans: &mut Spans,
+) -> Result<PhaseMaterial, CaseError> {
+    let n = name.get_ref();
+    let Some(m) = raw.materials.get(n) else {
+        let known: Vec<&str> = raw.materials.keys().map(String::as_str).collect();
+        let fix = if known.is_empty() {
+            "define it in a [materials.NAME] table (youngs, poisson, density)".to_string()
+        } else {
+            format!("the materials are {}", known.join(", "))
+        };
+        return Err(ctx.err(
+            name.span(),
+            key,
+            format!("no material named \"{n}\": {fix}"),
+        ));
+    };
+    spans.at(key, m.span());
+    let mkey = format!("materials.{n}");
+    let m = m.get_ref();
+    let mut pm = PhaseMaterial::new(
+        n.clone(),
+        *m.youngs.get_ref(),
+        *m.poisson.get_ref(),
+        *m.density.get_ref(),
+    );
+    pm.toughness = toughness(ctx, &m.critical_stretch, &m.fracture_energy, &mkey)?;
+    if let Some(w) = &m.weibull {
+        pm.weibull = Some(weibull(ctx, w, &format!("{mkey}.weibull"))?);
+    }
+    Ok(pm)
+}
+
+/// The `[[inclusions]]`: each a material of `[materials]` placed as random balls (the builder
+/// places them, and refuses a fraction it cannot reach with the fraction reached).
+fn inclusions(
+    ctx: &Ctx,
+    raw: &RawCase,
+    mut b: Builder,
+    spans: &mut Spans,
+) -> Result<Builder, CaseError> {
+    use hooke_sim::inclusions::{Grading, InclusionSpec};
+    for (i, inc) in raw.inclusions.iter().enumerate() {
+        let key = format!("inclusions[{i}]");
+        let r = inc.get_ref();
+        spans.at(key.clone(), inc.span());
+        let material = named_material(ctx, raw, &r.material, &format!("{key}.material"), spans)?;
+        for (name, v) in [
+            ("fraction", &r.fraction),
+            ("d_min", &r.d_min),
+            ("d_max", &r.d_max),
+        ] {
+            spans.at(format!("{key}.{name}"), v.span());
+        }
+        let exponent = match &r.fuller_exponent {
+            None => 0.5,
+            Some(e) => {
+                spans.at(format!("{key}.grading"), e.span());
+                *e.get_ref()
+            }
+        };
+        let grading = match r.grading.as_ref().map(|g| (g.get_ref().as_str(), g)) {
+            None | Some(("fuller", _)) => Grading::Fuller { exponent },
+            Some(("uniform", _)) => Grading::Uniform,
+            Some((other, g)) => {
+                return Err(ctx.err(
+                    g.span(),
+                    format!("{key}.grading"),
+                    format!("\"{other}\": give \"fuller\" (Fuller's curve) or \"uniform\""),
+                ))
+            }
+        };
+        let gap = match &r.gap {
+            None => 0.0,
+            Some(g) => {
+                spans.at(format!("{key}.gap"), g.span());
+                *g.get_ref()
+            }
+        };
+        let seed = seed(ctx, &r.seed, &key)?;
+        let spec = InclusionSpec {
+            grading,
+            d_min: *r.d_min.get_ref(),
+            d_max: *r.d_max.get_ref(),
+            fraction: *r.fraction.get_ref(),
+            gap,
+            seed,
+        };
+        b = b.inclusions(spec, material);
+    }
+    Ok(b)
+}
+
 /// The `[[phases]]`: each names a material of `[materials]` and a shape. An unknown name is
 /// refused with the known ones listed; the builder refuses a shape that holds no node.
 fn phases(
@@ -700,32 +827,12 @@ fn phases(
     for (p, phase) in raw.phases.iter().enumerate() {
         let key = format!("phases[{p}]");
         let ph = phase.get_ref();
-        let name = ph.material.get_ref();
-        let Some(m) = raw.materials.get(name) else {
-            let known: Vec<&str> = raw.materials.keys().map(String::as_str).collect();
-            let fix = if known.is_empty() {
-                "define it in a [materials.NAME] table (youngs, poisson, density)".to_string()
-            } else {
-                format!("the materials are {}", known.join(", "))
-            };
-            return Err(ctx.err(
-                ph.material.span(),
-                format!("{key}.material"),
-                format!("no material named \"{name}\": {fix}"),
-            ));
-        };
+        let pm = named_material(ctx, raw, &ph.material, &format!("{key}.material"), spans)?;
         let shape = shape(ctx, &ph.shape, &format!("{key}.shape"), dim)?;
         spans.at(key.clone(), phase.span());
-        spans.at(format!("{key}.material"), m.span());
-        let m = m.get_ref();
-        b = b.phase(
-            shape,
-            *m.youngs.get_ref(),
-            *m.poisson.get_ref(),
-            *m.density.get_ref(),
-        );
+        b = b.phase_of(shape, pm);
     }
-    if raw.phases.is_empty() {
+    if raw.phases.is_empty() && raw.inclusions.is_empty() {
         if let Some((name, m)) = raw.materials.iter().next() {
             return Err(ctx.err(
                 m.span(),
@@ -733,6 +840,98 @@ fn phases(
                 "no [[phases]] assigns this material: add a phase (material and shape) or remove it",
             ));
         }
+    }
+    Ok(b)
+}
+
+/// A material's or an interface's own strength: `critical_stretch` or `fracture_energy` (not
+/// both) under `key`.
+fn toughness(
+    ctx: &Ctx,
+    stretch: &Option<Spanned<Real>>,
+    energy: &Option<Spanned<Real>>,
+    key: &str,
+) -> Result<Option<Toughness>, CaseError> {
+    Ok(match (stretch, energy) {
+        (None, None) => None,
+        (Some(s), None) => Some(Toughness::Stretch(ctx.positive(
+            s,
+            &format!("{key}.critical_stretch"),
+            "(dimensionless)",
+        )?)),
+        (None, Some(g)) => Some(Toughness::Energy(ctx.positive(
+            g,
+            &format!("{key}.fracture_energy"),
+            "J/m^2",
+        )?)),
+        (Some(_), Some(g)) => {
+            return Err(ctx.err(
+                g.span(),
+                format!("{key}.fracture_energy"),
+                "give fracture_energy or critical_stretch, not both",
+            ))
+        }
+    })
+}
+
+/// A seed under `key` (`KEY.seed`): 0 or more, default 0.
+fn seed(ctx: &Ctx, s: &Option<Spanned<i64>>, key: &str) -> Result<u64, CaseError> {
+    match s {
+        None => Ok(0),
+        Some(s) if *s.get_ref() >= 0 => Ok(*s.get_ref() as u64),
+        Some(s) => Err(ctx.err(
+            s.span(),
+            format!("{key}.seed"),
+            format!("{}: give a seed of 0 or more", s.get_ref()),
+        )),
+    }
+}
+
+/// `weibull = { modulus, seed }` under `key`: the modulus from 1 to 100, a seed of 0 or more
+/// (default 0).
+fn weibull(ctx: &Ctx, w: &Spanned<RawWeibull>, key: &str) -> Result<Weibull, CaseError> {
+    let r = w.get_ref();
+    let seed = seed(ctx, &r.seed, key)?;
+    Weibull::new(*r.modulus.get_ref(), seed)
+        .map_err(|e| ctx.err(r.modulus.span(), format!("{key}.modulus"), e.to_string()))
+}
+
+/// The `[[interfaces]]`: two material names each (checked against the materials by the
+/// builder, which names the known ones), an own strength and a stiffness factor.
+fn interfaces(
+    ctx: &Ctx,
+    raw: &RawCase,
+    mut b: Builder,
+    spans: &mut Spans,
+) -> Result<Builder, CaseError> {
+    for (i, f) in raw.interfaces.iter().enumerate() {
+        let key = format!("interfaces[{i}]");
+        let r = f.get_ref();
+        spans.at(key.clone(), f.span());
+        spans.at(format!("{key}.between"), r.between.span());
+        let names = r.between.get_ref();
+        let [x, y] = names.as_slice() else {
+            return Err(ctx.err(
+                r.between.span(),
+                format!("{key}.between"),
+                format!(
+                    "{} names: give two materials, e.g. between = [\"mortar\", \"aggregate\"]",
+                    names.len()
+                ),
+            ));
+        };
+        let stiffness = match &r.stiffness_factor {
+            None => 1.0,
+            Some(s) => {
+                spans.at(format!("{key}.stiffness_factor"), s.span());
+                ctx.positive(s, &format!("{key}.stiffness_factor"), "(dimensionless)")?
+            }
+        };
+        b = b.interface(Interface {
+            between: [x.clone(), y.clone()],
+            toughness: toughness(ctx, &r.critical_stretch, &r.fracture_energy, &key)?,
+            stiffness,
+        });
     }
     Ok(b)
 }

@@ -35,6 +35,49 @@ pub struct RawCase {
     /// an earlier one).
     #[serde(default)]
     pub phases: Vec<Spanned<RawPhase>>,
+    /// Interfaces: the springs between two named materials, with their own strength and
+    /// stiffness factor.
+    #[serde(default)]
+    pub interfaces: Vec<Spanned<RawInterface>>,
+    /// Random inclusions of a named material (each set one phase, before the `[[phases]]`).
+    #[serde(default)]
+    pub inclusions: Vec<Spanned<RawInclusions>>,
+}
+
+/// `[[inclusions]]`: a material of `[materials]`, a grading and a volume fraction.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawInclusions {
+    pub material: Spanned<String>,
+    pub fraction: Spanned<Real>,
+    pub d_min: Spanned<Real>,
+    pub d_max: Spanned<Real>,
+    /// `"fuller"` (default) or `"uniform"`.
+    pub grading: Option<Spanned<String>>,
+    /// Fuller's exponent (default 0.5).
+    pub fuller_exponent: Option<Spanned<Real>>,
+    pub gap: Option<Spanned<Real>>,
+    pub seed: Option<Spanned<i64>>,
+}
+
+/// `[[interfaces]]`: `between = ["a", "b"]`, and `critical_stretch` or `fracture_energy`,
+/// and `stiffness_factor`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawInterface {
+    pub between: Spanned<Vec<String>>,
+    pub critical_stretch: Option<Spanned<Real>>,
+    pub fracture_energy: Option<Spanned<Real>>,
+    pub stiffness_factor: Option<Spanned<Real>>,
+}
+
+/// `weibull = { modulus = 5, seed = 1 }`: a Weibull scatter of a material's critical stretches
+/// (the scale is its critical stretch).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawWeibull {
+    pub modulus: Spanned<Real>,
+    pub seed: Option<Spanned<i64>>,
 }
 
 /// An isotropic material of `[materials.NAME]`.
@@ -44,6 +87,10 @@ pub struct RawElastic {
     pub youngs: Spanned<Real>,
     pub poisson: Spanned<Real>,
     pub density: Spanned<Real>,
+    /// Its springs' own strength (else the body's `[material]` one's).
+    pub critical_stretch: Option<Spanned<Real>>,
+    pub fracture_energy: Option<Spanned<Real>>,
+    pub weibull: Option<Spanned<RawWeibull>>,
 }
 
 /// One phase: a material of `[materials]` in a shape (`shape.sphere = {...}`, any shape of
@@ -206,6 +253,21 @@ pub struct RawMaterial {
     pub peak_stretch: Option<Spanned<Real>>,
     /// ... and the final stretch, where the spring is broken.
     pub final_stretch: Option<Spanned<Real>>,
+    /// The material's name in a body of several materials (default `"material"`).
+    pub name: Option<Spanned<String>>,
+    /// A Weibull scatter of the springs' critical stretches.
+    pub weibull: Option<Spanned<RawWeibull>>,
+    /// A lognormal random field of Young's modulus.
+    pub stiffness_field: Option<Spanned<RawField>>,
+}
+
+/// `stiffness_field = { cov = 0.2, correlation_length = 5e-3, seed = 1 }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawField {
+    pub cov: Spanned<Real>,
+    pub correlation_length: Spanned<Real>,
+    pub seed: Option<Spanned<i64>>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -91,6 +91,11 @@ pub struct BenchArgs {
     /// process estimates it, and `state_digest` is the same for any number of ranks.
     #[arg(long, conflicts_with = "pieces")]
     pub parts: bool,
+    /// A block of two materials, half and half along x (the second four times as stiff and of
+    /// another nu): the cost of a heterogeneous body against a homogeneous one of the same
+    /// lattice and size (run both, alternating, to compare).
+    #[arg(long, conflicts_with_all = ["parts", "pieces"])]
+    pub phases: bool,
 }
 
 pub use hooke_sys::peak_memory;
@@ -109,6 +114,7 @@ impl BenchArgs {
             contact: self.contact,
             pieces: self.pieces,
             parts: self.parts,
+            phases: self.phases,
         }
     }
 }

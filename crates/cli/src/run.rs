@@ -152,6 +152,27 @@ fn print_check(case: &Path, sim: &Simulation, r: &hooke_sim::CheckReport) -> Res
         );
     }
     print_constants(sim)?;
+    for p in &r.phases {
+        println!(
+            "  phase {:<6} {}: E {:e} Pa, nu {}, density {} kg/m^3, q {:.4}; {} nodes, {} springs{}",
+            p.material.index,
+            p.material.name,
+            p.material.youngs,
+            p.material.poisson,
+            p.material.density,
+            p.material.q,
+            p.nodes,
+            p.springs,
+            p.critical_stretch.map_or(String::new(), |[lo, mean, hi]| if lo == hi {
+                format!(", critical stretch {lo:e}")
+            } else {
+                format!(", critical stretch {lo:.3e} to {hi:.3e} (mean {mean:.3e})")
+            })
+        );
+    }
+    if let Some(n) = r.interface_springs {
+        println!("  interfaces   {n} springs join two materials (each its two halves in series)");
+    }
     println!("  fracture     {}", r.criterion.as_deref().unwrap_or("off"));
     print_contact(sim);
     for n in r
@@ -258,6 +279,11 @@ fn print_constants(sim: &Simulation) -> Result<()> {
             println!("  stiffness    C (Pa, Voigt xx yy zz yz xz xy, global axes):");
         }
         print_tensor(&stiffness);
+    } else if !sim.materials.is_empty() {
+        println!(
+            "  materials    {} (each node its material's q; springs between two take both in series)",
+            sim.materials.len()
+        );
     } else if sim.body.lattice.kind.is_random() {
         let unit = if sim.body.lattice.dim() == 3 {
             "Pa"

@@ -1273,3 +1273,49 @@ fn bench_frame_reports_the_cost_and_refuses_windows_past_the_end() {
         "{v}"
     );
 }
+
+/// `hooke moduli --bulk --laminate E1,nu1,E2,nu2,f2 --json`: the contract keys, the cell's
+/// stiffness near Backus's (8 planes: within 8 %; the library's tests hold the convergence and
+/// the 0.5 % at 128 planes), and the mistakes refused with exit 2.
+#[test]
+fn moduli_laminate_reports_the_cell_against_backus() {
+    let o = hooke(&[
+        "moduli",
+        "--bulk",
+        "--laminate",
+        "10e9,0.1,100e9,0.4,0.5",
+        "--planes",
+        "8",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for key in ["C_measured", "C_target"] {
+        let c = v[key].as_array().unwrap();
+        assert_eq!(c.len(), 6);
+        assert!(c.iter().all(|row| row.as_array().unwrap().len() == 6));
+    }
+    assert!(
+        (v["C_target"][2][2].as_f64().unwrap() - 1.9523e10).abs() < 1e7,
+        "{v}"
+    );
+    assert!(v["max_error"].as_f64().unwrap() < 0.08, "{v}");
+    assert_eq!(v["planes"], serde_json::json!([4, 4]));
+    for bad in [
+        vec!["--laminate", "10e9,0.1,100e9,0.4"],
+        vec!["--laminate", "10e9,0.1,100e9,0.4,1.5"],
+        vec![
+            "--laminate",
+            "10e9,0.1,100e9,0.4,0.5",
+            "--lattice",
+            "random3d",
+        ],
+        vec!["--laminate", "10e9,0.7,100e9,0.4,0.5"],
+    ] {
+        let mut args = vec!["moduli", "--bulk"];
+        args.extend(bad.iter().copied());
+        let o = hooke(&args);
+        assert_eq!(o.status.code(), Some(2), "{bad:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains("error"), "{bad:?}: {}", stderr(&o));
+    }
+}

@@ -21,6 +21,13 @@ pub struct SpringState {
     pub pool: [Real; 2],
     /// Dispersion ratio q of the material.
     pub q: Real,
+    /// The spring's strength factor `f_s` (1 unless the spring's material, interface or a
+    /// random draw makes it stronger or weaker: [`crate::Fracture::with_strength`]). It scales
+    /// the stretches at which the criterion acts: a spring of factor `f_s` fails where one of
+    /// factor 1 would at the stretch `dL / (f_s L)` (its critical stretch, or its softening
+    /// law's peak and final stretches, are `f_s` times the criterion's; its critical energy
+    /// `f_s^2` times).
+    pub strength: Real,
 }
 
 /// The unit reference direction of the spring from node `i` to node `j`.

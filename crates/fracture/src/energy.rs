@@ -149,7 +149,7 @@ impl Criterion for SpringEnergy {
     }
 
     fn breaks(&self, s: &SpringState) -> bool {
-        let r = s.rest / self.l_ref;
+        let r = s.rest / self.l_ref * s.strength;
         s.dl > 0.0 && s.energy() > self.w_c * r * r
     }
 }
@@ -177,6 +177,7 @@ mod tests {
                 dl: s * rest,
                 pool: [s, s],
                 q,
+                strength: 1.0,
             };
             assert_eq!(c.breaks(&st), s > s_c, "L={rest} s={s}");
         }

@@ -21,6 +21,9 @@ pub struct Fracture {
     no_fail: Vec<bool>,
     /// Springs each node had at set-up (for damage).
     initial: Vec<u32>,
+    /// Each spring's strength factor ([`Fracture::with_strength`]), and the least of them;
+    /// `None`: every spring's is 1.
+    strength: Option<(Vec<Real>, Real)>,
     /// Per-chunk lists of springs that fail or soften, with their new damage weight (0:
     /// broken), reused between checks.
     found: Vec<Vec<(u32, Real)>>,
@@ -46,12 +49,45 @@ impl Fracture {
                 .map(|n| bonds.row(n).len() as u32)
                 .collect(),
             found: vec![Vec::new(); body.nodes().div_ceil(CHUNK)],
+            strength: None,
             decided: Vec::new(),
             touched: Vec::new(),
             broken_total: 0,
             softened_total: 0,
             released_total: 0.0,
         }
+    }
+
+    /// Give each spring `s` its own strength factor `f_s` ([`SpringState::strength`]: the
+    /// stretches at which the criterion acts are `f_s` times its own for that spring): a
+    /// material's or an interface's strength against the criterion's, or a random draw
+    /// (Weibull). Refused where the count is not the body's springs or a factor is not
+    /// positive and finite. The screened step then flags a block where a spring passes the
+    /// criterion's screen times the least factor, so the decisions stay those of a check of
+    /// every spring.
+    pub fn with_strength(mut self, body: &Body, factor: Vec<Real>) -> Result<Self, FractureError> {
+        if factor.len() != body.lattice.bonds.len() {
+            return Err(FractureError::BadParameter {
+                what: "the springs' strength factors (one per spring)",
+                value: factor.len() as Real,
+                fix: "give one factor per spring of the body",
+            });
+        }
+        if let Some(&f) = factor.iter().find(|&&f| !(f.is_finite() && f > 0.0)) {
+            return Err(FractureError::BadParameter {
+                what: "a spring's strength factor",
+                value: f,
+                fix: "give positive, finite factors",
+            });
+        }
+        let least = factor.iter().fold(Real::INFINITY, |m, &f| m.min(f));
+        self.strength = Some((factor, least));
+        Ok(self)
+    }
+
+    /// Each spring's strength factor, if the springs have their own ([`Fracture::with_strength`]).
+    pub fn strength(&self) -> Option<&[Real]> {
+        self.strength.as_ref().map(|(f, _)| &f[..])
     }
 
     /// The criterion in use.
@@ -78,6 +114,11 @@ impl Fracture {
             .map(|n| bonds.row(n).len() as u32)
             .collect();
         self.found = vec![Vec::new(); piece_body.nodes().div_ceil(CHUNK)];
+        // The piece's springs are the body's `piece.springs`, in the body's order.
+        if let Some((f, least)) = self.strength.take() {
+            let mine: Vec<Real> = piece.springs.iter().map(|&b| f[b as usize]).collect();
+            self.strength = Some((mine, least));
+        }
     }
 
     /// Springs with an end in `nodes` never break.
@@ -203,6 +244,7 @@ impl Fracture {
     fn decide_rows(&mut self, body: &Body, state: &State, nodes: std::ops::Range<usize>) {
         let bonds = &*body.lattice.bonds;
         let (crit, no_fail) = (&*self.criterion, &self.no_fail);
+        let strength = self.strength.as_ref().map(|(f, _)| &f[..]);
         self.found.par_iter_mut().enumerate().for_each(|(c, list)| {
             list.clear();
             for i in (c * CHUNK).max(nodes.start)..((c + 1) * CHUNK).min(nodes.end) {
@@ -217,7 +259,7 @@ impl Fracture {
                     if j < i || !state.alive()[b] || no_fail[j] {
                         continue;
                     }
-                    if let Some(w) = new_weight(crit, body, state, b, i, j) {
+                    if let Some(w) = new_weight(crit, strength, body, state, b, i, j) {
                         list.push((b as u32, w));
                     }
                 }
@@ -261,6 +303,7 @@ impl Fracture {
 #[inline]
 fn new_weight(
     crit: &dyn Criterion,
+    strength: Option<&[Real]>,
     body: &Body,
     state: &State,
     b: usize,
@@ -279,6 +322,7 @@ fn new_weight(
             dl: g.dl,
             pool: [state.pool[i], state.pool[j]],
             q: body.q,
+            strength: strength.map_or(1.0, |f| f[b]),
         },
         w,
     );
@@ -289,7 +333,10 @@ fn new_weight(
 /// it for the others ([`Fracture::check`]).
 impl Breaker for Fracture {
     fn screen(&self) -> Real {
-        self.criterion.screen().unwrap_or(Real::INFINITY)
+        let least = self.strength.as_ref().map_or(1.0, |&(_, least)| least);
+        self.criterion
+            .screen()
+            .map_or(Real::INFINITY, |s| if least == 1.0 { s } else { s * least })
     }
 
     fn decide(
@@ -309,6 +356,7 @@ impl Breaker for Fracture {
         };
         let bonds = &*body.lattice.bonds;
         let (crit, no_fail) = (&*self.criterion, &self.no_fail);
+        let strength = self.strength.as_ref().map(|(f, _)| &f[..]);
         // Ascending spring order is (lower end, upper end) order: the order of the rows.
         for &b in hot {
             let b = b as usize;
@@ -316,7 +364,7 @@ impl Breaker for Fracture {
             if !nodes.contains(&i) || !state.alive()[b] || no_fail[i] || no_fail[j] {
                 continue;
             }
-            if let Some(w) = new_weight(crit, body, state, b, i, j) {
+            if let Some(w) = new_weight(crit, strength, body, state, b, i, j) {
                 out.push((b as u32, w));
             }
         }

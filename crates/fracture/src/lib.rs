@@ -16,6 +16,9 @@
 //! * [`Softening`]: a cohesive spring law for quasi-brittle materials, linear or bilinear, whose
 //!   springs lose stiffness gradually (a damage weight in the pools and normalisers) and break
 //!   at their final stretch; calibrated from G_f and the tensile strength ([`softening`]).
+//! * [`Weibull`]: random strength, each spring's critical stretch scaled by a seeded draw
+//!   that depends only on the nodes it joins ([`Fracture::with_strength`] takes the factors,
+//!   which also carry a material's or an interface's own strength).
 //! * [`precrack`]: springs crossing segments (2D) or planar polygons (3D) removed at set-up.
 //! * Damage per node: the fraction of its springs that are broken (softened springs count by
 //!   their lost weight).
@@ -31,6 +34,7 @@ pub mod precrack;
 pub mod softening;
 pub mod stretch;
 pub mod toughness;
+pub mod weibull;
 
 mod fracture;
 
@@ -41,3 +45,4 @@ pub use fracture::{node_dispersive_energy, BreakReport, Fracture};
 pub use precrack::Crack;
 pub use softening::{Softening, SofteningShape};
 pub use stretch::{CriticalStretch, FibreStretch};
+pub use weibull::Weibull;

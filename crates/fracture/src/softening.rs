@@ -472,7 +472,7 @@ impl Criterion for Softening {
     }
 
     fn breaks(&self, s: &SpringState) -> bool {
-        s.stretch() >= self.last
+        s.stretch() >= self.last * s.strength
     }
 
     fn screen(&self) -> Option<Real> {
@@ -480,7 +480,8 @@ impl Criterion for Softening {
     }
 
     fn weight(&self, s: &SpringState, w: Real) -> Real {
-        w.min(self.weight_at(s.stretch()))
+        // (x / 1 is x: a spring of factor 1 keeps the bits of the law without factors.)
+        w.min(self.weight_at(s.stretch() / s.strength))
     }
 
     fn as_softening(&self) -> Option<&Softening> {
@@ -602,6 +603,7 @@ mod tests {
             dl: stretch,
             pool: [0.0; 2],
             q: 0.0,
+            strength: 1.0,
         };
         let w1 = s.weight(&at(4e-4), 1.0);
         assert!(w1 < 1.0 && w1 > 0.0);

@@ -303,7 +303,7 @@ impl Criterion for CriticalStretch {
     }
 
     fn breaks(&self, s: &SpringState) -> bool {
-        s.stretch() > self.s_c
+        s.stretch() > self.s_c * s.strength
     }
     fn screen(&self) -> Option<Real> {
         Some(self.s_c)
@@ -366,7 +366,7 @@ impl Criterion for FibreStretch {
     }
 
     fn breaks(&self, s: &SpringState) -> bool {
-        s.stretch() > self.critical(s.dir)
+        s.stretch() > self.critical(s.dir) * s.strength
     }
     fn screen(&self) -> Option<Real> {
         Some(self.across.min(self.along))
@@ -388,6 +388,7 @@ mod tests {
             dl: stretch,
             pool: [0.0; 2],
             q: 0.0,
+            strength: 1.0,
         };
         let h = (0.5 as Real).sqrt();
         // Across: 1e-3; along: 4e-3; a diagonal with (n.m)^2 = 1/2: 2.5e-3.
@@ -453,6 +454,7 @@ mod tests {
             dl: -0.5,
             pool: [0.0; 2],
             q: 0.0,
+            strength: 1.0,
         };
         assert!(!c.breaks(&s));
         assert!(c.breaks(&SpringState { dl: 2e-3, ..s }));

@@ -432,6 +432,7 @@ fn most_loaded(
             dl: g.dl,
             pool: [state.pool[i], state.pool[j]],
             q: body.q,
+            strength: 1.0,
         };
         // Load ratio: linear in the grip opening for either criterion.
         let r = if t.energy {

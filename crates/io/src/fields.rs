@@ -40,7 +40,7 @@ pub struct FieldSet(u16);
 
 impl FieldSet {
     /// Every selectable field, in the order frames carry them.
-    pub const NAMES: [&'static str; 8] = [
+    pub const NAMES: [&'static str; 9] = [
         "displacement",
         "velocity",
         "damage",
@@ -49,6 +49,7 @@ impl FieldSet {
         "stress",
         "node_volume",
         "region",
+        "material",
     ];
 
     /// Every field (the default).

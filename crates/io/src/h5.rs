@@ -4,7 +4,7 @@
 //! When a run completes, one `.h5` file holds the reference mesh (`/mesh/points`,
 //! `/mesh/vertices`) and one group per frame (`/frames/STEP/points` (current positions),
 //! `displacement`, `velocity`, `damage`, `pool_ratio`, `strain_energy_density`, `stress`,
-//! `node_volume`, `node_id`, `region`), chunked and deflate-compressed. An `.xdmf` file describes
+//! `node_volume`, `node_id`, `region`, `material`), chunked and deflate-compressed. An `.xdmf` file describes
 //! the time series in the layout meshio's `TimeSeriesReader` and ParaView's XDMF3 reader read: a
 //! uniform grid with the mesh, and a temporal collection whose grids include it and carry the
 //! frame's point data. Each frame's geometry is its current positions, as in the VTK frames
@@ -56,7 +56,7 @@ const FIELDS: [(&str, &str, usize); 7] = [
 ];
 
 /// Integer fields of a frame (written as 64-bit integers).
-const INT_FIELDS: [&str; 2] = ["node_id", "region"];
+const INT_FIELDS: [&str; 3] = ["node_id", "region", "material"];
 
 /// Create an HDF5 file through a temporary name, fill it, and rename it into place.
 fn atomic_h5(
@@ -177,6 +177,9 @@ impl H5Series {
         if extras.region.is_none() {
             fields = fields.without("region");
         }
+        if body.phase.is_none() {
+            fields = fields.without("material");
+        }
         let d = fields
             .derived()
             .then(|| extras.derived_or_compute(body, state));
@@ -222,6 +225,10 @@ impl H5Series {
             if let Some(r) = extras.region.filter(|_| fields.has("region")) {
                 let r: Vec<i64> = r.iter().map(|&v| v as i64).collect();
                 write_ints(&g, "region", &r, &path)?;
+            }
+            if let Some(m) = body.phase.as_ref().filter(|_| fields.has("material")) {
+                let m: Vec<i64> = m.iter().map(|&v| v as i64).collect();
+                write_ints(&g, "material", &m, &path)?;
             }
             Ok(())
         })?;

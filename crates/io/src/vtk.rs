@@ -597,6 +597,22 @@ fn point_data(
             data: r[nodes.clone()].to_vec().into(),
         }));
     }
+    // A body of several materials: each node's phase (0 the body's material; the names are in
+    // the run's run.json).
+    if let Some(m) = body.phase.as_ref().filter(|_| fields.has("material")) {
+        point.push(Attribute::DataArray(DataArray {
+            name: "material".into(),
+            elem: ElementType::Scalars {
+                num_comp: 1,
+                lookup_table: None,
+            },
+            data: m[nodes.clone()]
+                .iter()
+                .map(|&p| p as u32)
+                .collect::<Vec<u32>>()
+                .into(),
+        }));
+    }
     point
 }
 

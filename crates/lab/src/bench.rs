@@ -84,6 +84,9 @@ pub struct BenchOptions {
     pub pieces: bool,
     /// Set the block up from parts, each rank its own (random lattices).
     pub parts: bool,
+    /// A block of two materials: the nodes with x past the middle four times as stiff, of
+    /// another Poisson's ratio ([`hooke_core::phases`]; the CSR or row kernel).
+    pub phases: bool,
 }
 
 impl Default for BenchOptions {
@@ -99,6 +102,7 @@ impl Default for BenchOptions {
             contact: false,
             pieces: false,
             parts: false,
+            phases: false,
         }
     }
 }
@@ -140,6 +144,8 @@ pub type Export<'a> = dyn FnMut(&Body, &State, Real) -> Result<()> + 'a;
 pub struct StepsReport {
     pub law: String,
     pub lattice: String,
+    /// Materials in the block: 1, or 2 with `--phases`.
+    pub materials: usize,
     pub kernel: String,
     pub nodes: usize,
     pub springs: usize,
@@ -259,6 +265,7 @@ pub fn steps(
     Ok(StepsReport {
         law: args.law.name().into(),
         lattice: body.lattice.kind.name().into(),
+        materials: if body.phase.is_some() { 2 } else { 1 },
         kernel: it.kernel().name().to_string(),
         nodes,
         springs,
@@ -442,6 +449,23 @@ pub fn from_parts(
     Ok((body, state, it, nodes, springs, parts))
 }
 
+/// `--phases`: the block's nodes with x past the middle of material 2 (four times as stiff,
+/// twice as dense, q of nu = 0.2, or 0 with `q` 0), the others of material 1 (`k` 1, `q`).
+fn two_materials(lattice: Lattice, q: Real) -> Result<Body> {
+    let kind = lattice.kind;
+    let x = lattice.pos.x();
+    let mid = 0.5 * x.iter().fold(0.0, |m: Real, &v| m.max(v));
+    let node_phase: Vec<u8> = x.iter().map(|&v| u8::from(v > mid)).collect();
+    let q2 = if q == 0.0 { 0.0 } else { q_from_nu(kind, 0.2)? };
+    let one = Body::uniform(lattice.clone(), 1.0, q, 1.0);
+    let two = Body::uniform(lattice.clone(), 4.0, q2, 2.0);
+    let phases = vec![
+        hooke_core::phases::Phase::of(one)?,
+        hooke_core::phases::Phase::of(two)?,
+    ];
+    Ok(hooke_core::phases::assemble(lattice, phases, &node_phase)?)
+}
+
 /// A body on `lattice` in lattice units with ratio `q`, moving with a smooth velocity field (so
 /// the springs do real work), and its integrator on the kernel `args` asks for.
 pub fn moving(args: &BenchOptions, lattice: Lattice, q: Real) -> Result<(Body, State, Integrator)> {
@@ -457,7 +481,11 @@ pub fn moving_body(
     team: Option<Arc<dyn Team>>,
 ) -> Result<(Body, State, Integrator, [f64; 2])> {
     let start = Instant::now();
-    let mut body = Body::uniform(lattice, 1.0, q, 1.0);
+    let mut body = if args.phases {
+        two_materials(lattice, q)?
+    } else {
+        Body::uniform(lattice, 1.0, q, 1.0)
+    };
     if args.cell_weights {
         body = body
             .with_cell_weights()

@@ -18,6 +18,7 @@
 #![forbid(unsafe_code)]
 
 pub mod bench;
+pub mod laminate;
 pub mod moduli;
 pub mod overhead;
 pub mod toughness;

@@ -751,6 +751,7 @@ impl Body {
             mass,
             lever: Some(lever),
             q_node: None,
+            phase: None,
         };
         body.validate()?;
         Ok(body)

@@ -196,6 +196,12 @@ pub struct Body {
     /// pool holds `q_n p_n` and every solver's law is the one-material law with `q = 1` (see
     /// [`Body::with_node_q`]).
     pub q_node: Option<Vec<Real>>,
+    /// Each node's phase in a body of several materials (0: the body's own material, `p + 1`:
+    /// the builder's phase `p`; `None`: all of one material), as [`crate::phases::assemble`]
+    /// numbered them. Nothing in the step reads it: it names the materials in frames
+    /// (`material`), in reports and in the fracture set-up (each spring's strength by the
+    /// materials it joins).
+    pub phase: Option<Vec<u8>>,
 }
 
 impl Body {
@@ -222,6 +228,9 @@ impl Body {
         }
         if let Some(q) = &self.q_node {
             parts.push(("dispersion ratios", bytes(q)));
+        }
+        if let Some(p) = &self.phase {
+            parts.push(("phases", bytes(p)));
         }
         parts
     }
@@ -267,6 +276,7 @@ impl Body {
             mass,
             lever: None,
             q_node: None,
+            phase: None,
         }
     }
 
@@ -288,6 +298,7 @@ impl Body {
             mass: fill(nn, node_mass),
             lever: None,
             q_node: None,
+            phase: None,
         }
     }
 

@@ -121,6 +121,9 @@ pub fn assemble(lattice: Lattice, phases: Vec<Phase>, node_phase: &[u8]) -> Resu
             mass: p.mass,
             lever: None,
             q_node: None,
+            // (Read only for names and strengths: a body all of one phase steps as that
+            // material's.)
+            phase: (first != 0).then(|| node_phase.to_vec()),
         });
     }
     let k: Vec<Real> = (0..springs)
@@ -140,6 +143,7 @@ pub fn assemble(lattice: Lattice, phases: Vec<Phase>, node_phase: &[u8]) -> Resu
         mass,
         lever: None,
         q_node: None,
+        phase: Some(node_phase.to_vec()),
     }
     .with_node_q(q_node)
 }

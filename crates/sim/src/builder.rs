@@ -35,7 +35,7 @@ use hooke_core::Designs;
 use hooke_core::{Anisotropic, Body, LatticeKind, Orthotropic, Real, State, Transverse, Vector};
 use hooke_fracture::{
     Crack, Criterion, CriticalStretch, FibreStretch, Fracture, Softening, SofteningShape,
-    SpringEnergy,
+    SpringEnergy, Weibull,
 };
 
 use crate::geometry::{fill_lattice, traction_loads, Region, Shape, Solid};
@@ -117,6 +117,58 @@ impl Bc {
     }
 }
 
+/// A material of a body of several materials ([`Builder::phase_of`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PhaseMaterial {
+    /// Its name (frames' `material` field numbers the phases; run.json names them).
+    pub name: String,
+    /// Young's modulus, Poisson's ratio and density.
+    pub elastic: Elastic,
+    /// Its springs' own critical stretch or fracture energy (`None`: the body's criterion's).
+    pub toughness: Option<Toughness>,
+    /// A Weibull scatter of its springs' critical stretches.
+    pub weibull: Option<Weibull>,
+}
+
+impl PhaseMaterial {
+    /// A material named `name` of Young's modulus (Pa), Poisson's ratio and density
+    /// (kg/m^3), breaking as the body's material does.
+    pub fn new(name: impl Into<String>, youngs: Real, poisson: Real, density: Real) -> Self {
+        PhaseMaterial {
+            name: name.into(),
+            elastic: Elastic {
+                youngs,
+                poisson,
+                density,
+            },
+            toughness: None,
+            weibull: None,
+        }
+    }
+}
+
+/// A strength of its own, for a material's springs or an interface's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Toughness {
+    /// A critical stretch.
+    Stretch(Real),
+    /// A fracture energy G_c (J/m^2), converted to a critical stretch with the lattice's
+    /// measured toughness (`hooke_fracture::stretch`) and the springs' own constants.
+    Energy(Real),
+}
+
+/// The springs that join two named materials ([`Builder::interface`]): the interfacial
+/// transition zone of concrete, a weak or strong bond.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Interface {
+    /// The two materials' names (the body's, [`Builder::material_name`], or a phase's).
+    pub between: [String; 2],
+    /// The interface springs' own strength (`None`: the weaker material's).
+    pub toughness: Option<Toughness>,
+    /// A factor on the interface springs' stiffness (1: both materials in series).
+    pub stiffness: Real,
+}
+
 /// The breaking rule.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum BreakRule {
@@ -176,8 +228,19 @@ pub struct Builder {
     random: RandomSpec,
     geometry: Solid,
     material: Option<Elastic>,
+    /// The body's material's name (phase 0 of a body of several materials).
+    name: String,
+    /// A Weibull scatter of the body's material's critical stretches.
+    weibull: Option<Weibull>,
+    /// A lognormal random field of the body's material's Young's modulus.
+    field: Option<crate::field::StiffnessField>,
     /// Phases of other materials: the nodes in each shape (the last that holds a node wins).
-    phases: Vec<(Shape, Elastic)>,
+    phases: Vec<(Shape, PhaseMaterial)>,
+    /// The interfaces between named materials.
+    interfaces: Vec<Interface>,
+    /// Random inclusions: the phase each becomes (placed when the body is built) and what
+    /// to place.
+    inclusions: Vec<(usize, crate::inclusions::InclusionSpec)>,
     anisotropic: Option<Anisotropic>,
     rotate_to: Option<[Real; 3]>,
     cell_weights: Option<bool>,
@@ -211,7 +274,12 @@ impl Builder {
             random: RandomSpec::default(),
             geometry: Solid::default(),
             material: None,
+            name: "material".into(),
+            weibull: None,
+            field: None,
             phases: Vec::new(),
+            interfaces: Vec::new(),
+            inclusions: Vec::new(),
             anisotropic: None,
             rotate_to: None,
             cell_weights: None,
@@ -268,15 +336,57 @@ impl Builder {
     /// rest). Springs between two materials take both in series (`hooke_core::phases`), and
     /// each node its material's dispersion ratio. Fracture then takes a critical stretch (the
     /// fracture-energy calibrations are one material's).
-    pub fn phase(mut self, shape: Shape, youngs: Real, poisson: Real, density: Real) -> Self {
-        self.phases.push((
-            shape,
-            Elastic {
-                youngs,
-                poisson,
-                density,
-            },
-        ));
+    pub fn phase(self, shape: Shape, youngs: Real, poisson: Real, density: Real) -> Self {
+        let name = format!("phase{}", self.phases.len() + 1);
+        self.phase_of(shape, PhaseMaterial::new(name, youngs, poisson, density))
+    }
+    /// A phase of a named material, which may have its own strength and scatter (see
+    /// [`Builder::phase`]). Its springs break by its own critical stretch (or by the one its
+    /// fracture energy gives with its constants), else by the body's.
+    pub fn phase_of(mut self, shape: Shape, material: PhaseMaterial) -> Self {
+        self.phases.push((shape, material));
+        self
+    }
+    /// Random inclusions of `material` ([`crate::inclusions`]): non-overlapping spheres (disks
+    /// in 2D) of a grading and a volume fraction, placed inside the body when it is built,
+    /// the same on every process. They are one phase, in the order of the phases (a later
+    /// phase overrides them where they overlap). A fraction the generator cannot reach is
+    /// refused with the fraction it reached.
+    pub fn inclusions(
+        mut self,
+        spec: crate::inclusions::InclusionSpec,
+        material: PhaseMaterial,
+    ) -> Self {
+        self.inclusions.push((self.phases.len(), spec));
+        let none = crate::inclusions::Balls::none(self.kind.dim());
+        self.phases
+            .push((Shape::Balls(std::sync::Arc::new(none)), material));
+        self
+    }
+    /// The name of the body's material (default `material`): phase 0 in frames and reports,
+    /// and what an [`Interface`] calls it.
+    pub fn material_name(mut self, name: impl Into<String>) -> Self {
+        self.name = name.into();
+        self
+    }
+    /// Scatter the critical stretches of the body's material's springs (Weibull; the scale
+    /// is its critical stretch). A phase's material scatters by its own
+    /// ([`PhaseMaterial::weibull`]).
+    pub fn weibull(mut self, w: Weibull) -> Self {
+        self.weibull = Some(w);
+        self
+    }
+    /// A spatially correlated lognormal field of the material's Young's modulus
+    /// ([`crate::field`]): each spring's stiffness scaled by the field at its two halves, in
+    /// series. A body of one isotropic material.
+    pub fn stiffness_field(mut self, f: crate::field::StiffnessField) -> Self {
+        self.field = Some(f);
+        self
+    }
+    /// The springs between two named materials take their own strength and stiffness factor.
+    /// Refused where no spring joins them.
+    pub fn interface(mut self, i: Interface) -> Self {
+        self.interfaces.push(i);
         self
     }
     /// A transversely isotropic material instead of [`Builder::material`] (the cubic lattice,
@@ -410,12 +520,38 @@ impl Builder {
 
     /// Check everything and build the simulation.
     pub fn build(self) -> Result<Simulation, BuildError> {
+        let this = self.place_inclusions()?;
+        this.build_placed()
+    }
+
+    /// The inclusions' phases with their balls placed (the same on every process: one
+    /// stream of the seed, in one thread).
+    fn place_inclusions(mut self) -> Result<Self, BuildError> {
+        let dim = self.kind.dim();
+        for (i, &(p, spec)) in self.inclusions.iter().enumerate() {
+            use crate::inclusions::InclusionError;
+            let balls =
+                crate::inclusions::place(&spec, &self.geometry, dim).map_err(|e| match &e {
+                    InclusionError::Bad(key, _) => {
+                        BuildError::new(format!("inclusions[{i}].{key}"), e.to_string())
+                    }
+                    InclusionError::Unreached { .. } => {
+                        BuildError::new(format!("inclusions[{i}].fraction"), e.to_string())
+                    }
+                })?;
+            self.phases[p].0 = Shape::from(balls);
+        }
+        Ok(self)
+    }
+
+    fn build_placed(self) -> Result<Simulation, BuildError> {
         if let Some(team) = self.parts.clone().filter(|t| t.size() > 1) {
             return self.build_parts(team);
         }
         let (body, k, h, weighted, random_design) = self.body()?;
         let mut state = State::new(&body);
-        let (mut fracture, precracked) = self.fracture(&body, &mut state, k, h, &|cut| !cut)?;
+        let (mut fracture, precracked) =
+            self.fracture(&body, &mut state, k, h, &|cut| !cut, &|i| i as u64)?;
         let whole = Selector {
             select: &|r: &Region| r.select(&body),
             none: &|nodes: &[u32]| nodes.is_empty(),
@@ -453,6 +589,7 @@ impl Builder {
         loading
             .validate(body.nodes())
             .map_err(|e| BuildError::new("boundary", e.to_string()))?;
+        let materials = self.material_infos(&body)?;
         // Stiffnesses, masses and tractions are set: what only they read goes.
         body.lattice.shed_setup();
         let options = IntegratorOptions {
@@ -496,6 +633,7 @@ impl Builder {
             plane: self.plane,
             held: None,
             from_parts: None,
+            materials,
         })
     }
 
@@ -579,7 +717,7 @@ impl Builder {
             Some(r) => crate::geometry::fill_turned_cubic(a, &r, &self.geometry)?,
         };
         let (body, k, design, held) = self.material_body(lattice)?;
-        Self::phases_hold(&held)?;
+        self.phases_hold(&held)?;
         Ok((body, k, h, design))
     }
 
@@ -591,6 +729,12 @@ impl Builder {
         lattice: hooke_core::Lattice,
     ) -> Result<(Body, Real, Option<Calibrated>, Vec<bool>), BuildError> {
         let kind = self.kind;
+        if self.field.is_some() && (!self.phases.is_empty() || self.anisotropic.is_some()) {
+            return Err(BuildError::new(
+                "material.stiffness_field",
+                "a stiffness field scatters a body of one isotropic material for now; remove the phases or the anisotropic material (or the field)",
+            ));
+        }
         if let Some(t) = &self.anisotropic {
             if !self.phases.is_empty() {
                 return Err(BuildError::new(
@@ -678,31 +822,168 @@ impl Builder {
             let (body, held) = self.phase_body(lattice)?;
             return Ok((body, Real::NAN, None, held));
         }
-        let (body, k) = self.isotropic_body(lattice)?;
+        if !self.interfaces.is_empty() {
+            return Err(BuildError::new(
+                "interfaces[0].between",
+                "an interface joins two materials of a body, and this body is of one: add                  [[phases]] (Builder::phase) or remove the interface",
+            ));
+        }
+        let (mut body, k) = self.isotropic_body(lattice)?;
+        if let Some(f) = &self.field {
+            self.apply_field(&mut body, f)?;
+        }
         Ok((body, k, None, Vec::new()))
     }
 
-    /// Refuse a phase whose shape holds no node (`held[p]`: phase p holds one, over the whole
-    /// body; a process building its part ors its flags with the others' first).
-    fn phases_hold(held: &[bool]) -> Result<(), BuildError> {
+    /// Scale each spring by the stiffness field at its two halves, in series (see
+    /// [`crate::field`]).
+    fn apply_field(
+        &self,
+        body: &mut Body,
+        f: &crate::field::StiffnessField,
+    ) -> Result<(), BuildError> {
+        use rayon::prelude::*;
+        f.check().map_err(|(key, why)| {
+            BuildError::new(format!("material.stiffness_field.{key}"), why)
+        })?;
+        let modes = f.modes(self.kind.dim());
+        let pos = &body.lattice.pos;
+        let factor: Vec<Real> = (0..body.nodes())
+            .into_par_iter()
+            .with_min_len(1024)
+            .map(|i| modes.factor(pos.get(i)))
+            .collect();
+        let ends = &body.lattice.bonds.ends;
+        let scaled: Vec<Real> = ends
+            .par_iter()
+            .zip(body.k.par_iter())
+            .map(|(&[i, j], &k)| {
+                k * hooke_core::phases::series(factor[i as usize], factor[j as usize])
+            })
+            .collect();
+        body.k = scaled.into();
+        Ok(())
+    }
+
+    /// Refuse a phase whose shape holds no node, or an interface between materials that no
+    /// spring joins (`held`: the phases', then the interfaces' flags, over the whole body; a
+    /// process building its part ors its flags with the others' first).
+    fn phases_hold(&self, held: &[bool]) -> Result<(), BuildError> {
         match held.iter().position(|&h| !h) {
-            Some(p) => Err(BuildError::new(
-                format!("phases[{p}]"),
+            Some(p) if p < self.phases.len() => Err(BuildError::new(
+                self.phase_key(p),
                 "the phase's shape holds no node of the body: move it or make it larger",
             )),
+            Some(i) => {
+                let i = i - self.phases.len();
+                let [a, b] = &self.interfaces[i].between;
+                Err(BuildError::new(
+                    format!("interfaces[{i}].between"),
+                    format!(
+                        "the materials \"{a}\" and \"{b}\" never touch in this body (no spring \
+                         joins a node of one to a node of the other): remove the interface or \
+                         check the phases' shapes"
+                    ),
+                ))
+            }
             None => Ok(()),
         }
     }
 
+    /// The key of the builder's phase `p`: `inclusions[i]` for the `i`th set of inclusions,
+    /// else `phases[j]` for the `j`th phase given by a shape.
+    fn phase_key(&self, p: usize) -> String {
+        match self.inclusions.iter().position(|&(q, _)| q == p) {
+            Some(i) => format!("inclusions[{i}]"),
+            None => {
+                let j = p - self.inclusions.iter().filter(|&&(q, _)| q < p).count();
+                format!("phases[{j}]")
+            }
+        }
+    }
+
+    /// The name of each phase's material: the body's, then each phase's (a node's phase in
+    /// [`Body::phase`] indexes it).
+    pub fn phase_names(&self) -> Vec<String> {
+        std::iter::once(self.name.clone())
+            .chain(self.phases.iter().map(|(_, m)| m.name.clone()))
+            .collect()
+    }
+
+    /// The interface (index into the interfaces) of each pair of phases, `(P + 1)^2` entries,
+    /// row-major; refused where an interface names an unknown material or one twice, or has a
+    /// factor that is not positive.
+    fn interface_table(&self) -> Result<Vec<Option<usize>>, BuildError> {
+        let names = self.phase_names();
+        let n = names.len();
+        let mut table = vec![None; n * n];
+        for (i, f) in self.interfaces.iter().enumerate() {
+            let key = format!("interfaces[{i}].between");
+            if let Some(name) = f.between.iter().find(|m| !names.contains(m)) {
+                let mut known: Vec<&str> = names.iter().map(String::as_str).collect();
+                known.sort_unstable();
+                known.dedup();
+                return Err(BuildError::new(
+                    key,
+                    format!(
+                        "no material named \"{name}\": the body's materials are {}",
+                        known.join(", ")
+                    ),
+                ));
+            }
+            if f.between[0] == f.between[1] {
+                return Err(BuildError::new(
+                    key,
+                    "an interface joins two different materials: name two",
+                ));
+            }
+            if !(f.stiffness.is_finite() && f.stiffness > 0.0) {
+                return Err(BuildError::new(
+                    format!("interfaces[{i}].stiffness_factor"),
+                    format!(
+                        "{}: give a positive factor (1: the two materials in series)",
+                        f.stiffness
+                    ),
+                ));
+            }
+            for (a, na) in names.iter().enumerate() {
+                for (b, nb) in names.iter().enumerate() {
+                    let joins = (na == &f.between[0] && nb == &f.between[1])
+                        || (na == &f.between[1] && nb == &f.between[0]);
+                    if !joins {
+                        continue;
+                    }
+                    if let Some(first) = table[a * n + b] {
+                        if first != i {
+                            return Err(BuildError::new(
+                                key,
+                                format!(
+                                    "interfaces[{first}] joins \"{na}\" and \"{nb}\" already: \
+                                     give each interface once"
+                                ),
+                            ));
+                        }
+                    }
+                    table[a * n + b] = Some(i);
+                }
+            }
+        }
+        Ok(table)
+    }
+
     /// The body of the material and its phases on `lattice` (`hooke_core::phases`): each node
-    /// of the last phase whose shape holds it, else of the body's material; and whether each
-    /// phase's shape holds a node of `lattice`.
+    /// of the last phase whose shape holds it, else of the body's material, and each
+    /// interface's springs' stiffness times its factor; and the flags
+    /// [`Builder::phases_hold`] checks (each phase holds a node of `lattice`, each interface
+    /// joins two).
     fn phase_body(&self, lattice: hooke_core::Lattice) -> Result<(Body, Vec<bool>), BuildError> {
         if let Some(rule) = &self.breaking {
-            if !matches!(rule, BreakRule::Stretch(_)) {
+            if !matches!(rule, BreakRule::Stretch(_) | BreakRule::FractureEnergy(_)) {
                 return Err(BuildError::new(
-                    "material.critical_stretch",
-                    "a body of several materials breaks by a critical stretch for now (the fracture-energy calibrations, and the energy and softening criteria, are one material's): give critical_stretch",
+                    "material.criterion",
+                    "a body of several materials breaks by a critical stretch for now (given, \
+                     or from a fracture energy; the energy and softening criteria are one \
+                     material's): give critical_stretch or fracture_energy",
                 ));
             }
         }
@@ -712,10 +993,11 @@ impl Builder {
                 format!("{} phases: give at most 254", self.phases.len()),
             ));
         }
+        let table = self.interface_table()?;
         let dim = self.kind.dim();
         let tol = 1e-9 * self.spacing;
         let mut node_phase = vec![0u8; lattice.len()];
-        let mut held = vec![false; self.phases.len()];
+        let mut held = vec![false; self.phases.len() + self.interfaces.len()];
         for (p, (shape, _)) in self.phases.iter().enumerate() {
             for (i, np) in node_phase.iter_mut().enumerate() {
                 if shape.contains(lattice.pos.get(i), tol, dim) {
@@ -727,16 +1009,172 @@ impl Builder {
         let (body, _) = self.isotropic_body(lattice.clone())?;
         let mut phases =
             vec![Phase::of(body).map_err(|e| BuildError::new("material", e.to_string()))?];
-        for (p, (_, elastic)) in self.phases.iter().enumerate() {
-            let key = format!("phases[{p}].material");
+        for (p, (_, m)) in self.phases.iter().enumerate() {
+            let key = format!("{}.material", self.phase_key(p));
             let err = |e: hooke_core::Error| BuildError::new(key.clone(), e.to_string());
-            material::check_elastic(elastic).map_err(err)?;
-            let body = Body::new(lattice.clone(), elastic, self.plane).map_err(err)?;
+            material::check_elastic(&m.elastic).map_err(err)?;
+            let body = Body::new(lattice.clone(), &m.elastic, self.plane).map_err(err)?;
             phases.push(Phase::of(body).map_err(err)?);
         }
-        let body = hooke_core::phases::assemble(lattice, phases, &node_phase)
+        let mut body = hooke_core::phases::assemble(lattice, phases, &node_phase)
             .map_err(|e| BuildError::new("phases", e.to_string()))?;
+        // The interfaces: which join two nodes, and their springs' stiffness factors.
+        if !self.interfaces.is_empty() {
+            let n = self.phases.len() + 1;
+            let which: Vec<Option<usize>> = body
+                .lattice
+                .bonds
+                .ends
+                .iter()
+                .map(|e| {
+                    let [i, j] = e.map(|v| node_phase[v as usize] as usize);
+                    table[i * n + j]
+                })
+                .collect();
+            for &f in which.iter().flatten() {
+                held[self.phases.len() + f] = true;
+            }
+            if self.interfaces.iter().any(|f| f.stiffness != 1.0) {
+                let k = &mut *body.k;
+                for (b, f) in which.iter().enumerate() {
+                    if let Some(f) = *f {
+                        k[b] *= self.interfaces[f].stiffness;
+                    }
+                }
+            }
+        }
         Ok((body, held))
+    }
+
+    /// Each phase's material, for reports (empty for a body of one material).
+    fn material_infos(&self, body: &Body) -> Result<Vec<crate::MaterialInfo>, BuildError> {
+        let Some(base) = self.material.filter(|_| !self.phases.is_empty()) else {
+            return Ok(Vec::new());
+        };
+        let names = self.phase_names();
+        std::iter::once(base)
+            .chain(self.phases.iter().map(|(_, m)| m.elastic))
+            .zip(names)
+            .enumerate()
+            .map(|(index, (m, name))| {
+                let c = material::constants_for_lattice(&body.lattice, &m, self.plane)
+                    .map_err(|e| BuildError::new("phases", e.to_string()))?;
+                Ok(crate::MaterialInfo {
+                    index,
+                    name,
+                    youngs: m.youngs,
+                    poisson: m.poisson,
+                    density: m.density,
+                    q: c.q,
+                })
+            })
+            .collect()
+    }
+
+    /// Each spring's strength factor against the criterion's critical stretch `s_base`
+    /// (`None`: all 1), from the materials' and interfaces' own strengths and the Weibull
+    /// scatters. A spring inside one material breaks at that material's critical stretch (its
+    /// own, or the one its fracture energy gives with its constants, else `s_base`), one
+    /// between two at its interface's (from the two materials' springs in series, times the
+    /// interface's stiffness factor, and their mean q), else at the weaker material's; a
+    /// material's scatter multiplies its springs' (an interface's springs do not scatter).
+    /// `global(i)`: node `i`'s index in the whole body (a draw follows the nodes its spring
+    /// joins, not a part's numbering).
+    fn strength_factors(
+        &self,
+        body: &Body,
+        s_base: Real,
+        h: Real,
+        global: &dyn Fn(usize) -> u64,
+    ) -> Result<Option<Vec<Real>>, BuildError> {
+        let own = self
+            .phases
+            .iter()
+            .any(|(_, m)| m.toughness.is_some() || m.weibull.is_some())
+            || self.weibull.is_some()
+            || self.interfaces.iter().any(|f| f.toughness.is_some());
+        if !own || self.breaking.is_none() {
+            return Ok(None);
+        }
+        let (kind, a, plane) = (self.kind, self.spacing, self.plane);
+        let Some(base) = self.material else {
+            return Ok(None);
+        };
+        let elastic: Vec<Elastic> = std::iter::once(base)
+            .chain(self.phases.iter().map(|(_, m)| m.elastic))
+            .collect();
+        let toughness: Vec<Option<Toughness>> = std::iter::once(None)
+            .chain(self.phases.iter().map(|(_, m)| m.toughness))
+            .collect();
+        let scatter: Vec<Option<Weibull>> = std::iter::once(self.weibull)
+            .chain(self.phases.iter().map(|(_, m)| m.weibull))
+            .collect();
+        // A phase's bulk constants: (k, or kappa on a random lattice; q).
+        let constants = |p: usize, key: &str| {
+            material::constants_for_lattice(&body.lattice, &elastic[p], plane)
+                .map(|c| (c.k, c.q))
+                .map_err(|e| BuildError::new(key, e.to_string()))
+        };
+        let stretch = |t: Toughness, (k, q): (Real, Real), key: &str| {
+            match t {
+                Toughness::Stretch(s) => CriticalStretch::new(s),
+                Toughness::Energy(g) => CriticalStretch::from_fracture_energy(kind, k, a, q, h, g),
+            }
+            .map(|c| c.s_c)
+            .map_err(|e| BuildError::new(key, e.to_string()))
+        };
+        let n = elastic.len();
+        let mut s_c = Vec::with_capacity(n);
+        for (p, t) in toughness.iter().enumerate() {
+            let key = match p {
+                0 => "material".to_string(),
+                p => format!("{}.material", self.phase_key(p - 1)),
+            };
+            s_c.push(match t {
+                None => s_base,
+                Some(t) => stretch(*t, constants(p, &key)?, &key)?,
+            });
+        }
+        let table = self.interface_table()?;
+        let mut pair = vec![0.0; n * n];
+        for i in 0..n {
+            for j in 0..n {
+                let at = table[i * n + j].map(|f| (f, &self.interfaces[f]));
+                pair[i * n + j] = match at {
+                    Some((
+                        f,
+                        Interface {
+                            toughness: Some(t),
+                            stiffness,
+                            ..
+                        },
+                    )) => {
+                        let key = format!("interfaces[{f}]");
+                        let (ki, qi) = constants(i, &key)?;
+                        let (kj, qj) = constants(j, &key)?;
+                        let k = hooke_core::phases::series(ki, kj) * stiffness;
+                        stretch(*t, (k, 0.5 * (qi + qj)), &key)?
+                    }
+                    _ => s_c[i].min(s_c[j]),
+                };
+            }
+        }
+        let phase = |v: u32| body.phase.as_ref().map_or(0, |p| p[v as usize] as usize);
+        let factor = body
+            .lattice
+            .bonds
+            .ends
+            .iter()
+            .map(|&[i, j]| {
+                let (pi, pj) = (phase(i), phase(j));
+                let s = pair[pi * n + pj] / s_base;
+                match scatter[pi].filter(|_| pi == pj) {
+                    Some(w) => s * w.factor(global(i as usize), global(j as usize)),
+                    None => s,
+                }
+            })
+            .collect();
+        Ok(Some(factor))
     }
 
     /// The lattice's spacing and the plate's thickness (1 in 3D), checked.
@@ -903,9 +1341,29 @@ impl Builder {
         k: Real,
         h: Real,
         cuts_nothing: &dyn Fn(bool) -> bool,
+        global: &dyn Fn(usize) -> u64,
     ) -> Result<(Option<Fracture>, usize), BuildError> {
-        let criterion = self.criterion(body.q, k, h)?;
+        // A body of several materials: the criterion is its own material's (phase 0), and
+        // each spring's strength factor says how its material or interface differs.
+        let (k, q) = match (body.q_node.is_some(), self.material) {
+            (true, Some(m)) => {
+                let c = material::constants_for_lattice(&body.lattice, &m, self.plane)
+                    .map_err(|e| BuildError::new("material", e.to_string()))?;
+                (c.k, c.q)
+            }
+            _ => (k, body.q),
+        };
+        let criterion = self.criterion(q, k, h)?;
         let mut fracture = criterion.map(|c| Fracture::new(body, c));
+        if let Some(f) = fracture.take() {
+            let s_base = f.criterion().screen().unwrap_or(1.0);
+            fracture = Some(match self.strength_factors(body, s_base, h, global)? {
+                None => f,
+                Some(factor) => f
+                    .with_strength(body, factor)
+                    .map_err(|e| BuildError::new("material", e.to_string()))?,
+            });
+        }
         let mut precracked = 0;
         for (n, c) in self.cracks.iter().enumerate() {
             let f = fracture.get_or_insert_with(|| {

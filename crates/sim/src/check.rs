@@ -58,8 +58,28 @@ pub struct CheckReport {
     /// Softening springs: their shape and calibrated factors.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub softening: Option<SofteningReport>,
+    /// A body of several materials: each phase, its nodes and springs and their strength.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub phases: Vec<PhaseReport>,
+    /// Springs that join two materials (a body of several materials).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interface_springs: Option<usize>,
     /// Where the case lies outside a calibrated range, and what that costs.
     pub notes: Vec<Note>,
+}
+
+/// One phase of a body of several materials, as `hooke check` lists it.
+#[derive(Clone, Debug, Serialize)]
+pub struct PhaseReport {
+    #[serde(flatten)]
+    pub material: crate::MaterialInfo,
+    /// Its nodes, and the springs between two of them.
+    pub nodes: usize,
+    pub springs: usize,
+    /// The least, mean and largest critical stretch of those springs (a critical-stretch
+    /// criterion; they differ where the springs scatter).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub critical_stretch: Option<[Real; 3]>,
 }
 
 /// A boundary region and its node count.
@@ -175,8 +195,54 @@ impl Simulation {
             output_bytes: self.output_estimate(),
             anisotropic,
             softening: self.softening_report(),
+            phases: self.phase_report(),
+            interface_springs: self.body.phase.as_ref().map(|p| {
+                let ends = &self.body.lattice.bonds.ends;
+                ends.iter()
+                    .filter(|e| p[e[0] as usize] != p[e[1] as usize])
+                    .count()
+            }),
             notes: self.notes(),
         })
+    }
+
+    /// Each phase's nodes, springs and critical stretches (see [`PhaseReport`]).
+    fn phase_report(&self) -> Vec<PhaseReport> {
+        let Some(phase) = &self.body.phase else {
+            return Vec::new();
+        };
+        let nodes = self.phase_nodes();
+        let screen = self.fracture.as_ref().and_then(|f| {
+            let c = f.criterion();
+            c.screen()
+                .filter(|_| c.as_softening().is_none() && !c.is_energy())
+        });
+        let factor = self.fracture.as_ref().and_then(|f| f.strength());
+        let mut springs = vec![0usize; self.materials.len()];
+        let mut range = vec![[Real::INFINITY, 0.0, 0.0]; self.materials.len()];
+        for (b, e) in self.body.lattice.bonds.ends.iter().enumerate() {
+            let [p, q] = e.map(|v| phase[v as usize] as usize);
+            if p != q || p >= springs.len() {
+                continue;
+            }
+            springs[p] += 1;
+            let s = screen.unwrap_or(Real::NAN) * factor.map_or(1.0, |f| f[b]);
+            let r = &mut range[p];
+            *r = [r[0].min(s), r[1] + s, r[2].max(s)];
+        }
+        self.materials
+            .iter()
+            .enumerate()
+            .map(|(p, m)| PhaseReport {
+                material: m.clone(),
+                nodes: nodes[p],
+                springs: springs[p],
+                critical_stretch: (screen.is_some() && springs[p] > 0).then(|| {
+                    let r = range[p];
+                    [r[0], r[1] / springs[p] as Real, r[2]]
+                }),
+            })
+            .collect()
     }
 
     /// The anisotropic material's design or spring families and its stiffness, as `hooke check
@@ -247,7 +313,11 @@ impl Simulation {
                 });
             }
         }
-        if self.fracture.is_some() && !hooke_fracture::stretch::toughness_calibrated(kind, self.q) {
+        // (A body of several materials: each material's G_c is converted with its own q.)
+        if self.fracture.is_some()
+            && self.materials.is_empty()
+            && !hooke_fracture::stretch::toughness_calibrated(kind, self.q)
+        {
             notes.push(Note {
                 about: "toughness",
                 text: format!(

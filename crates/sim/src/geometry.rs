@@ -28,6 +28,9 @@ pub enum Shape {
     },
     /// A closed triangle mesh (STL/OBJ).
     Mesh(std::sync::Arc<MeshShape>),
+    /// Non-overlapping balls (spheres; disks in 2D): random inclusions
+    /// ([`crate::inclusions::place`]).
+    Balls(std::sync::Arc<crate::inclusions::Balls>),
 }
 
 impl Shape {
@@ -69,6 +72,7 @@ impl Shape {
                 let (lo, hi) = m.bounds();
                 (Vector::from(lo), Vector::from(hi))
             }
+            Shape::Balls(b) => b.bounds(),
         }
     }
 
@@ -77,6 +81,7 @@ impl Shape {
         match self {
             // The mesh's own inside test; `tol` (1e-9 a) is below its resolution.
             Shape::Mesh(m) => m.contains([p.x, p.y, p.z]),
+            Shape::Balls(b) => b.contains(p, tol),
             Shape::Box { lo, hi } => (0..dim).all(|c| p[c] >= lo[c] - tol && p[c] <= hi[c] + tol),
             Shape::Ball { c, r } => {
                 let mut d = p - c;

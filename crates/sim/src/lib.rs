@@ -25,7 +25,9 @@
 mod builder;
 mod check;
 mod error;
+pub mod field;
 pub mod geometry;
+pub mod inclusions;
 mod observer;
 pub mod output;
 mod provenance;
@@ -34,13 +36,16 @@ pub mod rigid;
 mod run;
 mod simulation;
 
-pub use builder::{Bc, BreakRule, BuildError, Builder, Strength};
-pub use check::{BoundaryNodes, CheckReport, Note, SofteningReport};
+pub use builder::{
+    Bc, BreakRule, BuildError, Builder, Interface, PhaseMaterial, Strength, Toughness,
+};
+pub use check::{BoundaryNodes, CheckReport, Note, PhaseReport, SofteningReport};
 pub use error::{Error, Result};
 pub use geometry::{fill_lattice, Face, Region, Shape, Solid};
+pub use hooke_fracture::Weibull;
 pub use observer::{Observer, Progress, Silent, StopFlag};
 pub use output::{EnergyRow, Frame, RegionReaction, Sink};
 pub use provenance::{utc_now, GIT_COMMIT};
 pub use rigid::{ContactSpec, RigidSpec};
 pub use run::{free_space, run, run_keeping, seconds, write_probe, Run, RunOptions, Summary};
-pub use simulation::{Boundary, FromParts, Held, Schedule, Simulation, Solver};
+pub use simulation::{Boundary, FromParts, Held, MaterialInfo, Schedule, Simulation, Solver};

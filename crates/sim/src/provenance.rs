@@ -68,6 +68,10 @@ impl Provenance {
         });
         let key = if kind.is_random() { "kappa" } else { "k" };
         constants[key] = json!(sim.k);
+        if !sim.materials.is_empty() {
+            // The frames' `material` field is each node's index into this list.
+            constants["materials"] = json!(sim.materials);
+        }
         if let Some(it) = it {
             constants["dt"] = json!(it.dt());
             constants["dt_critical"] = json!(it.stable().dt_critical);

@@ -120,6 +120,40 @@ pub struct Simulation {
     /// Set when this process set its piece up from its part alone ([`crate::Builder::parts`]),
     /// until the run starts on it: what the integrator needs of the piece.
     pub from_parts: Option<FromParts>,
+    /// A body of several materials: each phase's material, indexed as [`Body::phase`] (and
+    /// the frames' `material` field) number them; empty for a body of one material.
+    pub materials: Vec<MaterialInfo>,
+}
+
+/// One phase's material in a body of several materials (run.json's `constants.materials`,
+/// `hooke check`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct MaterialInfo {
+    /// The phase's index: 0 the body's material, `p + 1` the builder's phase `p`.
+    pub index: usize,
+    pub name: String,
+    /// Young's modulus (Pa), Poisson's ratio, density (kg/m^3).
+    pub youngs: Real,
+    pub poisson: Real,
+    pub density: Real,
+    /// The dispersion ratio q its nodes take.
+    pub q: Real,
+}
+
+impl Simulation {
+    /// The nodes of each phase ([`Simulation::materials`]) in this process's body (the whole
+    /// body unless it holds a piece).
+    pub fn phase_nodes(&self) -> Vec<usize> {
+        let mut n = vec![0; self.materials.len()];
+        if let Some(p) = &self.body.phase {
+            for &p in p {
+                if let Some(c) = n.get_mut(p as usize) {
+                    *c += 1;
+                }
+            }
+        }
+        n
+    }
 }
 
 /// A piece set up from a part ([`hooke_core::team::parts`]), handed to the run that steps it.

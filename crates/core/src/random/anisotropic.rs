@@ -479,6 +479,7 @@ impl RandomDesign {
             mass,
             lever: Some(lever),
             q_node: None,
+            phase: None,
         };
         body.validate()?;
         Ok(body)

@@ -165,6 +165,12 @@ impl Piece {
             mass: pick(&body.mass, 1.0),
             lever: body.lever.as_ref().map(|l| per_spring(l)),
             q_node: body.q_node.as_ref().map(|q| pick(q, 1.0)),
+            phase: body.phase.as_ref().map(|p| {
+                global
+                    .iter()
+                    .map(|&g| if g == PAD { 0 } else { p[g as usize] })
+                    .collect()
+            }),
         };
         let to_local = |list: &Vec<u32>| list.iter().map(|&g| local(g)).collect();
         let halo = Halo {

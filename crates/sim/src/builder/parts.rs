@@ -110,14 +110,15 @@ impl Builder {
         if !held.is_empty() {
             team.any(&mut held);
         }
-        Self::phases_hold(&held)?;
+        self.phases_hold(&held)?;
         let mut state = State::new(&body);
         let cuts_nothing = |cut: bool| {
             let mut any = [cut];
             team.any(&mut any);
             !any[0]
         };
-        let (mut fracture, _) = self.fracture(&body, &mut state, k, h, &cuts_nothing)?;
+        let in_body = |i: usize| piece.global[i] as u64;
+        let (mut fracture, _) = self.fracture(&body, &mut state, k, h, &cuts_nothing, &in_body)?;
         let global = |i: u32| Some(piece.global[i as usize]).filter(|&g| g != PAD);
         let own = piece.own.clone();
         let owned = |nodes: &[u32]| -> Vec<u32> {
