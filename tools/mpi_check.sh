@@ -118,6 +118,8 @@ check_pieces mode1_plate cases/mode1_plate.toml 1.0 60e-6 $(sizes "4" "2 4")
 # A body of several materials on pieces (each holds some of the materials only), and shared.
 check phases_plate crates/case/tests/data/phases_plate.toml 2.0 20e-6 2 3
 check_pieces phases_plate crates/case/tests/data/phases_plate.toml 2.0 20e-6 3
+# Random inclusions (every rank places the same), an interface, Weibull strength.
+check inclusions_plate crates/case/tests/data/inclusions_plate.toml 1.0 20e-6 3
 check_pieces mode1_small cases/mode1_plate.toml 0.25 60e-6 2 4
 check_pieces glass_random_61 cases/glass_branching_random.toml 0.27 20e-6 2 3
 # Checkpointed on 3 ranks' pieces, resumed on them (the random glass plate; small in the quick
@@ -178,7 +180,8 @@ check_pieces kw3d_jitter cases/kalthoff_winkler_3d.toml 0.3 10e-6 $(sizes "2" "2
 # A body of several materials: a rank's part holds some of them only, and the step (its
 # damage-proof bound over every material's q) is still the whole body's.
 check_pieces phases_jitter crates/case/tests/data/phases_plate.toml 2.0 20e-6 2 3
-extra=()
+extra=() # (its nodes are jittered already)
+check_pieces inclusions_plate crates/case/tests/data/inclusions_plate.toml 1.0 20e-6 2 3
 check_pieces notched_bar_3d cases/notched_bar_3d.toml 1.0 20e-6 $(sizes "3" "2 3 4")
 $mpirun -np 3 "$work/hooke-mpi" run cases/notched_bar_3d.toml --set solver.end_time=10e-6 \
   --parts --out "$work/resumed_parts" > /dev/null

@@ -42,17 +42,25 @@ pub fn parse_overrides(args: &[String]) -> Result<Vec<Override>, CaseError> {
         };
         let (k, v) = (k.trim(), v.trim());
         let parts: Vec<&str> = k.split('.').collect();
-        if parts.len() < 2
-            || parts.iter().any(|p| {
-                p.is_empty()
-                    || !p
-                        .chars()
-                        .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
-            })
-        {
+        // A part is a name, or `name[i]` for an entry of an array of tables.
+        let name_ok = |p: &str| {
+            !p.is_empty()
+                && p.chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+        };
+        let part_ok = |p: &str| match p.split_once('[') {
+            Some((name, rest)) => {
+                name_ok(name)
+                    && rest
+                        .strip_suffix(']')
+                        .is_some_and(|i| !i.is_empty() && i.chars().all(|c| c.is_ascii_digit()))
+            }
+            None => name_ok(p),
+        };
+        if parts.len() < 2 || !parts.iter().all(|p| part_ok(p)) {
             return Err(arg_error(
                 a,
-                "the key is a dotted path of a table and its key, e.g. material.poisson or solver.end_time",
+                "the key is a dotted path of a table and its key, e.g. material.poisson, solver.end_time or interfaces[0].critical_stretch",
             ));
         }
         if v.is_empty() {
@@ -114,12 +122,41 @@ fn find_value(
     // Walk the tables that exist.
     let mut found = None;
     while depth < parts.len() {
-        let Some((_, v)) = table
-            .iter()
-            .find(|(k, _)| k.get_ref().as_ref() == parts[depth])
-        else {
+        // `name[i]`: the i-th table of the array of tables `[[name]]`.
+        let (name, index) = match parts[depth].split_once('[') {
+            Some((name, rest)) => {
+                match rest.strip_suffix(']').and_then(|i| i.parse::<usize>().ok()) {
+                    Some(i) => (name, Some(i)),
+                    None => (parts[depth], None),
+                }
+            }
+            None => (parts[depth], None),
+        };
+        let Some((_, v)) = table.iter().find(|(k, _)| k.get_ref().as_ref() == name) else {
             break;
         };
+        if let Some(i) = index {
+            let entry: Option<&toml::Spanned<DeValue<'_>>> = match v.get_ref() {
+                DeValue::Array(items) => items.get(i),
+                _ => None,
+            };
+            match entry.map(toml::Spanned::get_ref) {
+                Some(DeValue::Table(t)) if depth + 1 < parts.len() => {
+                    table = t;
+                    depth += 1;
+                    continue;
+                }
+                _ => {
+                    return Err(arg_error(
+                        &format!("{}={}", o.key, o.value),
+                        format!(
+                            "{} is not a table of the case's [[{name}]] (they are counted from 0): give one of its keys, e.g. {name}[0].KEY",
+                            parts[..=depth].join(".")
+                        ),
+                    ))
+                }
+            }
+        }
         match v.get_ref() {
             DeValue::Table(t) if depth + 1 < parts.len() => {
                 table = t;
@@ -224,6 +261,12 @@ pub(crate) fn apply(file: &Path, text: &str, overrides: &[Override]) -> Result<E
             Some(span) => {
                 text.replace_range(span.clone(), &o.value);
             }
+            None if parts.iter().any(|p| p.contains('[')) => {
+                return Err(arg_error(
+                    &format!("{}={}", o.key, o.value),
+                    "the key is not in that [[...]] entry of the case: add it there in the file (--set changes the keys an entry has)",
+                ))
+            }
             None => insert_key(&mut text, &parts, depth, o, &mut inserted_at)?,
         }
     }
@@ -231,19 +274,9 @@ pub(crate) fn apply(file: &Path, text: &str, overrides: &[Override]) -> Result<E
     let root = DeTable::parse(&text).map_err(|e| parse_error(file, &text, e))?;
     let mut lines = Vec::new();
     for o in overrides {
-        let mut table = root.get_ref();
         let parts: Vec<&str> = o.key.split('.').collect();
-        for (d, p) in parts.iter().enumerate() {
-            let Some((_, v)) = table.iter().find(|(k, _)| k.get_ref().as_ref() == *p) else {
-                break;
-            };
-            match v.get_ref() {
-                DeValue::Table(t) if d + 1 < parts.len() => table = t,
-                _ => {
-                    lines.push((line_col(&text, v.span().start).0, o.clone()));
-                    break;
-                }
-            }
+        if let (Some(span), _) = find_value(root.get_ref(), &parts, o)? {
+            lines.push((line_col(&text, span.start).0, o.clone()));
         }
     }
     let inserted = inserted_at

@@ -482,3 +482,30 @@ fn a_stiffness_field_scales_each_spring_by_its_halves() {
     let e = load(&plate(PHASES, &format!("critical_stretch = 2e-3\n{field}"))).unwrap_err();
     assert_eq!(e.key, "material.stiffness_field", "{e}");
 }
+
+/// `--set interfaces[0].critical_stretch=...`: a key of an entry of an array of tables is
+/// changed as a table's is; an entry or key that is not there is refused with the reason.
+#[test]
+fn set_reaches_the_keys_of_an_interface() {
+    let text = with_strengths(&plate(&format!("{PHASES}{STRENGTHS}"), MATRIX));
+    let set = |arg: &str| {
+        let o = hooke_case::parse_overrides(&[arg.to_string()]).unwrap();
+        hooke_case::load_str_with(Path::new("plate.toml"), &text, 1.0, &o)
+    };
+    let sim = set("interfaces[0].critical_stretch=0.3e-3").unwrap();
+    let f = sim.fracture.as_ref().unwrap();
+    let (s_base, factor) = (f.criterion().screen().unwrap(), f.strength().unwrap());
+    let phase = sim.body.phase.as_ref().unwrap();
+    let ends = &sim.body.lattice.bonds.ends;
+    let b = (0..ends.len())
+        .find(|&b| {
+            let [i, j] = ends[b].map(|v| phase[v as usize]);
+            i.min(j) == 0 && i.max(j) == 1
+        })
+        .unwrap();
+    assert!((s_base * factor[b] - 0.3e-3).abs() < 1e-15);
+    let e = set("interfaces[3].critical_stretch=0.3e-3").unwrap_err();
+    assert!(e.message.contains("[[interfaces]]"), "{e}");
+    let e = set("interfaces[0].fracture_energy=2.0").unwrap_err();
+    assert!(e.message.contains("not in that [[...]] entry"), "{e}");
+}

@@ -174,6 +174,11 @@ fn print_check(case: &Path, sim: &Simulation, r: &hooke_sim::CheckReport) -> Res
         println!("  interfaces   {n} springs join two materials (each its two halves in series)");
     }
     println!("  fracture     {}", r.criterion.as_deref().unwrap_or("off"));
+    if let Some([lo, mean, hi]) = r.strength_factors {
+        println!(
+            "  strength     each spring's critical stretch is the criterion's times its own factor: {lo:.3} to {hi:.3}, mean {mean:.4} (materials, interfaces, Weibull scatter)"
+        );
+    }
     print_contact(sim);
     for n in r
         .notes

@@ -64,6 +64,10 @@ pub struct CheckReport {
     /// Springs that join two materials (a body of several materials).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub interface_springs: Option<usize>,
+    /// The springs' own strength factors (a material's or interface's strength, a Weibull
+    /// scatter): least, mean and largest, where they have them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub strength_factors: Option<[Real; 3]>,
     /// Where the case lies outside a calibrated range, and what that costs.
     pub notes: Vec<Note>,
 }
@@ -196,6 +200,19 @@ impl Simulation {
             anisotropic,
             softening: self.softening_report(),
             phases: self.phase_report(),
+            strength_factors: self
+                .fracture
+                .as_ref()
+                .and_then(|f| f.strength())
+                .filter(|f| !f.is_empty())
+                .map(|f| {
+                    let (lo, hi) = f
+                        .iter()
+                        .fold((Real::INFINITY, 0.0), |(lo, hi): (Real, Real), &x| {
+                            (lo.min(x), hi.max(x))
+                        });
+                    [lo, f.iter().sum::<Real>() / f.len() as Real, hi]
+                }),
             interface_springs: self.body.phase.as_ref().map(|p| {
                 let ends = &self.body.lattice.bonds.ends;
                 ends.iter()
