@@ -266,6 +266,7 @@ fn dynamic_crack_on_the_regular_hexagonal_lattice_leaves_its_row() {
 /// strips (40 spacings high, 20-spacing window) dissipates G_c within 10 % (one strip scatters
 /// by about 8 %).
 #[test]
+#[ignore = "slow (60 s here): random2d strips on unseen node sets; run with --ignored before changing fracture"]
 fn random2d_crack_dissipates_g_c_on_unseen_node_sets() {
     let kind = LatticeKind::Random2d;
     let q = q_from_nu(kind, 0.25).unwrap();

@@ -355,6 +355,7 @@ fn broken_midpoints(case: &str, set: &[&str]) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) 
 /// (breaks past x = 50 mm, nine in ten damaged nodes ahead of the tip within 8 mm of the notch's
 /// plane, no break on the other case's splitting line).
 #[test]
+#[ignore = "slow (90 s here): two fibre plates run to splitting; run with --ignored before changing fracture or anisotropy"]
 fn a_notched_fibre_plate_splits_along_strong_fibres() {
     let (across, _) = broken_midpoints("fibre_notch.toml", &[]);
     assert!(across.len() > 200, "{} breaks", across.len());
@@ -581,6 +582,7 @@ fn turned_orthotropic_bodies_lay_the_lattice_along_their_axes() {
 /// nine in ten breaks between x = 22 and 55 mm within 3.5 mm of the plane, held to 5; short
 /// branches hang below it).
 #[test]
+#[ignore = "slow (80 s here): a calibrated random plate run to splitting; run with --ignored before changing fracture or anisotropy"]
 fn a_random_plate_with_oblique_fibres_deflects_its_crack() {
     let (oblique, _) = broken_midpoints("fibre_notch_plate.toml", &[]);
     let (band, angle, ahead) = split_line(&oblique);

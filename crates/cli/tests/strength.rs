@@ -125,6 +125,7 @@ fn bars_peak_at_f_t(kind: &str) {
 }
 
 #[test]
+#[ignore = "slow (75 s here): a random3d bar loaded past its peak; run with --ignored before changing softening"]
 fn a_softening_random3d_bar_peaks_at_its_tensile_strength() {
     bars_peak_at_f_t("random3d");
 }

@@ -1018,6 +1018,15 @@ impl Builder {
         }
         let mut body = hooke_core::phases::assemble(lattice, phases, &node_phase)
             .map_err(|e| BuildError::new("phases", e.to_string()))?;
+        // A lattice all of one phase (a process's part may be) keeps the form of a body of
+        // several materials, each node's q in its normaliser: every process's arithmetic is
+        // then the same, whichever materials its part holds.
+        if body.q_node.is_none() {
+            let q = vec![body.q; body.nodes()];
+            body = body
+                .with_node_q(q)
+                .map_err(|e| BuildError::new("phases", e.to_string()))?;
+        }
         // The interfaces: which join two nodes, and their springs' stiffness factors.
         if !self.interfaces.is_empty() {
             let n = self.phases.len() + 1;
@@ -1043,6 +1052,7 @@ impl Builder {
                 }
             }
         }
+        body.phase = Some(node_phase);
         Ok((body, held))
     }
 
@@ -1345,7 +1355,7 @@ impl Builder {
     ) -> Result<(Option<Fracture>, usize), BuildError> {
         // A body of several materials: the criterion is its own material's (phase 0), and
         // each spring's strength factor says how its material or interface differs.
-        let (k, q) = match (body.q_node.is_some(), self.material) {
+        let (k, q) = match (!self.phases.is_empty(), self.material) {
             (true, Some(m)) => {
                 let c = material::constants_for_lattice(&body.lattice, &m, self.plane)
                     .map_err(|e| BuildError::new("material", e.to_string()))?;
