@@ -259,6 +259,20 @@ fn frames_carry_the_material_and_run_json_names_it() {
     opts.name = "plate".into();
     let summary = hooke_sim::run(sim, opts, &mut hooke_sim::Silent).unwrap();
     assert!(summary.broken_springs > 0);
+    // The materials' strain energies add up to the body's.
+    let by: Vec<&str> = summary
+        .strain_by_material
+        .iter()
+        .map(|(n, _)| n.as_str())
+        .collect();
+    assert_eq!(by, ["matrix", "grain", "soft"]);
+    let total: Real = summary.strain_by_material.iter().map(|(_, e)| e).sum();
+    let strain = summary.energy.strain_direct + summary.energy.strain_dispersive;
+    assert!(
+        (total - strain).abs() < 1e-9 * strain.abs(),
+        "by material {total:e}, body {strain:e}"
+    );
+    assert!(summary.strain_by_material.iter().all(|(_, e)| *e > 0.0));
     let run: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("run.json")).unwrap()).unwrap();
     let materials = run["constants"]["materials"].as_array().unwrap();

@@ -539,6 +539,14 @@ fn print_summary(case: &Path, s: &hooke_sim::Summary) {
             s.broken_springs, e.kinetic, strain, e.released, s.balance
         );
     }
+    if !s.strain_by_material.is_empty() {
+        let parts: Vec<String> = s
+            .strain_by_material
+            .iter()
+            .map(|(name, e)| format!("{name} {e:.4e} J"))
+            .collect();
+        println!("  strain energy by material: {}", parts.join(", "));
+    }
     for r in &s.reactions {
         println!(
             "  {}: force [{:.4e}, {:.4e}, {:.4e}] N, mean displacement [{:.4e}, {:.4e}, {:.4e}] m",

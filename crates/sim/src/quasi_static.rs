@@ -242,6 +242,7 @@ fn drive(
         contact: None,
         outputs: sinks.iter().filter_map(|s| s.describe()).collect(),
         reactions,
+        strain_by_material: sim.strain_by_material(),
     })
 }
 

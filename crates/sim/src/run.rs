@@ -129,6 +129,9 @@ pub struct Summary {
     /// What was written: description and path.
     pub outputs: Vec<(String, PathBuf)>,
     pub reactions: Vec<RegionReaction>,
+    /// A body of several materials held whole: the strain energy (J) each material holds at
+    /// the end, by name ([`Simulation::strain_by_material`]).
+    pub strain_by_material: Vec<(String, Real)>,
 }
 
 /// Free bytes on the file system that holds `dir` (or its nearest existing ancestor).
@@ -1054,6 +1057,7 @@ impl Run {
             }),
             outputs,
             reactions,
+            strain_by_material: sim.strain_by_material(),
         };
         if let Some(p) = self.provenance.as_mut() {
             p.end("completed", &self.opts.out);

@@ -141,6 +141,29 @@ pub struct MaterialInfo {
 }
 
 impl Simulation {
+    /// The strain energy (J) each material holds now, by name: each node's share (half of each
+    /// intact spring's direct energy and its own dispersive energy, as the frames'
+    /// `strain_energy_density` times the node's volume) summed over the nodes of that
+    /// material, so that the materials' shares add up to the body's strain energy. Derived
+    /// for reports only; empty for a body of one material or a process holding a piece.
+    pub fn strain_by_material(&self) -> Vec<(String, Real)> {
+        let Some(phase) = self.body.phase.as_ref().filter(|_| self.held.is_none()) else {
+            return Vec::new();
+        };
+        let f = hooke_core::frame::frame_fields_of(&self.body, &self.state);
+        let mut sum = vec![0.0; self.materials.len()];
+        for (n, &p) in phase.iter().enumerate() {
+            if let Some(s) = sum.get_mut(p as usize) {
+                *s += f.energy_density[n] * self.body.lattice.node_volume(n);
+            }
+        }
+        self.materials
+            .iter()
+            .zip(sum)
+            .map(|(m, e)| (m.name.clone(), e))
+            .collect()
+    }
+
     /// The nodes of each phase ([`Simulation::materials`]) in this process's body (the whole
     /// body unless it holds a piece).
     pub fn phase_nodes(&self) -> Vec<usize> {
