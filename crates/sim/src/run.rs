@@ -1057,7 +1057,11 @@ impl Run {
             }),
             outputs,
             reactions,
-            strain_by_material: sim.strain_by_material(),
+            // (A shared run's ranks hold current state only at their own nodes.)
+            strain_by_material: match &self.opts.team {
+                Some(t) if t.size() > 1 => Vec::new(),
+                _ => sim.strain_by_material(),
+            },
         };
         if let Some(p) = self.provenance.as_mut() {
             p.end("completed", &self.opts.out);

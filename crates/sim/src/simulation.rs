@@ -145,7 +145,8 @@ impl Simulation {
     /// intact spring's direct energy and its own dispersive energy, as the frames'
     /// `strain_energy_density` times the node's volume) summed over the nodes of that
     /// material, so that the materials' shares add up to the body's strain energy. Derived
-    /// for reports only; empty for a body of one material or a process holding a piece.
+    /// for reports only; empty for a body of one material or a process holding a piece (and
+    /// not asked of a shared run, whose ranks keep current state at their own nodes only).
     pub fn strain_by_material(&self) -> Vec<(String, Real)> {
         let Some(phase) = self.body.phase.as_ref().filter(|_| self.held.is_none()) else {
             return Vec::new();
