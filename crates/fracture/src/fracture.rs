@@ -333,10 +333,11 @@ fn new_weight(
 /// it for the others ([`Fracture::check`]).
 impl Breaker for Fracture {
     fn screen(&self) -> Real {
+        // (Times 1 is exact: without factors the screen keeps its bits.)
         let least = self.strength.as_ref().map_or(1.0, |&(_, least)| least);
         self.criterion
             .screen()
-            .map_or(Real::INFINITY, |s| if least == 1.0 { s } else { s * least })
+            .map_or(Real::INFINITY, |s| s * least)
     }
 
     fn decide(

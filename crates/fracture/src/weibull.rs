@@ -64,9 +64,10 @@ impl Weibull {
     }
 }
 
-/// SplitMix64's finaliser: a bijection of 64-bit words whose every output bit depends on every
-/// input bit.
-fn mix(mut z: u64) -> u64 {
+/// SplitMix64's step from the state `z`: the golden-ratio increment, then its finaliser (a
+/// bijection of 64-bit words whose every output bit depends on every input bit). The set-up's
+/// other seeded generators draw from it too.
+pub fn mix(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);

@@ -189,11 +189,8 @@ pub(crate) struct Stream(pub(crate) u64);
 impl Stream {
     /// Uniform in [0, 1).
     pub(crate) fn next(&mut self) -> Real {
+        let z = hooke_fracture::weibull::mix(self.0);
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
         (z >> 11) as Real * (1.0 / (1u64 << 53) as Real)
     }
 
